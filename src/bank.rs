@@ -1,0 +1,275 @@
+//! A sparse register bank keyed by classic references, Application Protocol v1.1b3 §4.3:
+//! the application adds the addresses it uses, in any order, and gets and sets them.
+//!
+//! # Layout and RAM
+//! Values are stored in address order, registers as `u16` (2 bytes each) and coils and
+//! discrete inputs packed 8 to a byte. Addresses are described by *runs*: maximal ranges of
+//! consecutive addresses of one table, 7 bytes each on AVR (table, first and last address,
+//! offset of the first value). Adding an address next to a run extends it and joins it to
+//! the following run when the gap closes, so 40001–40100 added one by one, in any order,
+//! end as one run. Lookups are a binary search over the runs, O(log runs); a range the
+//! master asks for is valid exactly when it lies inside one run.
+//!
+//! Capacity is fixed by three const parameters: `RUNS` runs, `REGS` registers (input and
+//! holding together) and `BIT_BYTES` bytes of bits (coils and discrete inputs together;
+//! [`bit_bytes`] converts a count of bits). Adding past capacity, a duplicate or a bad
+//! reference is an error that changes nothing.
+
+use crate::model::DataModel;
+use crate::pdu::Exception;
+use crate::reference::{BankError, IntoReference, Reference, Table};
+
+/// Bytes needed for `bits` coils and discrete inputs: use as `Bank<R, W, { bit_bytes(32) }>`.
+pub const fn bit_bytes(bits: usize) -> usize {
+    bits.div_ceil(8)
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Run {
+    table: Table,
+    start: u16,
+    last: u16,
+    /// Index of the value of `start` in the register or bit storage.
+    offset: u16,
+}
+
+impl Run {
+    const EMPTY: Run = Run { table: Table::Coils, start: 0, last: 0, offset: 0 };
+
+    fn len(&self) -> usize {
+        usize::from(self.last - self.start) + 1
+    }
+
+    fn key(&self) -> (Table, u16) {
+        (self.table, self.start)
+    }
+}
+
+/// The sparse bank: see the module documentation for capacity and RAM.
+///
+/// ```
+/// use avr_modbus_slave::{Bank, bit_bytes};
+/// let mut bank: Bank<4, 8, { bit_bytes(16) }> = Bank::new();
+/// bank.add(40001).unwrap();
+/// bank.add_range(30001, 3).unwrap();
+/// bank.set(40001, 1500).unwrap();
+/// assert_eq!(bank.get(40001), Ok(1500));
+/// assert_eq!(bank.get(30002), Ok(0));
+/// ```
+#[derive(Clone, Debug)]
+pub struct Bank<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> {
+    runs: [Run; RUNS],
+    run_count: usize,
+    registers: [u16; REGS],
+    register_count: usize,
+    bits: [u8; BIT_BYTES],
+    bit_count: usize,
+    master_writes: u16,
+}
+
+impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> Default for Bank<RUNS, REGS, BIT_BYTES> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> Bank<RUNS, REGS, BIT_BYTES> {
+    /// An empty bank.
+    pub const fn new() -> Self {
+        Bank {
+            runs: [Run::EMPTY; RUNS],
+            run_count: 0,
+            registers: [0; REGS],
+            register_count: 0,
+            bits: [0; BIT_BYTES],
+            bit_count: 0,
+            master_writes: 0,
+        }
+    }
+
+    /// Adds one address; its value reads 0 until set.
+    pub fn add(&mut self, reference: impl IntoReference) -> Result<(), BankError> {
+        self.add_range(reference, 1)
+    }
+
+    /// Adds `count` consecutive addresses from `first`: all of them, or none on error.
+    pub fn add_range(&mut self, first: impl IntoReference, count: u16) -> Result<(), BankError> {
+        let first = first.into_reference()?;
+        let (table, start) = (first.table, first.address);
+        let last = match count.checked_sub(1).and_then(|n| start.checked_add(n)) {
+            Some(last) => last,
+            None => return Err(BankError::BadRange),
+        };
+        // The run the new range would follow, and the one it would precede.
+        let at = self.runs[..self.run_count].partition_point(|r| r.key() < (table, start));
+        let before = at.checked_sub(1).map(|i| self.runs[i]).filter(|r| r.table == table);
+        let after = self.runs[..self.run_count].get(at).copied().filter(|r| r.table == table);
+        if before.is_some_and(|r| r.last >= start) || after.is_some_and(|r| r.start <= last) {
+            return Err(BankError::Duplicate);
+        }
+        let joins_before = before.is_some_and(|r| r.last.checked_add(1) == Some(start));
+        let joins_after = after.is_some_and(|r| last.checked_add(1) == Some(r.start));
+        let n = usize::from(count);
+        if table.is_bits() {
+            if self.bit_count + n > BIT_BYTES * 8 {
+                return Err(BankError::BitsFull);
+            }
+        } else if self.register_count + n > REGS {
+            return Err(BankError::RegistersFull);
+        }
+        if !joins_before && !joins_after && self.run_count == RUNS {
+            return Err(BankError::RunsFull);
+        }
+
+        // Storage position: right after the values of the same kind that sort before.
+        let position = self.runs[..at]
+            .iter()
+            .rev()
+            .find(|r| r.table.is_bits() == table.is_bits())
+            .map_or(0, |r| usize::from(r.offset) + r.len());
+        self.open_storage(table.is_bits(), position, n);
+        for run in self.runs[at..self.run_count].iter_mut() {
+            if run.table.is_bits() == table.is_bits() {
+                run.offset += count;
+            }
+        }
+
+        match (joins_before, joins_after) {
+            (true, true) => {
+                self.runs[at - 1].last = self.runs[at].last;
+                self.runs.copy_within(at + 1..self.run_count, at);
+                self.run_count -= 1;
+            }
+            (true, false) => self.runs[at - 1].last = last,
+            (false, true) => {
+                self.runs[at].start = start;
+                self.runs[at].offset -= count;
+            }
+            (false, false) => {
+                self.runs.copy_within(at..self.run_count, at + 1);
+                self.runs[at] = Run { table, start, last, offset: position as u16 };
+                self.run_count += 1;
+            }
+        }
+        Ok(())
+    }
+
+    /// Makes room for `n` zeroed values at `position` of the register or bit storage.
+    fn open_storage(&mut self, bits: bool, position: usize, n: usize) {
+        if bits {
+            for i in (position..self.bit_count).rev() {
+                let v = self.bit(i);
+                self.set_bit(i + n, v);
+            }
+            for i in position..position + n {
+                self.set_bit(i, false);
+            }
+            self.bit_count += n;
+        } else {
+            self.registers.copy_within(position..self.register_count, position + n);
+            self.registers[position..position + n].fill(0);
+            self.register_count += n;
+        }
+    }
+
+    fn bit(&self, i: usize) -> bool {
+        self.bits.get(i / 8).is_some_and(|byte| byte & (1 << (i % 8)) != 0)
+    }
+
+    fn set_bit(&mut self, i: usize, on: bool) {
+        let mask = 1 << (i % 8);
+        if let Some(byte) = self.bits.get_mut(i / 8) {
+            if on {
+                *byte |= mask;
+            } else {
+                *byte &= !mask;
+            }
+        }
+    }
+
+    /// Storage index of `start` when `start..start + qty` all exist (in one run).
+    fn locate(&self, table: Table, start: u16, qty: u16) -> Option<usize> {
+        let last = start.checked_add(qty.checked_sub(1)?)?;
+        let runs = &self.runs[..self.run_count];
+        let i = runs.partition_point(|r| r.key() <= (table, start)).checked_sub(1)?;
+        let run = runs[i];
+        (run.table == table && last <= run.last).then(|| usize::from(run.offset) + usize::from(start - run.start))
+    }
+
+    /// True if the address was added.
+    pub fn contains(&self, reference: impl IntoReference) -> bool {
+        reference.into_reference().is_ok_and(|r| self.locate(r.table, r.address, 1).is_some())
+    }
+
+    /// The value: a register's word, or 0/1 for a coil or discrete input.
+    pub fn get(&self, reference: impl IntoReference) -> Result<u16, BankError> {
+        let Reference { table, address } = reference.into_reference()?;
+        let i = self.locate(table, address, 1).ok_or(BankError::NotFound)?;
+        Ok(if table.is_bits() { u16::from(self.bit(i)) } else { self.registers.get(i).copied().unwrap_or(0) })
+    }
+
+    /// Sets the value: a register's word, or for a coil or discrete input on when non-zero.
+    pub fn set(&mut self, reference: impl IntoReference, value: u16) -> Result<(), BankError> {
+        let Reference { table, address } = reference.into_reference()?;
+        let i = self.locate(table, address, 1).ok_or(BankError::NotFound)?;
+        if table.is_bits() {
+            self.set_bit(i, value != 0);
+        } else if let Some(slot) = self.registers.get_mut(i) {
+            *slot = value;
+        }
+        Ok(())
+    }
+
+    /// How many write requests from the master have succeeded (wrapping): compare with
+    /// an earlier reading to learn cheaply whether coils or holding registers changed.
+    pub fn master_writes(&self) -> u16 {
+        self.master_writes
+    }
+
+    /// Contiguous runs in use (at most `RUNS`).
+    pub fn runs(&self) -> usize {
+        self.run_count
+    }
+}
+
+impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> DataModel for Bank<RUNS, REGS, BIT_BYTES> {
+    fn read_bits(&self, table: Table, start: u16, qty: u16, out: &mut [u8]) -> Result<(), Exception> {
+        let first = self.locate(table, start, qty).ok_or(Exception::IllegalDataAddress)?;
+        out.fill(0);
+        for k in 0..usize::from(qty) {
+            if self.bit(first + k) {
+                out[k / 8] |= 1 << (k % 8);
+            }
+        }
+        Ok(())
+    }
+
+    fn read_registers(&self, table: Table, start: u16, out: &mut [u8]) -> Result<(), Exception> {
+        let qty = u16::try_from(out.len() / 2).map_err(|_| Exception::IllegalDataValue)?;
+        let first = self.locate(table, start, qty).ok_or(Exception::IllegalDataAddress)?;
+        for (pair, value) in out.chunks_exact_mut(2).zip(self.registers.get(first..).unwrap_or(&[])) {
+            pair.copy_from_slice(&value.to_be_bytes());
+        }
+        Ok(())
+    }
+
+    fn write_coils(&mut self, start: u16, qty: u16, packed: &[u8]) -> Result<(), Exception> {
+        let first = self.locate(Table::Coils, start, qty).ok_or(Exception::IllegalDataAddress)?;
+        for k in 0..usize::from(qty) {
+            let byte = packed.get(k / 8).copied().unwrap_or(0);
+            self.set_bit(first + k, byte & (1 << (k % 8)) != 0);
+        }
+        self.master_writes = self.master_writes.wrapping_add(1);
+        Ok(())
+    }
+
+    fn write_registers(&mut self, start: u16, values: &[u8]) -> Result<(), Exception> {
+        let qty = u16::try_from(values.len() / 2).map_err(|_| Exception::IllegalDataValue)?;
+        let first = self.locate(Table::HoldingRegisters, start, qty).ok_or(Exception::IllegalDataAddress)?;
+        for (slot, pair) in self.registers.get_mut(first..).unwrap_or(&mut []).iter_mut().zip(values.chunks_exact(2)) {
+            *slot = u16::from_be_bytes([pair[0], pair[1]]);
+        }
+        self.master_writes = self.master_writes.wrapping_add(1);
+        Ok(())
+    }
+}

@@ -1,0 +1,197 @@
+//! Serial-line configuration, Modbus over Serial Line v1.02 §2.5.1 (character format) and
+//! §2.2 (addresses).
+//!
+//! A configuration is plain data. [`Config::new`] is a `const fn` meant for constants: a
+//! bad value there stops the build. [`Config::try_new`] is for values read at run time
+//! (EEPROM, jumpers) and returns an error instead.
+
+use crate::timing::{BaudDivisor, CharTimes, CLOCK_HZ};
+
+/// Why a configuration value was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// A slave id outside 1–247 (0 is broadcast, 248–255 are reserved).
+    SlaveId,
+    /// A baud rate outside [`Config::MIN_BAUD`]–[`Config::MAX_BAUD`].
+    Baud,
+    /// A baud rate the 16 MHz USART can't make within 2.5 % (see [`BaudDivisor`]).
+    BaudError,
+}
+
+impl ConfigError {
+    /// A one-line description, for build errors and logs.
+    pub const fn message(self) -> &'static str {
+        match self {
+            ConfigError::SlaveId => "slave id must be 1-247",
+            ConfigError::Baud => "baud rate must be 1200-1000000",
+            ConfigError::BaudError => "baud rate more than 2.5% off at 16 MHz",
+        }
+    }
+}
+
+/// A slave (server) address on the serial line: 1–247.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct SlaveId(u8);
+
+impl SlaveId {
+    /// The broadcast address: writes are executed, nothing is answered.
+    pub const BROADCAST: u8 = 0;
+
+    /// Checks that `id` is a unicast slave address (1–247).
+    pub const fn new(id: u8) -> Result<Self, ConfigError> {
+        match id {
+            1..=247 => Ok(SlaveId(id)),
+            _ => Err(ConfigError::SlaveId),
+        }
+    }
+
+    /// The address as a byte.
+    pub const fn get(self) -> u8 {
+        self.0
+    }
+}
+
+/// Parity of each character.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Parity {
+    /// No parity bit (the spec then asks for 2 stop bits; 1 is common in the field).
+    None,
+    /// Even parity: the spec's required default.
+    Even,
+    /// Odd parity.
+    Odd,
+}
+
+/// Stop bits of each character.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopBits {
+    /// One stop bit.
+    One,
+    /// Two stop bits.
+    Two,
+}
+
+/// Everything the slave needs to know about its place on the serial line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Config {
+    /// This slave's address.
+    pub slave_id: SlaveId,
+    /// Bits per second.
+    pub baud: u32,
+    /// Parity bit.
+    pub parity: Parity,
+    /// Stop bits.
+    pub stop_bits: StopBits,
+}
+
+impl Config {
+    /// Slowest supported rate.
+    pub const MIN_BAUD: u32 = 1200;
+    /// Fastest supported rate (16 MHz / 16).
+    pub const MAX_BAUD: u32 = 1_000_000;
+
+    /// The serial-line spec's default: 19200 bps, 8 data bits, even parity, 1 stop bit.
+    pub const fn default_for(slave_id: SlaveId) -> Self {
+        Config { slave_id, baud: 19_200, parity: Parity::Even, stop_bits: StopBits::One }
+    }
+
+    /// A configuration for a constant: invalid values stop the build.
+    ///
+    /// ```
+    /// use avr_modbus_slave::{Config, Parity, StopBits};
+    /// const CONFIG: Config = Config::new(17, 9600, Parity::None, StopBits::Two);
+    /// assert_eq!(CONFIG.slave_id.get(), 17);
+    /// ```
+    ///
+    /// ```compile_fail
+    /// use avr_modbus_slave::{Config, Parity, StopBits};
+    /// const CONFIG: Config = Config::new(248, 9600, Parity::None, StopBits::Two);
+    /// ```
+    ///
+    /// Called outside a constant it would panic on bad input: use [`Config::try_new`]
+    /// for run-time values.
+    pub const fn new(slave_id: u8, baud: u32, parity: Parity, stop_bits: StopBits) -> Self {
+        match Self::try_new(slave_id, baud, parity, stop_bits) {
+            Ok(config) => config,
+            Err(e) => panic!("{}", e.message()),
+        }
+    }
+
+    /// A configuration from run-time values.
+    pub const fn try_new(
+        slave_id: u8,
+        baud: u32,
+        parity: Parity,
+        stop_bits: StopBits,
+    ) -> Result<Self, ConfigError> {
+        let slave_id = match SlaveId::new(slave_id) {
+            Ok(id) => id,
+            Err(e) => return Err(e),
+        };
+        if baud < Self::MIN_BAUD || baud > Self::MAX_BAUD {
+            return Err(ConfigError::Baud);
+        }
+        if BaudDivisor::new(baud, CLOCK_HZ).is_none() {
+            return Err(ConfigError::BaudError);
+        }
+        Ok(Config { slave_id, baud, parity, stop_bits })
+    }
+
+    /// Bits on the wire per character: start, 8 data, parity if any, stop bits.
+    pub const fn bits_per_char(&self) -> u32 {
+        let parity = match self.parity {
+            Parity::None => 0,
+            Parity::Even | Parity::Odd => 1,
+        };
+        let stop = match self.stop_bits {
+            StopBits::One => 1,
+            StopBits::Two => 2,
+        };
+        1 + 8 + parity + stop
+    }
+
+    /// Character time and the T1.5 / T3.5 silences for this configuration.
+    pub const fn char_times(&self) -> CharTimes {
+        CharTimes::new(self.baud, self.bits_per_char())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slave_id_accepts_1_to_247_only() {
+        assert_eq!(SlaveId::new(0), Err(ConfigError::SlaveId));
+        assert_eq!(SlaveId::new(1).map(SlaveId::get), Ok(1));
+        assert_eq!(SlaveId::new(247).map(SlaveId::get), Ok(247));
+        assert_eq!(SlaveId::new(248), Err(ConfigError::SlaveId));
+        assert_eq!(SlaveId::new(255), Err(ConfigError::SlaveId));
+    }
+
+    #[test]
+    fn run_time_baud_outside_range_is_an_error() {
+        assert_eq!(Config::try_new(1, 1199, Parity::Even, StopBits::One), Err(ConfigError::Baud));
+        assert_eq!(Config::try_new(1, 1_000_001, Parity::Even, StopBits::One), Err(ConfigError::Baud));
+        assert!(Config::try_new(1, 1200, Parity::Even, StopBits::One).is_ok());
+        assert!(Config::try_new(1, 115_200, Parity::None, StopBits::One).is_ok());
+        assert_eq!(Config::try_new(1, 230_400, Parity::None, StopBits::One), Err(ConfigError::BaudError));
+    }
+
+    #[test]
+    fn default_is_19200_8e1() {
+        let c = Config::default_for(SlaveId::new(5).unwrap());
+        assert_eq!((c.baud, c.parity, c.stop_bits), (19_200, Parity::Even, StopBits::One));
+        assert_eq!(c.bits_per_char(), 11);
+    }
+
+    #[test]
+    fn bits_per_char_counts_parity_and_stop_bits() {
+        let bits = |p, s| Config::new(1, 9600, p, s).bits_per_char();
+        assert_eq!(bits(Parity::None, StopBits::One), 10);
+        assert_eq!(bits(Parity::None, StopBits::Two), 11);
+        assert_eq!(bits(Parity::Odd, StopBits::One), 11);
+        assert_eq!(bits(Parity::Even, StopBits::Two), 12);
+    }
+}

@@ -1,0 +1,172 @@
+//! RTU framing by silence, Modbus over Serial Line v1.02 §2.5.1.1 (the receiver's state
+//! diagram, figure 14) and §2.5.1.2 (CRC).
+//!
+//! A pure state machine fed with what the USART and Timer0 report: a character, a
+//! damaged character, the gap deadline (a character after it had a gap longer than T1.5),
+//! the end deadline (T3.5 of silence). The caller restarts its timer on every character.
+//! Bytes land in one 256-byte buffer with the CRC folded in as they arrive, so at T3.5
+//! the frame is checked in constant time.
+
+use crate::crc::Crc16;
+
+/// Largest RTU frame: address, PDU of up to 253 bytes, CRC.
+pub const MAX_FRAME: usize = 256;
+/// Shortest frame the framer hands on: address, function code, CRC.
+pub const MIN_FRAME: usize = 4;
+
+/// Why a frame was dropped in silence (never answered with an exception).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum FrameError {
+    /// Fewer than 4 bytes between two T3.5 silences.
+    TooShort,
+    /// More than 256 bytes: the rest was discarded without being stored.
+    TooLong,
+    /// The CRC did not check.
+    BadCrc,
+    /// A character came after a silence longer than T1.5 but shorter than T3.5.
+    Gap,
+    /// A character had a parity or framing error.
+    Uart,
+    /// The USART lost a character (data overrun).
+    Overrun,
+}
+
+/// What the USART reported about a damaged character.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UartError {
+    /// Wrong parity bit (UPE0).
+    Parity,
+    /// Missing stop bit (FE0).
+    Framing,
+    /// A character was lost before this one was read (DOR0).
+    Overrun,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum State {
+    /// After power-up: waiting for T3.5 of silence before accepting a frame.
+    Initial,
+    /// Silence reigns: the next character starts a frame.
+    Idle,
+    /// Inside a frame.
+    Receiving,
+    /// The gap deadline passed: one more character breaks the frame.
+    Waiting,
+    /// The frame is broken; the rest is ignored until T3.5.
+    Broken(FrameError),
+    /// A frame was handed out and its buffer is in use until [`Framer::release`].
+    Busy,
+}
+
+/// The receiver of RTU frames; holds the one frame buffer.
+#[derive(Clone, Debug)]
+pub struct Framer {
+    buf: [u8; MAX_FRAME],
+    len: usize,
+    crc: Crc16,
+    state: State,
+}
+
+impl Default for Framer {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Framer {
+    /// A framer just after power-up: it waits for T3.5 of silence (the caller starts its
+    /// timer at start-up) before it accepts a frame.
+    pub const fn new() -> Self {
+        Framer { buf: [0; MAX_FRAME], len: 0, crc: Crc16::new(), state: State::Initial }
+    }
+
+    /// A character arrived.
+    pub fn on_byte(&mut self, byte: u8) {
+        match self.state {
+            State::Idle => {
+                self.len = 0;
+                self.crc = Crc16::new();
+                self.state = State::Receiving;
+                self.store(byte);
+            }
+            State::Receiving => self.store(byte),
+            State::Waiting => self.state = State::Broken(FrameError::Gap),
+            State::Initial | State::Broken(_) | State::Busy => {}
+        }
+    }
+
+    fn store(&mut self, byte: u8) {
+        match self.buf.get_mut(self.len) {
+            Some(slot) => {
+                *slot = byte;
+                self.len += 1;
+                self.crc = self.crc.update(byte);
+            }
+            None => self.state = State::Broken(FrameError::TooLong),
+        }
+    }
+
+    /// A character arrived damaged: the frame it belongs to is dropped.
+    pub fn on_error(&mut self, error: UartError) {
+        let reason = match error {
+            UartError::Parity | UartError::Framing => FrameError::Uart,
+            UartError::Overrun => FrameError::Overrun,
+        };
+        match self.state {
+            State::Idle | State::Receiving | State::Waiting => self.state = State::Broken(reason),
+            State::Initial | State::Broken(_) | State::Busy => {}
+        }
+    }
+
+    /// The gap deadline passed since the last character (compare A).
+    pub fn on_gap_deadline(&mut self) {
+        if self.state == State::Receiving {
+            self.state = State::Waiting;
+        }
+    }
+
+    /// T3.5 of silence passed since the last character (compare B). Returns the complete
+    /// frame's length (with CRC) when one just ended with a good CRC, or why it was
+    /// dropped; `None` when no frame was in progress.
+    ///
+    /// After `Some(Ok(_))` the buffer holds the frame and the framer ignores the line
+    /// until [`Framer::release`].
+    pub fn on_end_deadline(&mut self) -> Option<Result<usize, FrameError>> {
+        let result = match self.state {
+            State::Receiving | State::Waiting if self.len < MIN_FRAME => Err(FrameError::TooShort),
+            State::Receiving | State::Waiting if !self.crc.is_residue_ok() => Err(FrameError::BadCrc),
+            State::Receiving | State::Waiting => Ok(self.len),
+            State::Broken(reason) => Err(reason),
+            State::Initial => {
+                self.state = State::Idle;
+                return None;
+            }
+            State::Idle | State::Busy => return None,
+        };
+        self.state = if result.is_ok() { State::Busy } else { State::Idle };
+        Some(result)
+    }
+
+    /// The frame (or reply) buffer.
+    pub fn buffer(&self) -> &[u8; MAX_FRAME] {
+        &self.buf
+    }
+
+    /// The frame (or reply) buffer, to write a reply in place.
+    pub fn buffer_mut(&mut self) -> &mut [u8; MAX_FRAME] {
+        &mut self.buf
+    }
+
+    /// The reply (if any) is sent: listen for the next frame.
+    pub fn release(&mut self) {
+        if self.state == State::Busy {
+            self.state = State::Idle;
+        }
+    }
+
+    /// True while a handed-out frame or its reply owns the buffer.
+    pub fn is_busy(&self) -> bool {
+        self.state == State::Busy
+    }
+}

@@ -1,0 +1,23 @@
+#![doc = include_str!("../README.md")]
+#![cfg_attr(not(test), no_std)]
+#![deny(missing_docs)]
+
+pub mod bank;
+pub mod config;
+pub mod crc;
+pub mod framer;
+pub mod model;
+pub mod pdu;
+pub mod reference;
+pub mod slave;
+pub mod timing;
+
+pub use bank::{bit_bytes, Bank};
+pub use config::{Config, ConfigError, Parity, SlaveId, StopBits};
+pub use crc::{crc16, Crc16};
+pub use framer::{FrameError, Framer, UartError};
+pub use model::DataModel;
+pub use pdu::{Exception, FunctionCode, Request};
+pub use reference::{BankError, IntoReference, Reference, Table};
+pub use slave::{Counters, EndOfFrame, Slave};
+pub use timing::{BaudDivisor, CharTimes, Deadline, Prescaler, TimerPlan};

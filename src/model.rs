@@ -1,0 +1,30 @@
+//! What the PDU engine needs from the application's data, Application Protocol v1.1b3
+//! §4.3 (data model) and §6 (function code descriptions).
+//!
+//! The engine has checked the function code, quantity and byte count before it calls
+//! these; an implementation answers [`Exception::IllegalDataAddress`] when any address of
+//! the range is missing, [`Exception::ServerDeviceFailure`] when it can't do what was
+//! asked, and in either case changes nothing.
+
+use crate::pdu::Exception;
+use crate::reference::Table;
+
+/// The application's data as the master sees it.
+pub trait DataModel {
+    /// Reads `qty` (≥ 1) bits of `table` (coils or discrete inputs) from `start` into
+    /// `out`, packed LSB first, the unused high bits of the last byte zero.
+    /// `out.len()` is `qty.div_ceil(8)`.
+    fn read_bits(&self, table: Table, start: u16, qty: u16, out: &mut [u8]) -> Result<(), Exception>;
+
+    /// Reads `out.len() / 2` (≥ 1) registers of `table` (input or holding) from `start`
+    /// into `out`, big-endian.
+    fn read_registers(&self, table: Table, start: u16, out: &mut [u8]) -> Result<(), Exception>;
+
+    /// Writes `qty` (≥ 1) coils from `start`, packed LSB first in `packed`; all of them or
+    /// none.
+    fn write_coils(&mut self, start: u16, qty: u16, packed: &[u8]) -> Result<(), Exception>;
+
+    /// Writes `values.len() / 2` (≥ 1) holding registers from `start`, big-endian; all of
+    /// them or none.
+    fn write_registers(&mut self, start: u16, values: &[u8]) -> Result<(), Exception>;
+}

@@ -1,0 +1,154 @@
+//! The four tables of the Modbus data model, Application Protocol v1.1b3 §4.3–4.4, and
+//! the classic 5-digit references (00001 coils, 10001 discrete inputs, 30001 input
+//! registers, 40001 holding registers) that name their entries on the bench.
+
+/// One of the four tables of the data model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Table {
+    /// Coils (0x): single bits, read/write (FC 01, 05, 0F).
+    Coils = 0,
+    /// Discrete inputs (1x): single bits, read-only (FC 02).
+    DiscreteInputs = 1,
+    /// Input registers (3x): 16-bit words, read-only (FC 04).
+    InputRegisters = 2,
+    /// Holding registers (4x): 16-bit words, read/write (FC 03, 06, 10).
+    HoldingRegisters = 3,
+}
+
+impl Table {
+    /// True for the two single-bit tables.
+    pub const fn is_bits(self) -> bool {
+        matches!(self, Table::Coils | Table::DiscreteInputs)
+    }
+}
+
+/// Why a reference or a register-bank operation was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum BankError {
+    /// A classic reference outside 00001–09999, 10001–19999, 30001–39999, 40001–49999.
+    BadReference,
+    /// The address was never added to the bank.
+    NotFound,
+    /// The address (or one in the range) was added already.
+    Duplicate,
+    /// A range runs past address 65535, or is empty.
+    BadRange,
+    /// No room for another contiguous run of addresses (the bank's `RUNS`).
+    RunsFull,
+    /// No room for more registers (the bank's `REGS`).
+    RegistersFull,
+    /// No room for more coils or discrete inputs (the bank's `BIT_BYTES` × 8).
+    BitsFull,
+}
+
+/// One entry of the data model: a table and a 0-based protocol address (0–65535).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Reference {
+    /// The table.
+    pub table: Table,
+    /// The 0-based address the master puts in the PDU.
+    pub address: u16,
+}
+
+impl Reference {
+    /// Coil at protocol `address` (classic 00001 is address 0).
+    pub const fn coil(address: u16) -> Self {
+        Reference { table: Table::Coils, address }
+    }
+
+    /// Discrete input at protocol `address` (classic 10001 is address 0).
+    pub const fn discrete_input(address: u16) -> Self {
+        Reference { table: Table::DiscreteInputs, address }
+    }
+
+    /// Input register at protocol `address` (classic 30001 is address 0).
+    pub const fn input_register(address: u16) -> Self {
+        Reference { table: Table::InputRegisters, address }
+    }
+
+    /// Holding register at protocol `address` (classic 40001 is address 0).
+    pub const fn holding_register(address: u16) -> Self {
+        Reference { table: Table::HoldingRegisters, address }
+    }
+
+    /// The entry a classic 5-digit reference names: 40001 is holding register 0,
+    /// 30010 input register 9, 10001 discrete input 0, 1 (00001) coil 0.
+    pub const fn classic(number: u32) -> Result<Self, BankError> {
+        let table = match number / 10_000 {
+            0 => Table::Coils,
+            1 => Table::DiscreteInputs,
+            3 => Table::InputRegisters,
+            4 => Table::HoldingRegisters,
+            _ => return Err(BankError::BadReference),
+        };
+        match number % 10_000 {
+            0 => Err(BankError::BadReference),
+            n => Ok(Reference { table, address: (n - 1) as u16 }),
+        }
+    }
+}
+
+/// Anything that names an entry of the data model: a [`Reference`], or a classic
+/// reference number such as `40001` (any integer type a literal may take).
+pub trait IntoReference {
+    /// The entry, or [`BankError::BadReference`].
+    fn into_reference(self) -> Result<Reference, BankError>;
+}
+
+impl IntoReference for Reference {
+    fn into_reference(self) -> Result<Reference, BankError> {
+        Ok(self)
+    }
+}
+
+impl IntoReference for u16 {
+    fn into_reference(self) -> Result<Reference, BankError> {
+        Reference::classic(u32::from(self))
+    }
+}
+
+impl IntoReference for u32 {
+    fn into_reference(self) -> Result<Reference, BankError> {
+        Reference::classic(self)
+    }
+}
+
+impl IntoReference for i32 {
+    fn into_reference(self) -> Result<Reference, BankError> {
+        match u32::try_from(self) {
+            Ok(n) => Reference::classic(n),
+            Err(_) => Err(BankError::BadReference),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn classic_references_are_one_based_with_a_table_prefix() {
+        assert_eq!(Reference::classic(1), Ok(Reference::coil(0)));
+        assert_eq!(Reference::classic(9999), Ok(Reference::coil(9998)));
+        assert_eq!(Reference::classic(10001), Ok(Reference::discrete_input(0)));
+        assert_eq!(Reference::classic(30003), Ok(Reference::input_register(2)));
+        assert_eq!(Reference::classic(40001), Ok(Reference::holding_register(0)));
+        assert_eq!(Reference::classic(49999), Ok(Reference::holding_register(9998)));
+    }
+
+    #[test]
+    fn classic_references_outside_the_four_ranges_are_refused() {
+        for bad in [0, 10000, 20001, 29999, 30000, 40000, 50000, 65535, 400001] {
+            assert_eq!(Reference::classic(bad), Err(BankError::BadReference), "{bad}");
+        }
+        assert_eq!((-1i32).into_reference(), Err(BankError::BadReference));
+    }
+
+    #[test]
+    fn literals_of_any_integer_type_name_references() {
+        assert_eq!(40001.into_reference(), Ok(Reference::holding_register(0)));
+        assert_eq!(30002u16.into_reference(), Ok(Reference::input_register(1)));
+        assert_eq!(10005u32.into_reference(), Ok(Reference::discrete_input(4)));
+    }
+}

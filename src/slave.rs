@@ -1,0 +1,218 @@
+//! The RTU slave without hardware, Modbus over Serial Line v1.02 §2.4 (master/slave
+//! protocol, broadcast, address check) and §6.1.3 (diagnostic counters).
+//!
+//! [`Slave`] joins the [`Framer`] to the PDU engine: the AVR layer forwards interrupts to
+//! its `on_*` methods, the host tests script the same calls. Data flows one way: bytes →
+//! framer → address and CRC check → [`respond`] → reply in the same buffer.
+
+use crate::config::SlaveId;
+use crate::crc::Crc16;
+use crate::framer::{FrameError, Framer, UartError};
+use crate::model::DataModel;
+use crate::pdu::{encode_exception, respond, Request};
+
+/// What the slave counted since start-up (each wraps at 65535).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Frames that ended with T3.5 of silence, good or bad.
+    pub frames: u16,
+    /// Frames dropped for a bad CRC.
+    pub crc_errors: u16,
+    /// Frames dropped for a parity or framing error.
+    pub uart_errors: u16,
+    /// Frames dropped for a lost character (USART overrun) or for exceeding 256 bytes.
+    pub overruns: u16,
+    /// Frames dropped for being shorter than 4 bytes or for a gap longer than T1.5.
+    pub malformed: u16,
+    /// Good frames addressed to this slave or broadcast.
+    pub messages: u16,
+    /// Exception responses produced (for broadcasts too, though not sent).
+    pub exceptions: u16,
+    /// Replies sent, normal or exception.
+    pub replies: u16,
+    /// Broadcast frames received.
+    pub broadcasts: u16,
+}
+
+fn bump(counter: &mut u16) {
+    *counter = counter.wrapping_add(1);
+}
+
+/// What the end of a frame (T3.5) led to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EndOfFrame {
+    /// No frame was in progress.
+    Nothing,
+    /// The frame was dropped in silence, and counted.
+    Dropped(FrameError),
+    /// A good frame for another slave: silence.
+    OtherSlave,
+    /// A good frame for this slave: call [`Slave::process`], then send [`Slave::reply`].
+    /// Its first byte is this slave's address, known before processing.
+    Reply,
+    /// A good broadcast: call [`Slave::process`] to execute it; nothing is sent.
+    Broadcast,
+}
+
+/// A Modbus RTU slave's protocol state: the frame buffer, the address, the counters.
+#[derive(Clone, Debug)]
+pub struct Slave {
+    framer: Framer,
+    id: SlaveId,
+    counters: Counters,
+    pending: Pending,
+    reply_len: usize,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Pending {
+    None,
+    Unicast(usize),
+    Broadcast(usize),
+}
+
+impl Slave {
+    /// A slave with address `id`, just after power-up (waiting for T3.5 of silence).
+    pub const fn new(id: SlaveId) -> Self {
+        Slave { framer: Framer::new(), id, counters: Counters::new(), pending: Pending::None, reply_len: 0 }
+    }
+
+    /// This slave's address.
+    pub fn id(&self) -> SlaveId {
+        self.id
+    }
+
+    /// The counters.
+    pub fn counters(&self) -> Counters {
+        self.counters
+    }
+
+    /// A character arrived.
+    pub fn on_byte(&mut self, byte: u8) {
+        self.framer.on_byte(byte);
+    }
+
+    /// A damaged character arrived.
+    pub fn on_error(&mut self, error: UartError) {
+        self.framer.on_error(error);
+    }
+
+    /// The inter-character gap deadline passed.
+    pub fn on_gap_deadline(&mut self) {
+        self.framer.on_gap_deadline();
+    }
+
+    /// T3.5 of silence passed: checks the frame's CRC and address and counts.
+    pub fn on_end_deadline(&mut self) -> EndOfFrame {
+        let len = match self.framer.on_end_deadline() {
+            None => return EndOfFrame::Nothing,
+            Some(Err(e)) => {
+                bump(&mut self.counters.frames);
+                bump(match e {
+                    FrameError::BadCrc => &mut self.counters.crc_errors,
+                    FrameError::Uart => &mut self.counters.uart_errors,
+                    FrameError::Overrun | FrameError::TooLong => &mut self.counters.overruns,
+                    FrameError::TooShort | FrameError::Gap => &mut self.counters.malformed,
+                });
+                return EndOfFrame::Dropped(e);
+            }
+            Some(Ok(len)) => len,
+        };
+        bump(&mut self.counters.frames);
+        let address = self.framer.buffer()[0];
+        if address == self.id.get() {
+            bump(&mut self.counters.messages);
+            self.pending = Pending::Unicast(len);
+            EndOfFrame::Reply
+        } else if address == SlaveId::BROADCAST {
+            bump(&mut self.counters.messages);
+            bump(&mut self.counters.broadcasts);
+            self.pending = Pending::Broadcast(len);
+            EndOfFrame::Broadcast
+        } else {
+            self.framer.release();
+            EndOfFrame::OtherSlave
+        }
+    }
+
+    /// Executes the frame that [`Slave::on_end_deadline`] accepted and writes the reply
+    /// (address, PDU, CRC) over it. Returns the reply's length; 0 for a broadcast, whose
+    /// buffer is released at once.
+    pub fn process<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
+        let pending = core::mem::replace(&mut self.pending, Pending::None);
+        let (len, broadcast) = match pending {
+            Pending::None => return 0,
+            Pending::Unicast(len) => (len, false),
+            Pending::Broadcast(len) => (len, true),
+        };
+        let buf = self.framer.buffer_mut();
+        // The PDU sits between the address and the CRC.
+        let pdu_len = len - 3;
+        let (_, pdu) = buf.split_at_mut(1);
+        if broadcast {
+            let executed = Request::parse(&pdu[..pdu_len]).and_then(|r| if r.is_write() { r.write(model) } else { Ok(()) });
+            if executed.is_err() {
+                bump(&mut self.counters.exceptions);
+            }
+            self.framer.release();
+            return 0;
+        }
+        let reply_pdu = match respond(pdu, pdu_len, model) {
+            Ok(n) => n,
+            Err(exception) => {
+                bump(&mut self.counters.exceptions);
+                encode_exception(pdu, exception)
+            }
+        };
+        let crc = Crc16::new().update_slice(&buf[..1 + reply_pdu]).to_wire();
+        buf[1 + reply_pdu..3 + reply_pdu].copy_from_slice(&crc);
+        self.reply_len = 3 + reply_pdu;
+        bump(&mut self.counters.replies);
+        self.reply_len
+    }
+
+    /// The reply built by [`Slave::process`], valid until [`Slave::on_reply_sent`].
+    pub fn reply(&self) -> &[u8] {
+        &self.framer.buffer()[..self.reply_len]
+    }
+
+    /// The reply's last byte left the USART: listen again.
+    pub fn on_reply_sent(&mut self) {
+        self.reply_len = 0;
+        self.framer.release();
+    }
+
+    /// Handles one whole frame as if it had arrived with correct timing: the ADU layer in
+    /// one call, for tests and for links that deliver frames ready-made. Afterwards
+    /// [`Slave::reply`] holds the reply, if the result is [`EndOfFrame::Reply`].
+    pub fn handle_frame<M: DataModel + ?Sized>(&mut self, frame: &[u8], model: &mut M) -> EndOfFrame {
+        self.on_reply_sent();
+        // Silence before the frame (also ends the power-up wait).
+        self.framer.on_end_deadline();
+        for &byte in frame {
+            self.on_byte(byte);
+        }
+        let end = self.on_end_deadline();
+        if matches!(end, EndOfFrame::Reply | EndOfFrame::Broadcast) {
+            self.process(model);
+        }
+        end
+    }
+}
+
+impl Counters {
+    /// All zero.
+    pub const fn new() -> Self {
+        Counters {
+            frames: 0,
+            crc_errors: 0,
+            uart_errors: 0,
+            overruns: 0,
+            malformed: 0,
+            messages: 0,
+            exceptions: 0,
+            replies: 0,
+            broadcasts: 0,
+        }
+    }
+}

@@ -1,0 +1,339 @@
+//! Character times and silences, Modbus over Serial Line v1.02 §2.5.1.1 (T1.5, T3.5),
+//! and the ATmega328P arithmetic that turns them into USART and Timer0 settings.
+//!
+//! Everything here is `const fn` math: the AVR layer only copies the results into
+//! registers, and the host tests check the results over a table of configurations.
+
+/// The Uno's CPU clock.
+pub const CLOCK_HZ: u32 = 16_000_000;
+
+/// Above this rate the spec fixes T1.5 = 750 µs and T3.5 = 1750 µs.
+pub const FIXED_TIMES_ABOVE_BAUD: u32 = 19_200;
+
+const NS_PER_S: u64 = 1_000_000_000;
+
+const fn div_ceil(a: u64, b: u64) -> u64 {
+    a.div_ceil(b)
+}
+
+/// One character time and the two silences derived from it, in nanoseconds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CharTimes {
+    /// Duration of one character on the wire (start, data, parity, stop bits).
+    pub char_ns: u32,
+    /// Longest silence allowed between two characters of a frame (T1.5).
+    pub t15_ns: u32,
+    /// Silence that ends a frame (T3.5).
+    pub t35_ns: u32,
+}
+
+impl CharTimes {
+    /// Times for `baud` bits per second and `bits_per_char` bits per character; rounded
+    /// up to the next nanosecond. Above 19200 bps T1.5 and T3.5 are the fixed 750 µs and
+    /// 1750 µs. `baud` must be non-zero (a [`crate::Config`] guarantees it).
+    pub const fn new(baud: u32, bits_per_char: u32) -> Self {
+        let baud = if baud == 0 { 1 } else { baud as u64 };
+        let bit_ns_x2 = 2 * NS_PER_S * bits_per_char as u64;
+        let char_ns = div_ceil(bit_ns_x2, 2 * baud);
+        let (t15_ns, t35_ns) = if baud > FIXED_TIMES_ABOVE_BAUD as u64 {
+            (750_000, 1_750_000)
+        } else {
+            (div_ceil(3 * bit_ns_x2 / 2, 2 * baud), div_ceil(7 * bit_ns_x2 / 2, 2 * baud))
+        };
+        CharTimes { char_ns: char_ns as u32, t15_ns: t15_ns as u32, t35_ns: t35_ns as u32 }
+    }
+
+    /// How long after the end of one received character the end of the next may come
+    /// before the gap between them exceeded T1.5.
+    ///
+    /// The USART reports a character when its stop bit ends, one character time after
+    /// its start bit began, so the gap on the wire is the time between two reports minus
+    /// one character.
+    pub const fn gap_deadline_ns(&self) -> u32 {
+        self.char_ns + self.t15_ns
+    }
+}
+
+/// Timer0 clock divider (TCCR0B CS02:0).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Prescaler {
+    /// clk/1 (CS0 = 0b001).
+    Div1,
+    /// clk/8 (CS0 = 0b010).
+    Div8,
+    /// clk/64 (CS0 = 0b011).
+    Div64,
+    /// clk/256 (CS0 = 0b100).
+    Div256,
+    /// clk/1024 (CS0 = 0b101).
+    Div1024,
+}
+
+impl Prescaler {
+    const ALL: [Prescaler; 5] =
+        [Prescaler::Div1, Prescaler::Div8, Prescaler::Div64, Prescaler::Div256, Prescaler::Div1024];
+
+    /// The division factor.
+    pub const fn divisor(self) -> u32 {
+        match self {
+            Prescaler::Div1 => 1,
+            Prescaler::Div8 => 8,
+            Prescaler::Div64 => 64,
+            Prescaler::Div256 => 256,
+            Prescaler::Div1024 => 1024,
+        }
+    }
+
+    /// The clock-select bits CS02:0 of TCCR0B.
+    pub const fn cs_bits(self) -> u8 {
+        match self {
+            Prescaler::Div1 => 0b001,
+            Prescaler::Div8 => 0b010,
+            Prescaler::Div64 => 0b011,
+            Prescaler::Div256 => 0b100,
+            Prescaler::Div1024 => 0b101,
+        }
+    }
+}
+
+/// A Timer0 deadline: after `wraps` full turns of the 8-bit counter, the compare match
+/// at `ocr` is the one that counts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Deadline {
+    /// Compare value (OCR0A or OCR0B); never 0, so a match can't coincide with a restart.
+    pub ocr: u8,
+    /// Matches to let pass before the one that counts.
+    pub wraps: u8,
+}
+
+impl Deadline {
+    /// Ticks from a restart (TCNT0 = 0) to the match that counts.
+    pub const fn ticks(self) -> u32 {
+        self.wraps as u32 * 256 + self.ocr as u32
+    }
+}
+
+/// Timer0 settings for the frame detector: a deadline for the inter-character gap
+/// ([`CharTimes::gap_deadline_ns`]) and one for the end of frame (T3.5), both counted
+/// from the end of the last received character.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TimerPlan {
+    /// Clock divider.
+    pub prescaler: Prescaler,
+    /// Compare A: a character reported after this had a gap longer than T1.5.
+    pub gap: Deadline,
+    /// Compare B: T3.5 of silence, the frame is complete.
+    pub end: Deadline,
+}
+
+impl TimerPlan {
+    /// The longest deadline the plan allows, in ticks: two turns of the counter.
+    const MAX_TICKS: u64 = 512;
+
+    /// Picks the finest prescaler that reaches T3.5 within two counter turns and rounds
+    /// each deadline so that it never expires early: the prescaler runs freely, so a
+    /// restart can land anywhere inside a tick, and one tick is added for that. The
+    /// deadlines are therefore late by at most one tick.
+    pub const fn new(times: CharTimes, clock_hz: u32) -> Self {
+        let mut i = 0;
+        while i < Prescaler::ALL.len() - 1 {
+            if Self::ticks(times.t35_ns, clock_hz, Prescaler::ALL[i]) <= Self::MAX_TICKS {
+                break;
+            }
+            i += 1;
+        }
+        let prescaler = Prescaler::ALL[i];
+        TimerPlan {
+            prescaler,
+            gap: Self::deadline(times.gap_deadline_ns(), clock_hz, prescaler),
+            end: Self::deadline(times.t35_ns, clock_hz, prescaler),
+        }
+    }
+
+    /// The duration of one tick in nanoseconds (rounded down).
+    pub const fn tick_ns(&self, clock_hz: u32) -> u32 {
+        (self.prescaler.divisor() as u64 * NS_PER_S / clock_hz as u64) as u32
+    }
+
+    const fn ticks(ns: u32, clock_hz: u32, prescaler: Prescaler) -> u64 {
+        div_ceil(ns as u64 * clock_hz as u64, prescaler.divisor() as u64 * NS_PER_S) + 1
+    }
+
+    const fn deadline(ns: u32, clock_hz: u32, prescaler: Prescaler) -> Deadline {
+        let mut ticks = Self::ticks(ns, clock_hz, prescaler);
+        if ticks % 256 == 0 {
+            ticks += 1;
+        }
+        // At 1200 bps with clk/1024 T3.5 is 502 ticks; nothing in range exceeds 255 wraps.
+        let wraps = ticks / 256;
+        Deadline { ocr: (ticks % 256) as u8, wraps: if wraps > 255 { 255 } else { wraps as u8 } }
+    }
+}
+
+/// USART baud-rate register settings (UBRR0, U2X0) for a rate.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BaudDivisor {
+    /// UBRR0 value (12 bits).
+    pub ubrr: u16,
+    /// Double-speed mode (U2X0): divides by 8 instead of 16.
+    pub double_speed: bool,
+    /// Actual rate minus requested rate, in parts per million of the requested rate.
+    pub error_ppm: i32,
+}
+
+impl BaudDivisor {
+    /// Largest error accepted: 2.5 % (the serial-line spec asks 1 % on transmit; several
+    /// standard rates can't meet that at 16 MHz, see the README's table).
+    pub const MAX_ERROR_PPM: i32 = 25_000;
+    /// The serial-line spec's transmit tolerance: 1 %.
+    pub const SPEC_ERROR_PPM: i32 = 10_000;
+
+    /// Normal speed (16 samples per bit, the more tolerant receiver) whenever its error is
+    /// within the spec's 1 %, else whichever of normal and double speed is closer; `None`
+    /// if that is more than [`Self::MAX_ERROR_PPM`] off or out of UBRR0's range.
+    pub const fn new(baud: u32, clock_hz: u32) -> Option<Self> {
+        if baud == 0 {
+            return None;
+        }
+        let normal = Self::candidate(baud, clock_hz, 16, false);
+        let double = Self::candidate(baud, clock_hz, 8, true);
+        let best = match (normal, double) {
+            (Some(n), _) if n.error_ppm.unsigned_abs() <= Self::SPEC_ERROR_PPM as u32 => Some(n),
+            (Some(n), Some(d)) => {
+                if d.error_ppm.unsigned_abs() < n.error_ppm.unsigned_abs() {
+                    Some(d)
+                } else {
+                    Some(n)
+                }
+            }
+            (Some(n), None) => Some(n),
+            (None, d) => d,
+        };
+        match best {
+            Some(b) if b.error_ppm.unsigned_abs() <= Self::MAX_ERROR_PPM as u32 => Some(b),
+            _ => None,
+        }
+    }
+
+    const fn candidate(baud: u32, clock_hz: u32, divider: u64, double_speed: bool) -> Option<Self> {
+        let denominator = divider * baud as u64;
+        // Nearest integer to clock / (divider · baud), minus one.
+        let rounded = (2 * clock_hz as u64 + denominator) / (2 * denominator);
+        if rounded == 0 || rounded > 4096 {
+            return None;
+        }
+        let actual_x1e6 = clock_hz as u64 * 1_000_000 / (divider * rounded);
+        let error_ppm = (actual_x1e6 as i64 - baud as i64 * 1_000_000) * 1_000_000
+            / (baud as i64 * 1_000_000);
+        Some(BaudDivisor { ubrr: (rounded - 1) as u16, double_speed, error_ppm: error_ppm as i32 })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Config, Parity, StopBits};
+
+    fn times(baud: u32, parity: Parity, stop: StopBits) -> CharTimes {
+        Config::new(1, baud, parity, stop).char_times()
+    }
+
+    #[test]
+    fn t15_t35_scale_with_character_time_up_to_19200() {
+        // (baud, parity, stop bits, char µs·1000, T1.5 ns, T3.5 ns)
+        let table = [
+            (1200, Parity::Even, StopBits::One, 9_166_667, 13_750_000, 32_083_334),
+            (1200, Parity::None, StopBits::One, 8_333_334, 12_500_000, 29_166_667),
+            (9600, Parity::Even, StopBits::One, 1_145_834, 1_718_750, 4_010_417),
+            (9600, Parity::None, StopBits::One, 1_041_667, 1_562_500, 3_645_834),
+            (9600, Parity::None, StopBits::Two, 1_145_834, 1_718_750, 4_010_417),
+            (9600, Parity::Odd, StopBits::One, 1_145_834, 1_718_750, 4_010_417),
+            (19_200, Parity::Even, StopBits::One, 572_917, 859_375, 2_005_209),
+            (19_200, Parity::None, StopBits::One, 520_834, 781_250, 1_822_917),
+            (19_200, Parity::None, StopBits::Two, 572_917, 859_375, 2_005_209),
+            (19_200, Parity::Odd, StopBits::One, 572_917, 859_375, 2_005_209),
+            (19_200, Parity::Even, StopBits::Two, 625_000, 937_500, 2_187_500),
+        ];
+        for (baud, parity, stop, char_ns, t15, t35) in table {
+            let t = times(baud, parity, stop);
+            assert_eq!((t.char_ns, t.t15_ns, t.t35_ns), (char_ns, t15, t35), "{baud} {parity:?} {stop:?}");
+        }
+    }
+
+    #[test]
+    fn above_19200_t15_and_t35_are_fixed() {
+        for baud in [19_201, 38_400, 57_600, 115_200, 250_000, 1_000_000] {
+            for parity in [Parity::None, Parity::Even] {
+                let t = times(baud, parity, StopBits::One);
+                assert_eq!((t.t15_ns, t.t35_ns), (750_000, 1_750_000), "{baud}");
+            }
+        }
+        assert_eq!(times(115_200, Parity::None, StopBits::One).char_ns, 86_806);
+        assert_eq!(times(115_200, Parity::Even, StopBits::One).char_ns, 95_487);
+    }
+
+    #[test]
+    fn gap_deadline_is_one_char_plus_t15() {
+        let t = times(19_200, Parity::Even, StopBits::One);
+        assert_eq!(t.gap_deadline_ns(), 572_917 + 859_375);
+    }
+
+    #[test]
+    fn timer_deadlines_never_early_and_at_most_one_tick_late() {
+        for baud in [1200, 2400, 4800, 9600, 19_200, 38_400, 57_600, 115_200, 250_000, 500_000, 1_000_000] {
+            for (parity, stop) in [(Parity::Even, StopBits::One), (Parity::None, StopBits::One), (Parity::None, StopBits::Two)] {
+                let t = times(baud, parity, stop);
+                let plan = TimerPlan::new(t, CLOCK_HZ);
+                let tick = plan.prescaler.divisor() as u64 * 1_000_000_000 / CLOCK_HZ as u64;
+                for (deadline, ns) in [(plan.gap, t.gap_deadline_ns()), (plan.end, t.t35_ns)] {
+                    let ticks = deadline.ticks() as u64;
+                    assert!(deadline.ocr != 0);
+                    // Earliest expiry: the restart came just before a prescaler edge.
+                    assert!((ticks - 1) * tick >= ns as u64, "{baud} early: {ticks} ticks of {tick} ns < {ns}");
+                    assert!((ticks - 2) * tick < ns as u64 + tick, "{baud} late: {ticks} ticks of {tick} ns");
+                }
+                assert!(plan.gap.ticks() < plan.end.ticks(), "{baud}: gap deadline after T3.5");
+            }
+        }
+    }
+
+    #[test]
+    fn prescaler_is_the_finest_that_reaches_t35_in_two_turns() {
+        let plan = |baud| TimerPlan::new(times(baud, Parity::Even, StopBits::One), CLOCK_HZ);
+        assert_eq!(plan(1200).prescaler, Prescaler::Div1024);
+        assert_eq!(plan(1200).end, Deadline { ocr: 247, wraps: 1 });
+        assert_eq!(plan(9600).prescaler, Prescaler::Div256);
+        assert_eq!(plan(19_200).prescaler, Prescaler::Div64);
+        assert_eq!(plan(115_200).prescaler, Prescaler::Div64);
+        assert_eq!(plan(115_200).end.ticks(), 1_750_000_u32.div_ceil(4_000) + 1);
+    }
+
+    #[test]
+    fn baud_divisors_match_the_datasheet_table() {
+        // (baud, UBRR0, U2X0, error in ppm): ATmega328P datasheet table 20-7 at 16 MHz.
+        let table = [
+            (1200, 832, false, 400),
+            (2400, 416, false, -799),
+            (4800, 207, false, 1_602),
+            (9600, 103, false, 1_602),
+            (19_200, 51, false, 1_602),
+            (38_400, 25, false, 1_602),
+            (57_600, 34, true, -7_936),
+            (115_200, 16, true, 21_241),
+            (250_000, 3, false, 0),
+            (500_000, 1, false, 0),
+            (1_000_000, 0, false, 0),
+        ];
+        for (baud, ubrr, double_speed, error_ppm) in table {
+            let d = BaudDivisor::new(baud, CLOCK_HZ).unwrap();
+            assert_eq!((d.ubrr, d.double_speed, d.error_ppm), (ubrr, double_speed, error_ppm), "{baud}");
+        }
+    }
+
+    #[test]
+    fn baud_with_more_than_2_5_percent_error_is_refused() {
+        assert_eq!(BaudDivisor::new(300_000, CLOCK_HZ), None);
+        assert_eq!(BaudDivisor::new(230_400, CLOCK_HZ), None);
+        assert_eq!(BaudDivisor::new(0, CLOCK_HZ), None);
+    }
+}

@@ -1,0 +1,1 @@
+//! Simulated Uno (work in progress).
