@@ -1,11 +1,54 @@
-//! placeholder
+/*!
+ * The smallest useful slave: four holding registers, nothing else.
+ *
+ * Wiring: Uno pins 0 (RX) and 1 (TX) to the TTL side of a MAX3232 board (or an RS-485
+ * transceiver with DE/RE tied high for listen-only testing), GND to GND.
+ *
+ * Serial line: slave id 1, 19200 bps, 8 data bits, even parity, 1 stop bit (8E1).
+ *
+ * | reference | address | meaning                                       |
+ * |-----------|---------|-----------------------------------------------|
+ * | 40001     | 0       | setpoint, written by the master               |
+ * | 40002     | 1       | copy of 40001 made by the main loop           |
+ * | 40003     | 2       | count of master writes seen by the main loop  |
+ * | 40004     | 3       | free for the master                           |
+ */
 #![no_std]
 #![no_main]
-#![allow(unsafe_code)]
+#![feature(abi_avr_interrupt)]
+
+use avr_modbus_slave::avr::ModbusSlave;
+use avr_modbus_slave::{bit_bytes, Bank, Config, Parity, StopBits};
 use panic_halt as _;
+
+const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
+
+type Registers = Bank<1, 4, { bit_bytes(0) }>;
+
+avr_modbus_slave::modbus_slave!(SLAVE: Registers);
+
 #[avr_device::entry]
 fn main() -> ! {
-    let dp = avr_device::atmega328p::Peripherals::take().unwrap();
-    let mut x = 0u8;
-    loop { x = avr_modbus_slave::add(x, 1); dp.PORTB.portb().write(|w| unsafe { w.bits(x) }); }
+    // SAFETY: the only place that takes the peripherals, and it runs once.
+    #[allow(unsafe_code)]
+    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
+    let mut bank = Registers::new();
+    let _ = bank.add_range(40001, 4);
+    SLAVE.start(ModbusSlave::new(CONFIG, dp.USART0, dp.TC0, bank));
+    // SAFETY: the slave is in its cell; its interrupt handlers may run from here on.
+    #[allow(unsafe_code)]
+    unsafe {
+        avr_device::interrupt::enable()
+    };
+
+    let mut seen = 0;
+    loop {
+        let writes = SLAVE.master_writes();
+        if writes != seen {
+            seen = writes;
+            let setpoint = SLAVE.get(40001).unwrap_or(0);
+            let _ = SLAVE.set(40002, setpoint);
+            let _ = SLAVE.set(40003, writes);
+        }
+    }
 }

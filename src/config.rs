@@ -5,7 +5,7 @@
 //! bad value there stops the build. [`Config::try_new`] is for values read at run time
 //! (EEPROM, jumpers) and returns an error instead.
 
-use crate::timing::{BaudDivisor, CharTimes, CLOCK_HZ};
+use crate::timing::{BaudDivisor, CharTimes, TimerPlan, CLOCK_HZ};
 
 /// Why a configuration value was refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -72,17 +72,17 @@ pub enum StopBits {
     Two,
 }
 
-/// Everything the slave needs to know about its place on the serial line.
+/// Everything the slave needs to know about its place on the serial line, with the
+/// USART divisor and Timer0 plan derived from it: built in a `const`, the firmware does no
+/// division at run time.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Config {
-    /// This slave's address.
-    pub slave_id: SlaveId,
-    /// Bits per second.
-    pub baud: u32,
-    /// Parity bit.
-    pub parity: Parity,
-    /// Stop bits.
-    pub stop_bits: StopBits,
+    slave_id: SlaveId,
+    baud: u32,
+    parity: Parity,
+    stop_bits: StopBits,
+    divisor: BaudDivisor,
+    timer_plan: TimerPlan,
 }
 
 impl Config {
@@ -93,7 +93,10 @@ impl Config {
 
     /// The serial-line spec's default: 19200 bps, 8 data bits, even parity, 1 stop bit.
     pub const fn default_for(slave_id: SlaveId) -> Self {
-        Config { slave_id, baud: 19_200, parity: Parity::Even, stop_bits: StopBits::One }
+        match Self::try_new(slave_id.get(), 19_200, Parity::Even, StopBits::One) {
+            Ok(config) => config,
+            Err(e) => panic!("{}", e.message()),
+        }
     }
 
     /// A configuration for a constant: invalid values stop the build.
@@ -101,7 +104,7 @@ impl Config {
     /// ```
     /// use avr_modbus_slave::{Config, Parity, StopBits};
     /// const CONFIG: Config = Config::new(17, 9600, Parity::None, StopBits::Two);
-    /// assert_eq!(CONFIG.slave_id.get(), 17);
+    /// assert_eq!(CONFIG.slave_id().get(), 17);
     /// ```
     ///
     /// ```compile_fail
@@ -119,12 +122,7 @@ impl Config {
     }
 
     /// A configuration from run-time values.
-    pub const fn try_new(
-        slave_id: u8,
-        baud: u32,
-        parity: Parity,
-        stop_bits: StopBits,
-    ) -> Result<Self, ConfigError> {
+    pub const fn try_new(slave_id: u8, baud: u32, parity: Parity, stop_bits: StopBits) -> Result<Self, ConfigError> {
         let slave_id = match SlaveId::new(slave_id) {
             Ok(id) => id,
             Err(e) => return Err(e),
@@ -132,29 +130,70 @@ impl Config {
         if baud < Self::MIN_BAUD || baud > Self::MAX_BAUD {
             return Err(ConfigError::Baud);
         }
-        if BaudDivisor::new(baud, CLOCK_HZ).is_none() {
-            return Err(ConfigError::BaudError);
-        }
-        Ok(Config { slave_id, baud, parity, stop_bits })
+        let divisor = match BaudDivisor::new(baud, CLOCK_HZ) {
+            Some(divisor) => divisor,
+            None => return Err(ConfigError::BaudError),
+        };
+        let timer_plan = TimerPlan::new(CharTimes::new(baud, bits_per_char(parity, stop_bits)), CLOCK_HZ);
+        Ok(Config { slave_id, baud, parity, stop_bits, divisor, timer_plan })
+    }
+
+    /// The same line settings for another slave address.
+    pub const fn with_slave_id(self, slave_id: SlaveId) -> Self {
+        Config { slave_id, ..self }
+    }
+
+    /// This slave's address.
+    pub const fn slave_id(&self) -> SlaveId {
+        self.slave_id
+    }
+
+    /// Bits per second.
+    pub const fn baud(&self) -> u32 {
+        self.baud
+    }
+
+    /// Parity bit.
+    pub const fn parity(&self) -> Parity {
+        self.parity
+    }
+
+    /// Stop bits.
+    pub const fn stop_bits(&self) -> StopBits {
+        self.stop_bits
+    }
+
+    /// USART0 rate settings.
+    pub const fn divisor(&self) -> BaudDivisor {
+        self.divisor
+    }
+
+    /// Timer0 settings of the silence detector.
+    pub const fn timer_plan(&self) -> TimerPlan {
+        self.timer_plan
     }
 
     /// Bits on the wire per character: start, 8 data, parity if any, stop bits.
     pub const fn bits_per_char(&self) -> u32 {
-        let parity = match self.parity {
-            Parity::None => 0,
-            Parity::Even | Parity::Odd => 1,
-        };
-        let stop = match self.stop_bits {
-            StopBits::One => 1,
-            StopBits::Two => 2,
-        };
-        1 + 8 + parity + stop
+        bits_per_char(self.parity, self.stop_bits)
     }
 
     /// Character time and the T1.5 / T3.5 silences for this configuration.
     pub const fn char_times(&self) -> CharTimes {
         CharTimes::new(self.baud, self.bits_per_char())
     }
+}
+
+const fn bits_per_char(parity: Parity, stop_bits: StopBits) -> u32 {
+    let parity = match parity {
+        Parity::None => 0,
+        Parity::Even | Parity::Odd => 1,
+    };
+    let stop = match stop_bits {
+        StopBits::One => 1,
+        StopBits::Two => 2,
+    };
+    1 + 8 + parity + stop
 }
 
 #[cfg(test)]
@@ -182,7 +221,7 @@ mod tests {
     #[test]
     fn default_is_19200_8e1() {
         let c = Config::default_for(SlaveId::new(5).unwrap());
-        assert_eq!((c.baud, c.parity, c.stop_bits), (19_200, Parity::Even, StopBits::One));
+        assert_eq!((c.baud(), c.parity(), c.stop_bits()), (19_200, Parity::Even, StopBits::One));
         assert_eq!(c.bits_per_char(), 11);
     }
 

@@ -2,6 +2,8 @@
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 
+#[cfg(target_arch = "avr")]
+pub mod avr;
 pub mod bank;
 pub mod config;
 pub mod crc;

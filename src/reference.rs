@@ -75,17 +75,15 @@ impl Reference {
     /// The entry a classic 5-digit reference names: 40001 is holding register 0,
     /// 30010 input register 9, 10001 discrete input 0, 1 (00001) coil 0.
     pub const fn classic(number: u32) -> Result<Self, BankError> {
-        let table = match number / 10_000 {
-            0 => Table::Coils,
-            1 => Table::DiscreteInputs,
-            3 => Table::InputRegisters,
-            4 => Table::HoldingRegisters,
+        // Range matches rather than `/ 10_000`: no division on the AVR.
+        let (table, first) = match number {
+            1..=9_999 => (Table::Coils, 1),
+            10_001..=19_999 => (Table::DiscreteInputs, 10_001),
+            30_001..=39_999 => (Table::InputRegisters, 30_001),
+            40_001..=49_999 => (Table::HoldingRegisters, 40_001),
             _ => return Err(BankError::BadReference),
         };
-        match number % 10_000 {
-            0 => Err(BankError::BadReference),
-            n => Ok(Reference { table, address: (n - 1) as u16 }),
-        }
+        Ok(Reference { table, address: (number - first) as u16 })
     }
 }
 

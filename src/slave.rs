@@ -150,7 +150,8 @@ impl Slave {
         let pdu_len = len - 3;
         let (_, pdu) = buf.split_at_mut(1);
         if broadcast {
-            let executed = Request::parse(&pdu[..pdu_len]).and_then(|r| if r.is_write() { r.write(model) } else { Ok(()) });
+            let executed =
+                Request::parse(&pdu[..pdu_len]).and_then(|r| if r.is_write() { r.write(model) } else { Ok(()) });
             if executed.is_err() {
                 bump(&mut self.counters.exceptions);
             }

@@ -161,7 +161,7 @@ impl TimerPlan {
 
     const fn deadline(ns: u32, clock_hz: u32, prescaler: Prescaler) -> Deadline {
         let mut ticks = Self::ticks(ns, clock_hz, prescaler);
-        if ticks % 256 == 0 {
+        if ticks.is_multiple_of(256) {
             ticks += 1;
         }
         // At 1200 bps with clk/1024 T3.5 is 502 ticks; nothing in range exceeds 255 wraps.
@@ -223,8 +223,7 @@ impl BaudDivisor {
             return None;
         }
         let actual_x1e6 = clock_hz as u64 * 1_000_000 / (divider * rounded);
-        let error_ppm = (actual_x1e6 as i64 - baud as i64 * 1_000_000) * 1_000_000
-            / (baud as i64 * 1_000_000);
+        let error_ppm = (actual_x1e6 as i64 - baud as i64 * 1_000_000) * 1_000_000 / (baud as i64 * 1_000_000);
         Some(BaudDivisor { ubrr: (rounded - 1) as u16, double_speed, error_ppm: error_ppm as i32 })
     }
 }
@@ -281,7 +280,9 @@ mod tests {
     #[test]
     fn timer_deadlines_never_early_and_at_most_one_tick_late() {
         for baud in [1200, 2400, 4800, 9600, 19_200, 38_400, 57_600, 115_200, 250_000, 500_000, 1_000_000] {
-            for (parity, stop) in [(Parity::Even, StopBits::One), (Parity::None, StopBits::One), (Parity::None, StopBits::Two)] {
+            for (parity, stop) in
+                [(Parity::Even, StopBits::One), (Parity::None, StopBits::One), (Parity::None, StopBits::Two)]
+            {
                 let t = times(baud, parity, stop);
                 let plan = TimerPlan::new(t, CLOCK_HZ);
                 let tick = plan.prescaler.divisor() as u64 * 1_000_000_000 / CLOCK_HZ as u64;

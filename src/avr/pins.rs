@@ -1,0 +1,185 @@
+//! The Uno's digital pins, ATmega328P datasheet §14 (I/O ports): just enough for the
+//! communication LED, an RS-485 driver-enable pin and the examples' LEDs and switches,
+//! through the `embedded-hal` 1.0 pin traits (an `arduino-hal` pin works the same).
+
+use core::convert::Infallible;
+use core::ptr;
+
+use avr_device::atmega328p::{PORTB, PORTC, PORTD};
+use embedded_hal::digital::{ErrorType, InputPin, OutputPin, StatefulOutputPin};
+
+/// Data-space address of PINB; DDRx and PORTx follow each PINx.
+const PINB: usize = 0x23;
+const PINC: usize = 0x26;
+const PIND: usize = 0x29;
+
+/// One pin of port B, C or D.
+pub struct Pin {
+    pin_register: usize,
+    mask: u8,
+}
+
+impl Pin {
+    const fn new(pin_register: usize, bit: u8) -> Self {
+        Pin { pin_register, mask: 1 << bit }
+    }
+
+    fn read(&self, offset: usize) -> u8 {
+        // SAFETY: PINx/DDRx/PORTx of a port whose PAC peripheral `Pins::new` consumed.
+        unsafe { ptr::read_volatile((self.pin_register + offset) as *const u8) }
+    }
+
+    fn update(&self, offset: usize, set: bool) {
+        // Interrupts may drive other pins of the same port (the LED, driver enable).
+        avr_device::interrupt::free(|_| {
+            let value = self.read(offset);
+            let value = if set { value | self.mask } else { value & !self.mask };
+            // SAFETY: as in `read`; the read-modify-write runs with interrupts off.
+            unsafe { ptr::write_volatile((self.pin_register + offset) as *mut u8, value) }
+        });
+    }
+
+    /// Makes the pin an output, driven low.
+    pub fn into_output(self) -> Self {
+        self.update(2, false);
+        self.update(1, true);
+        self
+    }
+
+    /// Makes the pin an input with the internal pull-up (a switch to ground reads low).
+    pub fn into_pull_up_input(self) -> Self {
+        self.update(1, false);
+        self.update(2, true);
+        self
+    }
+
+    /// Makes the pin a floating input (for the ADC).
+    pub fn into_floating_input(self) -> Self {
+        self.update(1, false);
+        self.update(2, false);
+        self
+    }
+
+    /// True when the pin reads high.
+    pub fn is_high(&self) -> bool {
+        self.read(0) & self.mask != 0
+    }
+
+    /// Drives an output high (on an input, enables the pull-up).
+    pub fn set_high(&mut self) {
+        self.update(2, true);
+    }
+
+    /// Drives an output low.
+    pub fn set_low(&mut self) {
+        self.update(2, false);
+    }
+
+    /// Drives an output to `high`.
+    pub fn set(&mut self, high: bool) {
+        self.update(2, high);
+    }
+}
+
+impl ErrorType for Pin {
+    type Error = Infallible;
+}
+
+impl OutputPin for Pin {
+    fn set_low(&mut self) -> Result<(), Infallible> {
+        Pin::set_low(self);
+        Ok(())
+    }
+
+    fn set_high(&mut self) -> Result<(), Infallible> {
+        Pin::set_high(self);
+        Ok(())
+    }
+}
+
+impl StatefulOutputPin for Pin {
+    fn is_set_high(&mut self) -> Result<bool, Infallible> {
+        Ok(self.read(2) & self.mask != 0)
+    }
+
+    fn is_set_low(&mut self) -> Result<bool, Infallible> {
+        Ok(self.read(2) & self.mask == 0)
+    }
+}
+
+impl InputPin for Pin {
+    fn is_high(&mut self) -> Result<bool, Infallible> {
+        Ok(Pin::is_high(self))
+    }
+
+    fn is_low(&mut self) -> Result<bool, Infallible> {
+        Ok(!Pin::is_high(self))
+    }
+}
+
+/// A pin that isn't there: for a slave without a communication LED or driver enable.
+pub struct NoPin;
+
+impl ErrorType for NoPin {
+    type Error = Infallible;
+}
+
+impl OutputPin for NoPin {
+    fn set_low(&mut self) -> Result<(), Infallible> {
+        Ok(())
+    }
+
+    fn set_high(&mut self) -> Result<(), Infallible> {
+        Ok(())
+    }
+}
+
+/// The Uno's pins by their board names. Pins 0 and 1 belong to USART0 and are left out.
+#[allow(missing_docs)]
+pub struct Pins {
+    pub d2: Pin,
+    pub d3: Pin,
+    pub d4: Pin,
+    pub d5: Pin,
+    pub d6: Pin,
+    pub d7: Pin,
+    pub d8: Pin,
+    pub d9: Pin,
+    pub d10: Pin,
+    pub d11: Pin,
+    pub d12: Pin,
+    /// Pin 13: the on-board LED "L".
+    pub d13: Pin,
+    pub a0: Pin,
+    pub a1: Pin,
+    pub a2: Pin,
+    pub a3: Pin,
+    pub a4: Pin,
+    pub a5: Pin,
+}
+
+impl Pins {
+    /// Takes the three ports (all pins start as inputs, as after reset).
+    pub fn new(_b: PORTB, _c: PORTC, _d: PORTD) -> Self {
+        Pins {
+            d2: Pin::new(PIND, 2),
+            d3: Pin::new(PIND, 3),
+            d4: Pin::new(PIND, 4),
+            d5: Pin::new(PIND, 5),
+            d6: Pin::new(PIND, 6),
+            d7: Pin::new(PIND, 7),
+            d8: Pin::new(PINB, 0),
+            d9: Pin::new(PINB, 1),
+            d10: Pin::new(PINB, 2),
+            d11: Pin::new(PINB, 3),
+            d12: Pin::new(PINB, 4),
+            d13: Pin::new(PINB, 5),
+            a0: Pin::new(PINC, 0),
+            a1: Pin::new(PINC, 1),
+            a2: Pin::new(PINC, 2),
+            a3: Pin::new(PINC, 3),
+            a4: Pin::new(PINC, 4),
+            a5: Pin::new(PINC, 5),
+        }
+    }
+}

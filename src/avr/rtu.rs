@@ -1,0 +1,276 @@
+//! The interrupt-driven slave, Modbus over Serial Line v1.02 §2.5.1.1: every character
+//! restarts Timer0, T3.5 of silence ends the frame, and the reply starts from that same
+//! interrupt, so the application's main loop never has to call anything for the slave
+//! to answer.
+
+use core::cell::UnsafeCell;
+use core::mem::MaybeUninit;
+
+use avr_device::atmega328p::{TC0, USART0};
+use avr_device::interrupt;
+use embedded_hal::digital::OutputPin;
+
+use super::pins::NoPin;
+use super::timer::{Expired, FrameTimer};
+use super::usart::Usart;
+use crate::bank::Bank;
+use crate::config::Config;
+use crate::model::DataModel;
+use crate::reference::{BankError, IntoReference};
+use crate::slave::{Counters, EndOfFrame, Slave};
+
+/// The slave with its peripherals and the application's data model `M`; `DE` drives an
+/// RS-485 transceiver's driver-enable pin, `LED` the communication LED.
+pub struct ModbusSlave<M, DE = NoPin, LED = NoPin> {
+    usart: Usart,
+    timer: FrameTimer,
+    slave: Slave,
+    model: M,
+    tx_next: usize,
+    tx_len: usize,
+    driver_enable: DE,
+    led: LED,
+}
+
+impl<M: DataModel> ModbusSlave<M> {
+    /// Configures USART0 and Timer0 for `config` and starts the power-up wait (T3.5 of
+    /// silence before the first frame). Interrupts must be enabled by the application
+    /// once the slave is in its [`Shared`] cell.
+    pub fn new(config: Config, usart: USART0, timer: TC0, model: M) -> Self {
+        let mut timer = FrameTimer::new(timer, config.timer_plan());
+        let usart = Usart::new(usart, &config);
+        timer.restart();
+        ModbusSlave {
+            usart,
+            timer,
+            slave: Slave::new(config.slave_id()),
+            model,
+            tx_next: 0,
+            tx_len: 0,
+            driver_enable: NoPin,
+            led: NoPin,
+        }
+    }
+}
+
+impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
+    /// Adds an RS-485 driver-enable pin: high from just before the first character of a
+    /// reply until the last one has left the wire (transmit complete).
+    pub fn with_driver_enable<P: OutputPin>(self, mut pin: P) -> ModbusSlave<M, P, LED> {
+        let _ = pin.set_low();
+        ModbusSlave {
+            usart: self.usart,
+            timer: self.timer,
+            slave: self.slave,
+            model: self.model,
+            tx_next: self.tx_next,
+            tx_len: self.tx_len,
+            driver_enable: pin,
+            led: self.led,
+        }
+    }
+
+    /// Adds a communication LED: lit while this slave answers a frame addressed to it.
+    pub fn with_led<P: OutputPin>(self, mut pin: P) -> ModbusSlave<M, DE, P> {
+        let _ = pin.set_low();
+        ModbusSlave {
+            usart: self.usart,
+            timer: self.timer,
+            slave: self.slave,
+            model: self.model,
+            tx_next: self.tx_next,
+            tx_len: self.tx_len,
+            driver_enable: self.driver_enable,
+            led: pin,
+        }
+    }
+
+    /// The data model.
+    pub fn model(&self) -> &M {
+        &self.model
+    }
+
+    /// The data model, to update inputs or read what the master wrote.
+    pub fn model_mut(&mut self) -> &mut M {
+        &mut self.model
+    }
+
+    /// The slave's counters.
+    pub fn counters(&self) -> Counters {
+        self.slave.counters()
+    }
+
+    /// USART0 RX complete: one character (or a damaged one) arrived.
+    #[inline(always)]
+    pub fn on_usart_rx(&mut self) {
+        match self.usart.read() {
+            Ok(byte) => self.slave.on_byte(byte),
+            Err(e) => self.slave.on_error(e),
+        }
+        self.timer.restart();
+    }
+
+    /// Timer0 compare A: the inter-character gap deadline.
+    #[inline(always)]
+    pub fn on_timer_compare_a(&mut self) {
+        if self.timer.on_compare_a() == Expired::Now {
+            self.slave.on_gap_deadline();
+        }
+    }
+
+    /// Timer0 compare B: T3.5 of silence. A frame for this slave is answered from here:
+    /// the address goes out first, then the request is processed while it is on the wire.
+    #[inline(always)]
+    pub fn on_timer_compare_b(&mut self) {
+        if self.timer.on_compare_b() == Expired::NotYet {
+            return;
+        }
+        match self.slave.on_end_deadline() {
+            EndOfFrame::Reply => {
+                let _ = self.driver_enable.set_high();
+                let _ = self.led.set_high();
+                self.usart.write(self.slave.id().get());
+                self.tx_len = self.slave.process(&mut self.model);
+                self.tx_next = 1;
+                self.usart.start_feeding();
+            }
+            EndOfFrame::Broadcast => {
+                self.slave.process(&mut self.model);
+            }
+            EndOfFrame::Nothing | EndOfFrame::Dropped(_) | EndOfFrame::OtherSlave => {}
+        }
+    }
+
+    /// USART0 data register empty: the next character of the reply.
+    #[inline(always)]
+    pub fn on_usart_udre(&mut self) {
+        match self.slave.reply().get(self.tx_next) {
+            Some(&byte) => {
+                self.usart.write(byte);
+                self.tx_next += 1;
+                if self.tx_next >= self.tx_len {
+                    self.usart.last_written();
+                }
+            }
+            None => self.usart.last_written(),
+        }
+    }
+
+    /// USART0 transmit complete: the reply has left the wire.
+    #[inline(always)]
+    pub fn on_usart_tx(&mut self) {
+        self.usart.finished();
+        let _ = self.driver_enable.set_low();
+        let _ = self.led.set_low();
+        self.slave.on_reply_sent();
+    }
+}
+
+/// The slave shared between the application and the interrupts (declare it with
+/// [`crate::modbus_slave!`]).
+///
+/// Every access runs with interrupts disabled, and a flag refuses re-entry (a `with`
+/// inside another `with` gets `None`). The cell starts all-zero, so it lives in `.bss`
+/// and costs no flash for an initializer.
+pub struct Shared<M, DE = NoPin, LED = NoPin> {
+    state: UnsafeCell<u8>,
+    slave: UnsafeCell<MaybeUninit<ModbusSlave<M, DE, LED>>>,
+}
+
+const EMPTY: u8 = 0;
+const READY: u8 = 1;
+const IN_USE: u8 = 2;
+
+// SAFETY: the ATmega328P has one core, and the cell is only touched with interrupts
+// disabled (`interrupt::free`, or inside an interrupt handler), so no two accesses overlap.
+unsafe impl<M, DE, LED> Sync for Shared<M, DE, LED> {}
+
+impl<M, DE, LED> Default for Shared<M, DE, LED> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<M, DE, LED> Shared<M, DE, LED> {
+    /// An empty cell.
+    pub const fn new() -> Self {
+        Shared { state: UnsafeCell::new(EMPTY), slave: UnsafeCell::new(MaybeUninit::zeroed()) }
+    }
+
+    /// Puts the slave in the cell; its interrupts start doing work once the application
+    /// enables interrupts. A second call is ignored.
+    pub fn start(&self, slave: ModbusSlave<M, DE, LED>) {
+        interrupt::free(|_| {
+            // SAFETY: interrupts are disabled, so nothing else accesses the cell.
+            unsafe {
+                if *self.state.get() == EMPTY {
+                    (*self.slave.get()).write(slave);
+                    *self.state.get() = READY;
+                }
+            }
+        });
+    }
+
+    /// Runs `f` on the slave with interrupts disabled; `None` before [`Shared::start`].
+    /// Keep `f` short: reception waits while it runs.
+    pub fn with<R>(&self, f: impl FnOnce(&mut ModbusSlave<M, DE, LED>) -> R) -> Option<R> {
+        // SAFETY: interrupts are disabled for the whole access.
+        interrupt::free(|_| unsafe { self.access(f) })
+    }
+
+    /// For the interrupt handlers of [`crate::modbus_slave!`].
+    #[doc(hidden)]
+    #[inline(always)]
+    pub fn in_interrupt(&self, f: impl FnOnce(&mut ModbusSlave<M, DE, LED>)) {
+        // SAFETY: interrupt handlers run with interrupts disabled; nothing here enables them.
+        unsafe { self.access(f) };
+    }
+
+    /// # Safety
+    /// Interrupts must be disabled for the whole call.
+    #[inline(always)]
+    unsafe fn access<R>(&self, f: impl FnOnce(&mut ModbusSlave<M, DE, LED>) -> R) -> Option<R> {
+        // SAFETY: no other access can run (the caller's promise); READY means the slave
+        // was written by `start`, and IN_USE keeps a nested call from aliasing it.
+        unsafe {
+            if *self.state.get() != READY {
+                return None;
+            }
+            *self.state.get() = IN_USE;
+            let result = f((*self.slave.get()).assume_init_mut());
+            *self.state.get() = READY;
+            Some(result)
+        }
+    }
+}
+
+impl<M: DataModel, DE: OutputPin, LED: OutputPin> Shared<M, DE, LED> {
+    /// Runs `f` on the data model with interrupts disabled.
+    pub fn with_model<R>(&self, f: impl FnOnce(&mut M) -> R) -> Option<R> {
+        self.with(|s| f(s.model_mut()))
+    }
+
+    /// The slave's counters (all zero before [`Shared::start`]).
+    pub fn counters(&self) -> Counters {
+        self.with(|s| s.counters()).unwrap_or_default()
+    }
+}
+
+impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, DE: OutputPin, LED: OutputPin>
+    Shared<Bank<RUNS, REGS, BIT_BYTES>, DE, LED>
+{
+    /// Reads a value of the bank (see [`Bank::get`]).
+    pub fn get(&self, reference: impl IntoReference) -> Result<u16, BankError> {
+        self.with_model(|bank| bank.get(reference)).unwrap_or(Err(BankError::NotFound))
+    }
+
+    /// Sets a value of the bank (see [`Bank::set`]).
+    pub fn set(&self, reference: impl IntoReference, value: u16) -> Result<(), BankError> {
+        self.with_model(|bank| bank.set(reference, value)).unwrap_or(Err(BankError::NotFound))
+    }
+
+    /// How many master writes succeeded so far (see [`Bank::master_writes`]).
+    pub fn master_writes(&self) -> u16 {
+        self.with_model(|bank| bank.master_writes()).unwrap_or(0)
+    }
+}
