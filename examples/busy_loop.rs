@@ -1,0 +1,57 @@
+/*!
+ * A slave whose application blocks for 500 ms at a time and still answers every request
+ * on time: reception, dispatch and transmission all run in interrupts.
+ *
+ * Wiring: Uno pins 0 (RX) and 1 (TX) to the TTL side of a MAX3232 board, GND to GND.
+ *
+ * Serial line: slave id 1, 19200 bps, 8E1.
+ *
+ * | reference | address | meaning                                                 |
+ * |-----------|---------|---------------------------------------------------------|
+ * | 30001     | 0       | passes through the main loop (one every 500 ms)         |
+ * | 40001     | 0       | free for the master                                     |
+ * | 40002     | 1       | free for the master                                     |
+ * | 40003     | 2       | free for the master                                     |
+ * | 40004     | 3       | copy of 40001, made once per pass of the main loop      |
+ */
+#![no_std]
+#![no_main]
+#![feature(abi_avr_interrupt)]
+
+use avr_modbus_slave::avr::ModbusSlave;
+use avr_modbus_slave::{bit_bytes, Bank, Config, Parity, StopBits};
+use panic_halt as _;
+
+const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
+
+/// 500 ms at 16 MHz.
+const BLOCK_CYCLES: u32 = 8_000_000;
+
+type Registers = Bank<2, 5, { bit_bytes(0) }>;
+
+avr_modbus_slave::modbus_slave!(SLAVE: Registers);
+
+#[avr_device::entry]
+fn main() -> ! {
+    // SAFETY: the only place that takes the peripherals, and it runs once.
+    #[allow(unsafe_code)]
+    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
+    let mut bank = Registers::new();
+    let _ = bank.add(30001);
+    let _ = bank.add_range(40001, 4);
+    SLAVE.start(ModbusSlave::new(CONFIG, dp.USART0, dp.TC0, bank));
+    // SAFETY: the slave is in its cell; its interrupt handlers may run from here on.
+    #[allow(unsafe_code)]
+    unsafe {
+        avr_device::interrupt::enable()
+    };
+
+    let mut passes: u16 = 0;
+    loop {
+        passes = passes.wrapping_add(1);
+        let _ = SLAVE.set(30001, passes);
+        let _ = SLAVE.set(40004, SLAVE.get(40001).unwrap_or(0));
+        // The application is busy: no call into the slave for half a second.
+        avr_device::asm::delay_cycles(BLOCK_CYCLES);
+    }
+}

@@ -1,0 +1,83 @@
+/*!
+ * Two devices of a lab bench from one firmware: the jumper on pin 12 picks the role.
+ *
+ * - Pin 12 open (pulled up): slave id 1, the **button box**. START on pin 2 and STOP on
+ *   pin 3, each a push button to GND, are discrete inputs 10001 and 10002 (1 = pressed).
+ * - Pin 12 jumpered to GND at start-up: slave id 2, the **light tower**. RED, GREEN,
+ *   YELLOW and BLUE lamps (LEDs with 220 Ω resistors to GND) on pins 4, 5, 6 and 7 follow
+ *   coils 00001–00004.
+ *
+ * Wiring: Uno pins 0 (RX) and 1 (TX) to the TTL side of a MAX3232 board, or to an RS-485
+ * transceiver for a real bus with both devices on it; GND to GND.
+ *
+ * Serial line: 19200 bps, 8E1.
+ *
+ * | id | reference | address | meaning        |
+ * |----|-----------|---------|----------------|
+ * | 1  | 10001     | 0       | START pressed  |
+ * | 1  | 10002     | 1       | STOP pressed   |
+ * | 2  | 00001     | 0       | RED lamp       |
+ * | 2  | 00002     | 1       | GREEN lamp     |
+ * | 2  | 00003     | 2       | YELLOW lamp    |
+ * | 2  | 00004     | 3       | BLUE lamp      |
+ */
+#![no_std]
+#![no_main]
+#![feature(abi_avr_interrupt)]
+
+use avr_modbus_slave::avr::{ModbusSlave, Pins};
+use avr_modbus_slave::{bit_bytes, Bank, Config, Parity, SlaveId, StopBits};
+use panic_halt as _;
+
+const BUTTON_BOX: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
+const LIGHT_TOWER: SlaveId = match SlaveId::new(2) {
+    Ok(id) => id,
+    Err(_) => panic!("bad id"),
+};
+
+type Bits = Bank<1, 0, { bit_bytes(4) }>;
+
+avr_modbus_slave::modbus_slave!(SLAVE: Bits);
+
+#[avr_device::entry]
+fn main() -> ! {
+    // SAFETY: the only place that takes the peripherals, and it runs once.
+    #[allow(unsafe_code)]
+    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
+    let pins = Pins::new(dp.PORTB, dp.PORTC, dp.PORTD);
+    let jumper = pins.d12.into_pull_up_input();
+    // Let the pull-up charge the pin before reading it.
+    avr_device::asm::delay_cycles(1_000);
+    let tower = !jumper.is_high();
+
+    let mut bank = Bits::new();
+    let config = if tower {
+        let _ = bank.add_range(1, 4);
+        BUTTON_BOX.with_slave_id(LIGHT_TOWER)
+    } else {
+        let _ = bank.add_range(10001, 2);
+        BUTTON_BOX
+    };
+    SLAVE.start(ModbusSlave::new(config, dp.USART0, dp.TC0, bank));
+    // SAFETY: the slave is in its cell; its interrupt handlers may run from here on.
+    #[allow(unsafe_code)]
+    unsafe {
+        avr_device::interrupt::enable()
+    };
+
+    if tower {
+        let mut lamps = [pins.d4.into_output(), pins.d5.into_output(), pins.d6.into_output(), pins.d7.into_output()];
+        loop {
+            for (coil, lamp) in (1..).zip(lamps.iter_mut()) {
+                lamp.set(SLAVE.get(coil).unwrap_or(0) != 0);
+            }
+        }
+    } else {
+        let buttons = [pins.d2.into_pull_up_input(), pins.d3.into_pull_up_input()];
+        loop {
+            for (input, button) in (10001..).zip(buttons.iter()) {
+                let _ = SLAVE.set(input, u16::from(!button.is_high()));
+            }
+        }
+    }
+}
