@@ -179,6 +179,8 @@ impl Slave {
 
     /// The reply's last byte left the USART: listen again.
     pub fn on_reply_sent(&mut self) {
+        // A frame accepted but never processed is abandoned with the buffer.
+        self.pending = Pending::None;
         self.reply_len = 0;
         self.framer.release();
     }

@@ -1,0 +1,79 @@
+/*!
+ * Line settings from a DIP switch, read once at start-up, as many field devices do: three
+ * switches pick one of eight presets, all computed at build time.
+ *
+ * Wiring: Uno pins 0 (RX) and 1 (TX) to the TTL side of a MAX3232 board, GND to GND; a
+ * 3-way DIP switch from pins 10, 11, 12 to GND (closed = 1; pin 10 is the low bit).
+ * Change the switches with the Uno powered off, or press reset afterwards.
+ *
+ * | 12 11 10 | preset        |   | 12 11 10 | preset        |
+ * |----------|---------------|---|----------|---------------|
+ * | 0  0  0  | 19200 8E1     |   | 1  0  0  | 115200 8N1    |
+ * | 0  0  1  | 9600 8E1      |   | 1  0  1  | 9600 8N1      |
+ * | 0  1  0  | 19200 8N2     |   | 1  1  0  | 115200 8E1    |
+ * | 0  1  1  | 19200 8O1     |   | 1  1  1  | 1200 8E1      |
+ *
+ * Slave id 1. Registers:
+ *
+ * | reference   | address | meaning                                   |
+ * |-------------|---------|-------------------------------------------|
+ * | 00001–00016 | 0–15    | coils kept for the master                 |
+ * | 10001–10003 | 0–2     | the DIP switch as read at start-up        |
+ * | 30001       | 0       | preset number 0–7                         |
+ * | 40001–40010 | 0–9     | holding registers kept for the master     |
+ */
+#![no_std]
+#![no_main]
+#![feature(abi_avr_interrupt)]
+
+use avr_modbus_slave::avr::{ModbusSlave, Pins};
+use avr_modbus_slave::{bit_bytes, Bank, Config, Parity, StopBits};
+use panic_halt as _;
+
+const PRESETS: [Config; 8] = [
+    Config::new(1, 19_200, Parity::Even, StopBits::One),
+    Config::new(1, 9_600, Parity::Even, StopBits::One),
+    Config::new(1, 19_200, Parity::None, StopBits::Two),
+    Config::new(1, 19_200, Parity::Odd, StopBits::One),
+    Config::new(1, 115_200, Parity::None, StopBits::One),
+    Config::new(1, 9_600, Parity::None, StopBits::One),
+    Config::new(1, 115_200, Parity::Even, StopBits::One),
+    Config::new(1, 1_200, Parity::Even, StopBits::One),
+];
+
+type DipBank = Bank<4, 11, { bit_bytes(19) }>;
+
+avr_modbus_slave::modbus_slave!(SLAVE: DipBank);
+
+#[avr_device::entry]
+fn main() -> ! {
+    // SAFETY: the only place that takes the peripherals, and it runs once.
+    #[allow(unsafe_code)]
+    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
+    let pins = Pins::new(dp.PORTB, dp.PORTC, dp.PORTD);
+    let switches = [pins.d10.into_pull_up_input(), pins.d11.into_pull_up_input(), pins.d12.into_pull_up_input()];
+    // Let the pull-ups charge the pins before reading them.
+    avr_device::asm::delay_cycles(1_000);
+    let closed = switches.map(|s| !s.is_high());
+    let preset = closed.iter().rev().fold(0usize, |n, &on| (n << 1) | usize::from(on));
+
+    let mut bank = DipBank::new();
+    let _ = bank.add_range(1, 16);
+    let _ = bank.add_range(10001, 3);
+    let _ = bank.add(30001);
+    let _ = bank.add_range(40001, 10);
+    for (input, on) in (10001..).zip(closed) {
+        let _ = bank.set(input, u16::from(on));
+    }
+    let _ = bank.set(30001, preset as u16);
+    let config = PRESETS.get(preset).copied().unwrap_or(PRESETS[0]);
+    SLAVE.start(ModbusSlave::new(config, dp.USART0, dp.TC0, bank));
+    // SAFETY: the slave is in its cell; its interrupt handlers may run from here on.
+    #[allow(unsafe_code)]
+    unsafe {
+        avr_device::interrupt::enable()
+    };
+    loop {
+        avr_device::asm::sleep();
+    }
+}

@@ -1,0 +1,551 @@
+//! Random frames and random event sequences against a reference model written from the
+//! spec: the slave never panics, answers only with well-formed replies, and every reply
+//! and every change to the bank is what the model predicts.
+//!
+//! The model is a `BTreeMap` of what the bank holds and a straightforward reading of
+//! Application Protocol §6–7 and Serial Line §2.4–2.5; it shares no code with the crate.
+
+mod common;
+
+use std::collections::BTreeMap;
+
+use avr_modbus_slave::{Bank, EndOfFrame, FrameError, Reference, Slave, Table, UartError};
+use common::{reference_crc, with_crc, ID};
+use proptest::collection::vec;
+use proptest::prelude::*;
+use proptest::sample::select;
+use proptest::test_runner::{RngAlgorithm, RngSeed};
+
+type RandomBank = Bank<16, 64, 16>;
+
+/// The runs of the bank under test: holes between them, and the top of the address space.
+const LAYOUT: [(Table, u16, u16); 10] = [
+    (Table::Coils, 0, 10),
+    (Table::Coils, 12, 9),
+    (Table::Coils, 65530, 6),
+    (Table::DiscreteInputs, 0, 16),
+    (Table::DiscreteInputs, 100, 8),
+    (Table::InputRegisters, 0, 5),
+    (Table::InputRegisters, 65535, 1),
+    (Table::HoldingRegisters, 0, 10),
+    (Table::HoldingRegisters, 11, 4),
+    (Table::HoldingRegisters, 65532, 4),
+];
+
+/// Addresses near the edges of the runs above.
+const EDGES: [u16; 20] = [0, 1, 4, 5, 9, 10, 11, 12, 14, 15, 16, 20, 21, 99, 100, 107, 108, 65529, 65532, 65535];
+
+fn config() -> ProptestConfig {
+    ProptestConfig {
+        cases: 2000,
+        failure_persistence: None,
+        rng_algorithm: RngAlgorithm::ChaCha,
+        rng_seed: RngSeed::Fixed(0x04D0_DB05),
+        ..ProptestConfig::default()
+    }
+}
+
+// ---- the reference model ----------------------------------------------------------------
+
+/// What the bank holds: (table, address) → value (0/1 for bits).
+#[derive(Clone, Debug, PartialEq)]
+struct Model(BTreeMap<(Table, u16), u16>);
+
+fn is_bits(table: Table) -> bool {
+    matches!(table, Table::Coils | Table::DiscreteInputs)
+}
+
+/// A bank and its model, with starting values derived from `salt`.
+fn fixture(salt: u16) -> (RandomBank, Model) {
+    let mut bank = RandomBank::new();
+    let mut model = BTreeMap::new();
+    for (table, first, count) in LAYOUT {
+        bank.add_range(Reference { table, address: first }, count).unwrap();
+        for address in first..=first + (count - 1) {
+            let mixed = address.wrapping_mul(0x9E37) ^ salt ^ (table as u16).wrapping_mul(0x1F1F);
+            let value = if is_bits(table) { mixed >> 7 & 1 } else { mixed };
+            bank.set(Reference { table, address }, value).unwrap();
+            model.insert((table, address), value);
+        }
+    }
+    (bank, Model(model))
+}
+
+impl Model {
+    /// 02 unless every address of `start..start + qty` exists (and stays below 65536).
+    fn check(&self, table: Table, start: u16, qty: u16) -> Result<(), u8> {
+        let end = u32::from(start) + u32::from(qty);
+        if end > 0x1_0000 {
+            return Err(2);
+        }
+        let all = (u32::from(start)..end).all(|a| self.0.contains_key(&(table, a as u16)));
+        if all {
+            Ok(())
+        } else {
+            Err(2)
+        }
+    }
+
+    fn value(&self, table: Table, address: u32) -> u16 {
+        self.0[&(table, address as u16)]
+    }
+
+    /// The response PDU to `pdu`, or the exception code; applies writes.
+    fn respond(&mut self, pdu: &[u8]) -> Result<Vec<u8>, u8> {
+        let function = pdu[0];
+        let word = |i: usize| u16::from_be_bytes([pdu[i], pdu[i + 1]]);
+        match function {
+            0x01..=0x06 => {
+                if pdu.len() != 5 {
+                    return Err(3);
+                }
+                let (a, b) = (word(1), word(3));
+                match function {
+                    0x01 | 0x02 => {
+                        let table = if function == 1 { Table::Coils } else { Table::DiscreteInputs };
+                        if b == 0 || b > 2000 {
+                            return Err(3);
+                        }
+                        self.check(table, a, b)?;
+                        let mut data = vec![0u8; usize::from(b).div_ceil(8)];
+                        for k in 0..usize::from(b) {
+                            if self.value(table, u32::from(a) + k as u32) != 0 {
+                                data[k / 8] |= 1 << (k % 8);
+                            }
+                        }
+                        let mut out = vec![function, data.len() as u8];
+                        out.extend(data);
+                        Ok(out)
+                    }
+                    0x03 | 0x04 => {
+                        let table = if function == 3 { Table::HoldingRegisters } else { Table::InputRegisters };
+                        if b == 0 || b > 125 {
+                            return Err(3);
+                        }
+                        self.check(table, a, b)?;
+                        let mut out = vec![function, (2 * b) as u8];
+                        for k in 0..u32::from(b) {
+                            out.extend(self.value(table, u32::from(a) + k).to_be_bytes());
+                        }
+                        Ok(out)
+                    }
+                    0x05 => {
+                        if b != 0x0000 && b != 0xFF00 {
+                            return Err(3);
+                        }
+                        self.check(Table::Coils, a, 1)?;
+                        self.0.insert((Table::Coils, a), u16::from(b == 0xFF00));
+                        Ok(pdu.to_vec())
+                    }
+                    _ => {
+                        self.check(Table::HoldingRegisters, a, 1)?;
+                        self.0.insert((Table::HoldingRegisters, a), b);
+                        Ok(pdu.to_vec())
+                    }
+                }
+            }
+            0x0F | 0x10 => {
+                if pdu.len() < 6 {
+                    return Err(3);
+                }
+                let (start, qty, byte_count) = (word(1), word(3), usize::from(pdu[5]));
+                let (table, max, needed) = if function == 0x0F {
+                    (Table::Coils, 1968, usize::from(qty).div_ceil(8))
+                } else {
+                    (Table::HoldingRegisters, 123, 2 * usize::from(qty))
+                };
+                if qty == 0 || qty > max || byte_count != needed || pdu.len() != 6 + byte_count {
+                    return Err(3);
+                }
+                self.check(table, start, qty)?;
+                let data = &pdu[6..];
+                for k in 0..usize::from(qty) {
+                    let value = if function == 0x0F {
+                        u16::from(data[k / 8] >> (k % 8) & 1)
+                    } else {
+                        u16::from_be_bytes([data[2 * k], data[2 * k + 1]])
+                    };
+                    self.0.insert((table, start + k as u16), value);
+                }
+                Ok(pdu[..5].to_vec())
+            }
+            _ => Err(1),
+        }
+    }
+
+    /// What a whole frame (with correct timing) should lead to, and the reply if any.
+    fn frame(&mut self, frame: &[u8]) -> (EndOfFrame, Vec<u8>) {
+        let n = frame.len();
+        if n == 0 {
+            return (EndOfFrame::Nothing, vec![]);
+        }
+        if n > 256 {
+            return (EndOfFrame::Dropped(FrameError::TooLong), vec![]);
+        }
+        if n < 4 {
+            return (EndOfFrame::Dropped(FrameError::TooShort), vec![]);
+        }
+        let crc = reference_crc(&frame[..n - 2]);
+        if frame[n - 2..] != [crc as u8, (crc >> 8) as u8] {
+            return (EndOfFrame::Dropped(FrameError::BadCrc), vec![]);
+        }
+        let pdu = &frame[1..n - 2];
+        match frame[0] {
+            0 => {
+                if matches!(pdu[0], 0x05 | 0x06 | 0x0F | 0x10) {
+                    let _ = self.respond(pdu);
+                }
+                (EndOfFrame::Broadcast, vec![])
+            }
+            ID => {
+                let reply_pdu = self.respond(pdu).unwrap_or_else(|code| vec![pdu[0] | 0x80, code]);
+                let mut reply = vec![ID];
+                reply.extend(reply_pdu);
+                (EndOfFrame::Reply, with_crc(&reply))
+            }
+            _ => (EndOfFrame::OtherSlave, vec![]),
+        }
+    }
+}
+
+// ---- checks --------------------------------------------------------------------------
+
+/// A reply is empty, or: CRC correct (low byte first), address = ID, and the function code
+/// of the request echoed, or with bit 7 set followed by an exception code 1–4.
+fn check_well_formed(reply: &[u8], request_function: Option<u8>) -> Result<(), TestCaseError> {
+    if reply.is_empty() {
+        return Ok(());
+    }
+    let n = reply.len();
+    prop_assert!((5..=256).contains(&n), "reply length {n}");
+    let crc = reference_crc(&reply[..n - 2]);
+    prop_assert_eq!(&reply[n - 2..], &[crc as u8, (crc >> 8) as u8][..], "reply CRC");
+    prop_assert_eq!(reply[0], ID);
+    if let Some(function) = request_function {
+        if n == 5 && reply[1] == function | 0x80 {
+            prop_assert!((1..=4).contains(&reply[2]), "exception code {}", reply[2]);
+        } else {
+            prop_assert_eq!(reply[1], function);
+        }
+    } else if reply[1] & 0x80 != 0 {
+        prop_assert_eq!(n, 5);
+        prop_assert!((1..=4).contains(&reply[2]), "exception code {}", reply[2]);
+    }
+    Ok(())
+}
+
+/// The bank holds exactly the model's values, and nothing next to its runs.
+fn check_bank(bank: &RandomBank, model: &Model) -> Result<(), TestCaseError> {
+    for (&(table, address), &value) in &model.0 {
+        prop_assert_eq!(bank.get(Reference { table, address }), Ok(value), "{:?} {}", table, address);
+    }
+    for (table, first, count) in LAYOUT {
+        if let Some(before) = first.checked_sub(1) {
+            prop_assert_eq!(
+                bank.contains(Reference { table, address: before }),
+                model.0.contains_key(&(table, before))
+            );
+        }
+        if let Some(after) = first.checked_add(count) {
+            prop_assert_eq!(bank.contains(Reference { table, address: after }), model.0.contains_key(&(table, after)));
+        }
+    }
+    Ok(())
+}
+
+/// Sends one frame to the slave and to the model and compares everything.
+fn exchange(slave: &mut Slave, bank: &mut RandomBank, model: &mut Model, frame: &[u8]) -> Result<(), TestCaseError> {
+    let (expected_end, expected_reply) = model.frame(frame);
+    let end = slave.handle_frame(frame, bank);
+    let reply = slave.reply().to_vec();
+    check_well_formed(&reply, frame.get(1).copied())?;
+    prop_assert_eq!(end, expected_end, "frame {:02X?}", frame);
+    prop_assert_eq!(&reply, &expected_reply, "frame {:02X?}", frame);
+    if end != EndOfFrame::Reply {
+        prop_assert!(reply.is_empty());
+    }
+    check_bank(bank, model)
+}
+
+// ---- strategies --------------------------------------------------------------------------
+
+fn address() -> impl Strategy<Value = u16> {
+    prop_oneof![3 => select(EDGES.to_vec()), 4 => 0u16..16, 1 => 65528u16..=65535, 1 => any::<u16>()]
+}
+
+fn quantity() -> impl Strategy<Value = u16> {
+    prop_oneof![
+        4 => 1u16..=4,
+        3 => 5u16..=12,
+        2 => select(vec![0u16, 1, 2, 16, 123, 124, 125, 126, 1968, 1969, 2000, 2001, 0x8000, 0xFFFF]),
+        1 => any::<u16>(),
+    ]
+}
+
+fn function() -> impl Strategy<Value = u8> {
+    prop_oneof![
+        8 => select(vec![0x01u8, 0x02, 0x03, 0x04, 0x05, 0x06, 0x0F, 0x10]),
+        1 => any::<u8>(),
+    ]
+}
+
+/// A request PDU as a master would build it (which may still be illegal: quantities and
+/// addresses are random).
+fn request_pdu() -> impl Strategy<Value = Vec<u8>> {
+    (function(), address(), quantity(), any::<u16>(), any::<u64>()).prop_map(|(function, start, qty, raw, seed)| {
+        let mut pdu = vec![function];
+        pdu.extend(start.to_be_bytes());
+        let mut noise = seed | 1;
+        let mut next = move || {
+            noise ^= noise << 13;
+            noise ^= noise >> 7;
+            noise ^= noise << 17;
+            noise as u8
+        };
+        match function {
+            0x01..=0x04 => pdu.extend(qty.to_be_bytes()),
+            0x05 => {
+                let value = match raw % 4 {
+                    0 => 0x0000,
+                    1 | 2 => 0xFF00,
+                    _ => raw,
+                };
+                pdu.extend(value.to_be_bytes());
+            }
+            0x06 => pdu.extend(raw.to_be_bytes()),
+            0x0F | 0x10 => {
+                let bytes = if function == 0x0F { usize::from(qty).div_ceil(8) } else { 2 * usize::from(qty) };
+                let bytes = bytes.min(246 + usize::from(raw % 4));
+                pdu.extend(qty.to_be_bytes());
+                pdu.push(bytes as u8);
+                pdu.extend((0..bytes).map(|_| next()));
+            }
+            _ => pdu.extend((0..raw % 8).map(|_| next())),
+        }
+        pdu
+    })
+}
+
+#[derive(Clone, Debug)]
+enum Mutation {
+    None,
+    Flip(usize, u8),
+    Set(usize, u8),
+    Truncate(usize),
+    Append(Vec<u8>),
+}
+
+impl Mutation {
+    fn apply(&self, pdu: &mut Vec<u8>) {
+        let len = pdu.len();
+        match self {
+            Mutation::None => {}
+            Mutation::Flip(i, mask) => pdu[i % len] ^= mask,
+            Mutation::Set(i, byte) => pdu[i % len] = *byte,
+            Mutation::Truncate(i) => pdu.truncate(i % len),
+            Mutation::Append(bytes) => pdu.extend(bytes),
+        }
+    }
+}
+
+fn mutation() -> impl Strategy<Value = Mutation> {
+    prop_oneof![
+        6 => Just(Mutation::None),
+        1 => (any::<usize>(), 1u8..=255).prop_map(|(i, m)| Mutation::Flip(i, m)),
+        1 => (any::<usize>(), any::<u8>()).prop_map(|(i, b)| Mutation::Set(i, b)),
+        1 => any::<usize>().prop_map(Mutation::Truncate),
+        1 => vec(any::<u8>(), 1..4).prop_map(Mutation::Append),
+    ]
+}
+
+fn slave_address() -> impl Strategy<Value = u8> {
+    prop_oneof![6 => Just(ID), 1 => Just(0u8), 1 => any::<u8>()]
+}
+
+/// A request with a correct CRC, possibly mutated before the CRC was computed.
+fn mutated_request() -> impl Strategy<Value = Vec<u8>> {
+    (slave_address(), request_pdu(), mutation()).prop_map(|(address, mut pdu, mutation)| {
+        mutation.apply(&mut pdu);
+        let mut frame = vec![address];
+        frame.extend(pdu);
+        with_crc(&frame)
+    })
+}
+
+/// Random bytes, then sometimes the first byte set to this slave and a correct CRC.
+fn random_frame() -> impl Strategy<Value = Vec<u8>> {
+    (vec(any::<u8>(), 0..=300), any::<bool>(), any::<bool>()).prop_map(|(mut bytes, mine, crc)| {
+        if mine && !bytes.is_empty() {
+            bytes[0] = ID;
+        }
+        if crc && bytes.len() <= 298 {
+            with_crc(&bytes)
+        } else {
+            bytes
+        }
+    })
+}
+
+// ---- events --------------------------------------------------------------------------------
+
+#[derive(Clone, Debug)]
+enum Event {
+    Byte(u8),
+    Gap,
+    End,
+    Error(UartError),
+    ReplySent,
+    /// A whole good request, byte by byte.
+    Request(Vec<u8>),
+}
+
+fn event() -> impl Strategy<Value = Event> {
+    prop_oneof![
+        6 => any::<u8>().prop_map(Event::Byte),
+        2 => Just(Event::Byte(ID)),
+        2 => Just(Event::Gap),
+        3 => Just(Event::End),
+        1 => select(vec![UartError::Parity, UartError::Framing, UartError::Overrun]).prop_map(Event::Error),
+        2 => Just(Event::ReplySent),
+        3 => mutated_request().prop_map(Event::Request),
+    ]
+}
+
+/// The receiver of Serial Line §2.5.1.1 (figure 14), written out for the test.
+#[derive(Default)]
+struct ReferenceReceiver {
+    listening: bool,
+    busy: bool,
+    bytes: Vec<u8>,
+    late: bool,
+    broken: Option<FrameError>,
+}
+
+impl ReferenceReceiver {
+    fn byte(&mut self, byte: u8) {
+        if !self.listening || self.busy || self.broken.is_some() {
+            return;
+        }
+        if self.late {
+            self.broken = Some(FrameError::Gap);
+        } else if self.bytes.len() == 256 {
+            self.broken = Some(FrameError::TooLong);
+        } else {
+            self.bytes.push(byte);
+        }
+    }
+
+    fn error(&mut self, error: UartError) {
+        if self.listening && !self.busy && self.broken.is_none() {
+            self.broken = Some(if error == UartError::Overrun { FrameError::Overrun } else { FrameError::Uart });
+        }
+    }
+
+    fn gap(&mut self) {
+        if !self.bytes.is_empty() {
+            self.late = true;
+        }
+    }
+
+    /// T3.5: `Some(frame)` when a whole frame (any CRC) ended, `Err` when it was broken.
+    fn end(&mut self) -> Option<Result<Vec<u8>, FrameError>> {
+        if !self.listening {
+            self.listening = true;
+            return None;
+        }
+        if self.busy {
+            return None;
+        }
+        let bytes = std::mem::take(&mut self.bytes);
+        self.late = false;
+        match self.broken.take() {
+            Some(reason) => Some(Err(reason)),
+            None if bytes.is_empty() => None,
+            None => Some(Ok(bytes)),
+        }
+    }
+}
+
+// ---- properties --------------------------------------------------------------------------
+
+proptest! {
+    #![proptest_config(config())]
+
+    #[test]
+    fn random_bytes_yield_silence_or_the_reply_the_model_predicts(
+        salt in any::<u16>(),
+        frame in random_frame(),
+    ) {
+        let (mut bank, mut model) = fixture(salt);
+        let mut slave = common::slave();
+        exchange(&mut slave, &mut bank, &mut model, &frame)?;
+    }
+
+    #[test]
+    fn mutated_requests_with_a_correct_crc_get_the_reply_the_model_predicts(
+        salt in any::<u16>(),
+        frames in vec(mutated_request(), 1..8),
+    ) {
+        let (mut bank, mut model) = fixture(salt);
+        let mut slave = common::slave();
+        for frame in &frames {
+            exchange(&mut slave, &mut bank, &mut model, frame)?;
+        }
+    }
+
+    #[test]
+    fn random_event_sequences_follow_the_reference_receiver(
+        salt in any::<u16>(),
+        events in vec(event(), 0..40),
+    ) {
+        let (mut bank, mut model) = fixture(salt);
+        let mut slave = common::slave();
+        let mut receiver = ReferenceReceiver::default();
+        for event in events {
+            match event {
+                Event::Byte(byte) => {
+                    slave.on_byte(byte);
+                    receiver.byte(byte);
+                }
+                Event::Request(frame) => {
+                    for byte in frame {
+                        slave.on_byte(byte);
+                        receiver.byte(byte);
+                    }
+                }
+                Event::Gap => {
+                    slave.on_gap_deadline();
+                    receiver.gap();
+                }
+                Event::Error(error) => {
+                    slave.on_error(error);
+                    receiver.error(error);
+                }
+                Event::ReplySent => {
+                    slave.on_reply_sent();
+                    receiver.busy = false;
+                    prop_assert!(slave.reply().is_empty());
+                }
+                Event::End => {
+                    let end = slave.on_end_deadline();
+                    match receiver.end() {
+                        None => prop_assert_eq!(end, EndOfFrame::Nothing),
+                        Some(Err(reason)) => prop_assert_eq!(end, EndOfFrame::Dropped(reason)),
+                        Some(Ok(frame)) => {
+                            let (expected_end, expected_reply) = model.frame(&frame);
+                            prop_assert_eq!(end, expected_end, "frame {:02X?}", frame);
+                            if matches!(end, EndOfFrame::Reply | EndOfFrame::Broadcast) {
+                                let len = slave.process(&mut bank);
+                                prop_assert_eq!(len, expected_reply.len());
+                                check_well_formed(slave.reply(), frame.get(1).copied())?;
+                                prop_assert_eq!(slave.reply(), &expected_reply[..], "frame {:02X?}", frame);
+                                receiver.busy = end == EndOfFrame::Reply;
+                            }
+                        }
+                    }
+                    check_bank(&bank, &model)?;
+                }
+            }
+        }
+    }
+}
