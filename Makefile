@@ -21,6 +21,7 @@ setup:
 firmware: setup
 	$(CARGO) uno --examples --features rt
 	@.ci/sizes $(FIRMWARE)
+	@.ci/no-panic $(FIRMWARE)
 
 sizes: firmware
 

@@ -101,14 +101,15 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> Bank<RUNS, RE
             None => return Err(BankError::BadRange),
         };
         // The run the new range would follow, and the one it would precede.
-        let at = self.runs[..self.run_count].partition_point(|r| r.key() < (table, start));
-        let before = at.checked_sub(1).map(|i| self.runs[i]).filter(|r| r.table == table);
-        let after = self.runs[..self.run_count].get(at).copied().filter(|r| r.table == table);
+        let runs = self.used();
+        let at = runs.partition_point(|r| r.key() < (table, start));
+        let before = at.checked_sub(1).and_then(|i| runs.get(i)).copied().filter(|r| r.table == table);
+        let after = runs.get(at).copied().filter(|r| r.table == table);
         if before.is_some_and(|r| r.last >= start) || after.is_some_and(|r| r.start <= last) {
             return Err(BankError::Duplicate);
         }
-        let joins_before = before.is_some_and(|r| r.last.checked_add(1) == Some(start));
-        let joins_after = after.is_some_and(|r| last.checked_add(1) == Some(r.start));
+        let joins_before = before.filter(|r| r.last.checked_add(1) == Some(start));
+        let joins_after = after.filter(|r| last.checked_add(1) == Some(r.start));
         let n = usize::from(count);
         if table.is_bits() {
             if self.bit_count + n > BIT_BYTES * 8 {
@@ -117,41 +118,65 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> Bank<RUNS, RE
         } else if self.register_count + n > REGS {
             return Err(BankError::RegistersFull);
         }
-        if !joins_before && !joins_after && self.run_count == RUNS {
+        if joins_before.is_none() && joins_after.is_none() && self.run_count == RUNS {
             return Err(BankError::RunsFull);
         }
 
         // Storage position: right after the values of the same kind that sort before.
-        let position = self.runs[..at]
+        let position = runs
+            .get(..at)
+            .unwrap_or(&[])
             .iter()
             .rev()
             .find(|r| r.table.is_bits() == table.is_bits())
             .map_or(0, |r| usize::from(r.offset) + r.len());
         self.open_storage(table.is_bits(), position, n);
-        for run in self.runs[at..self.run_count].iter_mut() {
+        for run in self.runs.iter_mut().take(self.run_count).skip(at) {
             if run.table.is_bits() == table.is_bits() {
                 run.offset += count;
             }
         }
 
         match (joins_before, joins_after) {
-            (true, true) => {
-                self.runs[at - 1].last = self.runs[at].last;
-                self.runs.copy_within(at + 1..self.run_count, at);
-                self.run_count -= 1;
+            (Some(b), Some(a)) => {
+                self.replace_run(at - 1, Run { last: a.last, ..b });
+                self.remove_run(at);
             }
-            (true, false) => self.runs[at - 1].last = last,
-            (false, true) => {
-                self.runs[at].start = start;
-                self.runs[at].offset -= count;
-            }
-            (false, false) => {
-                self.runs.copy_within(at..self.run_count, at + 1);
-                self.runs[at] = Run { table, start, last, offset: position as u16 };
-                self.run_count += 1;
-            }
+            (Some(b), None) => self.replace_run(at - 1, Run { last, ..b }),
+            (None, Some(a)) => self.replace_run(at, Run { start, offset: position as u16, ..a }),
+            (None, None) => self.insert_run(at, Run { table, start, last, offset: position as u16 }),
         }
         Ok(())
+    }
+
+    /// The runs in use.
+    fn used(&self) -> &[Run] {
+        self.runs.get(..self.run_count).unwrap_or(&[])
+    }
+
+    fn replace_run(&mut self, at: usize, run: Run) {
+        if let Some(slot) = self.runs.get_mut(at) {
+            *slot = run;
+        }
+    }
+
+    fn insert_run(&mut self, at: usize, run: Run) {
+        for i in (at..self.run_count).rev() {
+            if let Some(&moved) = self.runs.get(i) {
+                self.replace_run(i + 1, moved);
+            }
+        }
+        self.replace_run(at, run);
+        self.run_count += 1;
+    }
+
+    fn remove_run(&mut self, at: usize) {
+        for i in at + 1..self.run_count {
+            if let Some(&moved) = self.runs.get(i) {
+                self.replace_run(i - 1, moved);
+            }
+        }
+        self.run_count -= 1;
     }
 
     /// Makes room for `n` zeroed values at `position` of the register or bit storage.
@@ -166,8 +191,15 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> Bank<RUNS, RE
             }
             self.bit_count += n;
         } else {
-            self.registers.copy_within(position..self.register_count, position + n);
-            self.registers[position..position + n].fill(0);
+            for i in (position..self.register_count).rev() {
+                let v = self.registers.get(i).copied().unwrap_or(0);
+                if let Some(slot) = self.registers.get_mut(i + n) {
+                    *slot = v;
+                }
+            }
+            for slot in self.registers.iter_mut().skip(position).take(n) {
+                *slot = 0;
+            }
             self.register_count += n;
         }
     }
@@ -190,9 +222,9 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> Bank<RUNS, RE
     /// Storage index of `start` when `start..start + qty` all exist (in one run).
     fn locate(&self, table: Table, start: u16, qty: u16) -> Option<usize> {
         let last = start.checked_add(qty.checked_sub(1)?)?;
-        let runs = &self.runs[..self.run_count];
+        let runs = self.used();
         let i = runs.partition_point(|r| r.key() <= (table, start)).checked_sub(1)?;
-        let run = runs[i];
+        let run = *runs.get(i)?;
         (run.table == table && last <= run.last).then(|| usize::from(run.offset) + usize::from(start - run.start))
     }
 
@@ -237,8 +269,8 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> DataModel for
         let first = self.locate(table, start, qty).ok_or(Exception::IllegalDataAddress)?;
         out.fill(0);
         for k in 0..usize::from(qty) {
-            if self.bit(first + k) {
-                out[k / 8] |= 1 << (k % 8);
+            if let (true, Some(byte)) = (self.bit(first + k), out.get_mut(k / 8)) {
+                *byte |= 1 << (k % 8);
             }
         }
         Ok(())
@@ -267,7 +299,9 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> DataModel for
         let qty = u16::try_from(values.len() / 2).map_err(|_| Exception::IllegalDataValue)?;
         let first = self.locate(Table::HoldingRegisters, start, qty).ok_or(Exception::IllegalDataAddress)?;
         for (slot, pair) in self.registers.get_mut(first..).unwrap_or(&mut []).iter_mut().zip(values.chunks_exact(2)) {
-            *slot = u16::from_be_bytes([pair[0], pair[1]]);
+            if let [hi, lo] = *pair {
+                *slot = u16::from_be_bytes([hi, lo]);
+            }
         }
         self.master_writes = self.master_writes.wrapping_add(1);
         Ok(())

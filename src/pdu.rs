@@ -287,7 +287,9 @@ pub fn respond<M: DataModel + ?Sized>(pdu: &mut [u8], len: usize, model: &mut M)
     } else {
         model.read_registers(table, start, data)?;
     }
-    pdu[1] = bytes as u8;
+    if let Some(count) = pdu.get_mut(1) {
+        *count = bytes as u8;
+    }
     Ok(2 + bytes)
 }
 

@@ -147,11 +147,16 @@ impl Slave {
         };
         let buf = self.framer.buffer_mut();
         // The PDU sits between the address and the CRC.
-        let pdu_len = len - 3;
+        let pdu_len = len.saturating_sub(3);
         let (_, pdu) = buf.split_at_mut(1);
         if broadcast {
-            let executed =
-                Request::parse(&pdu[..pdu_len]).and_then(|r| if r.is_write() { r.write(model) } else { Ok(()) });
+            let executed = Request::parse(pdu.get(..pdu_len).unwrap_or(&[])).and_then(|r| {
+                if r.is_write() {
+                    r.write(model)
+                } else {
+                    Ok(())
+                }
+            });
             if executed.is_err() {
                 bump(&mut self.counters.exceptions);
             }
@@ -165,16 +170,20 @@ impl Slave {
                 encode_exception(pdu, exception)
             }
         };
-        let crc = Crc16::new().update_slice(&buf[..1 + reply_pdu]).to_wire();
-        buf[1 + reply_pdu..3 + reply_pdu].copy_from_slice(&crc);
-        self.reply_len = 3 + reply_pdu;
+        // The longest reply PDU is 252 bytes, so address, PDU and CRC always fit.
+        let body = 1 + reply_pdu;
+        let crc = Crc16::new().update_slice(buf.get(..body).unwrap_or(&[])).to_wire();
+        if let Some(slot) = buf.get_mut(body..body + 2) {
+            slot.copy_from_slice(&crc);
+        }
+        self.reply_len = body + 2;
         bump(&mut self.counters.replies);
         self.reply_len
     }
 
     /// The reply built by [`Slave::process`], valid until [`Slave::on_reply_sent`].
     pub fn reply(&self) -> &[u8] {
-        &self.framer.buffer()[..self.reply_len]
+        self.framer.buffer().get(..self.reply_len).unwrap_or(&[])
     }
 
     /// The reply's last byte left the USART: listen again.
