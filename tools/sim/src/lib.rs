@@ -1,1 +1,937 @@
-//! Simulated Uno (work in progress).
+//! A simulated Arduino Uno: an ATmega328P at 16 MHz in [simavr] 1.6, with USART0 driven on
+//! simulated time as a real wire would drive it.
+//!
+//! Used by the integration tests (Modbus RTU T1.5/T3.5 timing), by the benchmarks (cycles spent in
+//! interrupt handlers) and by the virtual Uno.
+//!
+//! ```no_run
+//! use uno_sim::{us_to_cycles, Uno};
+//!
+//! let mut uno = Uno::load("target/avr-atmega328p/release/examples/minimal.elf")?;
+//! uno.run_until(us_to_cycles(10_000))?; // let the firmware set up its USART
+//! let char_time = uno.wire_char_cycles().expect("USART enabled");
+//! let last_end = uno.send_frame(&[0x01, 0x03, 0x00, 0x00, 0x00, 0x01, 0x84, 0x0A], uno.now() + char_time, 0)?;
+//! let reply = uno.run_until_tx_idle(4 * char_time, last_end + us_to_cycles(100_000))?;
+//! println!("reply starts {} cycles after the request", reply[0].start_cycle - last_end);
+//! # Ok::<(), uno_sim::Error>(())
+//! ```
+//!
+//! # Timing model
+//!
+//! All times are CPU cycles since reset (16 per µs). The character time of the USART is exact:
+//! a bit lasts `16 * (UBRR0 + 1)` cycles (`8 *` with U2X0), a character `1 + data + parity + stop`
+//! bits ([`Uno::wire_char_cycles`]).
+//!
+//! simavr 1.6's own USART timing is not wire-accurate: its character time always counts a parity
+//! bit, it reads the frame format only when UBRR0L is written, a received byte gets RXC0 one of its
+//! character times after it is handed over, bytes that are already queued can be read early, and
+//! UDRE0 stays clear for a whole character after every UDR0 write. This crate therefore keeps
+//! simavr's USART registers but does the timing itself (in `csrc/shim.c`):
+//!
+//! * **RX**: [`Uno::send_byte`] schedules a byte whose stop bit ends at `end_cycle`; at that cycle
+//!   the byte enters the receive buffer and RXC0 rises. The firmware sees it at the first
+//!   instruction boundary at or after `end_cycle`: exactly at `end_cycle` when the CPU sleeps,
+//!   at most 3 cycles later when it runs (an instruction takes at most 4 cycles, and the AVR also
+//!   only reacts between instructions). Never earlier. The receive buffer holds 2 bytes plus
+//!   the shift register, like the chip's; a fourth unread byte overruns (DOR0).
+//!   (On silicon, RXC0 rises half a bit earlier, when the stop bit is sampled.)
+//! * **TX**: a UDR0 write lands at the end of its ST/STS instruction; if the transmitter is idle the
+//!   start bit begins then, otherwise right after the previous frame's stop bit (one byte can wait
+//!   in UDR0, like on the chip; a write while UDRE0 is clear is ignored, as on the chip). UDRE0 and
+//!   TXC0 (and their interrupts) rise at those moments. [`TxByte`] gives each frame's start and end.
+//!   (On silicon the start bit waits for the next edge of the free-running transmit bit clock, i.e.
+//!   up to one bit time longer; the simulation does not model that phase.)
+//! * **Interrupts**: simavr 1.6 enters an interrupt handler in zero cycles; this crate adds the
+//!   AVR's 4-cycle interrupt response (8 when waking up from sleep), so handler timing and
+//!   [`Uno::isr_stats`] match the data sheet.
+//!
+//! [simavr]: https://github.com/buserror/simavr
+
+#![deny(missing_docs)]
+#![deny(clippy::undocumented_unsafe_blocks)]
+
+mod elf;
+mod ffi;
+
+use std::ffi::{c_char, c_int, CStr, CString};
+use std::fmt;
+use std::os::unix::ffi::OsStrExt;
+use std::path::{Path, PathBuf};
+use std::ptr::NonNull;
+use std::sync::Mutex;
+
+pub use elf::{Space, Symbol};
+
+/// CPU clock of the Uno, in Hz.
+pub const F_CPU: u64 = 16_000_000;
+/// CPU cycles per microsecond.
+pub const CYCLES_PER_US: u64 = F_CPU / 1_000_000;
+
+/// Converts microseconds to CPU cycles (saturating).
+pub const fn us_to_cycles(us: u64) -> u64 {
+    us.saturating_mul(CYCLES_PER_US)
+}
+
+/// Converts CPU cycles to microseconds.
+pub fn cycles_to_us(cycles: u64) -> f64 {
+    cycles as f64 / CYCLES_PER_US as f64
+}
+
+/// Interrupt vector numbers of the ATmega328P (vector address = number × 4 bytes).
+pub mod vector {
+    /// External interrupt 0 (pin 2).
+    pub const INT0: u8 = 1;
+    /// External interrupt 1 (pin 3).
+    pub const INT1: u8 = 2;
+    /// Pin change interrupt, port B.
+    pub const PCINT0: u8 = 3;
+    /// Pin change interrupt, port C.
+    pub const PCINT1: u8 = 4;
+    /// Pin change interrupt, port D.
+    pub const PCINT2: u8 = 5;
+    /// Watchdog time-out.
+    pub const WDT: u8 = 6;
+    /// Timer/Counter2 compare match A.
+    pub const TIMER2_COMPA: u8 = 7;
+    /// Timer/Counter2 compare match B.
+    pub const TIMER2_COMPB: u8 = 8;
+    /// Timer/Counter2 overflow.
+    pub const TIMER2_OVF: u8 = 9;
+    /// Timer/Counter1 capture event.
+    pub const TIMER1_CAPT: u8 = 10;
+    /// Timer/Counter1 compare match A.
+    pub const TIMER1_COMPA: u8 = 11;
+    /// Timer/Counter1 compare match B.
+    pub const TIMER1_COMPB: u8 = 12;
+    /// Timer/Counter1 overflow.
+    pub const TIMER1_OVF: u8 = 13;
+    /// Timer/Counter0 compare match A.
+    pub const TIMER0_COMPA: u8 = 14;
+    /// Timer/Counter0 compare match B.
+    pub const TIMER0_COMPB: u8 = 15;
+    /// Timer/Counter0 overflow.
+    pub const TIMER0_OVF: u8 = 16;
+    /// SPI transfer complete.
+    pub const SPI_STC: u8 = 17;
+    /// USART0 receive complete.
+    pub const USART_RX: u8 = 18;
+    /// USART0 data register empty.
+    pub const USART_UDRE: u8 = 19;
+    /// USART0 transmit complete.
+    pub const USART_TX: u8 = 20;
+    /// ADC conversion complete.
+    pub const ADC: u8 = 21;
+    /// EEPROM ready.
+    pub const EE_READY: u8 = 22;
+    /// Analog comparator.
+    pub const ANALOG_COMP: u8 = 23;
+    /// Two-wire interface.
+    pub const TWI: u8 = 24;
+    /// Store program memory ready.
+    pub const SPM_READY: u8 = 25;
+}
+
+/// Data-space addresses of the USART0 registers (for [`Uno::read_ram`]).
+pub mod reg {
+    /// USART0 control and status register A (RXC0 0x80, TXC0 0x40, UDRE0 0x20, FE0 0x10, DOR0 0x08, UPE0 0x04, U2X0 0x02).
+    pub const UCSR0A: u16 = 0xC0;
+    /// USART0 control and status register B.
+    pub const UCSR0B: u16 = 0xC1;
+    /// USART0 control and status register C.
+    pub const UCSR0C: u16 = 0xC2;
+    /// USART0 baud rate register, low byte.
+    pub const UBRR0L: u16 = 0xC4;
+    /// USART0 baud rate register, high byte.
+    pub const UBRR0H: u16 = 0xC5;
+    /// USART0 data register.
+    pub const UDR0: u16 = 0xC6;
+}
+
+/// Arduino pin number of analog input A0 (PC0); A1..A5 follow.
+pub const A0: u8 = 14;
+/// Arduino pin number of A1 (PC1).
+pub const A1: u8 = 15;
+/// Arduino pin number of A2 (PC2).
+pub const A2: u8 = 16;
+/// Arduino pin number of A3 (PC3).
+pub const A3: u8 = 17;
+/// Arduino pin number of A4 (PC4).
+pub const A4: u8 = 18;
+/// Arduino pin number of A5 (PC5).
+pub const A5: u8 = 19;
+
+/// What went wrong.
+#[derive(Debug)]
+#[non_exhaustive]
+pub enum Error {
+    /// The firmware file could not be read.
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// The file is not an AVR executable.
+    BadElf {
+        /// The file.
+        path: PathBuf,
+        /// Why it was refused.
+        reason: String,
+    },
+    /// simavr refused the file.
+    Load {
+        /// The file.
+        path: PathBuf,
+        /// simavr's reason.
+        reason: String,
+    },
+    /// The simulated CPU has stopped (crashed, or slept with interrupts disabled).
+    Stopped {
+        /// Its state.
+        state: CpuState,
+        /// The cycle it stopped at.
+        cycle: u64,
+    },
+    /// A byte was scheduled to arrive before the current cycle.
+    RxInPast {
+        /// The requested arrival cycle.
+        at: u64,
+        /// The current cycle.
+        now: u64,
+    },
+    /// A byte was scheduled to arrive before a byte already scheduled.
+    RxOutOfOrder {
+        /// The requested arrival cycle.
+        at: u64,
+    },
+    /// The firmware has not enabled USART0 in asynchronous mode (needed to know the character time).
+    UartNotConfigured,
+    /// Not an Arduino Uno pin number (0-19).
+    BadPin(u8),
+    /// Not an ADC channel (0-7).
+    BadAdcChannel(u8),
+    /// A memory access outside the data space.
+    OutOfRange {
+        /// First address.
+        addr: usize,
+        /// Length of the access.
+        len: usize,
+        /// Size of the data space.
+        size: usize,
+    },
+    /// No such symbol in the ELF file.
+    UnknownSymbol(String),
+    /// The symbol is not in the data space.
+    NotInRam(String),
+    /// More bytes than the variable holds.
+    SymbolTooSmall {
+        /// The symbol.
+        name: String,
+        /// Its size.
+        size: usize,
+        /// Bytes to write.
+        len: usize,
+    },
+    /// The simulator failed internally (e.g. out of memory).
+    Internal(String),
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Error::Io { path, source } => write!(f, "cannot read firmware {}: {source}", path.display()),
+            Error::BadElf { path, reason } => write!(f, "{}: {reason}", path.display()),
+            Error::Load { path, reason } => write!(f, "{}: {reason}", path.display()),
+            Error::Stopped { state, cycle } => write!(f, "simulated CPU stopped ({state:?}) at cycle {cycle}"),
+            Error::RxInPast { at, now } => write!(f, "byte scheduled at cycle {at}, but it is already cycle {now}"),
+            Error::RxOutOfOrder { at } => write!(f, "byte scheduled at cycle {at}, before a byte already scheduled"),
+            Error::UartNotConfigured => write!(f, "the firmware has not enabled USART0 (asynchronous mode)"),
+            Error::BadPin(pin) => write!(f, "{pin} is not an Arduino Uno pin (0-13, A0-A5 = 14-19)"),
+            Error::BadAdcChannel(ch) => write!(f, "{ch} is not an ADC channel (0-7)"),
+            Error::OutOfRange { addr, len, size } => {
+                write!(f, "{len} bytes at 0x{addr:04x} are outside the data space (0x{size:04x} bytes)")
+            }
+            Error::UnknownSymbol(name) => write!(f, "no symbol `{name}` in the firmware"),
+            Error::NotInRam(name) => write!(f, "symbol `{name}` is not in the data space"),
+            Error::SymbolTooSmall { name, size, len } => {
+                write!(f, "cannot write {len} bytes to `{name}`, which has {size}")
+            }
+            Error::Internal(msg) => write!(f, "simulator error: {msg}"),
+        }
+    }
+}
+
+impl std::error::Error for Error {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            Error::Io { source, .. } => Some(source),
+            _ => None,
+        }
+    }
+}
+
+/// simavr's CPU states.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CpuState {
+    /// Not initialised.
+    Limbo,
+    /// Stopped (e.g. waiting for a debugger).
+    Stopped,
+    /// Executing instructions.
+    Running,
+    /// In a sleep mode, waiting for an interrupt.
+    Sleeping,
+    /// Single-stepping (debugger).
+    Step,
+    /// Single step done (debugger).
+    StepDone,
+    /// Finished: slept with interrupts disabled.
+    Done,
+    /// Crashed (bad opcode, bad memory access, watchdog reset without handler, ...).
+    Crashed,
+    /// A state this crate does not know.
+    Unknown(i32),
+}
+
+impl CpuState {
+    fn from_raw(raw: c_int) -> CpuState {
+        match raw {
+            0 => CpuState::Limbo,
+            1 => CpuState::Stopped,
+            2 => CpuState::Running,
+            3 => CpuState::Sleeping,
+            4 => CpuState::Step,
+            5 => CpuState::StepDone,
+            6 => CpuState::Done,
+            7 => CpuState::Crashed,
+            other => CpuState::Unknown(other),
+        }
+    }
+
+    /// Whether the simulation can go on.
+    pub fn is_alive(self) -> bool {
+        matches!(self, CpuState::Running | CpuState::Sleeping)
+    }
+}
+
+/// Parity of a USART frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Parity {
+    /// No parity bit (UPM0 = 00, or the reserved 01).
+    None,
+    /// Even parity (UPM0 = 10).
+    Even,
+    /// Odd parity (UPM0 = 11).
+    Odd,
+}
+
+/// The USART0 format the firmware configured.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SerialConfig {
+    /// UBRR0 (12 bits).
+    pub ubrr: u16,
+    /// U2X0: double speed.
+    pub double_speed: bool,
+    /// Cycles per bit: `(UBRR0 + 1) * 16`, or `* 8` with U2X0.
+    pub bit_cycles: u64,
+    /// Data bits (5-9).
+    pub data_bits: u8,
+    /// Parity.
+    pub parity: Parity,
+    /// Stop bits (1 or 2).
+    pub stop_bits: u8,
+    /// RXEN0: the receiver is on.
+    pub rx_enabled: bool,
+    /// TXEN0: the transmitter is on.
+    pub tx_enabled: bool,
+}
+
+impl SerialConfig {
+    /// Decodes the USART0 registers (UCSR0A, UCSR0B, UCSR0C, UBRR0L, UBRR0H).
+    pub fn from_registers(ucsr0a: u8, ucsr0b: u8, ucsr0c: u8, ubrr0l: u8, ubrr0h: u8) -> SerialConfig {
+        let ubrr = (u16::from(ubrr0h & 0x0f) << 8) | u16::from(ubrr0l);
+        let double_speed = ucsr0a & 0x02 != 0;
+        let ucsz = ((ucsr0c >> 1) & 3) | if ucsr0b & 0x04 != 0 { 4 } else { 0 };
+        let data_bits = match ucsz {
+            0..=3 => 5 + ucsz,
+            7 => 9,
+            _ => 8, // reserved
+        };
+        let parity = match (ucsr0c >> 4) & 3 {
+            2 => Parity::Even,
+            3 => Parity::Odd,
+            _ => Parity::None,
+        };
+        SerialConfig {
+            ubrr,
+            double_speed,
+            bit_cycles: (u64::from(ubrr) + 1) * if double_speed { 8 } else { 16 },
+            data_bits,
+            parity,
+            stop_bits: if ucsr0c & 0x08 != 0 { 2 } else { 1 },
+            rx_enabled: ucsr0b & 0x10 != 0,
+            tx_enabled: ucsr0b & 0x08 != 0,
+        }
+    }
+
+    /// Bits per character: start + data + parity + stop.
+    pub fn char_bits(&self) -> u32 {
+        1 + u32::from(self.data_bits) + u32::from(self.parity != Parity::None) + u32::from(self.stop_bits)
+    }
+
+    /// Cycles per character on the wire.
+    pub fn char_cycles(&self) -> u64 {
+        self.bit_cycles * u64::from(self.char_bits())
+    }
+
+    /// The actual baud rate (bits per second).
+    pub fn baud(&self) -> f64 {
+        F_CPU as f64 / self.bit_cycles as f64
+    }
+
+    /// Relative deviation of the actual baud rate from `nominal` (e.g. 0.0016 for 19200 with UBRR0 = 51).
+    pub fn baud_error(&self, nominal: u32) -> f64 {
+        (self.baud() - f64::from(nominal)) / f64::from(nominal)
+    }
+
+    /// Whether a peer using `baud` and this frame format could talk to the firmware:
+    /// same data bits, parity and stop bits, and a baud rate within ±2 %.
+    pub fn matches(&self, baud: u32, data_bits: u8, parity: Parity, stop_bits: u8) -> bool {
+        baud > 0
+            && self.baud_error(baud).abs() <= 0.02
+            && self.data_bits == data_bits
+            && self.parity == parity
+            && self.stop_bits == stop_bits
+    }
+}
+
+/// A receive error to inject with [`Uno::send_byte_with_error`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LineError {
+    /// The stop bit was 0: FE0 is set while the byte is the oldest one in the receive buffer.
+    Framing,
+    /// The parity bit was wrong: UPE0 is set while the byte is the oldest one in the receive buffer.
+    Parity,
+}
+
+/// A frame the firmware transmitted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TxByte {
+    /// The data byte.
+    pub byte: u8,
+    /// Cycle at which its start bit begins on the wire.
+    pub start_cycle: u64,
+    /// Cycle at which its last stop bit ends (`start_cycle` + character time); TXC0 rises here if no
+    /// other byte follows.
+    pub end_cycle: u64,
+}
+
+/// Counters of unusual USART events.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct UartCounters {
+    /// Bytes that arrived while the receiver was off (RXEN0 clear).
+    pub rx_dropped: u64,
+    /// Bytes that arrived with the receive buffer and shift register full (DOR0).
+    pub rx_overruns: u64,
+    /// UDR0 writes while UDRE0 was clear (ignored by the transmitter).
+    pub tx_ignored: u64,
+}
+
+/// What one [`Uno::step`] did.
+///
+/// Summing `cycles` by `vector`, plus `response_cycles` by `entered`, gives [`IsrStats::cycles`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Step {
+    /// Byte address of the instruction executed (while sleeping: of the instruction after SLEEP).
+    pub pc: u32,
+    /// The interrupt vector whose handler the instruction belonged to (innermost), if any.
+    pub vector: Option<u8>,
+    /// Cycles of the instruction (or of the sleep), excluding `response_cycles`.
+    pub cycles: u64,
+    /// An interrupt handler entered right after the instruction, if any.
+    pub entered: Option<u8>,
+    /// Cycles of that interrupt response (4, or 8 when waking up; 0 if none).
+    pub response_cycles: u64,
+}
+
+/// Time spent in one interrupt vector since load (or [`Uno::reset_isr_stats`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct IsrStats {
+    /// How often the handler was entered.
+    pub entries: u64,
+    /// Cycles spent in it, from the interrupt response up to and including RETI, excluding
+    /// handlers nested in it.
+    pub cycles: u64,
+    /// The longest single run, interrupt response to end of RETI (including nested handlers).
+    pub max_cycles: u64,
+}
+
+/// Direction and level of a pin.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PinState {
+    /// DDR bit set: the firmware drives the pin.
+    pub output: bool,
+    /// For an output, the level it drives; for an input, what the firmware reads from PINx.
+    pub level: bool,
+    /// Input with the internal pull-up on (DDR bit clear, PORT bit set).
+    pub pull_up: bool,
+}
+
+/// Serialises loading: libelf and simavr's loader are not known to be thread-safe.
+static LOAD_LOCK: Mutex<()> = Mutex::new(());
+
+/// Cycles a sleeping CPU may skip in one [`Uno::step`] when nothing is scheduled.
+const STEP_SLEEP_LIMIT: u64 = 1000;
+
+/// A simulated Arduino Uno running one firmware.
+pub struct Uno {
+    shim: NonNull<ffi::Shim>,
+    path: PathBuf,
+    symbols: Vec<Symbol>,
+    tx: Vec<TxByte>,
+}
+
+// SAFETY: the simavr instance behind `shim` is owned exclusively by this value and simavr keeps no
+// thread-bound state for it; the only process-wide state (the log hook) is installed once under
+// `pthread_once` and loading is serialised by `LOAD_LOCK`.
+unsafe impl Send for Uno {}
+
+impl fmt::Debug for Uno {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Uno").field("path", &self.path).field("cycle", &self.now()).finish_non_exhaustive()
+    }
+}
+
+impl Drop for Uno {
+    fn drop(&mut self) {
+        // SAFETY: `shim` came from `uno_new` and is freed exactly once, here.
+        unsafe { ffi::uno_free(self.shim.as_ptr()) }
+    }
+}
+
+impl Uno {
+    /// Loads an ELF file into a fresh ATmega328P at 16 MHz (5 V supply and AREF) and resets it,
+    /// whatever MCU and clock the file names.
+    ///
+    /// Fails with a one-line message if the file is missing, is not a 32-bit AVR executable, or
+    /// does not fit the chip.
+    pub fn load(path: impl AsRef<Path>) -> Result<Uno, Error> {
+        let path = path.as_ref().to_owned();
+        let bytes = std::fs::read(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
+        elf::check_avr(&path, &bytes)?;
+        let symbols = elf::symbols(&bytes);
+        let c_path = CString::new(path.as_os_str().as_bytes())
+            .map_err(|_| Error::BadElf { path: path.clone(), reason: "path contains a NUL byte".into() })?;
+
+        let mut err = [0 as c_char; 256];
+        let raw = {
+            let _guard = LOAD_LOCK.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+            // SAFETY: `c_path` is NUL-terminated, `err` is writable for its full length.
+            unsafe { ffi::uno_new(c_path.as_ptr(), err.as_mut_ptr(), err.len()) }
+        };
+        let Some(shim) = NonNull::new(raw) else {
+            // SAFETY: `uno_new` always NUL-terminates `err` within its length.
+            let msg = unsafe { CStr::from_ptr(err.as_ptr()) }.to_string_lossy().into_owned();
+            let reason = if msg.is_empty() { "simavr could not load the file".to_owned() } else { msg };
+            return Err(Error::Load { path, reason });
+        };
+        Ok(Uno { shim, path, symbols, tx: Vec::new() })
+    }
+
+    /// The firmware file this simulation runs.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    fn raw(&self) -> *const ffi::Shim {
+        self.shim.as_ptr()
+    }
+
+    fn raw_mut(&mut self) -> *mut ffi::Shim {
+        self.shim.as_ptr()
+    }
+
+    /// Current simulated time, in CPU cycles since reset.
+    pub fn now(&self) -> u64 {
+        // SAFETY: `shim` is valid for the lifetime of `self`.
+        unsafe { ffi::uno_cycle(self.raw()) }
+    }
+
+    /// simavr's CPU state.
+    pub fn state(&self) -> CpuState {
+        // SAFETY: `shim` is valid for the lifetime of `self`.
+        CpuState::from_raw(unsafe { ffi::uno_state(self.raw()) })
+    }
+
+    fn check_alive(&self) -> Result<(), Error> {
+        let state = self.state();
+        if state.is_alive() {
+            Ok(())
+        } else {
+            Err(Error::Stopped { state, cycle: self.now() })
+        }
+    }
+
+    /// Runs until the clock reaches `cycle` (it may end up to a few cycles later, as instructions
+    /// are not divisible). Events due exactly at the returned time are handled by the next run,
+    /// before any further instruction. Does nothing if `cycle` has already passed.
+    pub fn run_until(&mut self, cycle: u64) -> Result<(), Error> {
+        self.check_alive()?;
+        // SAFETY: `shim` is valid and exclusively borrowed.
+        unsafe { ffi::uno_run(self.raw_mut(), cycle, 0) };
+        self.drain_tx();
+        self.check_alive()
+    }
+
+    /// Runs for `cycles` more cycles.
+    pub fn run_for(&mut self, cycles: u64) -> Result<(), Error> {
+        self.run_until(self.now().saturating_add(cycles))
+    }
+
+    /// Executes one instruction (while the CPU sleeps: advances to the next scheduled event, by at
+    /// most 1000 cycles). Useful to attribute cycles to code, e.g. by [`Step::vector`].
+    pub fn step(&mut self) -> Result<Step, Error> {
+        self.check_alive()?;
+        let before = self.now();
+        let (mut pc, mut vector, mut entered, mut response) = (0u32, -1 as c_int, -1 as c_int, 0u64);
+        let limit = before.saturating_add(STEP_SLEEP_LIMIT);
+        // SAFETY: `shim` is valid and exclusively borrowed; the out-pointers are writable.
+        unsafe { ffi::uno_step(self.raw_mut(), limit, &mut pc, &mut vector, &mut entered, &mut response) };
+        self.drain_tx();
+        self.check_alive()?;
+        Ok(Step {
+            pc,
+            vector: u8::try_from(vector).ok(),
+            cycles: self.now() - before - response,
+            entered: u8::try_from(entered).ok(),
+            response_cycles: response,
+        })
+    }
+
+    /// Byte address of the next instruction.
+    pub fn pc(&self) -> u32 {
+        // SAFETY: `shim` is valid for the lifetime of `self`.
+        unsafe { ffi::uno_pc(self.raw()) }
+    }
+
+    /// The status register (bit 7 = I, global interrupt enable).
+    pub fn sreg(&self) -> u8 {
+        // SAFETY: `shim` is valid for the lifetime of `self`.
+        unsafe { ffi::uno_sreg(self.raw()) }
+    }
+
+    /// The stack pointer.
+    pub fn sp(&self) -> u16 {
+        let data = self.data();
+        u16::from_le_bytes([data[0x5d], data[0x5e]])
+    }
+
+    /// The interrupt vector whose handler is executing (innermost), if any.
+    pub fn in_isr(&self) -> Option<u8> {
+        // SAFETY: `shim` is valid for the lifetime of `self`.
+        u8::try_from(unsafe { ffi::uno_running_vector(self.raw()) }).ok()
+    }
+
+    /// Time spent in the handler of `vector` (see [`vector`]).
+    pub fn isr_stats(&self, vector: u8) -> IsrStats {
+        let mut raw = ffi::IsrRaw::default();
+        // SAFETY: `shim` is valid; `raw` is writable.
+        unsafe { ffi::uno_isr_stats(self.raw(), vector, &mut raw) };
+        IsrStats { entries: raw.entries, cycles: raw.cycles, max_cycles: raw.max_cycles }
+    }
+
+    /// Zeroes all [`IsrStats`].
+    pub fn reset_isr_stats(&mut self) {
+        // SAFETY: `shim` is valid and exclusively borrowed.
+        unsafe { ffi::uno_isr_reset(self.raw_mut()) }
+    }
+
+    // ----------------------------------------------------------------------------------------
+    // USART
+
+    /// The USART0 format the firmware configured, or `None` while USART0 is off (neither RXEN0
+    /// nor TXEN0) or not in asynchronous mode.
+    pub fn serial_config(&self) -> Option<SerialConfig> {
+        let d = self.data();
+        let base = usize::from(reg::UCSR0A);
+        let cfg = SerialConfig::from_registers(d[base], d[base + 1], d[base + 2], d[base + 4], d[base + 5]);
+        let asynchronous = d[base + 2] & 0xc0 == 0;
+        (asynchronous && (cfg.rx_enabled || cfg.tx_enabled)).then_some(cfg)
+    }
+
+    /// Cycles per character on the wire for the format the firmware configured (see
+    /// [`Uno::serial_config`]).
+    pub fn wire_char_cycles(&self) -> Option<u64> {
+        self.serial_config().map(|cfg| cfg.char_cycles())
+    }
+
+    fn push_rx(&mut self, end_cycle: u64, value: u16) -> Result<(), Error> {
+        // SAFETY: `shim` is valid and exclusively borrowed.
+        match unsafe { ffi::uno_rx_push(self.raw_mut(), end_cycle, value) } {
+            0 => Ok(()),
+            ffi::ERR_PAST => Err(Error::RxInPast { at: end_cycle, now: self.now() }),
+            ffi::ERR_ORDER => Err(Error::RxOutOfOrder { at: end_cycle }),
+            ffi::ERR_NOMEM => Err(Error::Internal("out of memory".into())),
+            other => Err(Error::Internal(format!("uno_rx_push returned {other}"))),
+        }
+    }
+
+    /// Schedules a byte from the bus master: its stop bit ends, and the firmware gets RXC0, at
+    /// `end_cycle` (not before; see the crate docs for the residual). Bytes must be scheduled in
+    /// time order and not in the past. Bytes arriving while RXEN0 is clear are lost.
+    pub fn send_byte(&mut self, byte: u8, end_cycle: u64) -> Result<(), Error> {
+        self.push_rx(end_cycle, u16::from(byte))
+    }
+
+    /// Like [`Uno::send_byte`], with a framing or parity error.
+    pub fn send_byte_with_error(&mut self, byte: u8, end_cycle: u64, error: LineError) -> Result<(), Error> {
+        let flag = match error {
+            LineError::Framing => ffi::INPUT_FE,
+            LineError::Parity => ffi::INPUT_PE,
+        };
+        self.push_rx(end_cycle, u16::from(byte) | flag)
+    }
+
+    /// Schedules `bytes` at the configured character time: the first ends at `first_end_cycle`,
+    /// each next one `gap_cycles` of idle line after the previous one (0 = back to back).
+    /// Returns the end cycle of the last byte.
+    pub fn send_frame(&mut self, bytes: &[u8], first_end_cycle: u64, gap_cycles: u64) -> Result<u64, Error> {
+        let char_cycles = self.wire_char_cycles().ok_or(Error::UartNotConfigured)?;
+        let step = char_cycles.saturating_add(gap_cycles);
+        let mut end = first_end_cycle;
+        for (i, &byte) in bytes.iter().enumerate() {
+            if i > 0 {
+                end = end.saturating_add(step);
+            }
+            self.send_byte(byte, end)?;
+        }
+        Ok(end)
+    }
+
+    /// Bytes scheduled with [`Uno::send_byte`] that have not arrived yet.
+    pub fn pending_rx(&self) -> usize {
+        // SAFETY: `shim` is valid for the lifetime of `self`.
+        unsafe { ffi::uno_rx_pending(self.raw()) }
+    }
+
+    /// Drops all bytes that have not arrived yet.
+    pub fn cancel_rx(&mut self) {
+        // SAFETY: `shim` is valid and exclusively borrowed.
+        unsafe { ffi::uno_rx_clear(self.raw_mut()) }
+    }
+
+    /// Counters of dropped, overrun and ignored bytes.
+    pub fn uart_counters(&self) -> UartCounters {
+        let mut c = UartCounters::default();
+        // SAFETY: `shim` is valid; the three pointers are writable.
+        unsafe { ffi::uno_uart_counters(self.raw(), &mut c.rx_dropped, &mut c.rx_overruns, &mut c.tx_ignored) };
+        c
+    }
+
+    /// simavr's USART0 flags (`AVR_UART_FLAG_*`); this crate clears POLL_SLEEP and STDIO.
+    pub fn uart_sim_flags(&self) -> u32 {
+        // SAFETY: `shim` is valid for the lifetime of `self`.
+        unsafe { ffi::uno_uart_flags(self.raw()) }
+    }
+
+    fn drain_tx(&mut self) {
+        let mut buf = [ffi::TxRaw::default(); 256];
+        loop {
+            // SAFETY: `shim` is valid for the lifetime of `self`.
+            if unsafe { ffi::uno_tx_len(self.raw()) } == 0 {
+                break;
+            }
+            // SAFETY: `shim` is valid; `buf` is writable for `buf.len()` entries.
+            let n = unsafe { ffi::uno_tx_take(self.raw_mut(), buf.as_mut_ptr(), buf.len()) };
+            self.tx.extend(buf[..n].iter().map(|t| TxByte { byte: t.byte, start_cycle: t.start, end_cycle: t.end }));
+        }
+    }
+
+    /// Takes every frame the firmware has transmitted since the last call, oldest first. A frame
+    /// is listed as soon as UDR0 is written, so its `end_cycle` may still be in the future.
+    pub fn take_tx(&mut self) -> Vec<TxByte> {
+        self.drain_tx();
+        std::mem::take(&mut self.tx)
+    }
+
+    /// Cycle at which the transmitter becomes idle, if it is busy.
+    pub fn tx_busy_until(&self) -> Option<u64> {
+        // SAFETY: `shim` is valid for the lifetime of `self`.
+        match unsafe { ffi::uno_tx_busy_until(self.raw()) } {
+            0 => None,
+            cycle => Some(cycle),
+        }
+    }
+
+    /// Runs until the firmware has sent something and then left the line idle for `idle_cycles`
+    /// after the end of its last frame, or until `deadline`. Returns what [`Uno::take_tx`] would
+    /// (empty if nothing was sent by `deadline`).
+    pub fn run_until_tx_idle(&mut self, idle_cycles: u64, deadline: u64) -> Result<Vec<TxByte>, Error> {
+        loop {
+            self.drain_tx();
+            let now = self.now();
+            let target = match self.tx.last() {
+                Some(last) => {
+                    let busy = self.tx_busy_until().unwrap_or(0);
+                    let quiet_at = last.end_cycle.max(busy).saturating_add(idle_cycles);
+                    if now >= quiet_at {
+                        return Ok(self.take_tx());
+                    }
+                    quiet_at.min(deadline)
+                }
+                None => deadline,
+            };
+            if now >= deadline {
+                return Ok(self.take_tx());
+            }
+            self.check_alive()?;
+            // SAFETY: `shim` is valid and exclusively borrowed.
+            unsafe { ffi::uno_run(self.raw_mut(), target, 1) };
+            self.check_alive()?;
+        }
+    }
+
+    // ----------------------------------------------------------------------------------------
+    // GPIO and ADC
+
+    /// Port letter and bit of an Arduino pin: 0-7 = PD0-7, 8-13 = PB0-5, 14-19 (A0-A5) = PC0-5.
+    fn port_bit(pin: u8) -> Result<(u8, u8), Error> {
+        match pin {
+            0..=7 => Ok((b'D', pin)),
+            8..=13 => Ok((b'B', pin - 8)),
+            14..=19 => Ok((b'C', pin - 14)),
+            _ => Err(Error::BadPin(pin)),
+        }
+    }
+
+    /// Direction and level of Arduino pin `pin` (0-13, [`A0`]-[`A5`]).
+    pub fn pin(&self, pin: u8) -> Result<PinState, Error> {
+        let (port, bit) = Self::port_bit(pin)?;
+        // PINx, DDRx, PORTx are at 0x23/0x24/0x25 for port B, +3 per port
+        let base = 0x23 + 3 * usize::from(port - b'B');
+        let d = self.data();
+        let mask = 1u8 << bit;
+        let (pin_reg, ddr, port_reg) = (d[base], d[base + 1], d[base + 2]);
+        let output = ddr & mask != 0;
+        let level = if output { port_reg & mask != 0 } else { pin_reg & mask != 0 };
+        Ok(PinState { output, level, pull_up: !output && port_reg & mask != 0 })
+    }
+
+    /// Drives input pin `pin` high or low from outside (`Some(level)`, e.g. a switch), or
+    /// releases it (`None`: reads high if its pull-up is on, else low). Pin-change and external
+    /// interrupts fire as on the chip.
+    pub fn drive_pin(&mut self, pin: u8, level: Option<bool>) -> Result<(), Error> {
+        let (port, bit) = Self::port_bit(pin)?;
+        let level: c_int = match level {
+            None => -1,
+            Some(high) => c_int::from(high),
+        };
+        // SAFETY: `shim` is valid and exclusively borrowed; arguments are range-checked in C.
+        match unsafe { ffi::uno_pin_drive(self.raw_mut(), port as c_char, c_int::from(bit), level) } {
+            0 => Ok(()),
+            _ => Err(Error::BadPin(pin)),
+        }
+    }
+
+    /// Sets the voltage on ADC channel `channel` (0-5 = A0-A5; 6 and 7 exist on the chip only),
+    /// in millivolts. With the AVCC reference (5 V) the firmware reads `mv * 1023 / 5000`
+    /// (simavr's scaling; clipped at 1023).
+    pub fn set_analog_mv(&mut self, channel: u8, millivolts: u32) -> Result<(), Error> {
+        if channel > 7 {
+            return Err(Error::BadAdcChannel(channel));
+        }
+        // SAFETY: `shim` is valid and exclusively borrowed; `channel` is 0-7.
+        match unsafe { ffi::uno_adc_set(self.raw_mut(), c_int::from(channel), millivolts) } {
+            0 => Ok(()),
+            _ => Err(Error::BadAdcChannel(channel)),
+        }
+    }
+
+    /// Sets the voltage on the AREF pin (default 5000 mV), used when the firmware selects the
+    /// external reference.
+    pub fn set_aref_mv(&mut self, millivolts: u32) {
+        // SAFETY: `shim` is valid and exclusively borrowed.
+        unsafe { ffi::uno_set_aref(self.raw_mut(), millivolts) }
+    }
+
+    // ----------------------------------------------------------------------------------------
+    // memory
+
+    fn data(&self) -> &[u8] {
+        let mut len = 0usize;
+        // SAFETY: `uno_data` only reads the simavr instance; the returned buffer (registers, I/O and
+        // SRAM) is `len` bytes long, lives as long as the instance and is only written by the
+        // simulation, which needs `&mut self`.
+        unsafe {
+            let ptr = ffi::uno_data(self.shim.as_ptr(), &mut len);
+            std::slice::from_raw_parts(ptr, len)
+        }
+    }
+
+    fn data_mut(&mut self) -> &mut [u8] {
+        let mut len = 0usize;
+        // SAFETY: as in `data`; `&mut self` makes this the only access to the buffer.
+        unsafe {
+            let ptr = ffi::uno_data(self.shim.as_ptr(), &mut len);
+            std::slice::from_raw_parts_mut(ptr, len)
+        }
+    }
+
+    fn range(&self, addr: usize, len: usize) -> Result<std::ops::Range<usize>, Error> {
+        let size = self.data().len();
+        match addr.checked_add(len) {
+            Some(end) if end <= size => Ok(addr..end),
+            _ => Err(Error::OutOfRange { addr, len, size }),
+        }
+    }
+
+    /// Reads `len` bytes of data space at `addr` (0x000-0x01F registers, 0x020-0x0FF I/O,
+    /// 0x100-0x8FF SRAM). Reads raw memory: no I/O side effects (reading UDR0 does not pop a byte).
+    pub fn read_ram(&self, addr: u16, len: usize) -> Result<Vec<u8>, Error> {
+        let range = self.range(usize::from(addr), len)?;
+        Ok(self.data()[range].to_vec())
+    }
+
+    /// Writes `bytes` to data space at `addr`. Writes raw memory: I/O registers change without
+    /// side effects.
+    pub fn write_ram(&mut self, addr: u16, bytes: &[u8]) -> Result<(), Error> {
+        let range = self.range(usize::from(addr), bytes.len())?;
+        self.data_mut()[range].copy_from_slice(bytes);
+        Ok(())
+    }
+
+    /// The firmware's symbol table (empty for a stripped file).
+    pub fn symbols(&self) -> &[Symbol] {
+        &self.symbols
+    }
+
+    /// Looks up a symbol by name.
+    pub fn symbol(&self, name: &str) -> Option<&Symbol> {
+        self.symbols.iter().find(|s| s.name == name)
+    }
+
+    /// Reads the current value of a variable in SRAM (its full size).
+    pub fn read_symbol(&self, name: &str) -> Result<Vec<u8>, Error> {
+        let sym = self.symbol(name).ok_or_else(|| Error::UnknownSymbol(name.to_owned()))?;
+        if sym.space != Space::Ram {
+            return Err(Error::NotInRam(name.to_owned()));
+        }
+        let range = self.range(sym.addr as usize, sym.size as usize)?;
+        Ok(self.data()[range].to_vec())
+    }
+
+    /// Overwrites a variable in SRAM; `bytes` must not be longer than the variable.
+    pub fn write_symbol(&mut self, name: &str, bytes: &[u8]) -> Result<(), Error> {
+        let sym = self.symbol(name).ok_or_else(|| Error::UnknownSymbol(name.to_owned()))?;
+        if sym.space != Space::Ram {
+            return Err(Error::NotInRam(name.to_owned()));
+        }
+        let (addr, size) = (sym.addr as usize, sym.size as usize);
+        if bytes.len() > size {
+            return Err(Error::SymbolTooSmall { name: name.to_owned(), size, len: bytes.len() });
+        }
+        let range = self.range(addr, bytes.len())?;
+        self.data_mut()[range].copy_from_slice(bytes);
+        Ok(())
+    }
+}

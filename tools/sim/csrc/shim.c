@@ -1,0 +1,743 @@
+/*
+ * Thin C layer between simavr 1.6 (Debian's libsimavr) and the `uno-sim` crate.
+ *
+ * simavr simulates the ATmega328P core and most peripherals well, but its USART
+ * timing is not wire-accurate (see the crate documentation for details). This shim
+ * keeps simavr's register handling for USART0 and replaces its timing:
+ *
+ *   - RX: bytes are written straight into the USART's receive FIFO at the cycle
+ *     their stop bit ends, and RXC0 is raised at that very cycle by a simavr cycle
+ *     timer. simavr's own RX pump (which adds one of *its* character times and lets
+ *     queued bytes be read early) is never started.
+ *   - TX: every UDR0 write is timed against a model of the transmit buffer + shift
+ *     register using the character time the firmware configured; UDRE0 and TXC0 are
+ *     raised when the real chip would raise them. simavr's TX pump is parked.
+ *
+ * It also adds the AVR's interrupt response time (4 cycles, 8 when waking from
+ * sleep), which simavr 1.6 leaves out, and keeps per-vector ISR statistics.
+ */
+#include <pthread.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "sim_avr.h"
+#include "sim_cycle_timers.h"
+#include "sim_elf.h"
+#include "sim_interrupts.h"
+#include "sim_io.h"
+#include "sim_irq.h"
+#include "sim_regbit.h"
+#include "avr_adc.h"
+#include "avr_ioport.h"
+#include "avr_uart.h"
+
+DEFINE_FIFO(uint16_t, uart_fifo);
+
+/* Data-space addresses of the USART0 registers (ATmega328P). */
+#define R_UCSR0A 0xC0
+#define R_UCSR0B 0xC1
+#define R_UCSR0C 0xC2
+#define R_UBRR0L 0xC4
+#define R_UBRR0H 0xC5
+
+#define FE0 4
+#define DOR0 3
+#define UPE0 2
+
+#define UCSR0B_TXEN 0x08
+#define UCSR0B_RXCIE 0x80
+#define UCSR0B_UDRIE 0x20
+
+/* Marks a received frame with a parity error (bit 15 is simavr's UART_INPUT_FE). */
+#define UNO_INPUT_PE 0x4000
+#define UNO_INPUT_FLAGS (UART_INPUT_FE | UNO_INPUT_PE)
+
+/* Receive buffer (2 bytes) + receive shift register. */
+#define RX_HW_DEPTH 3
+
+#define ISR_VECTORS 64
+
+enum { UNO_OK = 0, UNO_ERR_PAST = -1, UNO_ERR_ORDER = -2, UNO_ERR_NOMEM = -3, UNO_ERR_ARG = -4 };
+
+typedef struct {
+	uint64_t at;
+	uint16_t value;
+} rx_item_t;
+
+/* Must match `TxRaw` in src/ffi.rs. */
+typedef struct {
+	uint64_t start;
+	uint64_t end;
+	uint8_t byte;
+} uno_tx_t;
+
+/* Must match `IsrRaw` in src/ffi.rs. */
+typedef struct {
+	uint64_t entries;
+	uint64_t cycles;
+	uint64_t max_cycles;
+} uno_isr_t;
+
+typedef struct uno_shim {
+	avr_t *avr;
+	avr_uart_t *uart;
+	avr_cycle_timer_t uart_pump; /* simavr's static TX pump, found on first UDR0 write */
+
+	/* RX schedule, sorted by `at` */
+	rx_item_t *rx;
+	size_t rx_head, rx_len, rx_cap;
+	uint64_t rx_dropped, rx_overruns;
+
+	/* TX model */
+	int tx_active;         /* a frame is in the shift register */
+	uint64_t tx_shift_end; /* its stop bit ends here */
+	int tx_buf_full;       /* a second frame waits in UDR0 */
+	uint64_t tx_buf_end;   /* when that one will end */
+	int tx_written;        /* UDR0 was written during the current instruction */
+	uint64_t tx_ignored;   /* writes while UDRE0 was clear (ignored by the chip) */
+	uno_tx_t *tx;
+	size_t tx_len, tx_cap;
+
+	/* interrupt bookkeeping */
+	int was_sleeping;
+	uint64_t entry_added;
+	int entered_vec;
+	uno_isr_t isr[ISR_VECTORS];
+	uint64_t isr_start[ISR_VECTORS];
+	int isr_depth;
+	int reti_pending;
+	uint8_t reti_vec;
+	uint64_t reti_start;
+
+	/* externally driven inputs per port B, C, D */
+	uint8_t ext_mask[3], ext_value[3];
+} uno_shim_t;
+
+/* ------------------------------------------------------------------------- */
+/* logging                                                                   */
+
+static __thread char last_error[256];
+
+static void quiet_logger(avr_t *avr, const int level, const char *format, va_list ap)
+{
+	if (level > LOG_ERROR || level == LOG_NONE)
+		return;
+	char line[sizeof(last_error)];
+	vsnprintf(line, sizeof(line), format, ap);
+	size_t n = strlen(line);
+	while (n && (line[n - 1] == '\n' || line[n - 1] == '\r'))
+		line[--n] = 0;
+	if (level == LOG_ERROR) {
+		memcpy(last_error, line, n + 1);
+		/* errors at load time are returned to the caller instead */
+		if (avr)
+			fprintf(stderr, "simavr: %s\n", line);
+	}
+}
+
+static pthread_once_t logger_once = PTHREAD_ONCE_INIT;
+
+static void install_logger(void)
+{
+	avr_global_logger_set(quiet_logger);
+}
+
+/* ------------------------------------------------------------------------- */
+/* helpers                                                                   */
+
+static uint64_t char_cycles(avr_t *avr)
+{
+	uint8_t a = avr->data[R_UCSR0A], b = avr->data[R_UCSR0B], c = avr->data[R_UCSR0C];
+	uint64_t ubrr = ((uint64_t)(avr->data[R_UBRR0H] & 0x0F) << 8) | avr->data[R_UBRR0L];
+	uint64_t bit = (ubrr + 1) * ((a & 0x02) ? 8 : 16);
+	int ucsz = ((c >> 1) & 3) | ((b & 0x04) ? 4 : 0);
+	int data_bits = ucsz <= 3 ? 5 + ucsz : (ucsz == 7 ? 9 : 8);
+	int parity = ((c >> 4) & 3) >= 2 ? 1 : 0;
+	int stop = (c & 0x08) ? 2 : 1;
+	return bit * (uint64_t)(1 + data_bits + parity + stop);
+}
+
+static void clear_flag(avr_t *avr, avr_int_vector_t *v)
+{
+	if (avr_regbit_get(avr, v->raised) || v->pending) {
+		avr_clear_interrupt(avr, v);
+		avr_regbit_clear(avr, v->raised);
+	}
+}
+
+/* Park simavr's TX pump: keep it "flying" (far in the future) while UDR0 holds a
+ * byte, so that enabling UDRIE0 does not raise UDRE0; remove it otherwise. */
+static void park_uart_pump(uno_shim_t *s)
+{
+	avr_t *avr = s->avr;
+	avr_uart_t *p = s->uart;
+	if (!s->uart_pump) {
+		for (avr_cycle_timer_slot_p t = avr->cycle_timers.timer; t; t = t->next)
+			if (t->param == p) {
+				s->uart_pump = t->timer;
+				break;
+			}
+	}
+	if (s->uart_pump) {
+		if (s->tx_buf_full)
+			avr_cycle_timer_register(avr, (avr_cycle_count_t)1 << 60, s->uart_pump, p);
+		else
+			avr_cycle_timer_cancel(avr, s->uart_pump, p);
+	}
+	p->tx_cnt = 0;
+}
+
+/* ------------------------------------------------------------------------- */
+/* TX                                                                        */
+
+static void tx_push_log(uno_shim_t *s, uint8_t byte, uint64_t start, uint64_t end)
+{
+	if (s->tx_len == s->tx_cap) {
+		size_t cap = s->tx_cap ? s->tx_cap * 2 : 256;
+		uno_tx_t *n = realloc(s->tx, cap * sizeof(*n));
+		if (!n)
+			return;
+		s->tx = n;
+		s->tx_cap = cap;
+	}
+	s->tx[s->tx_len++] = (uno_tx_t){ .start = start, .end = end, .byte = byte };
+}
+
+/* Advance the transmitter model to cycle `now`. */
+static void tx_catch_up(uno_shim_t *s, uint64_t now)
+{
+	avr_t *avr = s->avr;
+	while (s->tx_active && s->tx_shift_end <= now) {
+		if (s->tx_buf_full) {
+			/* UDR0 -> shift register right after the previous stop bit */
+			s->tx_shift_end = s->tx_buf_end;
+			s->tx_buf_full = 0;
+			avr_raise_interrupt(avr, &s->uart->udrc);
+			park_uart_pump(s);
+		} else {
+			s->tx_active = 0;
+			avr_raise_interrupt(avr, &s->uart->txc);
+		}
+	}
+}
+
+static avr_cycle_count_t tx_timer(avr_t *avr, avr_cycle_count_t when, void *param)
+{
+	(void)avr;
+	uno_shim_t *s = param;
+	tx_catch_up(s, when);
+	return s->tx_active ? s->tx_shift_end : 0;
+}
+
+/* UART_IRQ_OUTPUT: raised by simavr from within the UDR0 write (only when TXEN0 is
+ * set), after it has cleared UDRE0. avr->cycle is the first cycle of the ST/STS. */
+static void tx_output_irq(avr_irq_t *irq, uint32_t value, void *param)
+{
+	(void)irq;
+	uno_shim_t *s = param;
+	avr_t *avr = s->avr;
+	uint64_t written = avr->cycle + 2; /* ST/STS take 2 cycles; the write lands at the end */
+	uint64_t ch = char_cycles(avr);
+
+	s->tx_written = 1;
+	tx_catch_up(s, written);
+	if (!s->tx_active) {
+		s->tx_active = 1;
+		s->tx_shift_end = written + ch;
+		tx_push_log(s, (uint8_t)value, written, s->tx_shift_end);
+		avr_cycle_timer_register(avr, s->tx_shift_end - avr->cycle, tx_timer, s);
+		/* straight into the shift register: the buffer is empty again */
+		avr_raise_interrupt(avr, &s->uart->udrc);
+	} else if (!s->tx_buf_full) {
+		s->tx_buf_full = 1;
+		s->tx_buf_end = s->tx_shift_end + ch;
+		tx_push_log(s, (uint8_t)value, s->tx_shift_end, s->tx_buf_end);
+	} else {
+		/* data sheet: written while UDRE0 is clear -> ignored by the transmitter */
+		s->tx_ignored++;
+	}
+}
+
+/* ------------------------------------------------------------------------- */
+/* RX                                                                        */
+
+static void rx_deliver(uno_shim_t *s, uint16_t value)
+{
+	avr_t *avr = s->avr;
+	avr_uart_t *p = s->uart;
+	if (!avr_regbit_get(avr, p->rxen)) {
+		s->rx_dropped++;
+		return;
+	}
+	uart_fifo_t *f = &p->input;
+	unsigned count = (unsigned)(f->write - f->read) & (uart_fifo_fifo_size - 1);
+	if (count >= RX_HW_DEPTH) {
+		/* data overrun: the new frame replaces the one waiting in the shift register */
+		f->buffer[(f->write - 1) & (uart_fifo_fifo_size - 1)] = value;
+		avr_regbit_set(avr, p->dor);
+		s->rx_overruns++;
+	} else {
+		uart_fifo_write(f, value);
+	}
+	avr_raise_interrupt(avr, &p->rxc);
+}
+
+static avr_cycle_count_t rx_timer(avr_t *avr, avr_cycle_count_t when, void *param)
+{
+	(void)avr;
+	uno_shim_t *s = param;
+	while (s->rx_head < s->rx_len && s->rx[s->rx_head].at <= when) {
+		rx_deliver(s, s->rx[s->rx_head].value);
+		s->rx_head++;
+	}
+	if (s->rx_head == s->rx_len) {
+		s->rx_head = s->rx_len = 0;
+		return 0;
+	}
+	return s->rx[s->rx_head].at;
+}
+
+/* ------------------------------------------------------------------------- */
+/* interrupts                                                                */
+
+static void finish_reti(uno_shim_t *s)
+{
+	if (!s->reti_pending)
+		return;
+	s->reti_pending = 0;
+	uint64_t d = s->avr->cycle - s->reti_start;
+	if (d > s->isr[s->reti_vec].max_cycles)
+		s->isr[s->reti_vec].max_cycles = d;
+}
+
+/* Per-vector AVR_INT_IRQ_RUNNING: 1 when the vector is entered, 0 on its RETI. */
+static void isr_running_irq(avr_irq_t *irq, uint32_t value, void *param)
+{
+	uno_shim_t *s = param;
+	avr_t *avr = s->avr;
+	avr_int_vector_t *v =
+		(avr_int_vector_t *)((char *)irq - offsetof(avr_int_vector_t, irq[AVR_INT_IRQ_RUNNING]));
+	uint8_t vec = v->vector & (ISR_VECTORS - 1);
+	if (value) {
+		finish_reti(s);
+		/* interrupt response: 4 cycles (PC push), +4 when waking up from sleep */
+		uint64_t extra = s->was_sleeping ? 8 : 4;
+		if (s->isr_depth < ISR_VECTORS)
+			s->isr_start[s->isr_depth] = avr->cycle;
+		s->isr_depth++;
+		avr->cycle += extra;
+		s->entry_added += extra;
+		s->isr[vec].entries++;
+		s->entered_vec = vec;
+		s->isr[vec].cycles += extra;
+	} else if (s->isr_depth > 0) {
+		s->isr_depth--;
+		s->reti_pending = 1;
+		s->reti_vec = vec;
+		s->reti_start = s->isr_depth < ISR_VECTORS ? s->isr_start[s->isr_depth] : avr->cycle;
+	}
+}
+
+/* ------------------------------------------------------------------------- */
+/* stepping                                                                  */
+
+static void sleep_exact(avr_t *avr, avr_cycle_count_t how_long)
+{
+	/* simavr advances a sleeping core by 1 + how_long, i.e. one cycle past the next
+	 * timer; compensate so it lands exactly on it. No host-side sleeping. */
+	(void)how_long;
+	avr->cycle -= 1;
+}
+
+static avr_cycle_count_t stop_timer(avr_t *avr, avr_cycle_count_t when, void *param)
+{
+	(void)avr;
+	(void)when;
+	(void)param;
+	return 0;
+}
+
+/* After every instruction: restore the hardware invariants simavr would break.
+ * `dor_before`/`read_before`: DOR0 and the receive FIFO's read cursor before it. */
+static void post_step(uno_shim_t *s, int dor_before, unsigned read_before)
+{
+	avr_t *avr = s->avr;
+	avr_uart_t *p = s->uart;
+	uint8_t ucsr0b = avr->data[R_UCSR0B];
+
+	/* DOR0 is read-only on the chip; simavr clears it on any UCSR0A write. Only reading
+	 * UDR0 may clear it. */
+	if (dor_before && p->input.read == read_before)
+		avr->data[R_UCSR0A] |= 1 << DOR0;
+
+	/* disarm simavr's "bytes read too fast" check: our FIFO only holds received bytes */
+	p->rx_cnt = 0;
+	if (s->tx_written) {
+		s->tx_written = 0;
+		park_uart_pump(s);
+	}
+
+	/* UDRE0 == transmit buffer empty; level-triggered interrupt */
+	int udre = avr_regbit_get(avr, p->udrc.raised);
+	if (s->tx_buf_full) {
+		if (udre)
+			clear_flag(avr, &p->udrc);
+	} else if (!udre || ((ucsr0b & UCSR0B_UDRIE) && !p->udrc.pending)) {
+		avr_raise_interrupt(avr, &p->udrc);
+	}
+
+	/* RXC0 == receive buffer not empty; level-triggered interrupt */
+	uart_fifo_t *f = &p->input;
+	int have = f->read != f->write;
+	if (have) {
+		if (!avr_regbit_get(avr, p->rxc.raised) || ((ucsr0b & UCSR0B_RXCIE) && !p->rxc.pending))
+			avr_raise_interrupt(avr, &p->rxc);
+		/* FE0 (simavr sets it on UCSR0A reads) and UPE0 follow the oldest unread frame */
+		uint16_t head = f->buffer[f->read & (uart_fifo_fifo_size - 1)];
+		uint8_t a = avr->data[R_UCSR0A] & (uint8_t)~((1 << FE0) | (1 << UPE0));
+		if (head & UART_INPUT_FE)
+			a |= 1 << FE0;
+		if (head & UNO_INPUT_PE)
+			a |= 1 << UPE0;
+		avr->data[R_UCSR0A] = a;
+	} else {
+		avr->data[R_UCSR0A] &= (uint8_t)~((1 << FE0) | (1 << UPE0));
+	}
+}
+
+static void step_once(uno_shim_t *s)
+{
+	avr_t *avr = s->avr;
+	uint8_t depth = avr->interrupts.running_ptr;
+	uint8_t vec = depth ? avr->interrupts.running[depth - 1]->vector & (ISR_VECTORS - 1) : 0;
+	uint64_t c0 = avr->cycle;
+
+	int dor_before = (avr->data[R_UCSR0A] >> DOR0) & 1;
+	unsigned read_before = s->uart->input.read;
+
+	s->was_sleeping = avr->state == cpu_Sleeping;
+	s->entry_added = 0;
+	s->entered_vec = -1;
+	avr_run(avr);
+	if (depth)
+		s->isr[vec].cycles += avr->cycle - c0 - s->entry_added;
+	finish_reti(s);
+	post_step(s, dor_before, read_before);
+}
+
+/* ------------------------------------------------------------------------- */
+/* public API                                                                */
+
+void uno_free(uno_shim_t *s);
+
+uno_shim_t *uno_new(const char *path, char *err, size_t errlen)
+{
+	pthread_once(&logger_once, install_logger);
+	last_error[0] = 0;
+	if (errlen)
+		err[0] = 0;
+
+	elf_firmware_t *f = calloc(1, sizeof(*f) + 4096);
+	uno_shim_t *s = calloc(1, sizeof(*s));
+	if (!f || !s) {
+		snprintf(err, errlen, "out of memory");
+		free(f);
+		free(s);
+		return NULL;
+	}
+	if (elf_read_firmware(path, f) != 0) {
+		snprintf(err, errlen, "simavr could not read the ELF file%s%s", last_error[0] ? ": " : "",
+			 last_error);
+		goto fail;
+	}
+	s->avr = avr_make_mcu_by_name("atmega328p");
+	if (!s->avr) {
+		snprintf(err, errlen, "simavr has no atmega328p core");
+		goto fail;
+	}
+	avr_init(s->avr);
+	if (!f->flash || f->flashsize == 0) {
+		snprintf(err, errlen, "the ELF file has no code for flash");
+		goto fail;
+	}
+	if ((uint64_t)f->flashbase + f->flashsize > (uint64_t)s->avr->flashend + 1) {
+		snprintf(err, errlen, "the code (%u bytes at 0x%x) does not fit the ATmega328P's 32 KiB flash",
+			 (unsigned)f->flashsize, (unsigned)f->flashbase);
+		goto fail;
+	}
+	if (f->eeprom && f->eesize > (uint64_t)s->avr->e2end + 1) {
+		snprintf(err, errlen, "the .eeprom section (%u bytes) does not fit the ATmega328P's EEPROM",
+			 (unsigned)f->eesize);
+		goto fail;
+	}
+	f->frequency = 16000000;
+	avr_load_firmware(s->avr, f);
+
+	avr_t *avr = s->avr;
+	avr->frequency = 16000000;
+	avr->vcc = avr->avcc = avr->aref = 5000;
+	avr->log = LOG_ERROR;
+	avr->sleep = sleep_exact;
+
+	for (avr_io_t *io = avr->io_port; io; io = io->next)
+		if (!strcmp(io->kind, "uart") && ((avr_uart_t *)io)->name == '0')
+			s->uart = (avr_uart_t *)io;
+	if (!s->uart) {
+		snprintf(err, errlen, "simavr's atmega328p core has no USART0");
+		goto fail;
+	}
+	uint32_t flags = 0;
+	avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &flags);
+	flags &= ~(uint32_t)(AVR_UART_FLAG_POLL_SLEEP | AVR_UART_FLAG_STDIO);
+	avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
+	avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT), tx_output_irq, s);
+	/* simavr enables the transmitter at reset "to allow printf"; the chip does not */
+	avr->data[R_UCSR0B] &= (uint8_t)~UCSR0B_TXEN;
+
+	for (int i = 0; i < avr->interrupts.vector_count; i++)
+		avr_irq_register_notify(&avr->interrupts.vector[i]->irq[AVR_INT_IRQ_RUNNING], isr_running_irq, s);
+
+	free(f->flash);
+	free(f->eeprom);
+	free(f);
+	return s;
+fail:
+	free(f->flash);
+	free(f->eeprom);
+	free(f);
+	uno_free(s);
+	return NULL;
+}
+
+void uno_free(uno_shim_t *s)
+{
+	if (!s)
+		return;
+	if (s->avr) {
+		avr_terminate(s->avr);
+		free(s->avr);
+	}
+	free(s->rx);
+	free(s->tx);
+	free(s);
+}
+
+uint64_t uno_cycle(const uno_shim_t *s)
+{
+	return s->avr->cycle;
+}
+
+int uno_state(const uno_shim_t *s)
+{
+	return s->avr->state;
+}
+
+static int runnable(const uno_shim_t *s)
+{
+	return s->avr->state == cpu_Running || s->avr->state == cpu_Sleeping;
+}
+
+/* Run until the clock reaches `target`, the core stops, or (if `stop_on_tx`)
+ * the firmware writes UDR0. Returns the core state. */
+int uno_run(uno_shim_t *s, uint64_t target, int stop_on_tx)
+{
+	avr_t *avr = s->avr;
+	if (avr->cycle < target)
+		avr_cycle_timer_register(avr, target - avr->cycle, stop_timer, s);
+	size_t tx0 = s->tx_len;
+	while (avr->cycle < target && runnable(s)) {
+		step_once(s);
+		if (stop_on_tx && s->tx_len != tx0)
+			break;
+	}
+	avr_cycle_timer_cancel(avr, stop_timer, s);
+	return avr->state;
+}
+
+/* One instruction (or, while sleeping, a jump to the next event but not past
+ * `limit`). Stores the PC of the instruction, the vector it ran in (-1: none), the
+ * vector entered after it (-1: none) and the interrupt response cycles added. */
+int uno_step(uno_shim_t *s, uint64_t limit, uint32_t *pc, int *vector, int *entered, uint64_t *response)
+{
+	avr_t *avr = s->avr;
+	uint8_t depth = avr->interrupts.running_ptr;
+	*pc = avr->pc;
+	*vector = depth ? avr->interrupts.running[depth - 1]->vector : -1;
+	*entered = -1;
+	*response = 0;
+	if (!runnable(s))
+		return avr->state;
+	if (avr->cycle < limit)
+		avr_cycle_timer_register(avr, limit - avr->cycle, stop_timer, s);
+	step_once(s);
+	avr_cycle_timer_cancel(avr, stop_timer, s);
+	*entered = s->entered_vec;
+	*response = s->entry_added;
+	return avr->state;
+}
+
+uint32_t uno_pc(const uno_shim_t *s)
+{
+	return s->avr->pc;
+}
+
+uint8_t uno_sreg(const uno_shim_t *s)
+{
+	uint8_t v = 0;
+	for (int i = 0; i < 8; i++)
+		if (s->avr->sreg[i])
+			v |= (uint8_t)(1 << i);
+	return v;
+}
+
+int uno_running_vector(const uno_shim_t *s)
+{
+	uint8_t depth = s->avr->interrupts.running_ptr;
+	return depth ? s->avr->interrupts.running[depth - 1]->vector : -1;
+}
+
+void uno_isr_stats(const uno_shim_t *s, uint8_t vector, uno_isr_t *out)
+{
+	*out = s->isr[vector & (ISR_VECTORS - 1)];
+}
+
+void uno_isr_reset(uno_shim_t *s)
+{
+	memset(s->isr, 0, sizeof(s->isr));
+}
+
+/* Schedule a received frame: `value` is the data byte, optionally ORed with
+ * UART_INPUT_FE (0x8000) / UNO_INPUT_PE (0x4000); RXC0 rises at cycle `at`. */
+int uno_rx_push(uno_shim_t *s, uint64_t at, uint16_t value)
+{
+	avr_t *avr = s->avr;
+	if (at < avr->cycle)
+		return UNO_ERR_PAST;
+	if (value & ~(0xFF | UNO_INPUT_FLAGS))
+		return UNO_ERR_ARG;
+	if (s->rx_len > s->rx_head && at < s->rx[s->rx_len - 1].at)
+		return UNO_ERR_ORDER;
+	if (s->rx_len == s->rx_cap) {
+		if (s->rx_head > 0) {
+			memmove(s->rx, s->rx + s->rx_head, (s->rx_len - s->rx_head) * sizeof(*s->rx));
+			s->rx_len -= s->rx_head;
+			s->rx_head = 0;
+		} else {
+			size_t cap = s->rx_cap ? s->rx_cap * 2 : 256;
+			rx_item_t *n = realloc(s->rx, cap * sizeof(*n));
+			if (!n)
+				return UNO_ERR_NOMEM;
+			s->rx = n;
+			s->rx_cap = cap;
+		}
+	}
+	int was_empty = s->rx_head == s->rx_len;
+	s->rx[s->rx_len++] = (rx_item_t){ .at = at, .value = value };
+	if (was_empty)
+		avr_cycle_timer_register(avr, at - avr->cycle, rx_timer, s);
+	return UNO_OK;
+}
+
+size_t uno_rx_pending(const uno_shim_t *s)
+{
+	return s->rx_len - s->rx_head;
+}
+
+void uno_rx_clear(uno_shim_t *s)
+{
+	s->rx_head = s->rx_len = 0;
+	avr_cycle_timer_cancel(s->avr, rx_timer, s);
+}
+
+void uno_uart_counters(const uno_shim_t *s, uint64_t *rx_dropped, uint64_t *rx_overruns, uint64_t *tx_ignored)
+{
+	*rx_dropped = s->rx_dropped;
+	*rx_overruns = s->rx_overruns;
+	*tx_ignored = s->tx_ignored;
+}
+
+size_t uno_tx_len(const uno_shim_t *s)
+{
+	return s->tx_len;
+}
+
+/* Move up to `max` logged TX frames (oldest first) to `out`. */
+size_t uno_tx_take(uno_shim_t *s, uno_tx_t *out, size_t max)
+{
+	size_t n = s->tx_len < max ? s->tx_len : max;
+	memcpy(out, s->tx, n * sizeof(*out));
+	memmove(s->tx, s->tx + n, (s->tx_len - n) * sizeof(*out));
+	s->tx_len -= n;
+	return n;
+}
+
+/* Cycle at which the transmitter becomes idle (0 if it already is). */
+uint64_t uno_tx_busy_until(const uno_shim_t *s)
+{
+	if (!s->tx_active)
+		return 0;
+	return s->tx_buf_full ? s->tx_buf_end : s->tx_shift_end;
+}
+
+uint32_t uno_uart_flags(const uno_shim_t *s)
+{
+	uint32_t flags = 0;
+	avr_ioctl(s->avr, AVR_IOCTL_UART_GET_FLAGS('0'), &flags);
+	return flags;
+}
+
+uint8_t *uno_data(uno_shim_t *s, size_t *len)
+{
+	*len = (size_t)s->avr->ramend + 1;
+	return s->avr->data;
+}
+
+/* Drive input `bit` of port 'B'/'C'/'D' to `level` (0/1), or release it (-1). */
+int uno_pin_drive(uno_shim_t *s, char port, int bit, int level)
+{
+	if (port < 'B' || port > 'D' || bit < 0 || bit > 7 || level < -1 || level > 1)
+		return UNO_ERR_ARG;
+	avr_t *avr = s->avr;
+	int i = port - 'B';
+	uint8_t m = (uint8_t)(1 << bit);
+	avr_irq_t *irq = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(port), bit);
+	if (!irq)
+		return UNO_ERR_ARG;
+	if (level < 0) {
+		s->ext_mask[i] &= (uint8_t)~m;
+	} else {
+		s->ext_mask[i] |= m;
+		s->ext_value[i] = (uint8_t)((s->ext_value[i] & ~m) | (level ? m : 0));
+	}
+	avr_ioport_external_t e = { .name = (unsigned long)port, .mask = s->ext_mask[i], .value = s->ext_value[i] };
+	avr_ioctl(avr, AVR_IOCTL_IOPORT_SET_EXTERNAL(port), &e);
+	if (level >= 0) {
+		avr_raise_irq(irq, (uint32_t)level);
+	} else {
+		/* released: an input with its pull-up on reads high, a floating one low */
+		uint16_t r_port = (uint16_t)(0x25 + 3 * i), r_ddr = (uint16_t)(0x24 + 3 * i);
+		if (!(avr->data[r_ddr] & m))
+			avr_raise_irq(irq, (avr->data[r_port] & m) ? 1 : 0);
+	}
+	return UNO_OK;
+}
+
+int uno_adc_set(uno_shim_t *s, int channel, uint32_t millivolts)
+{
+	if (channel < 0 || channel > 7)
+		return UNO_ERR_ARG;
+	avr_irq_t *irq = avr_io_getirq(s->avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + channel);
+	if (!irq)
+		return UNO_ERR_ARG;
+	avr_raise_irq(irq, millivolts);
+	return UNO_OK;
+}
+
+void uno_set_aref(uno_shim_t *s, uint32_t millivolts)
+{
+	s->avr->aref = millivolts;
+}

@@ -1,0 +1,69 @@
+//! Declarations of the C shim in `csrc/shim.c`.
+
+use std::ffi::{c_char, c_int};
+
+/// The shim's simulator instance (opaque).
+#[repr(C)]
+pub(crate) struct Shim {
+    _opaque: [u8; 0],
+}
+
+/// One transmitted frame, as logged by the shim (`uno_tx_t`).
+#[repr(C)]
+#[derive(Clone, Copy, Default)]
+pub(crate) struct TxRaw {
+    pub start: u64,
+    pub end: u64,
+    pub byte: u8,
+}
+
+/// Per-vector interrupt statistics (`uno_isr_t`).
+#[repr(C)]
+#[derive(Clone, Copy, Default)]
+pub(crate) struct IsrRaw {
+    pub entries: u64,
+    pub cycles: u64,
+    pub max_cycles: u64,
+}
+
+/// simavr's `UART_INPUT_FE`: the frame had a framing error.
+pub(crate) const INPUT_FE: u16 = 0x8000;
+/// The shim's marker for a parity error.
+pub(crate) const INPUT_PE: u16 = 0x4000;
+
+pub(crate) const ERR_PAST: c_int = -1;
+pub(crate) const ERR_ORDER: c_int = -2;
+pub(crate) const ERR_NOMEM: c_int = -3;
+
+extern "C" {
+    pub(crate) fn uno_new(path: *const c_char, err: *mut c_char, errlen: usize) -> *mut Shim;
+    pub(crate) fn uno_free(s: *mut Shim);
+    pub(crate) fn uno_cycle(s: *const Shim) -> u64;
+    pub(crate) fn uno_state(s: *const Shim) -> c_int;
+    pub(crate) fn uno_run(s: *mut Shim, target: u64, stop_on_tx: c_int) -> c_int;
+    pub(crate) fn uno_step(
+        s: *mut Shim,
+        limit: u64,
+        pc: *mut u32,
+        vector: *mut c_int,
+        entered: *mut c_int,
+        response: *mut u64,
+    ) -> c_int;
+    pub(crate) fn uno_pc(s: *const Shim) -> u32;
+    pub(crate) fn uno_sreg(s: *const Shim) -> u8;
+    pub(crate) fn uno_running_vector(s: *const Shim) -> c_int;
+    pub(crate) fn uno_isr_stats(s: *const Shim, vector: u8, out: *mut IsrRaw);
+    pub(crate) fn uno_isr_reset(s: *mut Shim);
+    pub(crate) fn uno_rx_push(s: *mut Shim, at: u64, value: u16) -> c_int;
+    pub(crate) fn uno_rx_pending(s: *const Shim) -> usize;
+    pub(crate) fn uno_rx_clear(s: *mut Shim);
+    pub(crate) fn uno_uart_counters(s: *const Shim, rx_dropped: *mut u64, rx_overruns: *mut u64, tx_ignored: *mut u64);
+    pub(crate) fn uno_tx_len(s: *const Shim) -> usize;
+    pub(crate) fn uno_tx_take(s: *mut Shim, out: *mut TxRaw, max: usize) -> usize;
+    pub(crate) fn uno_tx_busy_until(s: *const Shim) -> u64;
+    pub(crate) fn uno_uart_flags(s: *const Shim) -> u32;
+    pub(crate) fn uno_data(s: *mut Shim, len: *mut usize) -> *mut u8;
+    pub(crate) fn uno_pin_drive(s: *mut Shim, port: c_char, bit: c_int, level: c_int) -> c_int;
+    pub(crate) fn uno_adc_set(s: *mut Shim, channel: c_int, millivolts: u32) -> c_int;
+    pub(crate) fn uno_set_aref(s: *mut Shim, millivolts: u32);
+}
