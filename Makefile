@@ -28,17 +28,23 @@ sizes: firmware
 fmt-check: setup
 	$(CARGO) fmt --all --check
 
+# The optional function codes, checked and tested as a second build.
+OPTIONAL := diagnostics,extra-fc
+
 clippy: setup
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
+	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL) -- -D warnings
 	$(CARGO) uno-clippy --examples --features rt -- -D warnings
+	$(CARGO) uno-clippy --examples --features rt,$(OPTIONAL) -- -D warnings
 
 docs: setup
-	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus-slave
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus-slave --features $(OPTIONAL)
 
 lint: fmt-check clippy docs
 
 host-test: setup firmware
 	$(CARGO) test --workspace
+	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL) --lib --test optional_functions --test exceptions --test adu --test framer
 
 test: lint firmware host-test
 

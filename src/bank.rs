@@ -65,6 +65,10 @@ pub struct Bank<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> {
     bits: [u8; BIT_BYTES],
     bit_count: usize,
     master_writes: u16,
+    #[cfg(feature = "diagnostics")]
+    exception_status: u8,
+    #[cfg(feature = "diagnostics")]
+    device_info: &'static [u8],
 }
 
 impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> Default for Bank<RUNS, REGS, BIT_BYTES> {
@@ -84,6 +88,10 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> Bank<RUNS, RE
             bits: [0; BIT_BYTES],
             bit_count: 0,
             master_writes: 0,
+            #[cfg(feature = "diagnostics")]
+            exception_status: 0,
+            #[cfg(feature = "diagnostics")]
+            device_info: &[],
         }
     }
 
@@ -258,6 +266,18 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> Bank<RUNS, RE
         self.master_writes
     }
 
+    /// Sets the eight status bits FC 07 (Read Exception Status) reports.
+    #[cfg(feature = "diagnostics")]
+    pub fn set_exception_status(&mut self, bits: u8) {
+        self.exception_status = bits;
+    }
+
+    /// Sets the device description FC 11 (Report Server ID) reports.
+    #[cfg(feature = "diagnostics")]
+    pub fn set_device_info(&mut self, info: &'static [u8]) {
+        self.device_info = info;
+    }
+
     /// Contiguous runs in use (at most `RUNS`).
     pub fn runs(&self) -> usize {
         self.run_count
@@ -265,6 +285,20 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> Bank<RUNS, RE
 }
 
 impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> DataModel for Bank<RUNS, REGS, BIT_BYTES> {
+    fn has_range(&self, table: Table, start: u16, qty: u16) -> bool {
+        self.locate(table, start, qty).is_some()
+    }
+
+    #[cfg(feature = "diagnostics")]
+    fn exception_status(&self) -> u8 {
+        self.exception_status
+    }
+
+    #[cfg(feature = "diagnostics")]
+    fn device_info(&self) -> &[u8] {
+        self.device_info
+    }
+
     fn read_bits(&self, table: Table, start: u16, qty: u16, out: &mut [u8]) -> Result<(), Exception> {
         let first = self.locate(table, start, qty).ok_or(Exception::IllegalDataAddress)?;
         out.fill(0);

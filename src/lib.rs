@@ -7,6 +7,8 @@ pub mod avr;
 pub mod bank;
 pub mod config;
 pub mod crc;
+#[cfg(feature = "diagnostics")]
+pub mod diagnostics;
 pub mod framer;
 pub mod model;
 pub mod pdu;

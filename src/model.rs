@@ -20,6 +20,10 @@ pub trait DataModel {
     /// into `out`, big-endian.
     fn read_registers(&self, table: Table, start: u16, out: &mut [u8]) -> Result<(), Exception>;
 
+    /// True when all `qty` (≥ 1) addresses of `table` from `start` exist: FC 17 checks its
+    /// read range with this before it writes anything.
+    fn has_range(&self, table: Table, start: u16, qty: u16) -> bool;
+
     /// Writes `qty` (≥ 1) coils from `start`, packed LSB first in `packed`; all of them or
     /// none.
     fn write_coils(&mut self, start: u16, qty: u16, packed: &[u8]) -> Result<(), Exception>;
@@ -27,4 +31,15 @@ pub trait DataModel {
     /// Writes `values.len() / 2` (≥ 1) holding registers from `start`, big-endian; all of
     /// them or none.
     fn write_registers(&mut self, start: u16, values: &[u8]) -> Result<(), Exception>;
+
+    /// The eight application-defined status bits of FC 07 (Read Exception Status).
+    fn exception_status(&self) -> u8 {
+        0
+    }
+
+    /// The device description FC 11 (Report Server ID) sends after the slave id and the
+    /// run indicator (at most 249 bytes are sent).
+    fn device_info(&self) -> &[u8] {
+        &[]
+    }
 }

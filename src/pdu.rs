@@ -29,6 +29,10 @@ pub enum FunctionCode {
     WriteMultipleCoils,
     /// 0x10 Write Multiple Registers, §6.12.
     WriteMultipleRegisters,
+    /// 0x16 Mask Write Register, §6.16 (feature `extra-fc`).
+    MaskWriteRegister,
+    /// 0x17 Read/Write Multiple Registers, §6.17 (feature `extra-fc`).
+    ReadWriteMultipleRegisters,
     /// Any other code: answered with exception 01.
     Unknown(u8),
 }
@@ -45,6 +49,8 @@ impl FunctionCode {
             0x06 => FunctionCode::WriteSingleRegister,
             0x0F => FunctionCode::WriteMultipleCoils,
             0x10 => FunctionCode::WriteMultipleRegisters,
+            0x16 => FunctionCode::MaskWriteRegister,
+            0x17 => FunctionCode::ReadWriteMultipleRegisters,
             other => FunctionCode::Unknown(other),
         }
     }
@@ -60,6 +66,8 @@ impl FunctionCode {
             FunctionCode::WriteSingleRegister => 0x06,
             FunctionCode::WriteMultipleCoils => 0x0F,
             FunctionCode::WriteMultipleRegisters => 0x10,
+            FunctionCode::MaskWriteRegister => 0x16,
+            FunctionCode::ReadWriteMultipleRegisters => 0x17,
             FunctionCode::Unknown(other) => other,
         }
     }
@@ -87,6 +95,8 @@ pub const MAX_READ_REGISTERS: u16 = 0x007D;
 pub const MAX_WRITE_COILS: u16 = 0x07B0;
 /// Largest quantity of registers in one write (FC 10): 123.
 pub const MAX_WRITE_REGISTERS: u16 = 0x007B;
+/// Largest quantity of registers written by FC 17 (Read/Write Multiple): 121.
+pub const MAX_READ_WRITE_REGISTERS: u16 = 0x0079;
 
 /// FC 05's value for ON.
 const COIL_ON: u16 = 0xFF00;
@@ -154,6 +164,28 @@ pub enum Request<'a> {
         /// The values, big-endian, 2–246 bytes.
         values: &'a [u8],
     },
+    /// FC 16: the register becomes `(current & and_mask) | (or_mask & !and_mask)`.
+    #[cfg(feature = "extra-fc")]
+    MaskWriteRegister {
+        /// Address.
+        address: u16,
+        /// AND mask.
+        and_mask: u16,
+        /// OR mask.
+        or_mask: u16,
+    },
+    /// FC 17: the write happens first, then the read.
+    #[cfg(feature = "extra-fc")]
+    ReadWriteMultipleRegisters {
+        /// First address read.
+        read_start: u16,
+        /// Number of registers read, 1–125.
+        read_qty: u16,
+        /// First address written.
+        write_start: u16,
+        /// The values written, big-endian, 2–242 bytes.
+        values: &'a [u8],
+    },
 }
 
 fn word(pdu: &[u8], at: usize) -> u16 {
@@ -179,6 +211,17 @@ impl<'a> Request<'a> {
         let (a, b) = (word(pdu, 1), word(pdu, 3));
         match code {
             FunctionCode::Unknown(_) => Err(Exception::IllegalFunction),
+            #[cfg(not(feature = "extra-fc"))]
+            FunctionCode::MaskWriteRegister | FunctionCode::ReadWriteMultipleRegisters => {
+                Err(Exception::IllegalFunction)
+            }
+            #[cfg(feature = "extra-fc")]
+            FunctionCode::MaskWriteRegister => match pdu.len() {
+                7 => Ok(Request::MaskWriteRegister { address: a, and_mask: b, or_mask: word(pdu, 5) }),
+                _ => Err(Exception::IllegalDataValue),
+            },
+            #[cfg(feature = "extra-fc")]
+            FunctionCode::ReadWriteMultipleRegisters => Self::parse_read_write(pdu, a, b),
             FunctionCode::WriteMultipleCoils => Self::parse_write_multiple(pdu, a, b, MAX_WRITE_COILS, b.div_ceil(8))
                 .map(|packed| Request::WriteMultipleCoils { start: a, qty: b, packed }),
             FunctionCode::WriteMultipleRegisters => {
@@ -228,6 +271,32 @@ impl<'a> Request<'a> {
         Ok(pdu.get(6..).unwrap_or(&[]))
     }
 
+    /// FC 17: read quantity 1–125, write quantity 1–121, byte count twice the write
+    /// quantity and equal to the data that follows (03); both ranges inside 0–65535 (02).
+    #[cfg(feature = "extra-fc")]
+    fn parse_read_write(pdu: &'a [u8], read_start: u16, read_qty: u16) -> Result<Self, Exception> {
+        let (write_start, write_qty) = (word(pdu, 5), word(pdu, 7));
+        let bytes = write_qty.saturating_mul(2);
+        let byte_count = pdu.get(9).copied().map(u16::from);
+        if read_qty == 0
+            || read_qty > MAX_READ_REGISTERS
+            || write_qty == 0
+            || write_qty > MAX_READ_WRITE_REGISTERS
+            || byte_count != Some(bytes)
+            || pdu.len() != 10 + usize::from(bytes)
+        {
+            return Err(Exception::IllegalDataValue);
+        }
+        check_range(read_start, read_qty)?;
+        check_range(write_start, write_qty)?;
+        Ok(Request::ReadWriteMultipleRegisters {
+            read_start,
+            read_qty,
+            write_start,
+            values: pdu.get(10..).unwrap_or(&[]),
+        })
+    }
+
     /// The function code of this request.
     pub fn function_code(&self) -> FunctionCode {
         match self {
@@ -239,17 +308,21 @@ impl<'a> Request<'a> {
             Request::WriteSingleRegister { .. } => FunctionCode::WriteSingleRegister,
             Request::WriteMultipleCoils { .. } => FunctionCode::WriteMultipleCoils,
             Request::WriteMultipleRegisters { .. } => FunctionCode::WriteMultipleRegisters,
+            #[cfg(feature = "extra-fc")]
+            Request::MaskWriteRegister { .. } => FunctionCode::MaskWriteRegister,
+            #[cfg(feature = "extra-fc")]
+            Request::ReadWriteMultipleRegisters { .. } => FunctionCode::ReadWriteMultipleRegisters,
         }
     }
 
     /// True for the function codes that change data (the ones a broadcast executes).
     pub fn is_write(&self) -> bool {
-        matches!(
+        !matches!(
             self,
-            Request::WriteSingleCoil { .. }
-                | Request::WriteSingleRegister { .. }
-                | Request::WriteMultipleCoils { .. }
-                | Request::WriteMultipleRegisters { .. }
+            Request::ReadCoils { .. }
+                | Request::ReadDiscreteInputs { .. }
+                | Request::ReadHoldingRegisters { .. }
+                | Request::ReadInputRegisters { .. }
         )
     }
 
@@ -260,6 +333,21 @@ impl<'a> Request<'a> {
             Request::WriteSingleRegister { address, value } => model.write_registers(address, &value.to_be_bytes()),
             Request::WriteMultipleCoils { start, qty, packed } => model.write_coils(start, qty, packed),
             Request::WriteMultipleRegisters { start, values } => model.write_registers(start, values),
+            #[cfg(feature = "extra-fc")]
+            Request::MaskWriteRegister { address, and_mask, or_mask } => {
+                let mut current = [0; 2];
+                model.read_registers(Table::HoldingRegisters, address, &mut current)?;
+                let value = (u16::from_be_bytes(current) & and_mask) | (or_mask & !and_mask);
+                model.write_registers(address, &value.to_be_bytes())
+            }
+            #[cfg(feature = "extra-fc")]
+            Request::ReadWriteMultipleRegisters { read_start, read_qty, write_start, values } => {
+                // All or nothing: the read range must exist before anything is written.
+                if !model.has_range(Table::HoldingRegisters, read_start, read_qty) {
+                    return Err(Exception::IllegalDataAddress);
+                }
+                model.write_registers(write_start, values)
+            }
             _ => Ok(()),
         }
     }
@@ -276,8 +364,16 @@ pub fn respond<M: DataModel + ?Sized>(pdu: &mut [u8], len: usize, model: &mut M)
         Request::ReadDiscreteInputs { start, qty } => (Table::DiscreteInputs, start, qty),
         Request::ReadHoldingRegisters { start, qty } => (Table::HoldingRegisters, start, qty),
         Request::ReadInputRegisters { start, qty } => (Table::InputRegisters, start, qty),
-        // Every write's response is the first five bytes of its request: an echo for
-        // FC 05 / 06, function code, start and quantity for FC 0F / 10.
+        #[cfg(feature = "extra-fc")]
+        Request::ReadWriteMultipleRegisters { read_start, read_qty, .. } => {
+            request.write(model)?;
+            (Table::HoldingRegisters, read_start, read_qty)
+        }
+        // FC 16's response is its request (7 bytes).
+        #[cfg(feature = "extra-fc")]
+        Request::MaskWriteRegister { .. } => return request.write(model).map(|()| 7),
+        // Every other write's response is the first five bytes of its request: an echo
+        // for FC 05 / 06, function code, start and quantity for FC 0F / 10.
         write => return write.write(model).map(|()| 5),
     };
     let bytes = if table.is_bits() { usize::from(qty.div_ceil(8)) } else { 2 * usize::from(qty) };

@@ -11,6 +11,17 @@ use crate::framer::{FrameError, Framer, UartError};
 use crate::model::DataModel;
 use crate::pdu::{encode_exception, respond, Request};
 
+#[cfg(not(feature = "diagnostics"))]
+#[derive(Clone, Copy)]
+enum Diagnosed {
+    NotDiagnostic,
+}
+#[cfg(feature = "diagnostics")]
+use crate::diagnostics::Diagnosed;
+
+/// FC 0B's requests are not counted as events.
+const GET_COMM_EVENT_COUNTER: u8 = 0x0B;
+
 /// What the slave counted since start-up (each wraps at 65535).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Counters {
@@ -32,6 +43,12 @@ pub struct Counters {
     pub replies: u16,
     /// Broadcast frames received.
     pub broadcasts: u16,
+    /// Good frames for this slave or broadcast that got no reply (broadcasts, and every
+    /// frame while in listen-only mode).
+    pub no_response: u16,
+    /// Requests completed without an exception (the comm event counter of FC 0B, which
+    /// does not count its own requests).
+    pub events: u16,
 }
 
 fn bump(counter: &mut u16) {
@@ -52,6 +69,9 @@ pub enum EndOfFrame {
     Reply,
     /// A good broadcast: call [`Slave::process`] to execute it; nothing is sent.
     Broadcast,
+    /// A good frame for this slave while it is in listen-only mode (FC 08 sub-function
+    /// 04): call [`Slave::process`], which only acts on a restart; nothing is sent.
+    ListenOnly,
 }
 
 /// A Modbus RTU slave's protocol state: the frame buffer, the address, the counters.
@@ -62,6 +82,7 @@ pub struct Slave {
     counters: Counters,
     pending: Pending,
     reply_len: usize,
+    listen_only: bool,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -69,12 +90,20 @@ enum Pending {
     None,
     Unicast(usize),
     Broadcast(usize),
+    ListenOnly(usize),
 }
 
 impl Slave {
     /// A slave with address `id`, just after power-up (waiting for T3.5 of silence).
     pub const fn new(id: SlaveId) -> Self {
-        Slave { framer: Framer::new(), id, counters: Counters::new(), pending: Pending::None, reply_len: 0 }
+        Slave {
+            framer: Framer::new(),
+            id,
+            counters: Counters::new(),
+            pending: Pending::None,
+            reply_len: 0,
+            listen_only: false,
+        }
     }
 
     /// This slave's address.
@@ -120,13 +149,19 @@ impl Slave {
         };
         bump(&mut self.counters.frames);
         let address = self.framer.buffer()[0];
-        if address == self.id.get() {
+        if address == self.id.get() && self.listen_only {
+            bump(&mut self.counters.messages);
+            bump(&mut self.counters.no_response);
+            self.pending = Pending::ListenOnly(len);
+            EndOfFrame::ListenOnly
+        } else if address == self.id.get() {
             bump(&mut self.counters.messages);
             self.pending = Pending::Unicast(len);
             EndOfFrame::Reply
         } else if address == SlaveId::BROADCAST {
             bump(&mut self.counters.messages);
             bump(&mut self.counters.broadcasts);
+            bump(&mut self.counters.no_response);
             self.pending = Pending::Broadcast(len);
             EndOfFrame::Broadcast
         } else {
@@ -140,37 +175,62 @@ impl Slave {
     /// buffer is released at once.
     pub fn process<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
         let pending = core::mem::replace(&mut self.pending, Pending::None);
-        let (len, broadcast) = match pending {
+        let len = match pending {
             Pending::None => return 0,
-            Pending::Unicast(len) => (len, false),
-            Pending::Broadcast(len) => (len, true),
+            Pending::Broadcast(len) => {
+                self.execute_silently(len, model);
+                return 0;
+            }
+            Pending::ListenOnly(_len) => {
+                #[cfg(feature = "diagnostics")]
+                self.listen(_len);
+                self.framer.release();
+                return 0;
+            }
+            Pending::Unicast(len) => len,
         };
-        let buf = self.framer.buffer_mut();
         // The PDU sits between the address and the CRC.
         let pdu_len = len.saturating_sub(3);
-        let (_, pdu) = buf.split_at_mut(1);
-        if broadcast {
-            let executed = Request::parse(pdu.get(..pdu_len).unwrap_or(&[])).and_then(|r| {
-                if r.is_write() {
-                    r.write(model)
-                } else {
-                    Ok(())
-                }
-            });
-            if executed.is_err() {
-                bump(&mut self.counters.exceptions);
+        let (_, pdu) = self.framer.buffer_mut().split_at_mut(1);
+        let code = pdu.first().copied().unwrap_or(0);
+        #[cfg(feature = "diagnostics")]
+        let mut restart = false;
+        #[cfg(feature = "diagnostics")]
+        let diagnosed = crate::diagnostics::respond(pdu, pdu_len, model, &self.counters, self.id.get());
+        #[cfg(not(feature = "diagnostics"))]
+        let diagnosed: Result<Diagnosed, crate::pdu::Exception> = Ok(Diagnosed::NotDiagnostic);
+        let result = match diagnosed {
+            Ok(Diagnosed::NotDiagnostic) => respond(pdu, pdu_len, model),
+            #[cfg(feature = "diagnostics")]
+            Ok(Diagnosed::Reply(n)) => Ok(n),
+            #[cfg(feature = "diagnostics")]
+            Ok(Diagnosed::Restart(n)) => {
+                restart = true;
+                Ok(n)
             }
-            self.framer.release();
-            return 0;
-        }
-        let reply_pdu = match respond(pdu, pdu_len, model) {
-            Ok(n) => n,
+            #[cfg(feature = "diagnostics")]
+            Ok(Diagnosed::ListenOnly) => {
+                self.listen_only = true;
+                bump(&mut self.counters.no_response);
+                self.framer.release();
+                return 0;
+            }
+            Err(e) => Err(e),
+        };
+        let reply_pdu = match result {
+            Ok(n) => {
+                if code != GET_COMM_EVENT_COUNTER {
+                    bump(&mut self.counters.events);
+                }
+                n
+            }
             Err(exception) => {
                 bump(&mut self.counters.exceptions);
                 encode_exception(pdu, exception)
             }
         };
         // The longest reply PDU is 252 bytes, so address, PDU and CRC always fit.
+        let buf = self.framer.buffer_mut();
         let body = 1 + reply_pdu;
         let crc = Crc16::new().update_slice(buf.get(..body).unwrap_or(&[])).to_wire();
         if let Some(slot) = buf.get_mut(body..body + 2) {
@@ -178,7 +238,40 @@ impl Slave {
         }
         self.reply_len = body + 2;
         bump(&mut self.counters.replies);
+        #[cfg(feature = "diagnostics")]
+        if restart {
+            self.counters = Counters::new();
+            self.listen_only = false;
+        }
         self.reply_len
+    }
+
+    /// A broadcast: writes are executed, nothing is answered.
+    fn execute_silently<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M) {
+        let pdu = self.framer.buffer().get(1..1 + len.saturating_sub(3)).unwrap_or(&[]);
+        match Request::parse(pdu).and_then(|r| if r.is_write() { r.write(model) } else { Ok(()) }) {
+            Ok(()) => bump(&mut self.counters.events),
+            Err(_) => bump(&mut self.counters.exceptions),
+        }
+        self.framer.release();
+    }
+
+    /// In listen-only mode only FC 08 sub-function 01 (restart communications) is acted
+    /// on, and even that is not answered.
+    #[cfg(feature = "diagnostics")]
+    fn listen(&mut self, len: usize) {
+        let pdu = self.framer.buffer().get(1..1 + len.saturating_sub(3)).unwrap_or(&[]);
+        if let [crate::diagnostics::DIAGNOSTICS, 0x00, 0x01, data_hi, 0x00] = *pdu {
+            if data_hi == 0x00 || data_hi == 0xFF {
+                self.counters = Counters::new();
+                self.listen_only = false;
+            }
+        }
+    }
+
+    /// True while FC 08 sub-function 04 keeps the slave silent.
+    pub fn is_listen_only(&self) -> bool {
+        self.listen_only
     }
 
     /// The reply built by [`Slave::process`], valid until [`Slave::on_reply_sent`].
@@ -205,7 +298,7 @@ impl Slave {
             self.on_byte(byte);
         }
         let end = self.on_end_deadline();
-        if matches!(end, EndOfFrame::Reply | EndOfFrame::Broadcast) {
+        if matches!(end, EndOfFrame::Reply | EndOfFrame::Broadcast | EndOfFrame::ListenOnly) {
             self.process(model);
         }
         end
@@ -225,6 +318,8 @@ impl Counters {
             exceptions: 0,
             replies: 0,
             broadcasts: 0,
+            no_response: 0,
+            events: 0,
         }
     }
 }

@@ -346,7 +346,7 @@ fn each_outcome_is_counted_in_its_own_counter() {
     slave.handle_frame(&[0u8; 400], &mut bank); // too long
     slave.handle_frame(&with_crc(&[0x22, 0x03, 0x00, 0x00, 0x00, 0x01]), &mut bank); // other slave
     slave.handle_frame(&with_crc(&[0x00, 0x06, 0x00, 0x00, 0x00, 0x01]), &mut bank); // broadcast
-    slave.handle_frame(&to_slave(&[0x07]), &mut bank); // exception reply
+    slave.handle_frame(&to_slave(&[0x41]), &mut bank); // exception reply
     let c = slave.counters();
     assert_eq!(c.frames, 7);
     assert_eq!(c.replies, 2);

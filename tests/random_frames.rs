@@ -4,6 +4,9 @@
 //!
 //! The model is a `BTreeMap` of what the bank holds and a straightforward reading of
 //! Application Protocol §6–7 and Serial Line §2.4–2.5; it shares no code with the crate.
+//! It knows the eight core function codes, so it runs on builds without the optional
+//! ones (features `diagnostics`, `extra-fc`; those have their own tests).
+#![cfg(not(any(feature = "diagnostics", feature = "extra-fc")))]
 
 mod common;
 

@@ -134,7 +134,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
                 self.tx_next = 1;
                 self.usart.start_feeding();
             }
-            EndOfFrame::Broadcast => {
+            EndOfFrame::Broadcast | EndOfFrame::ListenOnly => {
                 self.slave.process(&mut self.model);
             }
             EndOfFrame::Nothing | EndOfFrame::Dropped(_) | EndOfFrame::OtherSlave => {}

@@ -161,6 +161,10 @@ pub fn snapshot<const R: usize, const G: usize, const B: usize>(
 pub struct Failing<M>(pub M);
 
 impl<M: DataModel + Clone> DataModel for Failing<M> {
+    fn has_range(&self, table: Table, start: u16, qty: u16) -> bool {
+        self.0.has_range(table, start, qty)
+    }
+
     fn read_bits(&self, table: Table, start: u16, qty: u16, out: &mut [u8]) -> Result<(), Exception> {
         self.0.read_bits(table, start, qty, out)?;
         Err(Exception::ServerDeviceFailure)

@@ -1,0 +1,138 @@
+//! Serial-line diagnostics, Modbus Application Protocol v1.1b3 §6.7 (FC 07 Read Exception
+//! Status), §6.8 (FC 08 Diagnostics), §6.9 (FC 0B Get Comm Event Counter) and §6.13
+//! (FC 11 Report Server ID), with the counters of Modbus over Serial Line v1.02 §6.1.3.
+//!
+//! FC 08 sub-functions, each answering exception 01 when not listed and 03 when its data
+//! field is not the one the spec prescribes:
+//!
+//! | sub | name | data | answer |
+//! |-----|------|------|--------|
+//! | 00 | Return Query Data | any | echo |
+//! | 01 | Restart Communications Option | 0000 or FF00 | echo, then counters cleared and listen-only mode left; no answer while listen-only |
+//! | 04 | Force Listen Only Mode | 0000 | none: the slave stays silent until sub-function 01 |
+//! | 0A | Clear Counters and Diagnostic Register | 0000 | echo, counters cleared |
+//! | 0B | Return Bus Message Count | 0000 | [`Counters::frames`] |
+//! | 0C | Return Bus Communication Error Count | 0000 | [`Counters::crc_errors`] |
+//! | 0D | Return Slave Exception Error Count | 0000 | [`Counters::exceptions`] |
+//! | 0E | Return Slave Message Count | 0000 | [`Counters::messages`] |
+//! | 0F | Return Slave No Response Count | 0000 | [`Counters::no_response`] |
+//! | 10 | Return Slave NAK Count | 0000 | 0 (this slave never answers 07) |
+//! | 11 | Return Slave Busy Count | 0000 | 0 (this slave never answers 06) |
+//! | 12 | Return Bus Character Overrun Count | 0000 | [`Counters::overruns`] |
+
+use crate::model::DataModel;
+use crate::pdu::Exception;
+use crate::slave::Counters;
+
+/// FC 07.
+pub const READ_EXCEPTION_STATUS: u8 = 0x07;
+/// FC 08.
+pub const DIAGNOSTICS: u8 = 0x08;
+/// FC 0B.
+pub const GET_COMM_EVENT_COUNTER: u8 = 0x0B;
+/// FC 11.
+pub const REPORT_SERVER_ID: u8 = 0x11;
+
+/// FC 08 sub-function 01: restart communications.
+pub const RESTART_COMMUNICATIONS: u16 = 0x0001;
+/// FC 08 sub-function 04: force listen-only mode.
+pub const FORCE_LISTEN_ONLY: u16 = 0x0004;
+
+/// What a diagnostic request asks of the slave beyond its reply.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Diagnosed {
+    /// Not a diagnostic function code: the PDU engine handles it.
+    NotDiagnostic,
+    /// Send this many bytes of reply PDU.
+    Reply(usize),
+    /// Enter listen-only mode, send nothing.
+    ListenOnly,
+    /// Send the reply, then clear the counters and leave listen-only mode.
+    Restart(usize),
+}
+
+fn word(pdu: &[u8], at: usize) -> u16 {
+    match pdu.get(at..at + 2) {
+        Some(&[hi, lo]) => u16::from_be_bytes([hi, lo]),
+        _ => 0,
+    }
+}
+
+fn put(pdu: &mut [u8], at: usize, value: u16) {
+    if let Some(slot) = pdu.get_mut(at..at + 2) {
+        slot.copy_from_slice(&value.to_be_bytes());
+    }
+}
+
+/// Handles FC 07, 08, 0B and 11 in place (the reply PDU over the request).
+pub(crate) fn respond<M: DataModel + ?Sized>(
+    pdu: &mut [u8],
+    len: usize,
+    model: &M,
+    counters: &Counters,
+    slave_id: u8,
+) -> Result<Diagnosed, Exception> {
+    let code = pdu.first().copied().unwrap_or(0);
+    match code {
+        READ_EXCEPTION_STATUS | GET_COMM_EVENT_COUNTER | REPORT_SERVER_ID if len != 1 => {
+            Err(Exception::IllegalDataValue)
+        }
+        READ_EXCEPTION_STATUS => {
+            put(pdu, 0, u16::from_be_bytes([code, model.exception_status()]));
+            Ok(Diagnosed::Reply(2))
+        }
+        GET_COMM_EVENT_COUNTER => {
+            // Status word 0000: no previous command still being processed.
+            put(pdu, 1, 0);
+            put(pdu, 3, counters.events);
+            Ok(Diagnosed::Reply(5))
+        }
+        REPORT_SERVER_ID => {
+            let info = model.device_info();
+            let info = info.get(..info.len().min(249)).unwrap_or(&[]);
+            put(pdu, 1, u16::from_be_bytes([2 + info.len() as u8, slave_id]));
+            // Run indicator: ON.
+            put(pdu, 3, u16::from_be_bytes([0xFF, 0]));
+            if let Some(slot) = pdu.get_mut(4..4 + info.len()) {
+                slot.copy_from_slice(info);
+            }
+            Ok(Diagnosed::Reply(4 + info.len()))
+        }
+        DIAGNOSTICS => diagnostics(pdu, len, counters),
+        _ => Ok(Diagnosed::NotDiagnostic),
+    }
+}
+
+fn diagnostics(pdu: &mut [u8], len: usize, counters: &Counters) -> Result<Diagnosed, Exception> {
+    let sub = word(pdu, 1);
+    let data = word(pdu, 3);
+    // Return Query Data echoes any number of data words; the others carry exactly one.
+    if sub == 0x0000 {
+        return if len >= 3 && len % 2 == 1 { Ok(Diagnosed::Reply(len)) } else { Err(Exception::IllegalDataValue) };
+    }
+    let counter = match sub {
+        RESTART_COMMUNICATIONS | FORCE_LISTEN_ONLY | 0x000A => None,
+        0x000B => Some(counters.frames),
+        0x000C => Some(counters.crc_errors),
+        0x000D => Some(counters.exceptions),
+        0x000E => Some(counters.messages),
+        0x000F => Some(counters.no_response),
+        0x0010 | 0x0011 => Some(0),
+        0x0012 => Some(counters.overruns),
+        _ => return Err(Exception::IllegalFunction),
+    };
+    let data_ok = data == 0x0000 || (sub == RESTART_COMMUNICATIONS && data == 0xFF00);
+    if len != 5 || !data_ok {
+        return Err(Exception::IllegalDataValue);
+    }
+    match (sub, counter) {
+        (_, Some(value)) => {
+            put(pdu, 3, value);
+            Ok(Diagnosed::Reply(5))
+        }
+        (RESTART_COMMUNICATIONS, None) => Ok(Diagnosed::Restart(5)),
+        (FORCE_LISTEN_ONLY, None) => Ok(Diagnosed::ListenOnly),
+        // Clear Counters: the reply is the echo; the caller clears.
+        _ => Ok(Diagnosed::Restart(5)),
+    }
+}
