@@ -45,7 +45,24 @@ impl Run {
     }
 }
 
-/// The sparse bank: see the module documentation for capacity and RAM.
+/// A range of coils or holding registers the master may read but not write.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Protected {
+    table: Table,
+    start: u16,
+    last: u16,
+}
+
+impl Protected {
+    const EMPTY: Protected = Protected { table: Table::Coils, start: 1, last: 0 };
+
+    fn overlaps(&self, table: Table, start: u16, last: u16) -> bool {
+        self.table == table && self.start <= last && start <= self.last
+    }
+}
+
+/// The sparse bank: see the module documentation for capacity and RAM. The optional
+/// fourth parameter is how many read-only ranges [`Bank::protect`] can hold (5 bytes each).
 ///
 /// ```
 /// use avr_modbus_slave::{Bank, bit_bytes};
@@ -57,7 +74,7 @@ impl Run {
 /// assert_eq!(bank.get(30002), Ok(0));
 /// ```
 #[derive(Clone, Debug)]
-pub struct Bank<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> {
+pub struct Bank<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize = 0> {
     runs: [Run; RUNS],
     run_count: usize,
     registers: [u16; REGS],
@@ -65,19 +82,25 @@ pub struct Bank<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> {
     bits: [u8; BIT_BYTES],
     bit_count: usize,
     master_writes: u16,
+    protected: [Protected; PROTECTED],
+    protected_count: usize,
     #[cfg(feature = "diagnostics")]
     exception_status: u8,
     #[cfg(feature = "diagnostics")]
     device_info: &'static [u8],
 }
 
-impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> Default for Bank<RUNS, REGS, BIT_BYTES> {
+impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize> Default
+    for Bank<RUNS, REGS, BIT_BYTES, PROTECTED>
+{
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> Bank<RUNS, REGS, BIT_BYTES> {
+impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize>
+    Bank<RUNS, REGS, BIT_BYTES, PROTECTED>
+{
     /// An empty bank.
     pub const fn new() -> Self {
         Bank {
@@ -88,6 +111,8 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> Bank<RUNS, RE
             bits: [0; BIT_BYTES],
             bit_count: 0,
             master_writes: 0,
+            protected: [Protected::EMPTY; PROTECTED],
+            protected_count: 0,
             #[cfg(feature = "diagnostics")]
             exception_status: 0,
             #[cfg(feature = "diagnostics")]
@@ -260,6 +285,30 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> Bank<RUNS, RE
         Ok(())
     }
 
+    /// Makes `count` coils or holding registers from `first` read-only to the master: a
+    /// write touching any of them is answered with exception 02 (Illegal Data Address: the
+    /// spec's answer for an address the server does not allow for this request) and changes
+    /// nothing. The application still sets them with [`Bank::set`]. The addresses need not
+    /// exist yet.
+    pub fn protect(&mut self, first: impl IntoReference, count: u16) -> Result<(), BankError> {
+        let first = first.into_reference()?;
+        if !matches!(first.table, Table::Coils | Table::HoldingRegisters) {
+            return Err(BankError::BadReference);
+        }
+        let last = count.checked_sub(1).and_then(|n| first.address.checked_add(n)).ok_or(BankError::BadRange)?;
+        let slot = self.protected.get_mut(self.protected_count).ok_or(BankError::ProtectionsFull)?;
+        *slot = Protected { table: first.table, start: first.address, last };
+        self.protected_count += 1;
+        Ok(())
+    }
+
+    /// True when a master write of `qty` addresses of `table` from `start` touches a
+    /// read-only range.
+    fn is_protected(&self, table: Table, start: u16, qty: u16) -> bool {
+        let last = start.saturating_add(qty.saturating_sub(1));
+        self.protected.iter().take(self.protected_count).any(|p| p.overlaps(table, start, last))
+    }
+
     /// How many write requests from the master have succeeded (wrapping): compare with
     /// an earlier reading to learn cheaply whether coils or holding registers changed.
     pub fn master_writes(&self) -> u16 {
@@ -284,7 +333,9 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> Bank<RUNS, RE
     }
 }
 
-impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> DataModel for Bank<RUNS, REGS, BIT_BYTES> {
+impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize> DataModel
+    for Bank<RUNS, REGS, BIT_BYTES, PROTECTED>
+{
     fn has_range(&self, table: Table, start: u16, qty: u16) -> bool {
         self.locate(table, start, qty).is_some()
     }
@@ -321,6 +372,9 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> DataModel for
 
     fn write_coils(&mut self, start: u16, qty: u16, packed: &[u8]) -> Result<(), Exception> {
         let first = self.locate(Table::Coils, start, qty).ok_or(Exception::IllegalDataAddress)?;
+        if self.is_protected(Table::Coils, start, qty) {
+            return Err(Exception::IllegalDataAddress);
+        }
         for k in 0..usize::from(qty) {
             let byte = packed.get(k / 8).copied().unwrap_or(0);
             self.set_bit(first + k, byte & (1 << (k % 8)) != 0);
@@ -332,6 +386,9 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize> DataModel for
     fn write_registers(&mut self, start: u16, values: &[u8]) -> Result<(), Exception> {
         let qty = u16::try_from(values.len() / 2).map_err(|_| Exception::IllegalDataValue)?;
         let first = self.locate(Table::HoldingRegisters, start, qty).ok_or(Exception::IllegalDataAddress)?;
+        if self.is_protected(Table::HoldingRegisters, start, qty) {
+            return Err(Exception::IllegalDataAddress);
+        }
         for (slot, pair) in self.registers.get_mut(first..).unwrap_or(&mut []).iter_mut().zip(values.chunks_exact(2)) {
             if let [hi, lo] = *pair {
                 *slot = u16::from_be_bytes([hi, lo]);

@@ -40,6 +40,8 @@ pub enum BankError {
     RegistersFull,
     /// No room for more coils or discrete inputs (the bank's `BIT_BYTES` × 8).
     BitsFull,
+    /// No room for another read-only range (the bank's `PROTECTED`).
+    ProtectionsFull,
 }
 
 /// One entry of the data model: a table and a 0-based protocol address (0–65535).

@@ -481,3 +481,65 @@ fn application_sets_do_not_count_as_master_writes() {
     bank.set(1, 1).unwrap();
     assert_eq!(bank.master_writes(), 0);
 }
+
+// ---- write protection ------------------------------------------------------------------
+
+mod protection {
+    use super::common::{ask, exception_reply, slave, to_slave};
+    use avr_modbus_slave::{Bank, BankError};
+
+    type Guarded = Bank<4, 8, 1, 2>;
+
+    /// Coils 00001–00008 and holding registers 40001–40008; coils 00003–00004 and
+    /// registers 40005–40008 read-only to the master.
+    fn guarded() -> Guarded {
+        let mut bank = Guarded::new();
+        bank.add_range(1, 8).unwrap();
+        bank.add_range(40001, 8).unwrap();
+        bank.protect(3, 2).unwrap();
+        bank.protect(40005, 4).unwrap();
+        bank
+    }
+
+    #[test]
+    fn a_write_touching_a_read_only_register_is_illegal_data_address_and_changes_nothing() {
+        let mut bank = guarded();
+        let fc16 = [0x10, 0x00, 0x03, 0x00, 0x02, 0x04, 0x11, 0x11, 0x22, 0x22]; // 40004–40005
+        assert_eq!(ask(&mut slave(), &mut bank, &to_slave(&fc16)), exception_reply(0x10, 0x02));
+        assert_eq!((bank.get(40004), bank.get(40005)), (Ok(0), Ok(0)));
+        let fc6 = [0x06, 0x00, 0x07, 0x12, 0x34]; // 40008
+        assert_eq!(ask(&mut slave(), &mut bank, &to_slave(&fc6)), exception_reply(0x06, 0x02));
+        assert_eq!(bank.master_writes(), 0);
+    }
+
+    #[test]
+    fn a_write_touching_a_read_only_coil_is_illegal_data_address_and_changes_nothing() {
+        let mut bank = guarded();
+        let fc15 = [0x0F, 0x00, 0x00, 0x00, 0x08, 0x01, 0xFF]; // 00001–00008
+        assert_eq!(ask(&mut slave(), &mut bank, &to_slave(&fc15)), exception_reply(0x0F, 0x02));
+        assert_eq!(bank.get(1), Ok(0));
+        let fc5 = [0x05, 0x00, 0x03, 0xFF, 0x00]; // 00004
+        assert_eq!(ask(&mut slave(), &mut bank, &to_slave(&fc5)), exception_reply(0x05, 0x02));
+    }
+
+    #[test]
+    fn read_only_addresses_are_readable_and_set_by_the_application() {
+        let mut bank = guarded();
+        bank.set(40006, 0xABCD).unwrap();
+        let fc3 = [0x03, 0x00, 0x05, 0x00, 0x01];
+        assert_eq!(ask(&mut slave(), &mut bank, &to_slave(&fc3)), to_slave(&[0x03, 0x02, 0xAB, 0xCD]));
+        let fc6 = [0x06, 0x00, 0x03, 0x12, 0x34]; // 40004 is writable
+        assert_eq!(ask(&mut slave(), &mut bank, &to_slave(&fc6)), to_slave(&fc6));
+    }
+
+    #[test]
+    fn protect_refuses_input_tables_bad_ranges_and_a_full_list() {
+        let mut bank = Guarded::new();
+        assert_eq!(bank.protect(30001, 1), Err(BankError::BadReference));
+        assert_eq!(bank.protect(10001, 1), Err(BankError::BadReference));
+        assert_eq!(bank.protect(40001, 0), Err(BankError::BadRange));
+        bank.protect(40001, 1).unwrap();
+        bank.protect(40002, 1).unwrap();
+        assert_eq!(bank.protect(40003, 1), Err(BankError::ProtectionsFull));
+    }
+}

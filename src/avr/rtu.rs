@@ -256,8 +256,14 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Shared<M, DE, LED> {
     }
 }
 
-impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, DE: OutputPin, LED: OutputPin>
-    Shared<Bank<RUNS, REGS, BIT_BYTES>, DE, LED>
+impl<
+        const RUNS: usize,
+        const REGS: usize,
+        const BIT_BYTES: usize,
+        const PROTECTED: usize,
+        DE: OutputPin,
+        LED: OutputPin,
+    > Shared<Bank<RUNS, REGS, BIT_BYTES, PROTECTED>, DE, LED>
 {
     /// Reads a value of the bank (see [`Bank::get`]).
     pub fn get(&self, reference: impl IntoReference) -> Result<u16, BankError> {
