@@ -8,12 +8,13 @@ EXAMPLES := $(patsubst examples/%.rs,%,$(wildcard examples/*.rs))
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: help setup firmware sizes lint fmt-check clippy docs host-test test demo
+.PHONY: help setup firmware sizes lint fmt-check clippy docs host-test test demo bench
 
 help:
 	@echo "make demo   - build the Uno slave and poll it on a virtual Uno"
 	@echo "make test   - set up, lint, build every firmware, run all tests"
 	@echo "make firmware - build every example for the Uno ($(FIRMWARE_DIR))"
+	@echo "make bench  - flash, RAM, stack, interrupt cycles, turnaround, throughput -> bench/results.md"
 
 setup:
 	@.ci/setup
@@ -51,3 +52,6 @@ test: lint firmware host-test
 demo: setup
 	@echo "make demo: the virtual Uno is not there yet; 'make test' runs the firmware in simavr."
 	@exit 1
+
+bench: setup firmware
+	$(CARGO) run --release -p bench

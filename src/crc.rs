@@ -17,7 +17,7 @@ impl Crc16 {
     }
 
     /// Folds one more byte into the CRC.
-    #[inline]
+    #[inline(always)]
     pub const fn update(self, byte: u8) -> Self {
         let l = (self.0 as u8) ^ byte;
         let mut next = (self.0 >> 8) ^ ((l as u16) << 6) ^ ((l as u16) << 7);

@@ -82,6 +82,7 @@ impl Framer {
     }
 
     /// A character arrived.
+    #[inline(always)]
     pub fn on_byte(&mut self, byte: u8) {
         match self.state {
             State::Idle => {
@@ -96,6 +97,7 @@ impl Framer {
         }
     }
 
+    #[inline(always)]
     fn store(&mut self, byte: u8) {
         match self.buf.get_mut(self.len) {
             Some(slot) => {

@@ -117,6 +117,7 @@ impl Slave {
     }
 
     /// A character arrived.
+    #[inline(always)]
     pub fn on_byte(&mut self, byte: u8) {
         self.framer.on_byte(byte);
     }
@@ -171,9 +172,27 @@ impl Slave {
     }
 
     /// Executes the frame that [`Slave::on_end_deadline`] accepted and writes the reply
-    /// (address, PDU, CRC) over it. Returns the reply's length; 0 for a broadcast, whose
-    /// buffer is released at once.
+    /// (address, PDU, CRC) over it. Returns the reply's length; 0 when nothing is to be sent
+    /// (a broadcast, listen-only mode), and then the buffer is released at once.
     pub fn process<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
+        let body = self.prepare(model);
+        if body == 0 {
+            return 0;
+        }
+        let buf = self.framer.buffer_mut();
+        let crc = Crc16::new().update_slice(buf.get(..body).unwrap_or(&[])).to_wire();
+        if let Some(slot) = buf.get_mut(body..body + 2) {
+            slot.copy_from_slice(&crc);
+        }
+        self.reply_len = body + 2;
+        self.reply_len
+    }
+
+    /// Like [`Slave::process`] but leaves the CRC to the sender: returns the length of
+    /// address and PDU, and [`Slave::reply`] holds just those. The AVR layer folds each
+    /// byte into a [`Crc16`] as it goes out and sends the two CRC bytes last, so a
+    /// 255-byte reply costs no CRC time before it starts.
+    pub fn prepare<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
         let pending = core::mem::replace(&mut self.pending, Pending::None);
         let len = match pending {
             Pending::None => return 0,
@@ -230,13 +249,7 @@ impl Slave {
             }
         };
         // The longest reply PDU is 252 bytes, so address, PDU and CRC always fit.
-        let buf = self.framer.buffer_mut();
-        let body = 1 + reply_pdu;
-        let crc = Crc16::new().update_slice(buf.get(..body).unwrap_or(&[])).to_wire();
-        if let Some(slot) = buf.get_mut(body..body + 2) {
-            slot.copy_from_slice(&crc);
-        }
-        self.reply_len = body + 2;
+        self.reply_len = 1 + reply_pdu;
         bump(&mut self.counters.replies);
         #[cfg(feature = "diagnostics")]
         if restart {

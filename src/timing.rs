@@ -127,10 +127,11 @@ pub struct TimerPlan {
 }
 
 impl TimerPlan {
-    /// The longest deadline the plan allows, in ticks: two turns of the counter.
-    const MAX_TICKS: u64 = 512;
+    /// The longest deadline the plan allows, in ticks: eight turns of the counter (each
+    /// extra turn costs one short compare interrupt per deadline).
+    const MAX_TICKS: u64 = 2048;
 
-    /// Picks the finest prescaler that reaches T3.5 within two counter turns and rounds
+    /// Picks the finest prescaler that reaches T3.5 within eight counter turns and rounds
     /// each deadline so that it never expires early: the prescaler runs freely, so a
     /// restart can land anywhere inside a tick, and one tick is added for that. The
     /// deadlines are therefore late by at most one tick.
@@ -164,7 +165,7 @@ impl TimerPlan {
         if ticks.is_multiple_of(256) {
             ticks += 1;
         }
-        // At 1200 bps with clk/1024 T3.5 is 502 ticks; nothing in range exceeds 255 wraps.
+        // At 1200 bps with clk/256 T3.5 is 2007 ticks; nothing in range exceeds 255 wraps.
         let wraps = ticks / 256;
         Deadline { ocr: (ticks % 256) as u8, wraps: if wraps > 255 { 255 } else { wraps as u8 } }
     }
@@ -299,11 +300,12 @@ mod tests {
     }
 
     #[test]
-    fn prescaler_is_the_finest_that_reaches_t35_in_two_turns() {
+    fn prescaler_is_the_finest_that_reaches_t35_in_eight_turns() {
         let plan = |baud| TimerPlan::new(times(baud, Parity::Even, StopBits::One), CLOCK_HZ);
-        assert_eq!(plan(1200).prescaler, Prescaler::Div1024);
-        assert_eq!(plan(1200).end, Deadline { ocr: 247, wraps: 1 });
-        assert_eq!(plan(9600).prescaler, Prescaler::Div256);
+        assert_eq!(plan(1200).prescaler, Prescaler::Div256);
+        // 32 083 334 ns / 16 µs = 2005.2 → 2006 ticks, + 1 for the prescaler phase.
+        assert_eq!(plan(1200).end, Deadline { ocr: 215, wraps: 7 });
+        assert_eq!(plan(9600).prescaler, Prescaler::Div64);
         assert_eq!(plan(19_200).prescaler, Prescaler::Div64);
         assert_eq!(plan(115_200).prescaler, Prescaler::Div64);
         assert_eq!(plan(115_200).end.ticks(), 1_750_000_u32.div_ceil(4_000) + 1);

@@ -390,3 +390,21 @@ fn a_reply_is_cleared_by_the_next_frame() {
     assert_eq!(slave.handle_frame(&[ID, 0x00, 0x00], &mut bank), EndOfFrame::Dropped(FrameError::TooShort));
     assert!(slave.reply().is_empty());
 }
+
+#[test]
+fn prepare_leaves_the_crc_to_the_sender() {
+    let request = to_slave(&[0x03, 0x00, 0x6B, 0x00, 0x03]);
+    let (mut full, mut bank_a) = (slave(), spec_bank());
+    let (mut lazy, mut bank_b) = (slave(), spec_bank());
+    full.handle_frame(&request, &mut bank_a);
+    let expected = full.reply().to_vec();
+    lazy.on_end_deadline(); // the power-up silence
+    for &byte in &request {
+        lazy.on_byte(byte);
+    }
+    assert_eq!(lazy.on_end_deadline(), EndOfFrame::Reply);
+    let body = lazy.prepare(&mut bank_b);
+    assert_eq!(body, expected.len() - 2);
+    assert_eq!(lazy.reply(), &expected[..body]);
+    assert_eq!(reference_crc(lazy.reply()).to_le_bytes(), expected[body..]);
+}

@@ -15,6 +15,7 @@ use super::timer::{Expired, FrameTimer};
 use super::usart::Usart;
 use crate::bank::Bank;
 use crate::config::Config;
+use crate::crc::Crc16;
 use crate::model::DataModel;
 use crate::reference::{BankError, IntoReference};
 use crate::slave::{Counters, EndOfFrame, Slave};
@@ -28,6 +29,7 @@ pub struct ModbusSlave<M, DE = NoPin, LED = NoPin> {
     model: M,
     tx_next: usize,
     tx_len: usize,
+    tx_crc: Crc16,
     driver_enable: DE,
     led: LED,
 }
@@ -47,6 +49,7 @@ impl<M: DataModel> ModbusSlave<M> {
             model,
             tx_next: 0,
             tx_len: 0,
+            tx_crc: Crc16::new(),
             driver_enable: NoPin,
             led: NoPin,
         }
@@ -65,6 +68,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
             model: self.model,
             tx_next: self.tx_next,
             tx_len: self.tx_len,
+            tx_crc: self.tx_crc,
             driver_enable: pin,
             led: self.led,
         }
@@ -80,6 +84,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
             model: self.model,
             tx_next: self.tx_next,
             tx_len: self.tx_len,
+            tx_crc: self.tx_crc,
             driver_enable: self.driver_enable,
             led: pin,
         }
@@ -100,14 +105,15 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
         self.slave.counters()
     }
 
-    /// USART0 RX complete: one character (or a damaged one) arrived.
+    /// USART0 RX complete: one character (or a damaged one) arrived. The silence timer
+    /// restarts first, so that its deadlines count from as close to the stop bit as can be.
     #[inline(always)]
     pub fn on_usart_rx(&mut self) {
+        self.timer.restart();
         match self.usart.read() {
             Ok(byte) => self.slave.on_byte(byte),
             Err(e) => self.slave.on_error(e),
         }
-        self.timer.restart();
     }
 
     /// Timer0 compare A: the inter-character gap deadline.
@@ -129,8 +135,10 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
             EndOfFrame::Reply => {
                 let _ = self.driver_enable.set_high();
                 let _ = self.led.set_high();
-                self.usart.write(self.slave.id().get());
-                self.tx_len = self.slave.process(&mut self.model);
+                let id = self.slave.id().get();
+                self.usart.write(id);
+                self.tx_crc = Crc16::new().update(id);
+                self.tx_len = self.slave.prepare(&mut self.model);
                 self.tx_next = 1;
                 self.usart.start_feeding();
             }
@@ -141,18 +149,24 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
         }
     }
 
-    /// USART0 data register empty: the next character of the reply.
+    /// USART0 data register empty: the next character of the reply, folded into the CRC,
+    /// then the CRC's low and high bytes.
     #[inline(always)]
     pub fn on_usart_udre(&mut self) {
-        match self.slave.reply().get(self.tx_next) {
-            Some(&byte) => {
-                self.usart.write(byte);
-                self.tx_next += 1;
-                if self.tx_next >= self.tx_len {
-                    self.usart.last_written();
-                }
+        let crc = self.tx_crc.to_wire();
+        let (byte, last) = match self.tx_next.checked_sub(self.tx_len) {
+            None => {
+                let byte = self.slave.reply().get(self.tx_next).copied().unwrap_or(0);
+                self.tx_crc = self.tx_crc.update(byte);
+                (byte, false)
             }
-            None => self.usart.last_written(),
+            Some(0) => (crc[0], false),
+            Some(_) => (crc[1], true),
+        };
+        self.usart.write(byte);
+        self.tx_next += 1;
+        if last {
+            self.usart.last_written();
         }
     }
 

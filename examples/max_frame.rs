@@ -1,0 +1,53 @@
+/*!
+ * The largest frames Modbus allows: 125 holding registers, so that FC 3 × 125 (a
+ * 255-byte reply) and FC 16 × 123 (a 255-byte request) are answered normally. Used by
+ * `make bench` to time the slave's worst cases.
+ *
+ * Wiring: Uno pins 0 (RX) and 1 (TX) to the TTL side of a MAX3232 board, GND to GND;
+ * optionally a jumper from pin 12 to GND.
+ *
+ * Serial line: slave id 1, 8E1; 19200 bps, or 115200 bps with pin 12 jumpered to GND at
+ * start-up.
+ *
+ * | reference   | address | meaning                               |
+ * |-------------|---------|---------------------------------------|
+ * | 40001–40125 | 0–124   | holding registers kept for the master |
+ */
+#![no_std]
+#![no_main]
+#![feature(abi_avr_interrupt)]
+
+use avr_modbus_slave::avr::{ModbusSlave, Pins};
+use avr_modbus_slave::{bit_bytes, Bank, Config, Parity, StopBits};
+use panic_halt as _;
+
+const SLOW: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
+const FAST: Config = Config::new(1, 115_200, Parity::Even, StopBits::One);
+
+type Registers = Bank<1, 125, { bit_bytes(0) }>;
+
+avr_modbus_slave::modbus_slave!(SLAVE: Registers);
+
+#[avr_device::entry]
+fn main() -> ! {
+    // SAFETY: the only place that takes the peripherals, and it runs once.
+    #[allow(unsafe_code)]
+    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
+    let pins = Pins::new(dp.PORTB, dp.PORTC, dp.PORTD);
+    let jumper = pins.d12.into_pull_up_input();
+    // Let the pull-up charge the pin before reading it.
+    avr_device::asm::delay_cycles(1_000);
+    let config = if jumper.is_high() { SLOW } else { FAST };
+
+    let mut bank = Registers::new();
+    let _ = bank.add_range(40001, 125);
+    SLAVE.start(ModbusSlave::new(config, dp.USART0, dp.TC0, bank));
+    // SAFETY: the slave is in its cell; its interrupt handlers may run from here on.
+    #[allow(unsafe_code)]
+    unsafe {
+        avr_device::interrupt::enable()
+    };
+    loop {
+        avr_device::asm::sleep();
+    }
+}
