@@ -8,13 +8,14 @@ EXAMPLES := $(patsubst examples/%.rs,%,$(wildcard examples/*.rs))
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: help setup firmware sizes lint fmt-check clippy docs host-test test demo bench
+.PHONY: help setup firmware sizes lint fmt-check clippy docs host-test test demo bench fuzz
 
 help:
 	@echo "make demo   - build the Uno slave and poll it on a virtual Uno"
 	@echo "make test   - set up, lint, build every firmware, run all tests"
 	@echo "make firmware - build every example for the Uno ($(FIRMWARE_DIR))"
 	@echo "make bench  - flash, RAM, stack, interrupt cycles, turnaround, throughput -> bench/results.md"
+	@echo "make fuzz   - long random-frame run against the reference model (FUZZ_CASES, FUZZ_SEED)"
 
 setup:
 	@.ci/setup
@@ -55,3 +56,10 @@ demo: setup
 
 bench: setup firmware
 	$(CARGO) run --release -p bench
+
+# Random frames, mutated requests and event sequences against a reference model: a long
+# run of the property tests that `make test` runs 2000 cases of. Reports cases executed.
+FUZZ_CASES ?= 1000000
+fuzz: setup
+	FUZZ_CASES=$(FUZZ_CASES) FUZZ_SEED=$${FUZZ_SEED:-$$(date +%s)} $(CARGO) test --release -p avr-modbus-slave --test random_frames -- --nocapture
+	@echo "fuzz: $(FUZZ_CASES) cases per property, 3 properties"

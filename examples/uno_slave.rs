@@ -18,6 +18,8 @@
  * | 30001–30003 | 0–2     | A0–A2, 0–1023 for 0–5 V                                        |
  * | 30004       | 3       | seconds since start-up (wraps at 65535)                        |
  * | 30005       | 4       | 1 while A0 is above the threshold 40002                        |
+ * | 30006–30012 | 5–11    | the slave's counters: frames, CRC errors, parity/framing errors, |
+ * |             |         | overruns (lost or >256-byte), malformed, exceptions, replies   |
  * | 40001       | 0       | blink half-period of pin 13 in ms (0 = steady), default 500    |
  * | 40002       | 1       | A0 threshold for 30005, default 512                            |
  * | 40003–40010 | 2–9     | setpoints kept for the master                                  |
@@ -35,7 +37,7 @@ const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 /// Timer1 at clk/1024: one tick is 64 µs, 15625 ticks a second.
 const TICKS_PER_SECOND: u16 = 15_625;
 
-type UnoBank = Bank<4, 15, { bit_bytes(9) }>;
+type UnoBank = Bank<4, 22, { bit_bytes(9) }>;
 
 avr_modbus_slave::modbus_slave!(SLAVE: UnoBank);
 
@@ -60,7 +62,7 @@ fn main() -> ! {
     let mut bank = UnoBank::new();
     let _ = bank.add_range(1, 5);
     let _ = bank.add_range(10001, 4);
-    let _ = bank.add_range(30001, 5);
+    let _ = bank.add_range(30001, 12);
     let _ = bank.add_range(40001, 10);
     let _ = bank.set(40001, 500);
     let _ = bank.set(40002, 512);
@@ -92,6 +94,12 @@ fn main() -> ! {
         }
         let threshold = SLAVE.get(40002).unwrap_or(512);
         let _ = SLAVE.set(30005, u16::from(SLAVE.get(30001).unwrap_or(0) > threshold));
+
+        let c = SLAVE.counters();
+        let counters = [c.frames, c.crc_errors, c.uart_errors, c.overruns, c.malformed, c.exceptions, c.replies];
+        for (register, value) in (30006..).zip(counters) {
+            let _ = SLAVE.set(register, value);
+        }
 
         if now().wrapping_sub(second_start) >= TICKS_PER_SECOND {
             second_start = second_start.wrapping_add(TICKS_PER_SECOND);

@@ -38,12 +38,15 @@ const LAYOUT: [(Table, u16, u16); 10] = [
 /// Addresses near the edges of the runs above.
 const EDGES: [u16; 20] = [0, 1, 4, 5, 9, 10, 11, 12, 14, 15, 16, 20, 21, 99, 100, 107, 108, 65529, 65532, 65535];
 
+/// 2000 cases from a fixed seed in `make test`; `make fuzz` sets `FUZZ_CASES` (and
+/// `FUZZ_SEED`) for a long run.
 fn config() -> ProptestConfig {
+    let env = |name: &str| std::env::var(name).ok().and_then(|v| v.parse::<u64>().ok());
     ProptestConfig {
-        cases: 2000,
+        cases: env("FUZZ_CASES").map_or(2000, |n| n as u32),
         failure_persistence: None,
         rng_algorithm: RngAlgorithm::ChaCha,
-        rng_seed: RngSeed::Fixed(0x04D0_DB05),
+        rng_seed: RngSeed::Fixed(env("FUZZ_SEED").unwrap_or(0x04D0_DB05)),
         ..ProptestConfig::default()
     }
 }
