@@ -8,10 +8,11 @@ EXAMPLES := $(patsubst examples/%.rs,%,$(wildcard examples/*.rs))
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: help setup firmware sizes lint fmt-check clippy docs host-test test demo bench fuzz
+.PHONY: help setup firmware sizes lint fmt-check clippy docs host-test test demo serve interop bench fuzz
 
 help:
 	@echo "make demo   - build the Uno slave and poll it on a virtual Uno"
+	@echo "make serve EXAMPLE=uno_slave - keep a virtual Uno running for QModMaster or any master"
 	@echo "make test   - set up, lint, build every firmware, run all tests"
 	@echo "make firmware - build every example for the Uno ($(FIRMWARE_DIR))"
 	@echo "make bench  - flash, RAM, stack, interrupt cycles, turnaround, throughput -> bench/results.md"
@@ -45,14 +46,25 @@ docs: setup
 lint: fmt-check clippy docs
 
 host-test: setup firmware
-	$(CARGO) test --workspace
+	$(CARGO) test --workspace --exclude virtual-uno
+	$(CARGO) test -p virtual-uno --bins
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL) --lib --test optional_functions --test exceptions --test adu --test framer
 
-test: lint firmware host-test
+test: lint firmware host-test interop
 
-demo: setup
-	@echo "make demo: the virtual Uno is not there yet; 'make test' runs the firmware in simavr."
-	@exit 1
+EXAMPLE ?= uno_slave
+
+# The firmware on a virtual Uno (simavr on a pseudo-terminal), polled by mbpoll.
+demo: firmware
+	demo/demo.sh
+
+# Keeps a virtual Uno running for QModMaster or any master: make serve EXAMPLE=NAME ARGS="..."
+serve: firmware
+	demo/serve.sh $(EXAMPLE) $(ARGS)
+
+# mbpoll, pymodbus and libmodbus against the firmware on the virtual Uno, with answer rates.
+interop: firmware
+	$(CARGO) test -p virtual-uno --test interop -- --nocapture --test-threads=1
 
 bench: setup firmware
 	$(CARGO) run --release -p bench

@@ -1,1 +1,315 @@
-fn main() {}
+//! `virtual-uno`: runs Uno firmware in simavr, paced to real time, with USART0 on a
+//! pseudo-terminal, so that any Modbus master (mbpoll, pymodbus, QModMaster) can poll it.
+//!
+//! The loop, once a millisecond: wait for bytes from the master (or commands), hand each byte to
+//! the simulated USART with real-wire timing, run the CPU up to the wall clock, write the bytes
+//! the firmware has finished sending to the pty, and print what changed (line settings, LEDs).
+//!
+//! ```text
+//! virtual-uno --link /tmp/ttyUNO target/avr-atmega328p/release/examples/uno_slave.elf
+//! mbpoll -m rtu -b 19200 -P even -a 1 -t 3 -c 5 -1 /tmp/ttyUNO
+//! ```
+
+mod args;
+mod control;
+mod line;
+mod pty;
+mod wire;
+
+use std::fs::{File, OpenOptions};
+use std::io::{self, Read};
+use std::os::fd::AsFd;
+use std::os::unix::fs::{FileTypeExt, OpenOptionsExt};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
+use nix::sys::signal::{SigSet, Signal};
+use nix::sys::signalfd::{SfdFlags, SignalFd};
+use nix::sys::stat::Mode;
+use uno_sim::{Uno, CYCLES_PER_US};
+
+use control::Command;
+use line::Settings;
+use pty::{Link, Pty};
+use wire::Wire;
+
+/// Simulated time run per loop turn, at most (1 ms).
+const SLICE_CYCLES: u64 = 1_000 * CYCLES_PER_US;
+/// Falling behind the wall clock by more than this is reported.
+const LAG_WARN: Duration = Duration::from_millis(20);
+/// How often falling behind is reported, at most.
+const LAG_REPORT_EVERY: Duration = Duration::from_secs(5);
+
+fn main() -> ExitCode {
+    let args = match args::parse(std::env::args().skip(1)) {
+        Ok(args) => args,
+        Err(None) => {
+            print!("{}", args::USAGE);
+            return ExitCode::SUCCESS;
+        }
+        Err(Some(msg)) => {
+            eprintln!("virtual-uno: {msg}\n\n{}", args::USAGE);
+            return ExitCode::from(2);
+        }
+    };
+    match run(&args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(msg) => {
+            eprintln!("virtual-uno: {msg}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Maps wall-clock time to simulated cycles.
+struct Clock {
+    start: Instant,
+    base_cycle: u64,
+}
+
+impl Clock {
+    fn new(now_cycle: u64) -> Clock {
+        Clock { start: Instant::now(), base_cycle: now_cycle }
+    }
+
+    /// The cycle the simulation should have reached by now.
+    fn due(&self) -> u64 {
+        let ns = self.start.elapsed().as_nanos();
+        self.base_cycle + u64::try_from(ns * u128::from(CYCLES_PER_US) / 1_000).unwrap_or(u64::MAX)
+    }
+}
+
+fn cycles_to_duration(cycles: u64) -> Duration {
+    Duration::from_nanos(cycles.saturating_mul(1_000) / CYCLES_PER_US)
+}
+
+/// Lines of commands from stdin or the control FIFO.
+struct CommandSource {
+    name: String,
+    file: File,
+    pending: Vec<u8>,
+    open: bool,
+}
+
+impl CommandSource {
+    /// Reads what is available; returns complete lines. A closed stdin is simply not read again.
+    fn read_lines(&mut self) -> Vec<String> {
+        let mut buf = [0u8; 512];
+        match self.file.read(&mut buf) {
+            Ok(0) => self.open = false,
+            Ok(n) => self.pending.extend_from_slice(&buf[..n]),
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => {}
+            Err(e) => {
+                eprintln!("virtual-uno: {}: {e}; no longer read", self.name);
+                self.open = false;
+            }
+        }
+        let mut lines = Vec::new();
+        while let Some(end) = self.pending.iter().position(|&b| b == b'\n') {
+            let line: Vec<u8> = self.pending.drain(..=end).collect();
+            lines.push(String::from_utf8_lossy(&line).into_owned());
+        }
+        lines
+    }
+}
+
+/// The `--control` FIFO: created if missing (and then removed on exit), opened read-write so
+/// that writers coming and going never make it report end of file.
+struct ControlFifo {
+    path: PathBuf,
+    created: bool,
+}
+
+impl ControlFifo {
+    fn open(path: &Path) -> Result<(ControlFifo, CommandSource), String> {
+        let created = match path.metadata() {
+            Ok(m) if m.file_type().is_fifo() => false,
+            Ok(_) => return Err(format!("--control {}: exists and is not a FIFO", path.display())),
+            Err(_) => {
+                nix::unistd::mkfifo(path, Mode::from_bits_truncate(0o600))
+                    .map_err(|e| format!("cannot create FIFO {}: {e}", path.display()))?;
+                true
+            }
+        };
+        let guard = ControlFifo { path: path.to_owned(), created };
+        let file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .custom_flags(nix::libc::O_NONBLOCK)
+            .open(path)
+            .map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+        let name = path.display().to_string();
+        Ok((guard, CommandSource { name, file, pending: Vec::new(), open: true }))
+    }
+}
+
+impl Drop for ControlFifo {
+    fn drop(&mut self) {
+        if self.created {
+            let _ = std::fs::remove_file(&self.path);
+        }
+    }
+}
+
+/// Carries out one command; errors are reported and otherwise ignored.
+fn execute(uno: &mut Uno, line: &str, watch: &[u8]) {
+    match Command::parse(line) {
+        Ok(None) => {}
+        Ok(Some(Command::ShowPins)) => println!("{}", pins_line(uno, watch)),
+        Ok(Some(cmd)) => match cmd.apply(uno) {
+            Ok(()) => println!("set: {}", line.trim()),
+            Err(e) => eprintln!("virtual-uno: {}: {e}", line.trim()),
+        },
+        Err(msg) => eprintln!("virtual-uno: {msg}"),
+    }
+}
+
+/// `pins: 13=on 2=off ...` for the watched pins.
+fn pins_line(uno: &Uno, watch: &[u8]) -> String {
+    let states: Vec<String> = watch
+        .iter()
+        .map(|&p| {
+            let on = uno.pin(p).map(|s| s.level).unwrap_or(false);
+            format!("{p}={}", if on { "on" } else { "off" })
+        })
+        .collect();
+    format!("pins: {}", states.join(" "))
+}
+
+fn run(args: &args::Args) -> Result<(), String> {
+    let mut uno = Uno::load(&args.elf).map_err(|e| e.to_string())?;
+    for cmd in &args.initial {
+        cmd.apply(&mut uno).map_err(|e| e.to_string())?;
+    }
+
+    // Ctrl-C, SIGTERM and SIGHUP arrive as a readable descriptor instead of interrupting us.
+    let mut signals = SigSet::empty();
+    for sig in [Signal::SIGINT, Signal::SIGTERM, Signal::SIGHUP] {
+        signals.add(sig);
+    }
+    signals.thread_block().map_err(|e| format!("cannot block signals: {e}"))?;
+    let signal_fd = SignalFd::with_flags(&signals, SfdFlags::SFD_NONBLOCK).map_err(|e| format!("signalfd: {e}"))?;
+
+    let mut pty = Pty::open().map_err(|e| format!("cannot open a pseudo-terminal: {e}"))?;
+    println!("pty: {}", pty.path().display());
+    let _link = match &args.link {
+        Some(path) => {
+            let link = Link::create(path, pty.path()).map_err(|e| format!("cannot link {}: {e}", path.display()))?;
+            println!("link: {} -> {}", path.display(), pty.path().display());
+            Some(link)
+        }
+        None => None,
+    };
+    let (_fifo, control) = match &args.control {
+        Some(path) => {
+            let (fifo, source) = ControlFifo::open(path)?;
+            (Some(fifo), Some(source))
+        }
+        None => (None, None),
+    };
+    let mut sources: Vec<CommandSource> = control.into_iter().collect();
+    if args.stdin {
+        let fd = io::stdin().as_fd().try_clone_to_owned().map_err(|e| format!("stdin: {e}"))?;
+        sources.push(CommandSource { name: "stdin".into(), file: File::from(fd), pending: Vec::new(), open: true });
+    }
+
+    let mut wire = Wire::default();
+    let mut clock = Clock::new(uno.now());
+    let mut serial: Option<Settings> = None;
+    let mut pins = String::new();
+    let (mut lag_total, mut lag_window, mut lag_reported) = (Duration::ZERO, Duration::ZERO, None::<Instant>);
+    let mut buf = [0u8; 1024];
+
+    loop {
+        // Wait for input until the next slice is due (not at all if the simulation is behind).
+        let behind = clock.due().saturating_sub(uno.now());
+        let timeout = if behind >= SLICE_CYCLES {
+            PollTimeout::ZERO
+        } else {
+            PollTimeout::from(u8::try_from(cycles_to_duration(SLICE_CYCLES - behind).as_millis().max(1)).unwrap_or(1))
+        };
+        let mut fds = vec![PollFd::new(signal_fd.as_fd(), PollFlags::POLLIN), PollFd::new(pty.fd(), PollFlags::POLLIN)];
+        fds.extend(sources.iter().filter(|s| s.open).map(|s| PollFd::new(s.file.as_fd(), PollFlags::POLLIN)));
+        match poll(&mut fds, timeout) {
+            Ok(_) | Err(nix::errno::Errno::EINTR) => {}
+            Err(e) => return Err(format!("poll: {e}")),
+        }
+        let ready: Vec<bool> = fds.iter().map(|fd| fd.any().unwrap_or(false)).collect();
+        drop(fds);
+        if ready[0] {
+            if let Ok(Some(info)) = signal_fd.read_signal() {
+                let name = Signal::try_from(info.ssi_signo as i32).map_or("signal", |s| s.as_str());
+                eprintln!("virtual-uno: {name}, stopping");
+            }
+            break;
+        }
+        if ready[1] {
+            let n = pty.read(&mut buf).map_err(|e| format!("reading the pty: {e}"))?;
+            if n > 0 {
+                let master = pty.master_settings().map_err(|e| format!("reading the pty's settings: {e}"))?;
+                wire.receive(&mut uno, &buf[..n], master).map_err(|e| e.to_string())?;
+            }
+        }
+        let open: Vec<usize> = (0..sources.len()).filter(|&i| sources[i].open).collect();
+        for (k, i) in open.into_iter().enumerate() {
+            if ready[2 + k] {
+                for line in sources[i].read_lines() {
+                    execute(&mut uno, &line, &args.watch);
+                }
+            }
+        }
+
+        // Run up to the wall clock, one slice at most, then pass on what the firmware sent.
+        let due = clock.due();
+        if due > uno.now() {
+            uno.run_until(due.min(uno.now() + SLICE_CYCLES)).map_err(|e| e.to_string())?;
+        }
+        wire.transmit(&mut uno, &mut pty).map_err(|e| format!("writing the pty: {e}"))?;
+
+        let now_serial = uno.serial_config().map(|cfg| Settings::of_firmware(&cfg));
+        if now_serial != serial {
+            serial = now_serial;
+            match serial {
+                Some(s) => println!("serial: {s} (firmware's USART0)"),
+                None => println!("serial: off (firmware's USART0)"),
+            }
+        }
+        let now_pins = pins_line(&uno, &args.watch);
+        if now_pins != pins && !args.watch.is_empty() {
+            println!("{now_pins}");
+            pins = now_pins;
+        }
+
+        // Behind the wall clock: report it, and drop the debt instead of racing to catch up.
+        let lag = cycles_to_duration(clock.due().saturating_sub(uno.now()));
+        if lag > LAG_WARN {
+            lag_total += lag;
+            lag_window += lag;
+            clock = Clock::new(uno.now());
+            let since = lag_reported.map(|t| t.elapsed());
+            if since.is_none_or(|d| d >= LAG_REPORT_EVERY) {
+                match since {
+                    None => eprintln!("virtual-uno: the simulation is {} ms behind real time", lag.as_millis()),
+                    Some(d) => eprintln!(
+                        "virtual-uno: the simulation fell {} ms behind real time in {:.1} s ({:.0} % speed)",
+                        lag_window.as_millis(),
+                        d.as_secs_f64(),
+                        100.0 * (1.0 - lag_window.as_secs_f64() / d.as_secs_f64()).max(0.0)
+                    ),
+                }
+                lag_window = Duration::ZERO;
+                lag_reported = Some(Instant::now());
+            }
+        }
+    }
+
+    let (rx, tx) = wire.counts();
+    eprintln!(
+        "virtual-uno: stopped after {:.1} s simulated; {rx} bytes received, {tx} sent; {} ms behind real time in all",
+        cycles_to_duration(uno.now()).as_secs_f64(),
+        lag_total.as_millis()
+    );
+    Ok(())
+}

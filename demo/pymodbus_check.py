@@ -1,0 +1,180 @@
+#!/usr/bin/env python3
+"""Polls the firmware on a (virtual) Uno with pymodbus and checks every answer.
+
+Every function code the slave supports (01 02 03 04 05 06 15 16), exceptions 01, 02 and 03,
+a broadcast write read back afterwards, then N back-to-back reads with the answer rate.
+
+    pymodbus_check.py PORT [--board uno_slave|dip_switch] [--baud 19200] [--parity E]
+                      [--stop 1] [--control FIFO] [--preset N] [--reads 1000]
+
+--control is the virtual Uno's command FIFO: the uno_slave checks close a switch and turn a
+potentiometer through it. Prints one line per step; exits 1 if any step went wrong.
+Written for pymodbus 3.0 (Debian 12's python3-pymodbus); `slave=` is passed everywhere.
+`strict=False`: with it pyserial sets the line twice, and on a Linux pty (which drops PARENB)
+the second tcsetattr with parity fails with EINVAL.
+"""
+
+import argparse
+import sys
+import time
+
+from pymodbus.client import ModbusSerialClient
+from pymodbus.pdu import ExceptionResponse
+
+try:
+    from pymodbus.mei_message import ReadDeviceInformationRequest
+except ImportError:  # pymodbus >= 3.7
+    from pymodbus.pdu.mei_message import ReadDeviceInformationRequest
+
+FAILED = []
+
+
+def step(name, got, want):
+    """Prints one step of the transcript and remembers a mismatch."""
+    ok = got == want
+    print(f"{'ok  ' if ok else 'FAIL'} {name}: {got}" + ("" if ok else f" (expected {want})"), flush=True)
+    if not ok:
+        FAILED.append(name)
+
+
+def values(response, field, count):
+    """The bits or registers of a response, or a short description of what came instead."""
+    if response is None or isinstance(response, Exception):
+        return f"no answer ({response})"
+    if response.isError():
+        code = getattr(response, "exception_code", None)
+        return f"exception {code:02d}" if code is not None else f"error {response}"
+    data = getattr(response, field)
+    return [int(v) for v in data[:count]]
+
+
+def exception(response):
+    """`exception NN` for an exception response, else a description."""
+    if isinstance(response, ExceptionResponse):
+        return f"exception {response.exception_code:02d}"
+    return f"no exception ({response})"
+
+
+def control(path, command):
+    """Sends a command to the virtual Uno and gives the firmware's loop time to see it."""
+    with open(path, "w", encoding="ascii") as fifo:
+        fifo.write(command + "\n")
+    time.sleep(0.1)
+
+
+def uno_slave(client, args):
+    """The classic demo's register map (examples/uno_slave.rs)."""
+    step("FC01 read coils 00001-00005", values(client.read_coils(0, 5, slave=1), "bits", 5), [0] * 5)
+    if args.control:
+        control(args.control, "pin 6 0")
+    step("FC02 read discrete inputs 10001-10004 (switch on pin 6 closed)",
+         values(client.read_discrete_inputs(0, 4, slave=1), "bits", 4), [1, 0, 0, 0])
+    if args.control:
+        control(args.control, "adc A0 2500")
+    regs = values(client.read_input_registers(0, 3, slave=1), "registers", 3)
+    step("FC04 read input registers 30001-30003 (A0 at 2.5 V)", regs[:1] if isinstance(regs, list) else regs, [511])
+    step("FC03 read holding registers 40001-40002 (defaults)",
+         values(client.read_holding_registers(0, 2, slave=1), "registers", 2), [500, 512])
+    step("FC05 write coil 00002 on", exception_or_ok(client.write_coil(1, True, slave=1)), "ok")
+    step("FC15 write coils 00003-00005 = 1 0 1", exception_or_ok(client.write_coils(2, [True, False, True], slave=1)),
+         "ok")
+    step("FC01 read back coils 00001-00005", values(client.read_coils(0, 5, slave=1), "bits", 5), [0, 1, 1, 0, 1])
+    step("FC06 write register 40003 = 1234", exception_or_ok(client.write_register(2, 1234, slave=1)), "ok")
+    step("FC16 write registers 40004-40006 = 11 22 33",
+         exception_or_ok(client.write_registers(3, [11, 22, 33], slave=1)), "ok")
+    step("FC03 read back 40003-40006", values(client.read_holding_registers(2, 4, slave=1), "registers", 4),
+         [1234, 11, 22, 33])
+    common_exceptions_and_broadcast(client, holding=10)
+
+
+def dip_switch(client, args):
+    """The DIP-switch example (examples/dip_switch.rs): checks the preset it reports."""
+    step("FC04 read input register 30001 (preset)",
+         values(client.read_input_registers(0, 1, slave=1), "registers", 1), [args.preset])
+    bits = [(args.preset >> i) & 1 for i in range(3)]
+    step("FC02 read discrete inputs 10001-10003 (DIP switch)",
+         values(client.read_discrete_inputs(0, 3, slave=1), "bits", 3), bits)
+    step("FC05 write coil 00001 on", exception_or_ok(client.write_coil(0, True, slave=1)), "ok")
+    step("FC15 write coils 00010-00012 = 1 1 0", exception_or_ok(client.write_coils(9, [True, True, False], slave=1)),
+         "ok")
+    step("FC01 read back coils 00009-00012", values(client.read_coils(8, 4, slave=1), "bits", 4), [0, 1, 1, 0])
+    step("FC06 write register 40001 = 4660", exception_or_ok(client.write_register(0, 4660, slave=1)), "ok")
+    step("FC16 write registers 40002-40003 = 7 8", exception_or_ok(client.write_registers(1, [7, 8], slave=1)), "ok")
+    step("FC03 read back 40001-40003", values(client.read_holding_registers(0, 3, slave=1), "registers", 3),
+         [4660, 7, 8])
+    common_exceptions_and_broadcast(client, holding=10)
+
+
+def exception_or_ok(response):
+    """`ok` for a normal answer to a write, else what came instead."""
+    if response is None or isinstance(response, Exception):
+        return f"no answer ({response})"
+    if response.isError():
+        return exception(response)
+    return "ok"
+
+
+def common_exceptions_and_broadcast(client, holding):
+    """Exceptions 01, 02, 03 and a broadcast write to holding register 40001+holding-1."""
+    identification = ReadDeviceInformationRequest()
+    identification.unit_id = identification.slave_id = 1  # the name changed after pymodbus 3.0
+    step("FC43 read device identification (not supported)", exception(client.execute(identification)),
+         "exception 01")
+    step(f"FC03 read {40001 + holding}, past the last register",
+         exception(client.read_holding_registers(holding, 1, slave=1)), "exception 02")
+    step("FC03 read 126 registers (over 125)", exception(client.read_holding_registers(0, 126, slave=1)),
+         "exception 03")
+    reference = 40000 + holding
+    client.write_register(holding - 1, 4321, slave=0)
+    time.sleep(0.05)
+    step(f"broadcast FC06 {reference} = 4321, read back from slave 1",
+         values(client.read_holding_registers(holding - 1, 1, slave=1), "registers", 1), [4321])
+
+
+def back_to_back(client, reads):
+    """`reads` FC03 requests in a row; prints the answer rate and the time taken."""
+    answered = 0
+    start = time.monotonic()
+    for _ in range(reads):
+        response = client.read_holding_registers(0, 1, slave=1)
+        if not isinstance(response, Exception) and response is not None and not response.isError():
+            answered += 1
+    took = time.monotonic() - start
+    print(f"{'ok  ' if answered == reads else 'FAIL'} {reads} back-to-back FC03 reads: {answered} answered "
+          f"({100.0 * answered / reads:.1f} %) in {took:.1f} s ({1000.0 * took / reads:.1f} ms each)", flush=True)
+    if answered != reads:
+        FAILED.append("back-to-back reads")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("port")
+    parser.add_argument("--board", default="uno_slave", choices=["uno_slave", "dip_switch"])
+    parser.add_argument("--baud", type=int, default=19200)
+    parser.add_argument("--parity", default="E", choices=["N", "E", "O"])
+    parser.add_argument("--stop", type=int, default=1, choices=[1, 2])
+    parser.add_argument("--control")
+    parser.add_argument("--preset", type=int, default=0)
+    parser.add_argument("--reads", type=int, default=0)
+    args = parser.parse_args()
+
+    client = ModbusSerialClient(args.port, baudrate=args.baud, parity=args.parity, stopbits=args.stop,
+                                bytesize=8, timeout=1, retries=0, broadcast_enable=True, strict=False)
+    if not client.connect():
+        print(f"FAIL cannot open {args.port}")
+        return 1
+    print(f"pymodbus: {args.port} at {args.baud} 8{args.parity}{args.stop}, slave 1", flush=True)
+    try:
+        {"uno_slave": uno_slave, "dip_switch": dip_switch}[args.board](client, args)
+        if args.reads:
+            back_to_back(client, args.reads)
+    finally:
+        client.close()
+    if FAILED:
+        print(f"{len(FAILED)} step(s) failed: {', '.join(FAILED)}")
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# `make serve EXAMPLE=uno_slave`: keeps an example running on the virtual Uno for QModMaster or
+# any other Modbus RTU master, and says which settings to enter. Type commands to change the
+# inputs (`pin 6 0`, `adc A0 2500`, `pins`); Ctrl-C stops.
+#
+#   demo/serve.sh [EXAMPLE] [virtual-uno options, e.g. --pin 10=0 for dip_switch]
+#   SERVE_PORT=/tmp/ttyUNO (default) names the symlink to the pty.
+set -euo pipefail
+
+root=$(cd "$(dirname "$0")/.." && pwd)
+target=${CARGO_TARGET_DIR:-$root/target}
+example=${1:-uno_slave}
+[ $# -gt 0 ] && shift
+elf=$target/avr-atmega328p/release/examples/$example.elf
+port=${SERVE_PORT:-/tmp/ttyUNO}
+
+[ -f "$elf" ] || { echo "serve: $elf is missing: run make firmware first" >&2; exit 1; }
+"$root/.ci/cargo" build --release --quiet -p virtual-uno
+
+# How to reach the slave, once the firmware has set up its USART ("serial: 19200 8E1 ...").
+settings() {
+  local baud=${1%% *} format=${1#* }
+  local parity
+  case ${format:1:1} in N) parity=None ;; E) parity=Even ;; O) parity=Odd ;; *) parity=${format:1:1} ;; esac
+  cat <<TEXT
+
+  Connect a Modbus RTU master to $port (the pty printed above), slave id 1:
+    QModMaster: Options > Modbus RTU: Serial port $port (type it in, or "Add Port"),
+                Baud $baud, Data Bits ${format:0:1}, Parity $parity, Stop Bits ${format:2:1}, RTS None;
+                then Modbus Mode RTU, Slave Addr 1, Connect
+    mbpoll:     mbpoll -m rtu -b $baud -P ${parity,,} -s ${format:2:1} -a 1 -t 3 -c 5 $port
+  A master at another baud rate, stop bits or odd parity gets no answer, and the virtual Uno
+  says why (a pty does not pass on whether parity is none or even: both are served).
+  Type here: pin 6 0 | pin 6 z | adc A0 2500 | pins    Ctrl-C stops.
+
+TEXT
+}
+
+echo "serve: $example on the virtual Uno"
+"$target/release/virtual-uno" --link "$port" "$@" "$elf" | while IFS= read -r line; do
+  printf '%s\n' "$line"
+  case $line in
+    "serial: off"*) ;;
+    "serial: "*) settings "$(sed 's/^serial: \([0-9]* [5-9][NEO][12]\).*/\1/' <<<"$line")" ;;
+  esac
+done

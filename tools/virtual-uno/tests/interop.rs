@@ -1,0 +1,366 @@
+//! Real Modbus masters against the firmware on the virtual Uno: mbpoll (Debian), pymodbus
+//! (`demo/pymodbus_check.py`) and libmodbus, the library behind mbpoll and QModMaster
+//! (`demo/libmodbus_check.c`, compiled here). Each test starts its own virtual Uno on a fresh
+//! pty and fails with both transcripts on any mismatch.
+//!
+//! mbpoll sends only well-formed requests to slaves 1-247 (it refuses address 0 and more than
+//! 125 values), so exception 03 and the broadcast are checked through libmodbus directly.
+//!
+//! Needs the firmware (`make firmware`), mbpoll, python3-pymodbus, libmodbus-dev and a C compiler.
+
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread;
+use std::time::{Duration, Instant};
+
+use nix::sys::signal::{kill, Signal};
+use nix::unistd::Pid;
+
+/// One virtual Uno at a time: each keeps a CPU core busy, and a starved one answers late.
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+fn serialise() -> MutexGuard<'static, ()> {
+    ONE_AT_A_TIME.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// `$CARGO_TARGET_DIR` (or `<workspace>/target`)`/avr-atmega328p/release/examples/NAME.elf`.
+fn firmware(name: &str) -> PathBuf {
+    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| workspace().join("target"), PathBuf::from);
+    let elf = target.join("avr-atmega328p/release/examples").join(format!("{name}.elf"));
+    assert!(elf.is_file(), "{} is missing: run make firmware first", elf.display());
+    elf
+}
+
+/// Collects a child's output as it comes, so that a transcript survives a kill.
+fn collect(stream: impl Read + Send + 'static, into: Arc<Mutex<String>>) {
+    thread::spawn(move || {
+        for line in BufReader::new(stream).lines().map_while(Result::ok) {
+            into.lock().unwrap().push_str(&(line + "\n"));
+        }
+    });
+}
+
+/// A running `virtual-uno`, stopped with SIGTERM when dropped.
+struct VirtualUno {
+    child: Child,
+    link: PathBuf,
+    control: PathBuf,
+    log: Arc<Mutex<String>>,
+}
+
+impl VirtualUno {
+    /// Starts `firmware` with `options` and waits until its USART0 is configured.
+    fn start(firmware: &Path, options: &[&str]) -> VirtualUno {
+        let dir = std::env::temp_dir();
+        let tag = format!("vuno-{}-{}", std::process::id(), firmware.file_stem().unwrap().to_string_lossy());
+        let (link, control) = (dir.join(format!("{tag}.tty")), dir.join(format!("{tag}.ctl")));
+        let mut child = Command::new(env!("CARGO_BIN_EXE_virtual-uno"))
+            .arg("--link")
+            .arg(&link)
+            .arg("--control")
+            .arg(&control)
+            .args(["--no-stdin"])
+            .args(options)
+            .arg(firmware)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start virtual-uno");
+        let log = Arc::new(Mutex::new(String::new()));
+        collect(child.stdout.take().unwrap(), log.clone());
+        collect(child.stderr.take().unwrap(), log.clone());
+        let uno = VirtualUno { child, link, control, log };
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while !uno.log().contains("serial: ") {
+            assert!(Instant::now() < deadline, "virtual-uno did not start:\n{}", uno.log());
+            thread::sleep(Duration::from_millis(20));
+        }
+        uno
+    }
+
+    fn port(&self) -> &str {
+        self.link.to_str().unwrap()
+    }
+
+    fn log(&self) -> String {
+        self.log.lock().unwrap().clone()
+    }
+
+    /// Sends a command (`pin 6 0`) and gives the firmware time to see it.
+    fn control(&self, command: &str) {
+        std::fs::write(&self.control, format!("{command}\n")).expect("write the control FIFO");
+        thread::sleep(Duration::from_millis(100));
+    }
+}
+
+impl Drop for VirtualUno {
+    fn drop(&mut self) {
+        let _ = kill(Pid::from_raw(self.child.id() as i32), Signal::SIGTERM);
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while self.child.try_wait().ok().flatten().is_none() && Instant::now() < deadline {
+            thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Runs `cmd` to completion (killed after `limit`); returns success and stdout + stderr.
+fn run(cmd: &mut Command, limit: Duration) -> (bool, String) {
+    let mut child = cmd
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap_or_else(|e| panic!("cannot run {cmd:?}: {e}"));
+    let out = Arc::new(Mutex::new(String::new()));
+    collect(child.stdout.take().unwrap(), out.clone());
+    collect(child.stderr.take().unwrap(), out.clone());
+    let deadline = Instant::now() + limit;
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break Some(status);
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        thread::sleep(Duration::from_millis(10));
+    };
+    thread::sleep(Duration::from_millis(50)); // let the readers finish
+    let text = out.lock().unwrap().clone();
+    match status {
+        Some(status) => (status.success(), text),
+        None => (false, format!("{text}(killed after {limit:?})\n")),
+    }
+}
+
+/// What a failed test prints.
+fn transcript(master: &str, uno: &VirtualUno) -> String {
+    format!("--- master ---\n{master}--- virtual-uno ---\n{}", uno.log())
+}
+
+// ------------------------------------------------------------------------------------------
+// mbpoll
+
+/// `mbpoll -m rtu -b 19200 -P even -1 ARGS PORT VALUES`: its output.
+fn mbpoll(uno: &VirtualUno, args: &str, values: &str) -> String {
+    let mut cmd = Command::new("mbpoll");
+    cmd.args("-m rtu -b 19200 -P even -o 1 -1".split(' ')).args(args.split_whitespace());
+    cmd.arg(uno.port()).args(values.split_whitespace());
+    let (_, out) = run(&mut cmd, Duration::from_secs(10));
+    format!("$ mbpoll {args} {} {values}\n{out}", uno.port())
+}
+
+/// The values of `[ref]: value` lines.
+fn mbpoll_values(out: &str) -> Vec<i64> {
+    out.lines().filter(|l| l.starts_with('[')).filter_map(|l| l.split(':').nth(1)?.trim().parse().ok()).collect()
+}
+
+#[test]
+fn mbpoll_runs_every_function_code_and_gets_exceptions_01_02() {
+    let _one = serialise();
+    let uno = VirtualUno::start(&firmware("uno_slave"), &[]);
+    let mut log = String::new();
+    let mut check = |out: String, ok: bool| {
+        log.push_str(&out);
+        assert!(ok, "mbpoll step failed\n{}", transcript(&log, &uno));
+    };
+
+    let out = mbpoll(&uno, "-a 1 -t 0 -r 1 -c 5", "");
+    check(out.clone(), mbpoll_values(&out) == [0, 0, 0, 0, 0]);
+    uno.control("pin 6 0");
+    let out = mbpoll(&uno, "-a 1 -t 1 -r 1 -c 4", "");
+    check(out.clone(), mbpoll_values(&out) == [1, 0, 0, 0]);
+    uno.control("adc A0 2500");
+    let out = mbpoll(&uno, "-a 1 -t 3 -r 1 -c 3", "");
+    check(out.clone(), mbpoll_values(&out).first() == Some(&511));
+    let out = mbpoll(&uno, "-a 1 -t 4 -r 1 -c 2", "");
+    check(out.clone(), mbpoll_values(&out) == [500, 512]);
+
+    let out = mbpoll(&uno, "-a 1 -t 0 -r 2", "1"); // FC05
+    check(out.clone(), out.contains("Written 1 references"));
+    let out = mbpoll(&uno, "-a 1 -t 0 -r 3", "1 0 1"); // FC15
+    check(out.clone(), out.contains("Written 3 references"));
+    let out = mbpoll(&uno, "-a 1 -t 0 -r 1 -c 5", "");
+    check(out.clone(), mbpoll_values(&out) == [0, 1, 1, 0, 1]);
+    thread::sleep(Duration::from_millis(100));
+    check(String::new(), uno.log().contains("pins: 13=off 2=on 3=on 4=off 5=on"));
+
+    let out = mbpoll(&uno, "-a 1 -t 4 -r 3", "1234"); // FC06
+    check(out.clone(), out.contains("Written 1 references"));
+    let out = mbpoll(&uno, "-a 1 -t 4 -r 4", "11 22 33"); // FC16
+    check(out.clone(), out.contains("Written 3 references"));
+    let out = mbpoll(&uno, "-a 1 -t 4 -r 3 -c 4", "");
+    check(out.clone(), mbpoll_values(&out) == [1234, 11, 22, 33]);
+
+    // FC17 (0x11) Report Server ID: mbpoll's only other function code, absent without the
+    // `diagnostics` feature (`make firmware` builds the examples without it).
+    let out = mbpoll(&uno, "-a 1 -u", "");
+    check(out.clone(), out.contains("Illegal function"));
+    let out = mbpoll(&uno, "-a 1 -t 4 -r 11", "");
+    check(out.clone(), out.contains("Illegal data address"));
+}
+
+#[test]
+fn mbpoll_1000_back_to_back_reads_are_all_answered() {
+    let _one = serialise();
+    let uno = VirtualUno::start(&firmware("uno_slave"), &[]);
+    let script =
+        format!("exec stdbuf -oL mbpoll -m rtu -b 19200 -P even -o 1 -a 1 -t 4 -r 1 -l 10 {} 2>&1", uno.port());
+    let mut child = Command::new("sh").args(["-c", &script]).stdout(Stdio::piped()).spawn().expect("run mbpoll");
+    let start = Instant::now();
+    let (mut answered, mut failed, mut log) = (0, 0, String::new());
+    for line in BufReader::new(child.stdout.take().unwrap()).lines().map_while(Result::ok) {
+        if line.starts_with("[1]:") {
+            answered += 1;
+        } else if line.contains("failed") {
+            failed += 1;
+            log.push_str(&(line + "\n"));
+        }
+        if answered + failed == 1000 || start.elapsed() > Duration::from_secs(120) {
+            break;
+        }
+    }
+    let took = start.elapsed();
+    let _ = child.kill();
+    let _ = child.wait();
+    println!(
+        "mbpoll: {answered} of {} reads answered ({:.1} %) in {:.1} s ({:.1} ms each)",
+        answered + failed,
+        100.0 * f64::from(answered) / f64::from((answered + failed).max(1)),
+        took.as_secs_f64(),
+        took.as_secs_f64() * 1000.0 / f64::from((answered + failed).max(1))
+    );
+    assert!(answered == 1000 && failed == 0, "{answered} answered, {failed} failed\n{}", transcript(&log, &uno));
+}
+
+#[test]
+fn mbpoll_with_other_line_settings_gets_no_answer_and_a_warning() {
+    let _one = serialise();
+    let uno = VirtualUno::start(&firmware("uno_slave"), &[]);
+    for (settings, master) in [("-b 9600 -P even", "9600 8"), ("-b 19200 -P odd", "19200 8O1")] {
+        let mut cmd = Command::new("mbpoll");
+        cmd.args(format!("-m rtu {settings} -o 0.3 -1 -a 1 -t 4 -r 1").split(' ')).arg(uno.port());
+        let (_, out) = run(&mut cmd, Duration::from_secs(10));
+        let warned = format!("line settings differ: master {master}");
+        thread::sleep(Duration::from_millis(50));
+        assert!(
+            out.contains("Connection timed out") && uno.log().contains(&warned),
+            "expected a time-out and `{warned}`\n{}",
+            transcript(&out, &uno)
+        );
+    }
+}
+
+// ------------------------------------------------------------------------------------------
+// pymodbus
+
+/// A Python 3 that can import pymodbus and pyserial (Debian's lives in /usr/bin).
+fn python() -> &'static str {
+    ["/usr/bin/python3", "python3"]
+        .into_iter()
+        .find(|py| Command::new(py).args(["-c", "import pymodbus, serial"]).output().is_ok_and(|o| o.status.success()))
+        .expect("no python3 with pymodbus and pyserial: apt-get install python3-pymodbus python3-serial")
+}
+
+fn pymodbus(uno: &VirtualUno, args: &str, limit: Duration) {
+    let script = workspace().join("demo/pymodbus_check.py");
+    let mut cmd = Command::new(python());
+    cmd.arg(script).arg(uno.port()).args(["--control", uno.control.to_str().unwrap()]);
+    cmd.args(args.split_whitespace());
+    let (ok, out) = run(&mut cmd, limit);
+    println!("{out}");
+    assert!(ok, "pymodbus_check.py {args} failed\n{}", transcript(&out, uno));
+}
+
+#[test]
+fn pymodbus_runs_every_function_code_exceptions_broadcast_and_1000_reads() {
+    let _one = serialise();
+    let uno = VirtualUno::start(&firmware("uno_slave"), &[]);
+    pymodbus(&uno, "--reads 1000", Duration::from_secs(120));
+}
+
+/// dip_switch preset 5 (pins 10 and 12 closed): 9600 8N1.
+#[test]
+fn pymodbus_and_libmodbus_at_9600_8n1() {
+    let _one = serialise();
+    let uno = VirtualUno::start(&firmware("dip_switch"), &["--pin", "10=0", "--pin", "12=0"]);
+    assert!(uno.log().contains("serial: 9600 8N1"), "{}", uno.log());
+    pymodbus(&uno, "--board dip_switch --preset 5 --baud 9600 --parity N --reads 100", Duration::from_secs(60));
+    libmodbus(&uno, "9600 N 1 100");
+}
+
+/// dip_switch preset 6 (pins 11 and 12 closed): 115200 8E1, the USART at +2.12 %.
+#[test]
+fn pymodbus_and_libmodbus_at_115200_8e1() {
+    let _one = serialise();
+    let uno = VirtualUno::start(&firmware("dip_switch"), &["--pin", "11=0", "--pin", "12=0"]);
+    assert!(uno.log().contains("serial: 115200 8E1"), "{}", uno.log());
+    pymodbus(&uno, "--board dip_switch --preset 6 --baud 115200 --parity E --reads 100", Duration::from_secs(60));
+    libmodbus(&uno, "115200 E 1 100");
+}
+
+// ------------------------------------------------------------------------------------------
+// libmodbus
+
+/// `demo/libmodbus_check.c`, compiled once per test run.
+fn libmodbus_check() -> PathBuf {
+    static BUILT: Mutex<Option<PathBuf>> = Mutex::new(None);
+    let mut built = BUILT.lock().unwrap_or_else(|p| p.into_inner());
+    if let Some(exe) = built.as_ref() {
+        return exe.clone();
+    }
+    let exe = Path::new(env!("CARGO_TARGET_TMPDIR")).join("libmodbus_check");
+    let flags = Command::new("pkg-config")
+        .args(["--cflags", "--libs", "libmodbus"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map_or("-I/usr/include/modbus -lmodbus".to_owned(), |o| String::from_utf8_lossy(&o.stdout).into_owned());
+    let mut cc = Command::new(std::env::var("CC").unwrap_or_else(|_| "cc".into()));
+    cc.arg("-o").arg(&exe).arg(workspace().join("demo/libmodbus_check.c")).args(flags.split_whitespace());
+    let (ok, out) = run(&mut cc, Duration::from_secs(60));
+    assert!(ok, "cannot build demo/libmodbus_check.c (apt-get install libmodbus-dev):\n{out}");
+    *built = Some(exe.clone());
+    exe
+}
+
+fn libmodbus(uno: &VirtualUno, args: &str) {
+    let mut cmd = Command::new(libmodbus_check());
+    cmd.arg(uno.port()).args(args.split_whitespace());
+    let (ok, out) = run(&mut cmd, Duration::from_secs(60));
+    println!("{out}");
+    assert!(ok, "libmodbus_check {args} failed\n{}", transcript(&out, uno));
+}
+
+#[test]
+fn libmodbus_runs_every_function_code_exceptions_01_02_03_and_broadcast() {
+    let _one = serialise();
+    let uno = VirtualUno::start(&firmware("uno_slave"), &[]);
+    libmodbus(&uno, "19200 E 1 200");
+}
+
+// ------------------------------------------------------------------------------------------
+// the binary itself
+
+#[test]
+fn a_missing_or_bad_firmware_is_one_line_and_a_failure() {
+    let bad = Path::new(env!("CARGO_TARGET_TMPDIR")).join("not-an-elf.elf");
+    std::fs::write(&bad, b"hello").unwrap();
+    for path in [Path::new("/nonexistent/fw.elf"), bad.as_path()] {
+        let out = Command::new(env!("CARGO_BIN_EXE_virtual-uno")).arg(path).stdin(Stdio::null()).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{path:?} accepted");
+        assert_eq!(err.lines().count(), 1, "not one line: {err}");
+        assert!(err.starts_with("virtual-uno: ") && err.contains(&*path.to_string_lossy()), "{err}");
+    }
+}
