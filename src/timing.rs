@@ -12,6 +12,11 @@ pub const FIXED_TIMES_ABOVE_BAUD: u32 = 19_200;
 
 const NS_PER_S: u64 = 1_000_000_000;
 
+/// A lower bound of the time from a character's stop bit to the Timer0 restart in the
+/// receive interrupt (interrupt response and handler prologue, about 34 cycles in the
+/// release build): the deadlines count from the restart, so they are shortened by this.
+pub const RX_RESTART_LATENCY_NS: u32 = 2_000;
+
 const fn div_ceil(a: u64, b: u64) -> u64 {
     a.div_ceil(b)
 }
@@ -107,9 +112,11 @@ pub struct Deadline {
 }
 
 impl Deadline {
-    /// Ticks from a restart (TCNT0 = 0) to the match that counts.
+    /// Timer clocks from a restart (TCNT0 = 0) to the one that raises the compare flag
+    /// that counts: the flag rises on the clock after TCNT0 reached OCR0x (datasheet
+    /// §15.7), so one more than the count.
     pub const fn ticks(self) -> u32 {
-        self.wraps as u32 * 256 + self.ocr as u32
+        self.wraps as u32 * 256 + self.ocr as u32 + 1
     }
 }
 
@@ -131,10 +138,16 @@ impl TimerPlan {
     /// extra turn costs one short compare interrupt per deadline).
     const MAX_TICKS: u64 = 2048;
 
-    /// Picks the finest prescaler that reaches T3.5 within eight counter turns and rounds
-    /// each deadline so that it never expires early: the prescaler runs freely, so a
-    /// restart can land anywhere inside a tick, and one tick is added for that. The
-    /// deadlines are therefore late by at most one tick.
+    /// Picks the finest prescaler that reaches T3.5 within eight counter turns.
+    ///
+    /// The prescaler runs freely, so on silicon a restart lands anywhere inside a tick and
+    /// a deadline of `n` ticks expires between `n − 1` and `n` ticks later. The end
+    /// deadline (T3.5) must never expire early, or a reply could start before the silence
+    /// the spec demands: `n` is T3.5 rounded up plus one, so it expires up to two ticks
+    /// late. The gap deadline must not be lenient, or a gap over T1.5 would pass: `n` is
+    /// only rounded up, so it expires less than one tick from the exact time, either way.
+    /// (In simulation the prescaler has no phase and both expire at `n` ticks.) Both count
+    /// from the restart, [`RX_RESTART_LATENCY_NS`] or more after the stop bit.
     pub const fn new(times: CharTimes, clock_hz: u32) -> Self {
         let mut i = 0;
         while i < Prescaler::ALL.len() - 1 {
@@ -146,8 +159,8 @@ impl TimerPlan {
         let prescaler = Prescaler::ALL[i];
         TimerPlan {
             prescaler,
-            gap: Self::deadline(times.gap_deadline_ns(), clock_hz, prescaler),
-            end: Self::deadline(times.t35_ns, clock_hz, prescaler),
+            gap: Self::deadline(times.gap_deadline_ns() - RX_RESTART_LATENCY_NS, clock_hz, prescaler, 0),
+            end: Self::deadline(times.t35_ns - RX_RESTART_LATENCY_NS, clock_hz, prescaler, 1),
         }
     }
 
@@ -157,11 +170,13 @@ impl TimerPlan {
     }
 
     const fn ticks(ns: u32, clock_hz: u32, prescaler: Prescaler) -> u64 {
-        div_ceil(ns as u64 * clock_hz as u64, prescaler.divisor() as u64 * NS_PER_S) + 1
+        div_ceil(ns as u64 * clock_hz as u64, prescaler.divisor() as u64 * NS_PER_S)
     }
 
-    const fn deadline(ns: u32, clock_hz: u32, prescaler: Prescaler) -> Deadline {
-        let mut ticks = Self::ticks(ns, clock_hz, prescaler);
+    /// A deadline expiring `ticks(ns) + margin` timer clocks after a restart: the compare
+    /// value is one less, as the flag rises on the clock after the match.
+    const fn deadline(ns: u32, clock_hz: u32, prescaler: Prescaler, margin: u64) -> Deadline {
+        let mut ticks = Self::ticks(ns, clock_hz, prescaler) + margin - 1;
         if ticks.is_multiple_of(256) {
             ticks += 1;
         }
@@ -279,7 +294,8 @@ mod tests {
     }
 
     #[test]
-    fn timer_deadlines_never_early_and_at_most_one_tick_late() {
+    fn end_deadline_never_early_gap_deadline_never_lenient() {
+        let latency = RX_RESTART_LATENCY_NS as u64;
         for baud in [1200, 2400, 4800, 9600, 19_200, 38_400, 57_600, 115_200, 250_000, 500_000, 1_000_000] {
             for (parity, stop) in
                 [(Parity::Even, StopBits::One), (Parity::None, StopBits::One), (Parity::None, StopBits::Two)]
@@ -287,13 +303,15 @@ mod tests {
                 let t = times(baud, parity, stop);
                 let plan = TimerPlan::new(t, CLOCK_HZ);
                 let tick = plan.prescaler.divisor() as u64 * 1_000_000_000 / CLOCK_HZ as u64;
-                for (deadline, ns) in [(plan.gap, t.gap_deadline_ns()), (plan.end, t.t35_ns)] {
-                    let ticks = deadline.ticks() as u64;
-                    assert!(deadline.ocr != 0);
-                    // Earliest expiry: the restart came just before a prescaler edge.
-                    assert!((ticks - 1) * tick >= ns as u64, "{baud} early: {ticks} ticks of {tick} ns < {ns}");
-                    assert!((ticks - 2) * tick < ns as u64 + tick, "{baud} late: {ticks} ticks of {tick} ns");
-                }
+                // On silicon a deadline of n ticks expires between n − 1 and n ticks after
+                // the restart, which comes at least `latency` after the stop bit.
+                let (end, t35) = (plan.end.ticks() as u64, t.t35_ns as u64);
+                assert!(latency + (end - 1) * tick >= t35, "{baud}: T3.5 early: {end} ticks of {tick} ns < {t35}");
+                assert!(latency + end * tick < t35 + 2 * tick, "{baud}: T3.5 more than 2 ticks late");
+                let (gap, limit) = (plan.gap.ticks() as u64, t.gap_deadline_ns() as u64);
+                assert!(latency + gap * tick >= limit, "{baud}: gap deadline early in simulation");
+                assert!(latency + gap * tick < limit + tick, "{baud}: gap deadline lenient");
+                assert!(plan.end.ocr != 0 && plan.gap.ocr != 0);
                 assert!(plan.gap.ticks() < plan.end.ticks(), "{baud}: gap deadline after T3.5");
             }
         }
@@ -303,12 +321,17 @@ mod tests {
     fn prescaler_is_the_finest_that_reaches_t35_in_eight_turns() {
         let plan = |baud| TimerPlan::new(times(baud, Parity::Even, StopBits::One), CLOCK_HZ);
         assert_eq!(plan(1200).prescaler, Prescaler::Div256);
-        // 32 083 334 ns / 16 µs = 2005.2 → 2006 ticks, + 1 for the prescaler phase.
-        assert_eq!(plan(1200).end, Deadline { ocr: 215, wraps: 7 });
+        // (32 083 334 − 2 000) ns / 16 µs = 2005.1 → 2006 ticks, + 1 for the prescaler
+        // phase; the compare value is one less.
+        assert_eq!(plan(1200).end, Deadline { ocr: 214, wraps: 7 });
+        assert_eq!(plan(1200).end.ticks(), 2007);
+        // (9 166 667 + 13 750 000 − 2 000) ns / 16 µs = 1432.2 → 1433 ticks.
+        assert_eq!(plan(1200).gap, Deadline { ocr: 152, wraps: 5 });
         assert_eq!(plan(9600).prescaler, Prescaler::Div64);
         assert_eq!(plan(19_200).prescaler, Prescaler::Div64);
         assert_eq!(plan(115_200).prescaler, Prescaler::Div64);
-        assert_eq!(plan(115_200).end.ticks(), 1_750_000_u32.div_ceil(4_000) + 1);
+        assert_eq!(plan(115_200).end.ticks(), (1_750_000_u32 - 2_000).div_ceil(4_000) + 1);
+        assert_eq!(plan(115_200).gap.ticks(), (95_487 + 750_000_u32 - 2_000).div_ceil(4_000));
     }
 
     #[test]

@@ -1,0 +1,332 @@
+//! Helpers shared by the simulator tests (`tests/sim_*.rs`): the release firmware run in
+//! simavr through `uno-sim`, a bus master that schedules every character on simulated
+//! time, and a CRC-16/MODBUS written from Serial Line v1.02 §6.2.2 (not the crate's).
+//!
+//! All times are CPU cycles at 16 MHz; wall time is never looked at.
+//!
+//! Each test crate uses a different subset of these helpers.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+
+use uno_sim::{Parity, TxByte, Uno, F_CPU};
+
+#[allow(unused_imports)] // not every test crate needs both
+pub use uno_sim::{cycles_to_us, us_to_cycles};
+
+/// The slave id every example answers to.
+pub const ID: u8 = 1;
+
+/// Path of the release ELF of example `name`: `$CARGO_TARGET_DIR` (else `target/` of this
+/// package), then `avr-atmega328p/release/examples/NAME.elf`.
+pub fn firmware(name: &str) -> PathBuf {
+    let target = std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target"));
+    let path = target.join("avr-atmega328p/release/examples").join(format!("{name}.elf"));
+    assert!(path.is_file(), "{} is missing: run `make firmware` first", path.display());
+    path
+}
+
+// ---------------------------------------------------------------------------------------
+// Frames
+
+/// CRC-16/MODBUS, Serial Line v1.02 §6.2.2: start at 0xFFFF; for each byte xor it into the
+/// low byte, then eight times shift right and xor 0xA001 when a 1 fell out.
+pub fn crc16(bytes: &[u8]) -> u16 {
+    let mut crc: u16 = 0xFFFF;
+    for &byte in bytes {
+        crc ^= u16::from(byte);
+        for _ in 0..8 {
+            let lsb = crc & 1;
+            crc >>= 1;
+            if lsb == 1 {
+                crc ^= 0xA001;
+            }
+        }
+    }
+    crc
+}
+
+/// `frame` with its CRC appended, low byte first.
+pub fn with_crc(frame: &[u8]) -> Vec<u8> {
+    let crc = crc16(frame);
+    let mut out = frame.to_vec();
+    out.extend_from_slice(&crc.to_le_bytes());
+    out
+}
+
+/// A read request (FC 01–04) to `id`: function, start address, quantity, CRC.
+pub fn read_request(id: u8, function: u8, start: u16, qty: u16) -> Vec<u8> {
+    let [s_hi, s_lo] = start.to_be_bytes();
+    let [q_hi, q_lo] = qty.to_be_bytes();
+    with_crc(&[id, function, s_hi, s_lo, q_hi, q_lo])
+}
+
+/// An FC 03 reply from `id` carrying `values`.
+pub fn registers_reply(id: u8, function: u8, values: &[u16]) -> Vec<u8> {
+    let mut frame = vec![id, function, (2 * values.len()) as u8];
+    for value in values {
+        frame.extend_from_slice(&value.to_be_bytes());
+    }
+    with_crc(&frame)
+}
+
+/// An FC 06 request to `id` (its reply is the same frame).
+pub fn write_register_request(id: u8, address: u16, value: u16) -> Vec<u8> {
+    let [a_hi, a_lo] = address.to_be_bytes();
+    let [v_hi, v_lo] = value.to_be_bytes();
+    with_crc(&[id, 0x06, a_hi, a_lo, v_hi, v_lo])
+}
+
+/// An exception reply from `id`.
+pub fn exception_reply(id: u8, function: u8, code: u8) -> Vec<u8> {
+    with_crc(&[id, function | 0x80, code])
+}
+
+// ---------------------------------------------------------------------------------------
+// Line settings and the silences derived from them
+
+/// A line setting, as the master sees it: nominal rate and frame format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Line {
+    /// Nominal bits per second.
+    pub baud: u32,
+    /// Parity bit.
+    pub parity: Parity,
+    /// Stop bits.
+    pub stop_bits: u8,
+}
+
+impl Line {
+    /// 1200 bps, 8E1.
+    pub const B1200_8E1: Line = Line { baud: 1200, parity: Parity::Even, stop_bits: 1 };
+    /// 9600 bps, 8E1.
+    pub const B9600_8E1: Line = Line { baud: 9600, parity: Parity::Even, stop_bits: 1 };
+    /// 9600 bps, 8N1.
+    pub const B9600_8N1: Line = Line { baud: 9600, parity: Parity::None, stop_bits: 1 };
+    /// 19200 bps, 8E1: the spec's default.
+    pub const B19200_8E1: Line = Line { baud: 19200, parity: Parity::Even, stop_bits: 1 };
+    /// 19200 bps, 8N2.
+    pub const B19200_8N2: Line = Line { baud: 19200, parity: Parity::None, stop_bits: 2 };
+    /// 19200 bps, 8O1.
+    pub const B19200_8O1: Line = Line { baud: 19200, parity: Parity::Odd, stop_bits: 1 };
+    /// 115200 bps, 8N1 (fixed T1.5/T3.5).
+    pub const B115200_8N1: Line = Line { baud: 115200, parity: Parity::None, stop_bits: 1 };
+    /// 115200 bps, 8E1 (fixed T1.5/T3.5).
+    pub const B115200_8E1: Line = Line { baud: 115200, parity: Parity::Even, stop_bits: 1 };
+
+    /// Bits per character: start, 8 data, parity, stop.
+    pub fn char_bits(&self) -> u64 {
+        1 + 8 + u64::from(self.parity != Parity::None) + u64::from(self.stop_bits)
+    }
+
+    /// `tenths` tenths of a nominal character time, in cycles, rounded up.
+    fn char_tenths(&self, tenths: u64) -> u64 {
+        (tenths * self.char_bits() * F_CPU).div_ceil(10 * u64::from(self.baud))
+    }
+
+    /// T1.5 in cycles: 1.5 characters, or 750 µs above 19200 bps.
+    pub fn t15(&self) -> u64 {
+        if self.baud > 19200 {
+            us_to_cycles(750)
+        } else {
+            self.char_tenths(15)
+        }
+    }
+
+    /// T3.5 in cycles: 3.5 characters, or 1750 µs above 19200 bps.
+    pub fn t35(&self) -> u64 {
+        if self.baud > 19200 {
+            us_to_cycles(1750)
+        } else {
+            self.char_tenths(35)
+        }
+    }
+
+    /// "115200 8N1".
+    pub fn name(&self) -> String {
+        let parity = match self.parity {
+            Parity::None => 'N',
+            Parity::Even => 'E',
+            Parity::Odd => 'O',
+        };
+        format!("{} 8{}{}", self.baud, parity, self.stop_bits)
+    }
+}
+
+/// The `dip_switch` presets, in switch order (pin 10 = bit 0, closed = 1).
+pub const DIP_PRESETS: [Line; 8] = [
+    Line::B19200_8E1,
+    Line::B9600_8E1,
+    Line::B19200_8N2,
+    Line::B19200_8O1,
+    Line::B115200_8N1,
+    Line::B9600_8N1,
+    Line::B115200_8E1,
+    Line::B1200_8E1,
+];
+
+// ---------------------------------------------------------------------------------------
+// The simulated slave and its master
+
+/// What one request got back.
+#[derive(Clone, Debug)]
+pub struct Exchange {
+    /// Cycle at which the request's last stop bit ended.
+    pub request_end: u64,
+    /// The reply's characters with their times on the wire (empty: no reply).
+    pub reply: Vec<TxByte>,
+}
+
+impl Exchange {
+    /// The reply's bytes.
+    pub fn bytes(&self) -> Vec<u8> {
+        self.reply.iter().map(|t| t.byte).collect()
+    }
+
+    /// Cycles from the request's end to the reply's first start bit.
+    pub fn turnaround(&self) -> Option<u64> {
+        self.reply.first().map(|t| t.start_cycle - self.request_end)
+    }
+
+    /// Longest idle time between two characters of the reply, in cycles.
+    pub fn max_reply_gap(&self) -> u64 {
+        self.reply.windows(2).map(|w| w[1].start_cycle - w[0].end_cycle).max().unwrap_or(0)
+    }
+}
+
+/// A firmware running on a simulated Uno, with a master on its serial line.
+pub struct Rtu {
+    /// The simulated board.
+    pub uno: Uno,
+    /// The line setting the master uses.
+    pub line: Line,
+    /// One character on the wire, in cycles (from the firmware's UBRR0 and format).
+    pub char_cycles: u64,
+    /// One tick of Timer0 (the silence detector), in cycles, from the clock select the
+    /// firmware wrote when it started the timer.
+    pub tick: u64,
+    /// The line has been idle since this cycle (end of the last character either way).
+    quiet_since: u64,
+}
+
+/// Simulated time the firmware gets to start up before the master's first T3.5 wait.
+const BOOT_CYCLES: u64 = us_to_cycles(2_000);
+
+/// Data-space address of TCCR0B (clock select CS02:0 in bits 2:0).
+const TCCR0B: u16 = 0x45;
+
+/// Runs the firmware one instruction at a time until it starts Timer0 (its power-up wait)
+/// and returns the timer's tick in cycles.
+fn timer0_tick(uno: &mut Uno) -> u64 {
+    while uno.now() < BOOT_CYCLES {
+        uno.step().expect("firmware runs");
+        let divisor = match uno.read_ram(TCCR0B, 1).expect("TCCR0B")[0] & 0b111 {
+            0 => continue,
+            1 => 1,
+            2 => 8,
+            3 => 64,
+            4 => 256,
+            5 => 1024,
+            external => panic!("Timer0 clocked from pin T0 (CS0 = {external:#05b})"),
+        };
+        return divisor;
+    }
+    panic!("the firmware did not start Timer0 within {BOOT_CYCLES} cycles");
+}
+
+impl Rtu {
+    /// Boots example `name`, which must use `line`.
+    pub fn boot(name: &str, line: Line) -> Rtu {
+        Rtu::boot_with(name, line, |_| {})
+    }
+
+    /// Boots example `name` after `before_reset` set up the board (pins, voltages).
+    pub fn boot_with(name: &str, line: Line, before_reset: impl FnOnce(&mut Uno)) -> Rtu {
+        let mut uno = Uno::load(firmware(name)).expect("firmware loads");
+        before_reset(&mut uno);
+        let tick = timer0_tick(&mut uno);
+        uno.run_until(BOOT_CYCLES).expect("firmware runs");
+        let char_cycles = uno.wire_char_cycles().expect("the firmware enabled USART0");
+        // The slave's own power-up wait counts from its start; the master waits T3.5 from here.
+        let quiet_since = uno.now();
+        Rtu { uno, line, char_cycles, tick, quiet_since }
+    }
+
+    /// Boots `dip_switch` with its switches set to `preset` (0-7).
+    pub fn boot_dip(preset: usize) -> Rtu {
+        Rtu::boot_with("dip_switch", DIP_PRESETS[preset], |uno| {
+            for (bit, pin) in [10u8, 11, 12].into_iter().enumerate() {
+                let closed = preset & (1 << bit) != 0;
+                // Closed switches pull the pin to GND; open ones leave it to the pull-up.
+                uno.drive_pin(pin, if closed { Some(false) } else { None }).unwrap();
+            }
+        })
+    }
+
+    /// The earliest cycle at which the end of a request's first character may be
+    /// scheduled so that T3.5 plus `margin` cycles of silence precede its start bit.
+    pub fn first_end_after_silence(&self, margin: u64) -> u64 {
+        let start = (self.quiet_since + self.line.t35() + margin).max(self.uno.now());
+        start + self.char_cycles
+    }
+
+    /// Schedules `bytes` from the master: the first character ends at `first_end`, the
+    /// others follow after `gap` idle cycles each. Returns the last character's end.
+    pub fn send_at(&mut self, bytes: &[u8], first_end: u64, gap: u64) -> u64 {
+        let end = self.uno.send_frame(bytes, first_end, gap).expect("bytes scheduled");
+        self.quiet_since = self.quiet_since.max(end);
+        end
+    }
+
+    /// Schedules `bytes` back to back after T3.5 (+ two ticks) of silence; returns the end
+    /// of the last character.
+    pub fn send(&mut self, bytes: &[u8]) -> u64 {
+        let first_end = self.first_end_after_silence(2 * self.tick);
+        self.send_at(bytes, first_end, 0)
+    }
+
+    /// Sends `request` after T3.5 of silence and collects the reply (see [`Rtu::receive`]).
+    pub fn exchange(&mut self, request: &[u8]) -> Exchange {
+        let end = self.send(request);
+        self.receive(end)
+    }
+
+    /// Sends `request` and returns the reply's bytes.
+    pub fn ask(&mut self, request: &[u8]) -> Vec<u8> {
+        self.exchange(request).bytes()
+    }
+
+    /// Runs until the reply to a request that ended at `request_end` is complete, or, if
+    /// none has started by then, until T3.5 plus ten characters after it.
+    pub fn receive(&mut self, request_end: u64) -> Exchange {
+        let idle = 2 * self.char_cycles;
+        let no_reply_by = request_end + self.line.t35() + 10 * self.char_cycles;
+        // Only stop early if a reply started (stop_on_tx is what `run_until_tx_idle` does).
+        let mut reply = self.uno.run_until_tx_idle(idle, no_reply_by).expect("firmware runs");
+        while let Some(last) = reply.last() {
+            let busy = self.uno.tx_busy_until().unwrap_or(0).max(last.end_cycle);
+            if self.uno.now() >= busy + idle {
+                break;
+            }
+            self.uno.run_until(busy + idle).expect("firmware runs");
+            reply.extend(self.uno.take_tx());
+        }
+        if let Some(last) = reply.last() {
+            self.quiet_since = self.quiet_since.max(last.end_cycle);
+        }
+        Exchange { request_end, reply }
+    }
+
+    /// Lets the firmware run for `us` microseconds of simulated time.
+    pub fn run_us(&mut self, us: u64) {
+        self.uno.run_for(us_to_cycles(us)).expect("firmware runs");
+    }
+
+    /// Asserts that the firmware has transmitted nothing that was not collected yet.
+    pub fn assert_silent(&mut self, what: &str) {
+        let tx = self.uno.take_tx();
+        assert!(tx.is_empty(), "{what}: the slave sent {:02X?}", tx.iter().map(|t| t.byte).collect::<Vec<_>>());
+    }
+}
