@@ -53,8 +53,8 @@ enum State {
     Receiving,
     /// The gap deadline passed: one more character breaks the frame.
     Waiting,
-    /// The frame is broken; the rest is ignored until T3.5.
-    Broken(FrameError),
+    /// The frame is broken (why: `Framer::error`); the rest is ignored until T3.5.
+    Broken,
     /// A frame was handed out and its buffer is in use until [`Framer::release`].
     Busy,
 }
@@ -66,6 +66,7 @@ pub struct Framer {
     len: usize,
     crc: Crc16,
     state: State,
+    error: FrameError,
 }
 
 impl Default for Framer {
@@ -78,7 +79,7 @@ impl Framer {
     /// A framer just after power-up: it waits for T3.5 of silence (the caller starts its
     /// timer at start-up) before it accepts a frame.
     pub const fn new() -> Self {
-        Framer { buf: [0; MAX_FRAME], len: 0, crc: Crc16::new(), state: State::Initial }
+        Framer { buf: [0; MAX_FRAME], len: 0, crc: Crc16::new(), state: State::Initial, error: FrameError::TooShort }
     }
 
     /// A character arrived.
@@ -92,8 +93,8 @@ impl Framer {
                 self.store(byte);
             }
             State::Receiving => self.store(byte),
-            State::Waiting => self.state = State::Broken(FrameError::Gap),
-            State::Initial | State::Broken(_) | State::Busy => {}
+            State::Waiting => self.break_frame(FrameError::Gap),
+            State::Initial | State::Broken | State::Busy => {}
         }
     }
 
@@ -105,8 +106,13 @@ impl Framer {
                 self.len += 1;
                 self.crc = self.crc.update(byte);
             }
-            None => self.state = State::Broken(FrameError::TooLong),
+            None => self.break_frame(FrameError::TooLong),
         }
+    }
+
+    fn break_frame(&mut self, error: FrameError) {
+        self.state = State::Broken;
+        self.error = error;
     }
 
     /// A character arrived damaged: the frame it belongs to is dropped.
@@ -116,8 +122,8 @@ impl Framer {
             UartError::Overrun => FrameError::Overrun,
         };
         match self.state {
-            State::Idle | State::Receiving | State::Waiting => self.state = State::Broken(reason),
-            State::Initial | State::Broken(_) | State::Busy => {}
+            State::Idle | State::Receiving | State::Waiting => self.break_frame(reason),
+            State::Initial | State::Broken | State::Busy => {}
         }
     }
 
@@ -139,7 +145,7 @@ impl Framer {
             State::Receiving | State::Waiting if self.len < MIN_FRAME => Err(FrameError::TooShort),
             State::Receiving | State::Waiting if !self.crc.is_residue_ok() => Err(FrameError::BadCrc),
             State::Receiving | State::Waiting => Ok(self.len),
-            State::Broken(reason) => Err(reason),
+            State::Broken => Err(self.error),
             State::Initial => {
                 self.state = State::Idle;
                 return None;
