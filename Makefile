@@ -23,6 +23,7 @@ setup:
 
 firmware: setup
 	$(CARGO) uno --examples --features rt
+	$(CARGO) uno --example configurable --features rt,eeprom-settings,$(OPTIONAL)
 	@.ci/sizes $(FIRMWARE)
 	@.ci/no-panic $(FIRMWARE)
 
@@ -37,13 +38,14 @@ OPTIONAL := diagnostics,extra-fc
 clippy: setup
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL) -- -D warnings
+	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL),eeprom-settings -- -D warnings
 	$(CARGO) uno-clippy --examples --features rt -- -D warnings
-	$(CARGO) uno-clippy --examples --features rt,$(OPTIONAL) -- -D warnings
+	$(CARGO) uno-clippy --examples --features rt,$(OPTIONAL),eeprom-settings -- -D warnings
 
 docs: setup
-	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus-slave --features $(OPTIONAL)
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings
 	RUSTDOCFLAGS="-D warnings -C target-cpu=atmega328p" $(CARGO) doc --no-deps -p avr-modbus-slave --release \
-		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL)
+		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings
 
 lint: fmt-check clippy docs
 
@@ -51,6 +53,7 @@ host-test: setup firmware
 	$(CARGO) test --workspace --exclude virtual-uno
 	$(CARGO) test -p virtual-uno --bins
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL) --lib --test optional_functions --test exceptions --test adu --test framer
+	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings --test settings --test sim_configurable
 
 test: lint firmware host-test interop
 

@@ -13,6 +13,8 @@ pub mod framer;
 pub mod model;
 pub mod pdu;
 pub mod reference;
+#[cfg(feature = "eeprom-settings")]
+pub mod settings;
 pub mod slave;
 pub mod timing;
 
@@ -23,5 +25,7 @@ pub use framer::{FrameError, Framer, UartError};
 pub use model::DataModel;
 pub use pdu::{Exception, FunctionCode, Request};
 pub use reference::{BankError, IntoReference, Reference, Table};
+#[cfg(feature = "eeprom-settings")]
+pub use settings::Configurable;
 pub use slave::{Counters, EndOfFrame, Slave};
 pub use timing::{BaudDivisor, CharTimes, Deadline, Prescaler, TimerPlan};

@@ -6,6 +6,8 @@
 //! the range is missing, [`Exception::ServerDeviceFailure`] when it can't do what was
 //! asked, and in either case changes nothing.
 
+#[cfg(feature = "eeprom-settings")]
+use crate::config::Config;
 use crate::pdu::Exception;
 use crate::reference::Table;
 
@@ -41,5 +43,13 @@ pub trait DataModel {
     /// run indicator (at most 249 bytes are sent).
     fn device_info(&self) -> &[u8] {
         &[]
+    }
+
+    /// Line settings the master wrote, ready to switch to (feature `eeprom-settings`, see
+    /// [`crate::settings::Configurable`]), handed over once: the slave asks whenever a reply
+    /// has left the wire, and switches then.
+    #[cfg(feature = "eeprom-settings")]
+    fn take_new_settings(&mut self) -> Option<Config> {
+        None
     }
 }

@@ -111,6 +111,11 @@ impl Slave {
         self.id
     }
 
+    /// Changes this slave's address, from the next frame on.
+    pub fn set_id(&mut self, id: SlaveId) {
+        self.id = id;
+    }
+
     /// The counters.
     pub fn counters(&self) -> Counters {
         self.counters

@@ -8,12 +8,14 @@
 #![allow(unsafe_code)]
 
 mod adc;
+mod eeprom;
 mod pins;
 mod rtu;
 mod timer;
 mod usart;
 
 pub use adc::Adc;
+pub use eeprom::Eeprom;
 pub use pins::{NoPin, Pin, Pins};
 pub use rtu::{ModbusSlave, Shared};
 pub use timer::FrameTimer;

@@ -177,6 +177,20 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
         let _ = self.driver_enable.set_low();
         let _ = self.led.set_low();
         self.slave.on_reply_sent();
+        #[cfg(feature = "eeprom-settings")]
+        self.apply_new_settings();
+    }
+
+    /// Switches USART0, Timer0 and the slave id to settings the master wrote, if they are
+    /// ready (see [`Shared::poll_settings`]); called when nothing of a reply is left to send.
+    #[cfg(feature = "eeprom-settings")]
+    #[inline(always)]
+    fn apply_new_settings(&mut self) {
+        if let Some(config) = self.model.take_new_settings() {
+            self.usart.configure(&config);
+            self.timer.configure(config.timer_plan());
+            self.slave.set_id(config.slave_id());
+        }
     }
 }
 
@@ -292,5 +306,64 @@ impl<
     /// How many master writes succeeded so far (see [`Bank::master_writes`]).
     pub fn master_writes(&self) -> u16 {
         self.with_model(|bank| bank.master_writes()).unwrap_or(0)
+    }
+}
+
+#[cfg(feature = "eeprom-settings")]
+impl<M: DataModel, DE: OutputPin, LED: OutputPin> Shared<crate::settings::Configurable<M>, DE, LED> {
+    /// The main loop's part of a settings change (feature `eeprom-settings`): call it
+    /// from the main loop as often as it comes round. Returns how many EEPROM bytes it
+    /// wrote when it stored new settings at `address`, else `None`.
+    ///
+    /// When the master has written new settings, computes their [`Config`] (≈3 ms of
+    /// 64-bit math, with interrupts enabled) and hands it to the slave, which switches when
+    /// the reply to the write has left the wire; if it already has, the switch happens
+    /// here. Then stores the settings the slave switched to, skipping bytes that are
+    /// already right (≈3.4 ms per byte written, up to ≈34 ms, interrupts enabled): no
+    /// interrupt handler ever waits for the EEPROM or the division routines.
+    pub fn poll_settings(&self, eeprom: &mut super::Eeprom, address: u16) -> Option<usize> {
+        if let Some(settings) = self.with_model(|model| model.pending()).flatten() {
+            if let Some(config) = settings.to_config() {
+                self.with(|s| {
+                    s.model.offer(settings, config);
+                    if !s.usart.is_sending() {
+                        s.apply_new_settings();
+                    }
+                });
+            }
+        }
+        let config = self.with_model(|model| model.take_unsaved()).flatten()?;
+        Some(eeprom.store_config(address, &config))
+    }
+
+    /// The line settings the slave runs (see [`crate::settings::Configurable::config`]).
+    pub fn config(&self) -> Option<Config> {
+        self.with_model(|model| model.config())
+    }
+}
+
+#[cfg(feature = "eeprom-settings")]
+impl<
+        const RUNS: usize,
+        const REGS: usize,
+        const BIT_BYTES: usize,
+        const PROTECTED: usize,
+        DE: OutputPin,
+        LED: OutputPin,
+    > Shared<crate::settings::Configurable<Bank<RUNS, REGS, BIT_BYTES, PROTECTED>>, DE, LED>
+{
+    /// Reads a value of the bank or the settings block (see [`Bank::get`]).
+    pub fn get(&self, reference: impl IntoReference) -> Result<u16, BankError> {
+        self.with_model(|model| model.get(reference)).unwrap_or(Err(BankError::NotFound))
+    }
+
+    /// Sets a value of the bank (see [`Bank::set`]).
+    pub fn set(&self, reference: impl IntoReference, value: u16) -> Result<(), BankError> {
+        self.with_model(|model| model.set(reference, value)).unwrap_or(Err(BankError::NotFound))
+    }
+
+    /// How many master writes succeeded so far, settings included (see [`Bank::master_writes`]).
+    pub fn master_writes(&self) -> u16 {
+        self.with_model(|model| model.master_writes()).unwrap_or(0)
     }
 }

@@ -31,6 +31,14 @@ pub struct FrameTimer {
 impl FrameTimer {
     /// Takes Timer0 (stopped until [`FrameTimer::restart`]).
     pub fn new(regs: TC0, plan: TimerPlan) -> Self {
+        let mut timer = FrameTimer { regs, plan, gap_turns: 0, end_turns: 0 };
+        timer.configure(plan);
+        timer
+    }
+
+    /// Stops the timer and switches to `plan` (stopped until [`FrameTimer::restart`]).
+    pub fn configure(&mut self, plan: TimerPlan) {
+        let regs = &self.regs;
         // SAFETY: normal mode, no output compare pins, clock stopped, interrupts off.
         unsafe {
             regs.tccr0b().write(|w| w.bits(0));
@@ -39,7 +47,7 @@ impl FrameTimer {
             regs.ocr0a().write(|w| w.bits(plan.gap.ocr));
             regs.ocr0b().write(|w| w.bits(plan.end.ocr));
         }
-        FrameTimer { regs, plan, gap_turns: 0, end_turns: 0 }
+        self.plan = plan;
     }
 
     /// A character ended: count both deadlines from now.

@@ -30,6 +30,16 @@ impl Usart {
     /// The frame format (UCSR0C) is written before the rate, and UBRR0's high byte before
     /// its low byte: the low-byte write is what applies the new rate.
     pub fn new(regs: USART0, config: &Config) -> Self {
+        let mut usart = Usart { regs };
+        usart.configure(config);
+        usart
+    }
+
+    /// Applies `config`'s format and rate, as [`Usart::new`] does. Turning the receiver
+    /// and transmitter off first flushes the receive buffer and drops a character being
+    /// sent: call it when the reply has left the wire (transmit complete).
+    pub fn configure(&mut self, config: &Config) {
+        let regs = &self.regs;
         let divisor = config.divisor();
         let parity = match config.parity() {
             Parity::None => 0b00,
@@ -51,7 +61,6 @@ impl Usart {
             regs.ubrr0().write(|w| w.bits(divisor.ubrr));
             regs.ucsr0b().write(|w| w.bits(RXCIE0 | RXEN0 | TXEN0));
         }
-        Usart { regs }
     }
 
     /// Reads the received character, or the error it came with. The status flags belong
@@ -97,6 +106,12 @@ impl Usart {
         // error flags are read-only.
         self.regs.ucsr0a().modify(|r, w| unsafe { w.bits((r.bits() & U2X0) | TXC0) });
         self.modify_control(|b| (b & !UDRIE0) | TXCIE0);
+    }
+
+    /// True from [`Usart::start_feeding`] until [`Usart::finished`]: a reply is on its
+    /// way.
+    pub fn is_sending(&self) -> bool {
+        self.regs.ucsr0b().read().bits() & (UDRIE0 | TXCIE0) != 0
     }
 
     /// The reply has left the wire: stop the transmit-complete interrupt.

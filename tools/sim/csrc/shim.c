@@ -32,6 +32,7 @@
 #include "sim_irq.h"
 #include "sim_regbit.h"
 #include "avr_adc.h"
+#include "avr_eeprom.h"
 #include "avr_ioport.h"
 #include "avr_uart.h"
 
@@ -740,4 +741,34 @@ int uno_adc_set(uno_shim_t *s, int channel, uint32_t millivolts)
 void uno_set_aref(uno_shim_t *s, uint32_t millivolts)
 {
 	s->avr->aref = millivolts;
+}
+
+/* EEPROM size in bytes (E2END + 1). */
+uint32_t uno_eeprom_size(const uno_shim_t *s)
+{
+	return (uint32_t)s->avr->e2end + 1;
+}
+
+/* Copy `len` EEPROM bytes from `offset` to `out` (simavr's AVR_IOCTL_EEPROM_GET). */
+int uno_eeprom_read(uno_shim_t *s, uint32_t offset, uint8_t *out, uint32_t len)
+{
+	if ((uint64_t)offset + len > uno_eeprom_size(s))
+		return UNO_ERR_ARG;
+	if (len == 0)
+		return UNO_OK;
+	avr_eeprom_desc_t d = { .ee = out, .offset = (uint16_t)offset, .size = len };
+	avr_ioctl(s->avr, AVR_IOCTL_EEPROM_GET, &d);
+	return UNO_OK;
+}
+
+/* Overwrite `len` EEPROM bytes from `offset` (simavr's AVR_IOCTL_EEPROM_SET). */
+int uno_eeprom_write(uno_shim_t *s, uint32_t offset, const uint8_t *in, uint32_t len)
+{
+	if ((uint64_t)offset + len > uno_eeprom_size(s))
+		return UNO_ERR_ARG;
+	if (len == 0)
+		return UNO_OK;
+	avr_eeprom_desc_t d = { .ee = (uint8_t *)in, .offset = (uint16_t)offset, .size = len };
+	avr_ioctl(s->avr, AVR_IOCTL_EEPROM_SET, &d);
+	return UNO_OK;
 }

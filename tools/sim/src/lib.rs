@@ -219,6 +219,13 @@ pub enum Error {
         /// Size of the data space.
         size: usize,
     },
+    /// An EEPROM access past its end.
+    EepromOutOfRange {
+        /// First address.
+        addr: usize,
+        /// Length of the access.
+        len: usize,
+    },
     /// No such symbol in the ELF file.
     UnknownSymbol(String),
     /// The symbol is not in the data space.
@@ -250,6 +257,9 @@ impl fmt::Display for Error {
             Error::BadAdcChannel(ch) => write!(f, "{ch} is not an ADC channel (0-7)"),
             Error::OutOfRange { addr, len, size } => {
                 write!(f, "{len} bytes at 0x{addr:04x} are outside the data space (0x{size:04x} bytes)")
+            }
+            Error::EepromOutOfRange { addr, len } => {
+                write!(f, "{len} bytes at 0x{addr:03x} are past the end of the 1 KiB EEPROM")
             }
             Error::UnknownSymbol(name) => write!(f, "no symbol `{name}` in the firmware"),
             Error::NotInRam(name) => write!(f, "symbol `{name}` is not in the data space"),
@@ -536,6 +546,21 @@ impl Uno {
             return Err(Error::Load { path, reason });
         };
         Ok(Uno { shim, path, symbols, tx: Vec::new() })
+    }
+
+    /// A reset (power cycle or reset button): the firmware starts again from a freshly
+    /// loaded ELF with the EEPROM it had written kept, as on the chip. Everything else
+    /// starts over: registers, SRAM, pins driven from outside, pending serial input, the
+    /// interrupt statistics and the clock ([`Uno::now`] is 0 again).
+    ///
+    /// simavr's own `avr_reset` also keeps the EEPROM, but it zeroes the clock and drops
+    /// the cycle timers this crate's USART model runs on, so a reset reloads instead.
+    pub fn reset(&mut self) -> Result<(), Error> {
+        let eeprom = self.eeprom();
+        let mut fresh = Uno::load(&self.path)?;
+        fresh.write_eeprom(0, &eeprom)?;
+        *self = fresh;
+        Ok(())
     }
 
     /// The firmware file this simulation runs.
@@ -898,6 +923,53 @@ impl Uno {
         let range = self.range(usize::from(addr), bytes.len())?;
         self.data_mut()[range].copy_from_slice(bytes);
         Ok(())
+    }
+
+    /// Size of the EEPROM (1024 bytes).
+    pub fn eeprom_size(&self) -> usize {
+        // SAFETY: `shim` is valid for the lifetime of `self`.
+        unsafe { ffi::uno_eeprom_size(self.raw()) as usize }
+    }
+
+    /// The whole EEPROM (a fresh Uno's reads 0xFF; the ELF's `.eeprom` section is loaded).
+    pub fn eeprom(&self) -> Vec<u8> {
+        let mut bytes = vec![0xFF; self.eeprom_size()];
+        // The range is the whole EEPROM, so the read can't fail.
+        let _ = self.read_eeprom_into(0, &mut bytes);
+        bytes
+    }
+
+    fn read_eeprom_into(&self, addr: usize, out: &mut [u8]) -> Result<(), Error> {
+        let (Ok(offset), Ok(len)) = (u32::try_from(addr), u32::try_from(out.len())) else {
+            return Err(Error::EepromOutOfRange { addr, len: out.len() });
+        };
+        // SAFETY: `shim` is valid (the simulation is not running: `&self` excludes `&mut self`
+        // users); `out` is writable for `len` bytes; the shim checks the range.
+        match unsafe { ffi::uno_eeprom_read(self.shim.as_ptr(), offset, out.as_mut_ptr(), len) } {
+            0 => Ok(()),
+            _ => Err(Error::EepromOutOfRange { addr, len: out.len() }),
+        }
+    }
+
+    /// Reads `len` EEPROM bytes from `addr`.
+    pub fn read_eeprom(&self, addr: usize, len: usize) -> Result<Vec<u8>, Error> {
+        let mut bytes = vec![0; len];
+        self.read_eeprom_into(addr, &mut bytes)?;
+        Ok(bytes)
+    }
+
+    /// Overwrites EEPROM bytes from `addr`, at once and without the firmware noticing (as if
+    /// written by a programmer, or damaged).
+    pub fn write_eeprom(&mut self, addr: usize, bytes: &[u8]) -> Result<(), Error> {
+        let (Ok(offset), Ok(len)) = (u32::try_from(addr), u32::try_from(bytes.len())) else {
+            return Err(Error::EepromOutOfRange { addr, len: bytes.len() });
+        };
+        // SAFETY: `shim` is valid and exclusively borrowed; `bytes` is readable for `len`
+        // bytes; the shim checks the range.
+        match unsafe { ffi::uno_eeprom_write(self.raw_mut(), offset, bytes.as_ptr(), len) } {
+            0 => Ok(()),
+            _ => Err(Error::EepromOutOfRange { addr, len: bytes.len() }),
+        }
     }
 
     /// The firmware's symbol table (empty for a stripped file).

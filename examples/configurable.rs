@@ -1,0 +1,105 @@
+/*!
+ * Line settings the master can change, kept in EEPROM: the master writes the slave id,
+ * baud rate, parity and stop bits to holding registers 40101–40104; the slave answers that
+ * write at the old settings and switches once the reply has left the wire and the main
+ * loop (`SLAVE.poll_settings`) has computed the new USART and Timer0 settings, ≈3 ms after
+ * the request. The main loop then stores them in EEPROM (≈3.4 ms per changed byte), where
+ * the next start-up finds them. A blank or damaged EEPROM record means the compiled-in
+ * default, 19200 8E1, slave id 1.
+ *
+ * Recovery: a jumper from pin 12 to GND at start-up (power-up or reset) ignores the EEPROM
+ * and starts at the default, whatever a master stored. Settings written with the jumper on
+ * are stored as usual; remove it and reset to start with them.
+ *
+ * Wiring: Uno pins 0 (RX) and 1 (TX) to the TTL side of a MAX3232 board, GND to GND; the
+ * recovery jumper between pin 12 and GND (open in normal use).
+ *
+ * | reference   | address | meaning                                              |
+ * |-------------|---------|------------------------------------------------------|
+ * | 00001–00008 | 0–7     | coils kept for the master                            |
+ * | 30001       | 0       | settings used at start-up: 0 default (blank or damaged EEPROM), 1 EEPROM, 2 default forced by the jumper |
+ * | 30002       | 1       | EEPROM bytes written by the last save (0–10)         |
+ * | 30003       | 2       | saves since start-up                                 |
+ * | 40001–40004 | 0–3     | holding registers kept for the master                |
+ * | 40101       | 100     | slave id, 1–247                                      |
+ * | 40102       | 101     | baud rate / 100: 12–10000 (96 = 9600, 1152 = 115200) |
+ * | 40103       | 102     | parity: 0 none, 1 odd, 2 even                        |
+ * | 40104       | 103     | stop bits: 1 or 2                                    |
+ *
+ * A write to 40101–40104 that the slave can't run (id 0 or over 247, a rate the 16 MHz
+ * USART can't make within 2.5 %, another code) gets exception 03 and changes nothing.
+ * Also answers FC 07, 08, 0B, 11 (feature `diagnostics`) and FC 16, 17 (`extra-fc`).
+ */
+#![no_std]
+#![no_main]
+#![feature(abi_avr_interrupt)]
+
+use avr_modbus_slave::avr::{Eeprom, ModbusSlave, Pins};
+use avr_modbus_slave::{bit_bytes, Bank, Config, Configurable, Parity, StopBits};
+use panic_halt as _;
+
+/// The compiled-in default, and what the jumper forces.
+const DEFAULT: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
+
+/// EEPROM address of the settings record.
+const SETTINGS_AT: u16 = 0;
+
+/// Where the settings block starts.
+const SETTINGS_BLOCK: u32 = 40101;
+
+/// Start-up settings as reported in 30001.
+const FROM_DEFAULT: u16 = 0;
+const FROM_EEPROM: u16 = 1;
+const FROM_JUMPER: u16 = 2;
+
+type Registers = Configurable<Bank<3, 7, { bit_bytes(8) }>>;
+
+avr_modbus_slave::modbus_slave!(SLAVE: Registers);
+
+#[avr_device::entry]
+fn main() -> ! {
+    // SAFETY: the only place that takes the peripherals, and it runs once.
+    #[allow(unsafe_code)]
+    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
+    let pins = Pins::new(dp.PORTB, dp.PORTC, dp.PORTD);
+    let jumper = pins.d12.into_pull_up_input();
+    // Let the pull-up charge the pin before reading it.
+    avr_device::asm::delay_cycles(1_000);
+    let forced = !jumper.is_high();
+
+    let mut eeprom = Eeprom::new(dp.EEPROM);
+    let (config, source) = match (forced, eeprom.load_config(SETTINGS_AT)) {
+        (true, _) => (DEFAULT, FROM_JUMPER),
+        (false, Some(stored)) => (stored, FROM_EEPROM),
+        (false, None) => (DEFAULT, FROM_DEFAULT),
+    };
+
+    let mut bank = Bank::new();
+    let _ = bank.add_range(1, 8);
+    let _ = bank.add_range(30001, 3);
+    let _ = bank.add_range(40001, 4);
+    let _ = bank.set(30001, source);
+    bank.set_device_info(b"avr-modbus-slave configurable");
+    // The block's addresses are not in the bank, so this can't fail; without it the
+    // firmware still answers at `config`, only the block is missing.
+    let Ok(model) = Configurable::new(bank, SETTINGS_BLOCK, config) else {
+        loop {
+            avr_device::asm::sleep();
+        }
+    };
+    SLAVE.start(ModbusSlave::new(config, dp.USART0, dp.TC0, model));
+    // SAFETY: the slave is in its cell; its interrupt handlers may run from here on.
+    #[allow(unsafe_code)]
+    unsafe {
+        avr_device::interrupt::enable()
+    };
+
+    let mut saves: u16 = 0;
+    loop {
+        if let Some(written) = SLAVE.poll_settings(&mut eeprom, SETTINGS_AT) {
+            saves = saves.wrapping_add(1);
+            let _ = SLAVE.set(30002, written as u16);
+            let _ = SLAVE.set(30003, saves);
+        }
+    }
+}

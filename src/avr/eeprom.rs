@@ -1,0 +1,124 @@
+//! The 1 KiB data EEPROM, ATmega328P datasheet §8.4 (EEPROM data memory) and §8.6.3
+//! (EECR): byte reads, and byte writes (erase and write, ≈3.4 ms each) that skip a byte
+//! already holding the value, to spare time and wear (100 000 cycles per cell).
+//!
+//! Writes wait for the previous one with interrupts enabled; only the two-instruction
+//! EEMPE/EEPE sequence, which must complete within four clock cycles, runs with them
+//! disabled. Call the writing methods from the main loop, never from an interrupt.
+
+use avr_device::atmega328p::EEPROM;
+use avr_device::interrupt;
+
+#[cfg(feature = "eeprom-settings")]
+use crate::config::Config;
+#[cfg(feature = "eeprom-settings")]
+use crate::settings::{self, RECORD_LEN};
+
+const EERE: u8 = 1 << 0;
+const EEPE: u8 = 1 << 1;
+const EEMPE: u8 = 1 << 2;
+
+/// The EEPROM.
+pub struct Eeprom {
+    regs: EEPROM,
+}
+
+impl Eeprom {
+    /// Size of the ATmega328P's EEPROM, in bytes.
+    pub const SIZE: u16 = 1024;
+
+    /// Takes the EEPROM.
+    pub fn new(regs: EEPROM) -> Self {
+        Eeprom { regs }
+    }
+
+    /// True while a write is in progress.
+    pub fn is_busy(&self) -> bool {
+        self.regs.eecr().read().bits() & EEPE != 0
+    }
+
+    fn wait(&self) {
+        while self.is_busy() {}
+    }
+
+    fn select(&self, address: u16) {
+        self.wait();
+        self.regs.eear().write(|w| w.set(address));
+    }
+
+    /// The byte at `address`; `None` past the end. Waits for a write in progress.
+    pub fn read(&self, address: u16) -> Option<u8> {
+        if address >= Self::SIZE {
+            return None;
+        }
+        self.select(address);
+        // SAFETY: EERE starts a read; EEPE and EEMPE stay clear, so nothing is written.
+        self.regs.eecr().write(|w| unsafe { w.bits(EERE) });
+        Some(self.regs.eedr().read().bits())
+    }
+
+    /// Fills `out` from `address` on; false (and `out` untouched) if it would pass the end.
+    pub fn read_slice(&self, address: u16, out: &mut [u8]) -> bool {
+        if usize::from(address) + out.len() > usize::from(Self::SIZE) {
+            return false;
+        }
+        for (a, byte) in (address..).zip(out.iter_mut()) {
+            *byte = self.read(a).unwrap_or(0xFF);
+        }
+        true
+    }
+
+    /// Writes `byte` at `address` unless it already holds it. Returns true when a write was
+    /// started (it completes ≈3.4 ms later, on its own); false when the byte was already
+    /// there or `address` is past the end.
+    pub fn update(&mut self, address: u16, byte: u8) -> bool {
+        if self.read(address).is_none_or(|current| current == byte) {
+            return false;
+        }
+        self.regs.eedr().write(|w| w.set(byte));
+        interrupt::free(|_| {
+            // SAFETY: the datasheet's write sequence: EEMPE alone (EEPM = 00, erase and
+            // write; EERIE off), then EEPE within four cycles, which the disabled interrupts
+            // guarantee (two `out` instructions).
+            unsafe {
+                self.regs.eecr().write(|w| w.bits(EEMPE));
+                self.regs.eecr().write(|w| w.bits(EEMPE | EEPE));
+            }
+        });
+        true
+    }
+
+    /// Writes `bytes` from `address` on, skipping bytes that already hold their value.
+    /// Returns how many bytes were written (0 if the range passes the end).
+    pub fn update_slice(&mut self, address: u16, bytes: &[u8]) -> usize {
+        if usize::from(address) + bytes.len() > usize::from(Self::SIZE) {
+            return 0;
+        }
+        (address..).zip(bytes).filter(|&(a, &byte)| self.update(a, byte)).count()
+    }
+
+    /// The line settings stored at `address` by [`Eeprom::store_config`]; `None` when the
+    /// record there is blank or damaged (use the compiled-in default then).
+    #[cfg(feature = "eeprom-settings")]
+    pub fn load_config(&self, address: u16) -> Option<Config> {
+        let mut record = [0; RECORD_LEN];
+        if !self.read_slice(address, &mut record) {
+            return None;
+        }
+        settings::decode(&record)
+    }
+
+    /// Stores `config` at `address` ([`settings::RECORD_LEN`] bytes), writing only the
+    /// bytes that changed; returns how many. Takes up to ≈34 ms (≈3.4 ms per byte written)
+    /// with interrupts enabled. A reset while it runs leaves a record that fails its CRC,
+    /// and the next start-up uses the default settings.
+    #[cfg(feature = "eeprom-settings")]
+    pub fn store_config(&mut self, address: u16, config: &Config) -> usize {
+        self.update_slice(address, &settings::encode(config))
+    }
+
+    /// Gives the peripheral back.
+    pub fn release(self) -> EEPROM {
+        self.regs
+    }
+}
