@@ -119,8 +119,8 @@ pub fn encode(config: &Config) -> [u8; RECORD_LEN] {
 }
 
 /// The configuration in an EEPROM record; `None` when the record is blank, damaged (bad
-/// magic or CRC) or holds settings [`Config::try_new`] refuses. Takes ≈3 ms on the Uno
-/// (see [`LineSettings::to_config`]).
+/// magic or CRC) or holds settings [`Config::try_new`] refuses. Takes well under a
+/// millisecond on the Uno (see [`LineSettings::to_config`]).
 pub fn decode(record: &[u8; RECORD_LEN]) -> Option<Config> {
     let [magic, id, b0, b1, b2, b3, parity, stop, _, _] = *record;
     if magic != MAGIC || !Crc16::new().update_slice(record).is_residue_ok() {
@@ -133,8 +133,9 @@ pub fn decode(record: &[u8; RECORD_LEN]) -> Option<Config> {
 
 /// Line settings as plain values: what the master writes, checked with integer math fast
 /// enough for an interrupt handler. Turning them into a [`Config`] (the USART divisor and
-/// the Timer0 plan) takes 64-bit divisions, ≈3 ms on the Uno: the application does that
-/// in its main loop (see [`Configurable::offer`]).
+/// the Timer0 plan) takes several 32-bit divisions, under a millisecond on the Uno (about
+/// 0.7 ms measured in simulation): the application does that in its main loop (see
+/// [`Configurable::offer`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LineSettings {
     /// Slave id.
@@ -191,56 +192,18 @@ impl LineSettings {
 
     /// True exactly when [`LineSettings::to_config`] succeeds: slave id 1–247, a rate from
     /// [`Config::MIN_BAUD`] to [`Config::MAX_BAUD`] that the 16 MHz USART makes within
-    /// [`BaudDivisor::MAX_ERROR_PPM`] at normal or double speed. Two 32-bit divisions and a
-    /// few 64-bit products: a few hundred microseconds at most, where `to_config` takes
-    /// milliseconds.
+    /// [`BaudDivisor::MAX_ERROR_PPM`] at normal or double speed. Only the divisor search
+    /// (two 32-bit divisions and a few 64-bit products), not the timer plan: cheap enough
+    /// for the interrupt that answers the write.
     pub fn is_runnable(&self) -> bool {
-        SlaveId::new(self.slave_id).is_ok() && (Config::MIN_BAUD..=Config::MAX_BAUD).contains(&self.baud) && {
-            let bounds = RateBounds::new(self.baud);
-            rate_within_limit(self.baud, 16, &bounds) || rate_within_limit(self.baud, 8, &bounds)
-        }
+        SlaveId::new(self.slave_id).is_ok()
+            && (Config::MIN_BAUD..=Config::MAX_BAUD).contains(&self.baud)
+            && BaudDivisor::new(self.baud, CLOCK_HZ).is_some()
     }
 
     /// The configuration, `None` when [`Config::try_new`] refuses it.
     pub fn to_config(&self) -> Option<Config> {
         Config::try_new(self.slave_id, self.baud, self.parity, self.stop_bits).ok()
-    }
-}
-
-/// True when UBRR0 for `baud` at `samples` clocks per bit (16, or 8 with U2X0) is in range
-/// and the rate it makes is within [`BaudDivisor::MAX_ERROR_PPM`], rounded the way
-/// [`BaudDivisor`] rounds: the error in ppm, truncated toward zero, is at most 25 000, i.e.
-/// `|⌊N/x⌋ − baud·10⁶| < 25 001·baud` with `N` = clock·10⁶ and `x` = samples·(UBRR0 + 1).
-/// Bounds on a floor compare as products, so no 64-bit division is needed:
-/// `⌊N/x⌋ ≥ low ⟺ N ≥ low·x` and `⌊N/x⌋ < high ⟺ N < high·x`, with `low` = baud·(10⁶ −
-/// 25 001) + 1 and `high` = baud·(10⁶ + 25 001) from [`RateBounds`].
-fn rate_within_limit(baud: u32, samples: u32, bounds: &RateBounds) -> bool {
-    let Some(bit) = samples.checked_mul(baud) else {
-        return false;
-    };
-    // Nearest integer to clock / (samples · baud), as BaudDivisor computes it.
-    let n = (2 * CLOCK_HZ).saturating_add(bit) / bit.saturating_mul(2).max(1);
-    if n == 0 || n > 4096 {
-        return false;
-    }
-    // 64-bit products are library calls on AVR: two per candidate.
-    let x = u64::from(samples * n);
-    let numerator = u64::from(CLOCK_HZ) * PPM;
-    numerator >= bounds.low * x && numerator < bounds.high * x
-}
-
-const PPM: u64 = 1_000_000;
-
-/// The bounds of ⌊clock·10⁶ / x⌋ for a rate within the limit (see [`rate_within_limit`]).
-struct RateBounds {
-    low: u64,
-    high: u64,
-}
-
-impl RateBounds {
-    fn new(baud: u32) -> Self {
-        const LIMIT: u64 = BaudDivisor::MAX_ERROR_PPM.unsigned_abs() as u64 + 1;
-        RateBounds { low: u64::from(baud) * (PPM - LIMIT) + 1, high: u64::from(baud) * (PPM + LIMIT) }
     }
 }
 

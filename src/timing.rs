@@ -10,15 +10,21 @@ pub const CLOCK_HZ: u32 = 16_000_000;
 /// Above this rate the spec fixes T1.5 = 750 µs and T3.5 = 1750 µs.
 pub const FIXED_TIMES_ABOVE_BAUD: u32 = 19_200;
 
-const NS_PER_S: u64 = 1_000_000_000;
+const NS_PER_S: u32 = 1_000_000_000;
 
 /// A lower bound of the time from a character's stop bit to the Timer0 restart in the
 /// receive interrupt (interrupt response and handler prologue, about 34 cycles in the
 /// release build): the deadlines count from the restart, so they are shortened by this.
 pub const RX_RESTART_LATENCY_NS: u32 = 2_000;
 
-const fn div_ceil(a: u64, b: u64) -> u64 {
-    a.div_ceil(b)
+/// ⌈n · 10⁹ / d⌉ nanoseconds in 32-bit arithmetic (no 64-bit division on the AVR, where a
+/// run-time [`crate::Config::try_new`] computes this): 10⁹ = q·d + r, so
+/// n·10⁹/d = n·q + n·r/d, and n·r < n·d stays small for the values used here
+/// (n ≤ 84, d ≤ 2 000 000).
+const fn ceil_ns(n: u32, d: u32) -> u32 {
+    let q = NS_PER_S / d;
+    let r = NS_PER_S % d;
+    n * q + (n * r).div_ceil(d)
 }
 
 /// One character time and the two silences derived from it, in nanoseconds.
@@ -37,15 +43,14 @@ impl CharTimes {
     /// up to the next nanosecond. Above 19200 bps T1.5 and T3.5 are the fixed 750 µs and
     /// 1750 µs. `baud` must be non-zero (a [`crate::Config`] guarantees it).
     pub const fn new(baud: u32, bits_per_char: u32) -> Self {
-        let baud = if baud == 0 { 1 } else { baud as u64 };
-        let bit_ns_x2 = 2 * NS_PER_S * bits_per_char as u64;
-        let char_ns = div_ceil(bit_ns_x2, 2 * baud);
-        let (t15_ns, t35_ns) = if baud > FIXED_TIMES_ABOVE_BAUD as u64 {
+        let baud = if baud == 0 { 1 } else { baud };
+        let char_ns = ceil_ns(bits_per_char, baud);
+        let (t15_ns, t35_ns) = if baud > FIXED_TIMES_ABOVE_BAUD {
             (750_000, 1_750_000)
         } else {
-            (div_ceil(3 * bit_ns_x2 / 2, 2 * baud), div_ceil(7 * bit_ns_x2 / 2, 2 * baud))
+            (ceil_ns(3 * bits_per_char, 2 * baud), ceil_ns(7 * bits_per_char, 2 * baud))
         };
-        CharTimes { char_ns: char_ns as u32, t15_ns: t15_ns as u32, t35_ns: t35_ns as u32 }
+        CharTimes { char_ns, t15_ns, t35_ns }
     }
 
     /// How long after the end of one received character the end of the next may come
@@ -166,11 +171,17 @@ impl TimerPlan {
 
     /// The duration of one tick in nanoseconds (rounded down).
     pub const fn tick_ns(&self, clock_hz: u32) -> u32 {
-        (self.prescaler.divisor() as u64 * NS_PER_S / clock_hz as u64) as u32
+        (self.prescaler.divisor() as u64 * NS_PER_S as u64 / clock_hz as u64) as u32
     }
 
+    /// ⌈ns / tick⌉. For a whole number of MHz (the Uno's 16) in 32-bit arithmetic:
+    /// ns · MHz stays below 2³² for every silence in range (35 ms · 16 = 5.6 · 10⁸).
     const fn ticks(ns: u32, clock_hz: u32, prescaler: Prescaler) -> u64 {
-        div_ceil(ns as u64 * clock_hz as u64, prescaler.divisor() as u64 * NS_PER_S)
+        if clock_hz.is_multiple_of(1_000_000) {
+            (ns * (clock_hz / 1_000_000)).div_ceil(1000 * prescaler.divisor()) as u64
+        } else {
+            (ns as u64 * clock_hz as u64).div_ceil(prescaler.divisor() as u64 * NS_PER_S as u64)
+        }
     }
 
     /// A deadline expiring `ticks(ns) + margin` timer clocks after a restart: the compare
@@ -193,8 +204,27 @@ pub struct BaudDivisor {
     pub ubrr: u16,
     /// Double-speed mode (U2X0): divides by 8 instead of 16.
     pub double_speed: bool,
-    /// Actual rate minus requested rate, in parts per million of the requested rate.
-    pub error_ppm: i32,
+}
+
+/// A candidate divisor and its error as an exact fraction `diff / made`: `made` is
+/// divider · (UBRR0 + 1) · baud, `diff` the clock minus that (the rate made is
+/// clock / (divider · (UBRR0 + 1))). Comparisons cross-multiply in 64 bits: no division.
+#[derive(Clone, Copy)]
+struct Candidate {
+    divisor: BaudDivisor,
+    diff: u64,
+    made: u64,
+}
+
+impl Candidate {
+    /// |error| ≤ ppm / 10⁶.
+    const fn within(&self, ppm: u64) -> bool {
+        self.diff * 1_000_000 <= ppm * self.made
+    }
+
+    const fn closer_than(&self, other: &Candidate) -> bool {
+        self.diff * other.made < other.diff * self.made
+    }
 }
 
 impl BaudDivisor {
@@ -207,6 +237,7 @@ impl BaudDivisor {
     /// Normal speed (16 samples per bit, the more tolerant receiver) whenever its error is
     /// within the spec's 1 %, else whichever of normal and double speed is closer; `None`
     /// if that is more than [`Self::MAX_ERROR_PPM`] off or out of UBRR0's range.
+    /// `clock_hz` must be below 2³¹.
     pub const fn new(baud: u32, clock_hz: u32) -> Option<Self> {
         if baud == 0 {
             return None;
@@ -214,9 +245,9 @@ impl BaudDivisor {
         let normal = Self::candidate(baud, clock_hz, 16, false);
         let double = Self::candidate(baud, clock_hz, 8, true);
         let best = match (normal, double) {
-            (Some(n), _) if n.error_ppm.unsigned_abs() <= Self::SPEC_ERROR_PPM as u32 => Some(n),
+            (Some(n), _) if n.within(Self::SPEC_ERROR_PPM as u64) => Some(n),
             (Some(n), Some(d)) => {
-                if d.error_ppm.unsigned_abs() < n.error_ppm.unsigned_abs() {
+                if d.closer_than(&n) {
                     Some(d)
                 } else {
                     Some(n)
@@ -226,21 +257,35 @@ impl BaudDivisor {
             (None, d) => d,
         };
         match best {
-            Some(b) if b.error_ppm.unsigned_abs() <= Self::MAX_ERROR_PPM as u32 => Some(b),
+            Some(b) if b.within(Self::MAX_ERROR_PPM as u64) => Some(b.divisor),
             _ => None,
         }
     }
 
-    const fn candidate(baud: u32, clock_hz: u32, divider: u64, double_speed: bool) -> Option<Self> {
-        let denominator = divider * baud as u64;
+    const fn candidate(baud: u32, clock_hz: u32, divider: u32, double_speed: bool) -> Option<Candidate> {
+        let denominator = match divider.checked_mul(baud) {
+            Some(d) if d <= u32::MAX / 2 => d,
+            _ => return None,
+        };
         // Nearest integer to clock / (divider · baud), minus one.
-        let rounded = (2 * clock_hz as u64 + denominator) / (2 * denominator);
+        let rounded = match (2 * clock_hz + denominator).checked_div(2 * denominator) {
+            Some(rounded) => rounded,
+            None => return None,
+        };
         if rounded == 0 || rounded > 4096 {
             return None;
         }
-        let actual_x1e6 = clock_hz as u64 * 1_000_000 / (divider * rounded);
-        let error_ppm = (actual_x1e6 as i64 - baud as i64 * 1_000_000) * 1_000_000 / (baud as i64 * 1_000_000);
-        Some(BaudDivisor { ubrr: (rounded - 1) as u16, double_speed, error_ppm: error_ppm as i32 })
+        let made = denominator as u64 * rounded as u64;
+        let diff = (clock_hz as u64).abs_diff(made);
+        Some(Candidate { divisor: BaudDivisor { ubrr: (rounded - 1) as u16, double_speed }, diff, made })
+    }
+
+    /// The rate this divisor makes minus `baud`, in parts per million of `baud`
+    /// (truncated toward zero): for tables and logs, not needed by the firmware.
+    pub const fn error_ppm(&self, baud: u32, clock_hz: u32) -> i32 {
+        let divider: u64 = if self.double_speed { 8 } else { 16 };
+        let actual_x1e6 = clock_hz as u64 * 1_000_000 / (divider * (self.ubrr as u64 + 1));
+        ((actual_x1e6 as i64 - baud as i64 * 1_000_000) / baud as i64) as i32
     }
 }
 
@@ -352,7 +397,11 @@ mod tests {
         ];
         for (baud, ubrr, double_speed, error_ppm) in table {
             let d = BaudDivisor::new(baud, CLOCK_HZ).unwrap();
-            assert_eq!((d.ubrr, d.double_speed, d.error_ppm), (ubrr, double_speed, error_ppm), "{baud}");
+            assert_eq!(
+                (d.ubrr, d.double_speed, d.error_ppm(baud, CLOCK_HZ)),
+                (ubrr, double_speed, error_ppm),
+                "{baud}"
+            );
         }
     }
 

@@ -250,6 +250,11 @@ fn switch_waits_for_the_config_when_the_reply_ends_first() {
     let reply_end = exchange.reply.last().unwrap().end_cycle;
     let switched = switched.expect("switched");
     assert!(switched > reply_end, "switched at {switched}, reply ended at {reply_end}");
+    eprintln!(
+        "115200: reply ended {} µs and the switch came {} µs after the request",
+        (reply_end - exchange.request_end) / 16,
+        (switched - exchange.request_end) / 16
+    );
     assert!(switched - exchange.request_end < us_to_cycles(10_000), "switch took too long");
     board.settle(Line::B19200_8E1);
     assert_usart_runs(&board.uno, Line::B19200_8E1);

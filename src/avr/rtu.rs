@@ -315,8 +315,8 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Shared<crate::settings::Config
     /// from the main loop as often as it comes round. Returns how many EEPROM bytes it
     /// wrote when it stored new settings at `address`, else `None`.
     ///
-    /// When the master has written new settings, computes their [`Config`] (≈3 ms of
-    /// 64-bit math, with interrupts enabled) and hands it to the slave, which switches when
+    /// When the master has written new settings, computes their [`Config`] (under 1 ms
+    /// of 32-bit arithmetic, with interrupts enabled) and hands it to the slave, which switches when
     /// the reply to the write has left the wire; if it already has, the switch happens
     /// here. Then stores the settings the slave switched to, skipping bytes that are
     /// already right (≈3.4 ms per byte written, up to ≈34 ms, interrupts enabled): no
