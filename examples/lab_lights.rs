@@ -7,8 +7,11 @@
  *   YELLOW and BLUE lamps (LEDs with 220 Ω resistors to GND) on pins 4, 5, 6 and 7 follow
  *   coils 00001–00004.
  *
- * Wiring: Uno pins 0 (RX) and 1 (TX) to the TTL side of a MAX3232 board, or to an RS-485
- * transceiver for a real bus with both devices on it; GND to GND.
+ * Wiring: both devices on one RS-485 bus: Uno pin 1 (TX) to the transceiver's DI, pin 0
+ * (RX) to RO, pin 10 to DE and /RE tied together (high while the Uno answers), GND to GND;
+ * A/B to the bus. The on-board LED (pin 13) flashes for every frame addressed to the
+ * device (the serial-line spec's communication LED). Pin 10 stays low with a MAX3232 board
+ * instead of a transceiver, which works too for one device.
  *
  * Serial line: 19200 bps, 8E1.
  *
@@ -25,7 +28,7 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::avr::{ModbusSlave, Pins};
+use avr_modbus_slave::avr::{ModbusSlave, Pin, Pins};
 use avr_modbus_slave::{bit_bytes, Bank, Config, Parity, SlaveId, StopBits};
 use panic_halt as _;
 
@@ -37,7 +40,7 @@ const LIGHT_TOWER: SlaveId = match SlaveId::new(2) {
 
 type Bits = Bank<1, 0, { bit_bytes(4) }>;
 
-avr_modbus_slave::modbus_slave!(SLAVE: Bits);
+avr_modbus_slave::modbus_slave!(SLAVE: Bits, Pin, Pin);
 
 #[avr_device::entry]
 fn main() -> ! {
@@ -58,7 +61,9 @@ fn main() -> ! {
         let _ = bank.add_range(10001, 2);
         BUTTON_BOX
     };
-    SLAVE.start(ModbusSlave::new(config, dp.USART0, dp.TC0, bank));
+    let driver_enable = pins.d10.into_output();
+    let led = pins.d13.into_output();
+    SLAVE.start(ModbusSlave::new(config, dp.USART0, dp.TC0, bank).with_driver_enable(driver_enable).with_led(led));
     // SAFETY: the slave is in its cell; its interrupt handlers may run from here on.
     #[allow(unsafe_code)]
     unsafe {

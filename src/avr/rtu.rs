@@ -61,33 +61,20 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
     /// reply until the last one has left the wire (transmit complete).
     pub fn with_driver_enable<P: OutputPin>(self, mut pin: P) -> ModbusSlave<M, P, LED> {
         let _ = pin.set_low();
-        ModbusSlave {
-            usart: self.usart,
-            timer: self.timer,
-            slave: self.slave,
-            model: self.model,
-            tx_next: self.tx_next,
-            tx_len: self.tx_len,
-            tx_crc: self.tx_crc,
-            driver_enable: pin,
-            led: self.led,
-        }
+        self.map_pins(|_, led| (pin, led))
     }
 
     /// Adds a communication LED: lit while this slave answers a frame addressed to it.
     pub fn with_led<P: OutputPin>(self, mut pin: P) -> ModbusSlave<M, DE, P> {
         let _ = pin.set_low();
-        ModbusSlave {
-            usart: self.usart,
-            timer: self.timer,
-            slave: self.slave,
-            model: self.model,
-            tx_next: self.tx_next,
-            tx_len: self.tx_len,
-            tx_crc: self.tx_crc,
-            driver_enable: self.driver_enable,
-            led: pin,
-        }
+        self.map_pins(|driver_enable, _| (driver_enable, pin))
+    }
+
+    /// The same slave with other pins.
+    fn map_pins<D, L>(self, f: impl FnOnce(DE, LED) -> (D, L)) -> ModbusSlave<M, D, L> {
+        let ModbusSlave { usart, timer, slave, model, tx_next, tx_len, tx_crc, driver_enable, led } = self;
+        let (driver_enable, led) = f(driver_enable, led);
+        ModbusSlave { usart, timer, slave, model, tx_next, tx_len, tx_crc, driver_enable, led }
     }
 
     /// The data model.

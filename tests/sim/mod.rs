@@ -208,7 +208,7 @@ pub struct Rtu {
     /// firmware wrote when it started the timer.
     pub tick: u64,
     /// The line has been idle since this cycle (end of the last character either way).
-    quiet_since: u64,
+    pub quiet_since: u64,
 }
 
 /// Simulated time the firmware gets to start up before the master's first T3.5 wait.
