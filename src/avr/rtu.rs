@@ -118,6 +118,13 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
         if self.timer.on_compare_b() == Expired::NotYet {
             return;
         }
+        // A character that arrived while interrupts were held off (this interrupt outranks
+        // the receive one) was on the wire before T3.5 expired: take it first, and the
+        // silence starts over.
+        if self.usart.has_data() {
+            self.on_usart_rx();
+            return;
+        }
         match self.slave.on_end_deadline() {
             EndOfFrame::Reply => {
                 let _ = self.driver_enable.set_high();
@@ -282,11 +289,14 @@ impl<
 {
     /// Reads a value of the bank (see [`Bank::get`]).
     pub fn get(&self, reference: impl IntoReference) -> Result<u16, BankError> {
+        // The reference is worked out before interrupts go off: shorter critical section.
+        let reference = reference.into_reference()?;
         self.with_model(|bank| bank.get(reference)).unwrap_or(Err(BankError::NotFound))
     }
 
     /// Sets a value of the bank (see [`Bank::set`]).
     pub fn set(&self, reference: impl IntoReference, value: u16) -> Result<(), BankError> {
+        let reference = reference.into_reference()?;
         self.with_model(|bank| bank.set(reference, value)).unwrap_or(Err(BankError::NotFound))
     }
 
