@@ -119,10 +119,10 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
             return;
         }
         // A character that arrived while interrupts were held off (this interrupt outranks
-        // the receive one) was on the wire before T3.5 expired: take it first, and the
-        // silence starts over.
+        // the receive one) was on the wire before T3.5 expired: the silence starts over,
+        // and the receive interrupt, pending, takes the character right after this one.
         if self.usart.has_data() {
-            self.on_usart_rx();
+            self.timer.restart();
             return;
         }
         match self.slave.on_end_deadline() {
