@@ -45,6 +45,34 @@ impl Run {
     }
 }
 
+/// What the application reads and writes by reference: [`Bank`], and a wrapper that adds
+/// registers of its own. `avr::Shared` offers `get`, `set` and `master_writes` for every
+/// data model that has it.
+pub trait Variables {
+    /// The value at `reference` (see [`Bank::get`]).
+    fn value(&self, reference: Reference) -> Result<u16, BankError>;
+    /// Sets the value at `reference` (see [`Bank::set`]).
+    fn set_value(&mut self, reference: Reference, value: u16) -> Result<(), BankError>;
+    /// Successful master writes so far, wrapping (see [`Bank::master_writes`]).
+    fn write_count(&self) -> u16;
+}
+
+impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize> Variables
+    for Bank<RUNS, REGS, BIT_BYTES, PROTECTED>
+{
+    fn value(&self, reference: Reference) -> Result<u16, BankError> {
+        self.get(reference)
+    }
+
+    fn set_value(&mut self, reference: Reference, value: u16) -> Result<(), BankError> {
+        self.set(reference, value)
+    }
+
+    fn write_count(&self) -> u16 {
+        self.master_writes()
+    }
+}
+
 /// A range of coils or holding registers the master may read but not write.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Protected {

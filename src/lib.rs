@@ -18,7 +18,7 @@ pub mod settings;
 pub mod slave;
 pub mod timing;
 
-pub use bank::{bit_bytes, Bank};
+pub use bank::{bit_bytes, Bank, Variables};
 pub use config::{Config, ConfigError, Parity, SlaveId, StopBits};
 pub use crc::{crc16, Crc16};
 pub use framer::{FrameError, Framer, UartError};

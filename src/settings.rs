@@ -355,6 +355,22 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     }
 }
 
+impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize> crate::bank::Variables
+    for Configurable<crate::bank::Bank<RUNS, REGS, BIT_BYTES, PROTECTED>>
+{
+    fn value(&self, reference: Reference) -> Result<u16, BankError> {
+        self.get(reference)
+    }
+
+    fn set_value(&mut self, reference: Reference, value: u16) -> Result<(), BankError> {
+        self.set(reference, value)
+    }
+
+    fn write_count(&self) -> u16 {
+        self.master_writes()
+    }
+}
+
 impl<M: DataModel> DataModel for Configurable<M> {
     fn read_bits(&self, table: Table, start: u16, qty: u16, out: &mut [u8]) -> Result<(), Exception> {
         self.model.read_bits(table, start, qty, out)

@@ -13,7 +13,7 @@ use embedded_hal::digital::OutputPin;
 use super::pins::NoPin;
 use super::timer::{Expired, FrameTimer};
 use super::usart::Usart;
-use crate::bank::Bank;
+use crate::bank::Variables;
 use crate::config::Config;
 use crate::crc::Crc16;
 use crate::model::DataModel;
@@ -278,31 +278,23 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Shared<M, DE, LED> {
     }
 }
 
-impl<
-        const RUNS: usize,
-        const REGS: usize,
-        const BIT_BYTES: usize,
-        const PROTECTED: usize,
-        DE: OutputPin,
-        LED: OutputPin,
-    > Shared<Bank<RUNS, REGS, BIT_BYTES, PROTECTED>, DE, LED>
-{
-    /// Reads a value of the bank (see [`Bank::get`]).
+impl<M: DataModel + Variables, DE: OutputPin, LED: OutputPin> Shared<M, DE, LED> {
+    /// Reads a value (see [`crate::Bank::get`]).
     pub fn get(&self, reference: impl IntoReference) -> Result<u16, BankError> {
         // The reference is worked out before interrupts go off: shorter critical section.
         let reference = reference.into_reference()?;
-        self.with_model(|bank| bank.get(reference)).unwrap_or(Err(BankError::NotFound))
+        self.with_model(|model| model.value(reference)).unwrap_or(Err(BankError::NotFound))
     }
 
-    /// Sets a value of the bank (see [`Bank::set`]).
+    /// Sets a value (see [`crate::Bank::set`]).
     pub fn set(&self, reference: impl IntoReference, value: u16) -> Result<(), BankError> {
         let reference = reference.into_reference()?;
-        self.with_model(|bank| bank.set(reference, value)).unwrap_or(Err(BankError::NotFound))
+        self.with_model(|model| model.set_value(reference, value)).unwrap_or(Err(BankError::NotFound))
     }
 
-    /// How many master writes succeeded so far (see [`Bank::master_writes`]).
+    /// How many master writes succeeded so far (see [`crate::Bank::master_writes`]).
     pub fn master_writes(&self) -> u16 {
-        self.with_model(|bank| bank.master_writes()).unwrap_or(0)
+        self.with_model(|model| model.write_count()).unwrap_or(0)
     }
 }
 
@@ -336,31 +328,5 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Shared<crate::settings::Config
     /// The line settings the slave runs (see [`crate::settings::Configurable::config`]).
     pub fn config(&self) -> Option<Config> {
         self.with_model(|model| model.config())
-    }
-}
-
-#[cfg(feature = "eeprom-settings")]
-impl<
-        const RUNS: usize,
-        const REGS: usize,
-        const BIT_BYTES: usize,
-        const PROTECTED: usize,
-        DE: OutputPin,
-        LED: OutputPin,
-    > Shared<crate::settings::Configurable<Bank<RUNS, REGS, BIT_BYTES, PROTECTED>>, DE, LED>
-{
-    /// Reads a value of the bank or the settings block (see [`Bank::get`]).
-    pub fn get(&self, reference: impl IntoReference) -> Result<u16, BankError> {
-        self.with_model(|model| model.get(reference)).unwrap_or(Err(BankError::NotFound))
-    }
-
-    /// Sets a value of the bank (see [`Bank::set`]).
-    pub fn set(&self, reference: impl IntoReference, value: u16) -> Result<(), BankError> {
-        self.with_model(|model| model.set(reference, value)).unwrap_or(Err(BankError::NotFound))
-    }
-
-    /// How many master writes succeeded so far, settings included (see [`Bank::master_writes`]).
-    pub fn master_writes(&self) -> u16 {
-        self.with_model(|model| model.master_writes()).unwrap_or(0)
     }
 }
