@@ -28,7 +28,7 @@
  *
  * A write to 40101–40104 that the slave can't run (id 0 or over 247, a rate the 16 MHz
  * USART can't make within 2.5 %, another code) gets exception 03 and changes nothing.
- * Also answers FC 07, 08, 0B, 11 (feature `diagnostics`) and FC 16, 17 (`extra-fc`).
+ * Also answers FC 7, 8, 11, 17 (feature `diagnostics`) and FC 22, 23 (`extra-fc`).
  */
 #![no_std]
 #![no_main]

@@ -343,13 +343,13 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         self.master_writes
     }
 
-    /// Sets the eight status bits FC 07 (Read Exception Status) reports.
+    /// Sets the eight status bits FC 7 (Read Exception Status) reports.
     #[cfg(feature = "diagnostics")]
     pub fn set_exception_status(&mut self, bits: u8) {
         self.exception_status = bits;
     }
 
-    /// Sets the device description FC 11 (Report Server ID) reports.
+    /// Sets the device description FC 17 (0x11, Report Server ID) reports.
     #[cfg(feature = "diagnostics")]
     pub fn set_device_info(&mut self, info: &'static [u8]) {
         self.device_info = info;

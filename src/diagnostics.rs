@@ -1,8 +1,9 @@
-//! Serial-line diagnostics, Modbus Application Protocol v1.1b3 §6.7 (FC 07 Read Exception
-//! Status), §6.8 (FC 08 Diagnostics), §6.9 (FC 0B Get Comm Event Counter) and §6.13
-//! (FC 11 Report Server ID), with the counters of Modbus over Serial Line v1.02 §6.1.3.
+//! Serial-line diagnostics, Modbus Application Protocol v1.1b3 §6.7 (FC 7 Read Exception
+//! Status), §6.8 (FC 8 Diagnostics), §6.9 (FC 11 = 0x0B Get Comm Event Counter) and §6.13
+//! (FC 17 = 0x11 Report Server ID), with the counters of Modbus over Serial Line v1.02
+//! §6.1.3.
 //!
-//! FC 08 sub-functions, each answering exception 01 when not listed and 03 when its data
+//! FC 8 sub-functions, each answering exception 01 when not listed and 03 when its data
 //! field is not the one the spec prescribes:
 //!
 //! | sub | name | data | answer |
@@ -24,18 +25,18 @@ use crate::model::DataModel;
 use crate::pdu::Exception;
 use crate::slave::Counters;
 
-/// FC 07.
+/// FC 7.
 pub const READ_EXCEPTION_STATUS: u8 = 0x07;
-/// FC 08.
+/// FC 8.
 pub const DIAGNOSTICS: u8 = 0x08;
-/// FC 0B.
+/// FC 11 (0x0B).
 pub const GET_COMM_EVENT_COUNTER: u8 = 0x0B;
-/// FC 11.
+/// FC 17 (0x11).
 pub const REPORT_SERVER_ID: u8 = 0x11;
 
-/// FC 08 sub-function 01: restart communications.
+/// FC 8 sub-function 01: restart communications.
 pub const RESTART_COMMUNICATIONS: u16 = 0x0001;
-/// FC 08 sub-function 04: force listen-only mode.
+/// FC 8 sub-function 04: force listen-only mode.
 pub const FORCE_LISTEN_ONLY: u16 = 0x0004;
 
 /// What a diagnostic request asks of the slave beyond its reply.
@@ -64,7 +65,7 @@ fn put(pdu: &mut [u8], at: usize, value: u16) {
     }
 }
 
-/// Handles FC 07, 08, 0B and 11 in place (the reply PDU over the request).
+/// Handles FC 7, 8, 11 (0x0B) and 17 (0x11) in place (the reply PDU over the request).
 pub(crate) fn respond<M: DataModel + ?Sized>(
     pdu: &mut [u8],
     len: usize,

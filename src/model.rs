@@ -22,7 +22,7 @@ pub trait DataModel {
     /// into `out`, big-endian.
     fn read_registers(&self, table: Table, start: u16, out: &mut [u8]) -> Result<(), Exception>;
 
-    /// True when all `qty` (≥ 1) addresses of `table` from `start` exist: FC 17 checks its
+    /// True when all `qty` (≥ 1) addresses of `table` from `start` exist: FC 23 (0x17) checks its
     /// read range with this before it writes anything.
     fn has_range(&self, table: Table, start: u16, qty: u16) -> bool;
 
@@ -34,12 +34,12 @@ pub trait DataModel {
     /// them or none.
     fn write_registers(&mut self, start: u16, values: &[u8]) -> Result<(), Exception>;
 
-    /// The eight application-defined status bits of FC 07 (Read Exception Status).
+    /// The eight application-defined status bits of FC 7 (Read Exception Status).
     fn exception_status(&self) -> u8 {
         0
     }
 
-    /// The device description FC 11 (Report Server ID) sends after the slave id and the
+    /// The device description FC 17 (0x11, Report Server ID) sends after the slave id and the
     /// run indicator (at most 249 bytes are sent).
     fn device_info(&self) -> &[u8] {
         &[]

@@ -87,15 +87,15 @@ pub enum Exception {
     ServerDeviceFailure = 0x04,
 }
 
-/// Largest quantity of bits in one read (FC 01, 02): 2000.
+/// Largest quantity of bits in one read (FC 1, 2): 2000.
 pub const MAX_READ_BITS: u16 = 0x07D0;
-/// Largest quantity of registers in one read (FC 03, 04): 125.
+/// Largest quantity of registers in one read (FC 3, 4): 125.
 pub const MAX_READ_REGISTERS: u16 = 0x007D;
-/// Largest quantity of coils in one write (FC 0F): 1968.
+/// Largest quantity of coils in one write (FC 15): 1968.
 pub const MAX_WRITE_COILS: u16 = 0x07B0;
-/// Largest quantity of registers in one write (FC 10): 123.
+/// Largest quantity of registers in one write (FC 16): 123.
 pub const MAX_WRITE_REGISTERS: u16 = 0x007B;
-/// Largest quantity of registers written by FC 17 (Read/Write Multiple): 121.
+/// Largest quantity of registers written by FC 23 (Read/Write Multiple): 121.
 pub const MAX_READ_WRITE_REGISTERS: u16 = 0x0079;
 
 /// FC 05's value for ON.
@@ -106,49 +106,49 @@ const COIL_OFF: u16 = 0x0000;
 /// A parsed request, borrowing its data from the request PDU.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Request<'a> {
-    /// FC 01.
+    /// FC 1.
     ReadCoils {
         /// First address.
         start: u16,
         /// Number of coils, 1–2000.
         qty: u16,
     },
-    /// FC 02.
+    /// FC 2.
     ReadDiscreteInputs {
         /// First address.
         start: u16,
         /// Number of inputs, 1–2000.
         qty: u16,
     },
-    /// FC 03.
+    /// FC 3.
     ReadHoldingRegisters {
         /// First address.
         start: u16,
         /// Number of registers, 1–125.
         qty: u16,
     },
-    /// FC 04.
+    /// FC 4.
     ReadInputRegisters {
         /// First address.
         start: u16,
         /// Number of registers, 1–125.
         qty: u16,
     },
-    /// FC 05.
+    /// FC 5.
     WriteSingleCoil {
         /// Address.
         address: u16,
         /// New state (0xFF00 on, 0x0000 off on the wire).
         on: bool,
     },
-    /// FC 06.
+    /// FC 6.
     WriteSingleRegister {
         /// Address.
         address: u16,
         /// New value.
         value: u16,
     },
-    /// FC 0F.
+    /// FC 15 (0x0F).
     WriteMultipleCoils {
         /// First address.
         start: u16,
@@ -157,14 +157,14 @@ pub enum Request<'a> {
         /// The states, packed LSB first, `qty.div_ceil(8)` bytes.
         packed: &'a [u8],
     },
-    /// FC 10.
+    /// FC 16 (0x10).
     WriteMultipleRegisters {
         /// First address.
         start: u16,
         /// The values, big-endian, 2–246 bytes.
         values: &'a [u8],
     },
-    /// FC 16: the register becomes `(current & and_mask) | (or_mask & !and_mask)`.
+    /// FC 22 (0x16): the register becomes `(current & and_mask) | (or_mask & !and_mask)`.
     #[cfg(feature = "extra-fc")]
     MaskWriteRegister {
         /// Address.
@@ -174,7 +174,7 @@ pub enum Request<'a> {
         /// OR mask.
         or_mask: u16,
     },
-    /// FC 17: the write happens first, then the read.
+    /// FC 23 (0x17): the write happens first, then the read.
     #[cfg(feature = "extra-fc")]
     ReadWriteMultipleRegisters {
         /// First address read.
@@ -260,7 +260,7 @@ impl<'a> Request<'a> {
         check_range(start, qty)
     }
 
-    /// FC 0F / 10: quantity in range, byte count as the quantity requires and equal to
+    /// FC 15 / 16: quantity in range, byte count as the quantity requires and equal to
     /// the data that follows; returns the data.
     fn parse_write_multiple(pdu: &'a [u8], start: u16, qty: u16, max: u16, bytes: u16) -> Result<&'a [u8], Exception> {
         let byte_count = pdu.get(5).copied();
@@ -271,7 +271,7 @@ impl<'a> Request<'a> {
         Ok(pdu.get(6..).unwrap_or(&[]))
     }
 
-    /// FC 17: read quantity 1–125, write quantity 1–121, byte count twice the write
+    /// FC 23: read quantity 1–125, write quantity 1–121, byte count twice the write
     /// quantity and equal to the data that follows (03); both ranges inside 0–65535 (02).
     #[cfg(feature = "extra-fc")]
     fn parse_read_write(pdu: &'a [u8], read_start: u16, read_qty: u16) -> Result<Self, Exception> {
@@ -369,11 +369,11 @@ pub fn respond<M: DataModel + ?Sized>(pdu: &mut [u8], len: usize, model: &mut M)
             request.write(model)?;
             (Table::HoldingRegisters, read_start, read_qty)
         }
-        // FC 16's response is its request (7 bytes).
+        // FC 22's response is its request (7 bytes).
         #[cfg(feature = "extra-fc")]
         Request::MaskWriteRegister { .. } => return request.write(model).map(|()| 7),
         // Every other write's response is the first five bytes of its request: an echo
-        // for FC 05 / 06, function code, start and quantity for FC 0F / 10.
+        // for FC 5 / 6, function code, start and quantity for FC 15 / 16.
         write => return write.write(model).map(|()| 5),
     };
     let bytes = if table.is_bits() { usize::from(qty.div_ceil(8)) } else { 2 * usize::from(qty) };

@@ -5,13 +5,13 @@
 /// One of the four tables of the data model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Table {
-    /// Coils (0x): single bits, read/write (FC 01, 05, 0F).
+    /// Coils (0x): single bits, read/write (FC 1, 5, 15).
     Coils = 0,
-    /// Discrete inputs (1x): single bits, read-only (FC 02).
+    /// Discrete inputs (1x): single bits, read-only (FC 2).
     DiscreteInputs = 1,
-    /// Input registers (3x): 16-bit words, read-only (FC 04).
+    /// Input registers (3x): 16-bit words, read-only (FC 4).
     InputRegisters = 2,
-    /// Holding registers (4x): 16-bit words, read/write (FC 03, 06, 10).
+    /// Holding registers (4x): 16-bit words, read/write (FC 3, 6, 16).
     HoldingRegisters = 3,
 }
 

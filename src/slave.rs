@@ -19,7 +19,7 @@ enum Diagnosed {
 #[cfg(feature = "diagnostics")]
 use crate::diagnostics::Diagnosed;
 
-/// FC 0B's requests are not counted as events.
+/// FC 11 (0x0B)'s requests are not counted as events.
 const GET_COMM_EVENT_COUNTER: u8 = 0x0B;
 
 /// What the slave counted since start-up (each wraps at 65535).
@@ -46,7 +46,7 @@ pub struct Counters {
     /// Good frames for this slave or broadcast that got no reply (broadcasts, and every
     /// frame while in listen-only mode).
     pub no_response: u16,
-    /// Requests completed without an exception (the comm event counter of FC 0B, which
+    /// Requests completed without an exception (the comm event counter of FC 11 (0x0B), which
     /// does not count its own requests).
     pub events: u16,
 }
@@ -69,7 +69,7 @@ pub enum EndOfFrame {
     Reply,
     /// A good broadcast: call [`Slave::process`] to execute it; nothing is sent.
     Broadcast,
-    /// A good frame for this slave while it is in listen-only mode (FC 08 sub-function
+    /// A good frame for this slave while it is in listen-only mode (FC 8 sub-function
     /// 04): call [`Slave::process`], which only acts on a restart; nothing is sent.
     ListenOnly,
 }
@@ -274,7 +274,7 @@ impl Slave {
         self.framer.release();
     }
 
-    /// In listen-only mode only FC 08 sub-function 01 (restart communications) is acted
+    /// In listen-only mode only FC 8 sub-function 01 (restart communications) is acted
     /// on, and even that is not answered.
     #[cfg(feature = "diagnostics")]
     fn listen(&mut self, len: usize) {
@@ -287,7 +287,7 @@ impl Slave {
         }
     }
 
-    /// True while FC 08 sub-function 04 keeps the slave silent.
+    /// True while FC 8 sub-function 04 keeps the slave silent.
     pub fn is_listen_only(&self) -> bool {
         self.listen_only
     }

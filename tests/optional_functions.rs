@@ -1,5 +1,5 @@
-//! The optional function codes, each behind its feature: FC 16 and 17 (`extra-fc`,
-//! Application Protocol v1.1b3 §6.16–6.17) and FC 07, 08, 0B, 11 (`diagnostics`, §6.7–6.9,
+//! The optional function codes, each behind its feature: FC 22 and 23 = 0x16, 0x17
+//! (`extra-fc`, Application Protocol v1.1b3 §6.16–6.17) and FC 7, 8, 11, 17 (`diagnostics`, §6.7–6.9,
 //! §6.13, with the counters of Serial Line v1.02 §6.1.3).
 
 mod common;
@@ -15,7 +15,7 @@ mod extra {
 
     type Registers = Bank<4, 32, 1>;
 
-    /// Holding registers 0–8 and 14–16 (the spec's FC 17 example), 0x0012 at address 4.
+    /// Holding registers 0–8 and 14–16 (the spec's FC 23 example), 0x0012 at address 4.
     fn bank() -> Registers {
         let mut bank = Registers::new();
         bank.add_range(Reference::holding_register(0), 9).unwrap();
@@ -31,7 +31,7 @@ mod extra {
     }
 
     #[test]
-    fn fc16_applies_and_then_or_masks_as_the_spec_example() {
+    fn fc22_applies_and_then_or_masks_as_the_spec_example() {
         let mut bank = bank();
         let request = [
             0x16, // function: mask write register
@@ -46,14 +46,14 @@ mod extra {
     }
 
     #[test]
-    fn fc16_on_a_missing_register_is_illegal_data_address() {
+    fn fc22_on_a_missing_register_is_illegal_data_address() {
         let mut bank = bank();
         let request = [0x16, 0x00, 0x0A, 0x00, 0xF2, 0x00, 0x25];
         assert_eq!(ask(&mut slave(), &mut bank, &to_slave(&request)), exception_reply(0x16, 0x02));
     }
 
     #[test]
-    fn fc16_with_a_wrong_length_is_illegal_data_value() {
+    fn fc22_with_a_wrong_length_is_illegal_data_value() {
         let mut bank = bank();
         for request in [&[0x16, 0x00, 0x04, 0x00, 0xF2, 0x00][..], &[0x16, 0x00, 0x04, 0x00, 0xF2, 0x00, 0x25, 0x00]] {
             assert_eq!(ask(&mut slave(), &mut bank, &to_slave(request)), exception_reply(0x16, 0x03));
@@ -62,7 +62,7 @@ mod extra {
     }
 
     #[test]
-    fn fc17_writes_first_then_reads_as_the_spec_example() {
+    fn fc23_writes_first_then_reads_as_the_spec_example() {
         let mut bank = bank();
         let request = [
             0x17, // function: read/write multiple registers
@@ -87,7 +87,7 @@ mod extra {
     }
 
     #[test]
-    fn fc17_reads_what_it_just_wrote() {
+    fn fc23_reads_what_it_just_wrote() {
         let mut bank = bank();
         let request = [0x17, 0x00, 0x00, 0x00, 0x02, 0x00, 0x01, 0x00, 0x01, 0x02, 0xBE, 0xEF];
         let reply = ask(&mut slave(), &mut bank, &to_slave(&request));
@@ -95,7 +95,7 @@ mod extra {
     }
 
     #[test]
-    fn fc17_with_a_missing_read_register_writes_nothing() {
+    fn fc23_with_a_missing_read_register_writes_nothing() {
         let mut bank = bank();
         // Read 8..9 (9 is a hole), write 0..0.
         let request = [0x17, 0x00, 0x08, 0x00, 0x02, 0x00, 0x00, 0x00, 0x01, 0x02, 0x12, 0x34];
@@ -105,7 +105,7 @@ mod extra {
     }
 
     #[test]
-    fn fc17_with_a_missing_write_register_is_illegal_data_address() {
+    fn fc23_with_a_missing_write_register_is_illegal_data_address() {
         let mut bank = bank();
         let request = [0x17, 0x00, 0x00, 0x00, 0x01, 0x00, 0x08, 0x00, 0x02, 0x04, 0, 1, 0, 2];
         assert_eq!(ask(&mut slave(), &mut bank, &to_slave(&request)), exception_reply(0x17, 0x02));
@@ -113,7 +113,7 @@ mod extra {
     }
 
     #[test]
-    fn fc17_quantities_outside_the_limits_are_illegal_data_value() {
+    fn fc23_quantities_outside_the_limits_are_illegal_data_value() {
         let mut bank = bank();
         let read_126 = [0x17, 0x00, 0x00, 0x00, 0x7E, 0x00, 0x00, 0x00, 0x01, 0x02, 0, 1];
         let read_0 = [0x17, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x01, 0x02, 0, 1];
@@ -126,7 +126,7 @@ mod extra {
     }
 
     #[test]
-    fn fc17_write_quantity_122_is_illegal_data_value() {
+    fn fc23_write_quantity_122_is_illegal_data_value() {
         let request = {
             let mut pdu = vec![0x17, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00, 0x00, 0x7A, 0xF4];
             pdu.extend(std::iter::repeat_n(0, 244));
@@ -136,7 +136,7 @@ mod extra {
     }
 
     #[test]
-    fn fc17_read_range_past_65535_is_illegal_data_address() {
+    fn fc23_read_range_past_65535_is_illegal_data_address() {
         let mut bank = bank();
         let request = [0x17, 0xFF, 0xFF, 0x00, 0x02, 0x00, 0x00, 0x00, 0x01, 0x02, 0, 1];
         assert_eq!(ask(&mut slave(), &mut bank, &to_slave(&request)), exception_reply(0x17, 0x02));
@@ -264,7 +264,7 @@ mod diagnostics {
     }
 
     #[test]
-    fn fc0b_counts_successful_requests_but_not_itself_or_exceptions() {
+    fn fc11_counts_successful_requests_but_not_itself_or_exceptions() {
         let (mut slave, mut bank) = (slave(), bank());
         ask(&mut slave, &mut bank, &read_1());
         ask(&mut slave, &mut bank, &read_1());
@@ -275,7 +275,7 @@ mod diagnostics {
     }
 
     #[test]
-    fn fc11_reports_id_run_indicator_and_device_info() {
+    fn fc17_reports_id_run_indicator_and_device_info() {
         let mut bank = bank();
         bank.set_device_info(b"UNO-1");
         let reply = ask(&mut slave(), &mut bank, &to_slave(&[0x11]));
@@ -283,7 +283,7 @@ mod diagnostics {
     }
 
     #[test]
-    fn fc7_0b_11_with_data_are_illegal_data_value() {
+    fn fc7_11_17_with_data_are_illegal_data_value() {
         for function in [0x07, 0x0B, 0x11] {
             assert_eq!(ask(&mut slave(), &mut bank(), &to_slave(&[function, 0x00])), exception_reply(function, 0x03));
         }

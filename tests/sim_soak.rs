@@ -287,8 +287,8 @@ enum Kind {
     Broadcast,
 }
 
-/// Function codes no build of the firmware supports (optional ones like 07, 08, 0B, 11,
-/// 16, 17 left out).
+/// Function codes no build of the firmware supports (optional ones like 7, 8, 11, 17,
+/// 22, 23 left out).
 const UNSUPPORTED: [u8; 10] = [0x09, 0x0A, 0x0C, 0x0D, 0x12, 0x13, 0x14, 0x18, 0x41, 0x64];
 
 /// A start and quantity inside a table of `size`.
