@@ -34,7 +34,7 @@ fmt-check: setup
 	$(CARGO) fmt --all --check
 
 # The optional function codes, checked and tested as a second build.
-OPTIONAL := diagnostics,extra-fc
+OPTIONAL := diagnostics,extra-fc,write-protect
 
 clippy: setup
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
@@ -53,7 +53,7 @@ lint: fmt-check clippy docs
 host-test: setup firmware
 	$(CARGO) test --workspace --exclude virtual-uno
 	$(CARGO) test -p virtual-uno --bins
-	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL) --lib --test optional_functions --test exceptions --test adu --test framer
+	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL) --lib --test optional_functions --test exceptions --test adu --test framer --test bank
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings --test settings --test sim_configurable
 
 test: lint firmware host-test interop

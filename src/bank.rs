@@ -74,6 +74,7 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
 }
 
 /// A range of coils or holding registers the master may read but not write.
+#[cfg(feature = "write-protect")]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Protected {
     table: Table,
@@ -81,6 +82,7 @@ struct Protected {
     last: u16,
 }
 
+#[cfg(feature = "write-protect")]
 impl Protected {
     const EMPTY: Protected = Protected { table: Table::Coils, start: 1, last: 0 };
 
@@ -90,7 +92,8 @@ impl Protected {
 }
 
 /// The sparse bank: see the module documentation for capacity and RAM. The optional
-/// fourth parameter is how many read-only ranges [`Bank::protect`] can hold (5 bytes each).
+/// fourth parameter is how many read-only ranges `Bank::protect` can hold (5 bytes each;
+/// feature `write-protect`).
 ///
 /// ```
 /// use avr_modbus_slave::{Bank, bit_bytes};
@@ -110,7 +113,9 @@ pub struct Bank<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, co
     bits: [u8; BIT_BYTES],
     bit_count: usize,
     master_writes: u16,
+    #[cfg(feature = "write-protect")]
     protected: [Protected; PROTECTED],
+    #[cfg(feature = "write-protect")]
     protected_count: usize,
     #[cfg(feature = "diagnostics")]
     exception_status: u8,
@@ -139,7 +144,9 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
             bits: [0; BIT_BYTES],
             bit_count: 0,
             master_writes: 0,
+            #[cfg(feature = "write-protect")]
             protected: [Protected::EMPTY; PROTECTED],
+            #[cfg(feature = "write-protect")]
             protected_count: 0,
             #[cfg(feature = "diagnostics")]
             exception_status: 0,
@@ -313,6 +320,7 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         Ok(())
     }
 
+    #[cfg(feature = "write-protect")]
     /// Makes `count` coils or holding registers from `first` read-only to the master: a
     /// write touching any of them is answered with exception 02 (Illegal Data Address: the
     /// spec's answer for an address the server does not allow for this request) and changes
@@ -332,9 +340,15 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
 
     /// True when a master write of `qty` addresses of `table` from `start` touches a
     /// read-only range.
+    #[cfg(feature = "write-protect")]
     fn is_protected(&self, table: Table, start: u16, qty: u16) -> bool {
         let last = start.saturating_add(qty.saturating_sub(1));
         self.protected.iter().take(self.protected_count).any(|p| p.overlaps(table, start, last))
+    }
+
+    #[cfg(not(feature = "write-protect"))]
+    fn is_protected(&self, _: Table, _: u16, _: u16) -> bool {
+        false
     }
 
     /// How many write requests from the master have succeeded (wrapping): compare with

@@ -484,6 +484,7 @@ fn application_sets_do_not_count_as_master_writes() {
 
 // ---- write protection ------------------------------------------------------------------
 
+#[cfg(feature = "write-protect")]
 mod protection {
     use super::common::{ask, exception_reply, slave, to_slave};
     use avr_modbus_slave::{Bank, BankError};
