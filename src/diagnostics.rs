@@ -22,7 +22,7 @@
 //! | 12 | Return Bus Character Overrun Count | 0000 | [`Counters::overruns`] |
 
 use crate::model::DataModel;
-use crate::pdu::Exception;
+use crate::pdu::{word, Exception};
 use crate::slave::Counters;
 
 /// FC 7.
@@ -50,13 +50,6 @@ pub(crate) enum Diagnosed {
     ListenOnly,
     /// Send the reply, then clear the counters and leave listen-only mode.
     Restart(usize),
-}
-
-fn word(pdu: &[u8], at: usize) -> u16 {
-    match pdu.get(at..at + 2) {
-        Some(&[hi, lo]) => u16::from_be_bytes([hi, lo]),
-        _ => 0,
-    }
 }
 
 fn put(pdu: &mut [u8], at: usize, value: u16) {

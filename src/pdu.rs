@@ -188,7 +188,8 @@ pub enum Request<'a> {
     },
 }
 
-fn word(pdu: &[u8], at: usize) -> u16 {
+/// The big-endian word at `at`, 0 past the end (the length checks decide what that means).
+pub(crate) fn word(pdu: &[u8], at: usize) -> u16 {
     match pdu.get(at..at + 2) {
         Some(&[hi, lo]) => u16::from_be_bytes([hi, lo]),
         _ => 0,

@@ -14,7 +14,7 @@
 
 mod sim;
 
-use sim::{crc16, firmware, read_request, us_to_cycles, with_crc, Exchange, Line, ID};
+use sim::{collect_reply, crc16, firmware, read_request, us_to_cycles, with_crc, Exchange, Line, ID};
 use uno_sim::{Parity, Uno};
 
 const FIRMWARE: &str = "configurable";
@@ -111,17 +111,8 @@ impl Board {
     /// Sends `request` and collects the reply (empty: none within T3.5 + 10 characters).
     fn exchange(&mut self, request: &[u8]) -> Exchange {
         let request_end = self.send(request);
-        let idle = 2 * self.char_cycles();
-        let deadline = request_end + self.line.t35() + 10 * self.char_cycles();
-        let mut reply = self.uno.run_until_tx_idle(idle, deadline).expect("firmware runs");
-        while let Some(last) = reply.last() {
-            let busy = self.uno.tx_busy_until().unwrap_or(0).max(last.end_cycle);
-            if self.uno.now() >= busy + idle {
-                break;
-            }
-            self.uno.run_until(busy + idle).expect("firmware runs");
-            reply.extend(self.uno.take_tx());
-        }
+        let char_cycles = self.char_cycles();
+        let reply = collect_reply(&mut self.uno, request_end, char_cycles, self.line.t35());
         if let Some(last) = reply.last() {
             self.quiet_since = self.quiet_since.max(last.end_cycle);
         }

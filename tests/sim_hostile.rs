@@ -17,7 +17,7 @@
 
 mod sim;
 
-use sim::{crc16, read_request, registers_reply, with_crc, Line, Rtu, ID};
+use sim::{crc16, read_request, registers_reply, with_crc, Line, Rng, Rtu, ID};
 use uno_sim::{vector, LineError};
 
 fn uno_slave() -> Rtu {
@@ -506,23 +506,6 @@ fn another_slaves_reply_is_counted_as_a_frame_and_not_answered() {
 // ---------------------------------------------------------------------------------------
 // Noise
 
-/// SplitMix64: the same seed gives the same noise.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-}
-
 /// How a noise character follows the one before it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Spacing {
@@ -586,7 +569,7 @@ fn noise_burst(rng: &mut Rng, rtu: &Rtu) -> Vec<(Char, Spacing)> {
     let margin = 2 * rtu.tick;
     (0..len)
         .map(|_| {
-            let byte = rng.next() as u8;
+            let byte = rng.next_u64() as u8;
             let error = match rng.below(20) {
                 0 => Some(LineError::Parity),
                 1 => Some(LineError::Framing),

@@ -23,7 +23,7 @@ mod sim;
 
 use std::time::Instant;
 
-use sim::{with_crc, Line, Rtu, ID};
+use sim::{with_crc, Line, Rng, Rtu, ID};
 use uno_sim::F_CPU;
 
 /// Transactions when `SOAK_TRANSACTIONS` is not set: small enough for `make test`.
@@ -54,44 +54,6 @@ const fn switch_pin(i: usize) -> u8 {
 /// Arduino pin of the LED for coil `i` (00001 + i), `i` in 1..5.
 const fn led_pin(i: usize) -> u8 {
     1 + i as u8
-}
-
-// ---------------------------------------------------------------------------------------
-// A seeded generator (SplitMix64): the same seed gives the same run.
-
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `0..n` (n > 0).
-    fn below(&mut self, n: u64) -> u64 {
-        self.next_u64() % n
-    }
-
-    /// Uniform in `lo..=hi`.
-    fn range(&mut self, lo: u64, hi: u64) -> u64 {
-        lo + self.below(hi - lo + 1)
-    }
-
-    /// True with probability `percent` / 100.
-    fn chance(&mut self, percent: u64) -> bool {
-        self.below(100) < percent
-    }
-
-    fn u16(&mut self) -> u16 {
-        self.next_u64() as u16
-    }
-
-    fn pick<T: Copy>(&mut self, items: &[T]) -> T {
-        items[self.below(items.len() as u64) as usize]
-    }
 }
 
 fn env_u64(name: &str, default: u64) -> u64 {

@@ -301,18 +301,7 @@ impl Rtu {
     /// Runs until the reply to a request that ended at `request_end` is complete, or, if
     /// none has started by then, until T3.5 plus ten characters after it.
     pub fn receive(&mut self, request_end: u64) -> Exchange {
-        let idle = 2 * self.char_cycles;
-        let no_reply_by = request_end + self.line.t35() + 10 * self.char_cycles;
-        // Only stop early if a reply started (stop_on_tx is what `run_until_tx_idle` does).
-        let mut reply = self.uno.run_until_tx_idle(idle, no_reply_by).expect("firmware runs");
-        while let Some(last) = reply.last() {
-            let busy = self.uno.tx_busy_until().unwrap_or(0).max(last.end_cycle);
-            if self.uno.now() >= busy + idle {
-                break;
-            }
-            self.uno.run_until(busy + idle).expect("firmware runs");
-            reply.extend(self.uno.take_tx());
-        }
+        let reply = collect_reply(&mut self.uno, request_end, self.char_cycles, self.line.t35());
         if let Some(last) = reply.last() {
             self.quiet_since = self.quiet_since.max(last.end_cycle);
         }
@@ -328,5 +317,60 @@ impl Rtu {
     pub fn assert_silent(&mut self, what: &str) {
         let tx = self.uno.take_tx();
         assert!(tx.is_empty(), "{what}: the slave sent {:02X?}", tx.iter().map(|t| t.byte).collect::<Vec<_>>());
+    }
+}
+
+/// Runs until the reply to a request that ended at `request_end` is complete (two
+/// characters of idle line after its last one), or, if none has started by then, until
+/// T3.5 plus ten characters after the request.
+pub fn collect_reply(uno: &mut Uno, request_end: u64, char_cycles: u64, t35: u64) -> Vec<TxByte> {
+    let idle = 2 * char_cycles;
+    let no_reply_by = request_end + t35 + 10 * char_cycles;
+    // Only stop early if a reply started (that is what `run_until_tx_idle` does).
+    let mut reply = uno.run_until_tx_idle(idle, no_reply_by).expect("firmware runs");
+    while let Some(last) = reply.last() {
+        let busy = uno.tx_busy_until().unwrap_or(0).max(last.end_cycle);
+        if uno.now() >= busy + idle {
+            break;
+        }
+        uno.run_until(busy + idle).expect("firmware runs");
+        reply.extend(uno.take_tx());
+    }
+    reply
+}
+
+/// A seeded generator (SplitMix64): the same seed gives the same run.
+pub struct Rng(pub u64);
+
+impl Rng {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `0..n` (n > 0).
+    pub fn below(&mut self, n: u64) -> u64 {
+        self.next_u64() % n
+    }
+
+    /// Uniform in `lo..=hi`.
+    pub fn range(&mut self, lo: u64, hi: u64) -> u64 {
+        lo + self.below(hi - lo + 1)
+    }
+
+    /// True with probability `percent` / 100.
+    pub fn chance(&mut self, percent: u64) -> bool {
+        self.below(100) < percent
+    }
+
+    pub fn u16(&mut self) -> u16 {
+        self.next_u64() as u16
+    }
+
+    pub fn pick<T: Copy>(&mut self, items: &[T]) -> T {
+        items[self.below(items.len() as u64) as usize]
     }
 }
