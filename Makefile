@@ -23,8 +23,8 @@ setup:
 	@.ci/setup
 
 firmware: setup
-	$(CARGO) uno --examples --features rt
-	$(CARGO) uno --example configurable --features rt,eeprom-settings,$(OPTIONAL)
+	$(CARGO) uno --examples --features examples
+	$(CARGO) uno --example configurable --features examples,eeprom-settings,$(OPTIONAL)
 	@.ci/sizes $(FIRMWARE)
 	@.ci/no-panic $(FIRMWARE)
 
@@ -40,8 +40,8 @@ clippy: setup
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL) -- -D warnings
 	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL),eeprom-settings -- -D warnings
-	$(CARGO) uno-clippy --examples --features rt -- -D warnings
-	$(CARGO) uno-clippy --examples --features rt,$(OPTIONAL),eeprom-settings -- -D warnings
+	$(CARGO) uno-clippy --examples --features examples -- -D warnings
+	$(CARGO) uno-clippy --examples --features examples,$(OPTIONAL),eeprom-settings -- -D warnings
 
 docs: setup
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings

@@ -34,8 +34,8 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::avr::{Eeprom, ModbusSlave, Pins};
-use avr_modbus_slave::{bit_bytes, Bank, Config, Configurable, Parity, StopBits};
+use avr_modbus_slave::board::{self, Eeprom, Pins};
+use avr_modbus_slave::{bit_bytes, Bank, Config, Configurable, Error, Parity, StopBits};
 use panic_halt as _;
 
 /// The compiled-in default, and what the jumper forces.
@@ -54,20 +54,17 @@ const FROM_JUMPER: u16 = 2;
 
 type Registers = Configurable<Bank<3, 7, { bit_bytes(8) }>>;
 
-avr_modbus_slave::modbus_slave!(SLAVE: Registers);
+avr_modbus_slave::slave!(SLAVE: Registers);
 
-#[avr_device::entry]
-fn main() -> ! {
-    // SAFETY: the only place that takes the peripherals, and it runs once.
-    #[allow(unsafe_code)]
-    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
-    let pins = Pins::new(dp.PORTB, dp.PORTC, dp.PORTD);
+/// Reads the jumper and the EEPROM, builds the register map and starts the slave.
+fn start(dp: avr_device::atmega328p::Peripherals) -> Result<Eeprom, Error> {
+    let pins = Pins::new(dp.PORTB, dp.PORTC, dp.PORTD)?;
     let jumper = pins.d12.into_pull_up_input();
     // Let the pull-up charge the pin before reading it.
     avr_device::asm::delay_cycles(1_000);
     let forced = !jumper.is_high();
 
-    let mut eeprom = Eeprom::new(dp.EEPROM);
+    let eeprom = Eeprom::new(dp.EEPROM)?;
     let (config, source) = match (forced, eeprom.load_config(SETTINGS_AT)) {
         (true, _) => (DEFAULT, FROM_JUMPER),
         (false, Some(stored)) => (stored, FROM_EEPROM),
@@ -75,23 +72,24 @@ fn main() -> ! {
     };
 
     let mut bank = Bank::new();
-    let _ = bank.add_range(1, 8);
-    let _ = bank.add_range(30001, 3);
-    let _ = bank.add_range(40001, 4);
-    let _ = bank.set(30001, source);
+    bank.add_range(1, 8)?;
+    bank.add_range(30001, 3)?;
+    bank.add_range(40001, 4)?;
+    bank.set(30001, source)?;
     bank.set_device_info(b"avr-modbus-slave configurable");
-    // The block's addresses are not in the bank, so this can't fail; without it the
-    // firmware still answers at `config`, only the block is missing.
-    let Ok(model) = Configurable::new(bank, SETTINGS_BLOCK, config) else {
-        loop {
-            avr_device::asm::sleep();
-        }
-    };
-    SLAVE.start(ModbusSlave::new(config, dp.USART0, dp.TC0, model));
-    // SAFETY: the slave is in its cell; its interrupt handlers may run from here on.
+    let model = Configurable::new(bank, SETTINGS_BLOCK, config)?;
+    SLAVE.start(config, dp.USART0, dp.TC0, model)?;
+    Ok(eeprom)
+}
+
+#[avr_device::entry]
+fn main() -> ! {
+    // SAFETY: the only place that takes the peripherals, and it runs once.
     #[allow(unsafe_code)]
-    unsafe {
-        avr_device::interrupt::enable()
+    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
+    let mut eeprom = match start(dp) {
+        Ok(eeprom) => eeprom,
+        Err(error) => board::halt(error),
     };
 
     let mut saves: u16 = 0;

@@ -26,8 +26,8 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::avr::{ModbusSlave, Pins};
-use avr_modbus_slave::{bit_bytes, Bank, Config, Parity, StopBits};
+use avr_modbus_slave::board::{self, Pins};
+use avr_modbus_slave::{bit_bytes, Bank, Config, Error, Parity, StopBits};
 use panic_halt as _;
 
 const PRESETS: [Config; 8] = [
@@ -43,14 +43,10 @@ const PRESETS: [Config; 8] = [
 
 type DipBank = Bank<4, 11, { bit_bytes(19) }>;
 
-avr_modbus_slave::modbus_slave!(SLAVE: DipBank);
+avr_modbus_slave::slave!(SLAVE: DipBank);
 
-#[avr_device::entry]
-fn main() -> ! {
-    // SAFETY: the only place that takes the peripherals, and it runs once.
-    #[allow(unsafe_code)]
-    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
-    let pins = Pins::new(dp.PORTB, dp.PORTC, dp.PORTD);
+fn start(dp: avr_device::atmega328p::Peripherals) -> Result<(), Error> {
+    let pins = Pins::new(dp.PORTB, dp.PORTC, dp.PORTD)?;
     let switches = [pins.d10.into_pull_up_input(), pins.d11.into_pull_up_input(), pins.d12.into_pull_up_input()];
     // Let the pull-ups charge the pins before reading them.
     avr_device::asm::delay_cycles(1_000);
@@ -58,21 +54,26 @@ fn main() -> ! {
     let preset = closed.iter().rev().fold(0usize, |n, &on| (n << 1) | usize::from(on));
 
     let mut bank = DipBank::new();
-    let _ = bank.add_range(1, 16);
-    let _ = bank.add_range(10001, 3);
-    let _ = bank.add(30001);
-    let _ = bank.add_range(40001, 10);
+    bank.add_range(1, 16)?;
+    bank.add_range(10001, 3)?;
+    bank.add(30001)?;
+    bank.add_range(40001, 10)?;
     for (input, on) in (10001..).zip(closed) {
-        let _ = bank.set(input, u16::from(on));
+        bank.set(input, u16::from(on))?;
     }
-    let _ = bank.set(30001, preset as u16);
+    bank.set(30001, preset as u16)?;
     let config = PRESETS.get(preset).copied().unwrap_or(PRESETS[0]);
-    SLAVE.start(ModbusSlave::new(config, dp.USART0, dp.TC0, bank));
-    // SAFETY: the slave is in its cell; its interrupt handlers may run from here on.
+    SLAVE.start(config, dp.USART0, dp.TC0, bank)
+}
+
+#[avr_device::entry]
+fn main() -> ! {
+    // SAFETY: the only place that takes the peripherals, and it runs once.
     #[allow(unsafe_code)]
-    unsafe {
-        avr_device::interrupt::enable()
-    };
+    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
+    if let Err(error) = start(dp) {
+        board::halt(error);
+    }
     loop {
         avr_device::asm::sleep();
     }

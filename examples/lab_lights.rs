@@ -28,8 +28,8 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::avr::{ModbusSlave, Pin, Pins};
-use avr_modbus_slave::{bit_bytes, Bank, Config, Parity, SlaveId, StopBits};
+use avr_modbus_slave::board::{self, Pin, Pins};
+use avr_modbus_slave::{bit_bytes, Bank, Config, Error, Parity, SlaveId, StopBits};
 use panic_halt as _;
 
 const BUTTON_BOX: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
@@ -40,35 +40,35 @@ const LIGHT_TOWER: SlaveId = match SlaveId::new(2) {
 
 type Bits = Bank<1, 0, { bit_bytes(4) }>;
 
-avr_modbus_slave::modbus_slave!(SLAVE: Bits, Pin, Pin);
+avr_modbus_slave::slave!(SLAVE: Bits, Pin, Pin);
 
 #[avr_device::entry]
 fn main() -> ! {
     // SAFETY: the only place that takes the peripherals, and it runs once.
     #[allow(unsafe_code)]
     let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
-    let pins = Pins::new(dp.PORTB, dp.PORTC, dp.PORTD);
+    let pins = match Pins::new(dp.PORTB, dp.PORTC, dp.PORTD) {
+        Ok(pins) => pins,
+        Err(error) => board::halt(error),
+    };
     let jumper = pins.d12.into_pull_up_input();
     // Let the pull-up charge the pin before reading it.
     avr_device::asm::delay_cycles(1_000);
     let tower = !jumper.is_high();
 
     let mut bank = Bits::new();
-    let config = if tower {
-        let _ = bank.add_range(1, 4);
-        BUTTON_BOX.with_slave_id(LIGHT_TOWER)
+    let (config, map) = if tower {
+        (BUTTON_BOX.with_slave_id(LIGHT_TOWER), bank.add_range(1, 4))
     } else {
-        let _ = bank.add_range(10001, 2);
-        BUTTON_BOX
+        (BUTTON_BOX, bank.add_range(10001, 2))
     };
     let driver_enable = pins.d10.into_output();
     let led = pins.d13.into_output();
-    SLAVE.start(ModbusSlave::new(config, dp.USART0, dp.TC0, bank).with_driver_enable(driver_enable).with_led(led));
-    // SAFETY: the slave is in its cell; its interrupt handlers may run from here on.
-    #[allow(unsafe_code)]
-    unsafe {
-        avr_device::interrupt::enable()
-    };
+    let started: Result<(), Error> =
+        map.and_then(|()| SLAVE.start_with_pins(config, dp.USART0, dp.TC0, bank, driver_enable, led));
+    if let Err(error) = started {
+        board::halt(error);
+    }
 
     if tower {
         let mut lamps = [pins.d4.into_output(), pins.d5.into_output(), pins.d6.into_output(), pins.d7.into_output()];

@@ -17,8 +17,8 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::avr::{ModbusSlave, Pins};
-use avr_modbus_slave::{bit_bytes, Bank, Config, Parity, StopBits};
+use avr_modbus_slave::board::{self, Pins};
+use avr_modbus_slave::{bit_bytes, Bank, Config, Error, Parity, StopBits};
 use panic_halt as _;
 
 const SLOW: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
@@ -26,27 +26,28 @@ const FAST: Config = Config::new(1, 115_200, Parity::Even, StopBits::One);
 
 type Registers = Bank<1, 125, { bit_bytes(0) }>;
 
-avr_modbus_slave::modbus_slave!(SLAVE: Registers);
+avr_modbus_slave::slave!(SLAVE: Registers);
 
-#[avr_device::entry]
-fn main() -> ! {
-    // SAFETY: the only place that takes the peripherals, and it runs once.
-    #[allow(unsafe_code)]
-    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
-    let pins = Pins::new(dp.PORTB, dp.PORTC, dp.PORTD);
+fn start(dp: avr_device::atmega328p::Peripherals) -> Result<(), Error> {
+    let pins = Pins::new(dp.PORTB, dp.PORTC, dp.PORTD)?;
     let jumper = pins.d12.into_pull_up_input();
     // Let the pull-up charge the pin before reading it.
     avr_device::asm::delay_cycles(1_000);
     let config = if jumper.is_high() { SLOW } else { FAST };
 
     let mut bank = Registers::new();
-    let _ = bank.add_range(40001, 125);
-    SLAVE.start(ModbusSlave::new(config, dp.USART0, dp.TC0, bank));
-    // SAFETY: the slave is in its cell; its interrupt handlers may run from here on.
+    bank.add_range(40001, 125)?;
+    SLAVE.start(config, dp.USART0, dp.TC0, bank)
+}
+
+#[avr_device::entry]
+fn main() -> ! {
+    // SAFETY: the only place that takes the peripherals, and it runs once.
     #[allow(unsafe_code)]
-    unsafe {
-        avr_device::interrupt::enable()
-    };
+    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
+    if let Err(error) = start(dp) {
+        board::halt(error);
+    }
     loop {
         avr_device::asm::sleep();
     }

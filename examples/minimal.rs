@@ -17,29 +17,29 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::avr::ModbusSlave;
-use avr_modbus_slave::{bit_bytes, Bank, Config, Parity, StopBits};
+use avr_modbus_slave::{bit_bytes, board, Bank, Config, Error, Parity, StopBits};
 use panic_halt as _;
 
 const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 
 type Registers = Bank<1, 4, { bit_bytes(0) }>;
 
-avr_modbus_slave::modbus_slave!(SLAVE: Registers);
+avr_modbus_slave::slave!(SLAVE: Registers);
+
+fn registers() -> Result<Registers, Error> {
+    let mut bank = Registers::new();
+    bank.add_range(40001, 4)?;
+    Ok(bank)
+}
 
 #[avr_device::entry]
 fn main() -> ! {
     // SAFETY: the only place that takes the peripherals, and it runs once.
     #[allow(unsafe_code)]
     let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
-    let mut bank = Registers::new();
-    let _ = bank.add_range(40001, 4);
-    SLAVE.start(ModbusSlave::new(CONFIG, dp.USART0, dp.TC0, bank));
-    // SAFETY: the slave is in its cell; its interrupt handlers may run from here on.
-    #[allow(unsafe_code)]
-    unsafe {
-        avr_device::interrupt::enable()
-    };
+    if let Err(error) = registers().and_then(|bank| SLAVE.start(CONFIG, dp.USART0, dp.TC0, bank)) {
+        board::halt(error);
+    }
 
     let mut seen = 0;
     loop {

@@ -28,22 +28,25 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::avr::{Adc, ModbusSlave, Pins};
-use avr_modbus_slave::{bit_bytes, Bank, Config, Parity, StopBits};
+use avr_modbus_slave::board::{self, Adc, Pins};
+use avr_modbus_slave::{bit_bytes, millis, Bank, Config, Error, Parity, StopBits};
 use panic_halt as _;
 
 const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 
-/// Timer1 at clk/1024: one tick is 64 µs, 15625 ticks a second.
-const TICKS_PER_SECOND: u16 = 15_625;
-
 type UnoBank = Bank<4, 22, { bit_bytes(9) }>;
 
-avr_modbus_slave::modbus_slave!(SLAVE: UnoBank);
+avr_modbus_slave::slave!(SLAVE: UnoBank);
 
-/// Milliseconds to Timer1 ticks (×1000/64 = ×125/8), saturating at 4 s.
-fn ms_to_ticks(ms: u16) -> u16 {
-    ((u32::from(ms) * 125) >> 3).min(u32::from(u16::MAX)) as u16
+fn registers() -> Result<UnoBank, Error> {
+    let mut bank = UnoBank::new();
+    bank.add_range(1, 5)?;
+    bank.add_range(10001, 4)?;
+    bank.add_range(30001, 12)?;
+    bank.add_range(40001, 10)?;
+    bank.set(40001, 500)?;
+    bank.set(40002, 512)?;
+    Ok(bank)
 }
 
 #[avr_device::entry]
@@ -51,27 +54,13 @@ fn main() -> ! {
     // SAFETY: the only place that takes the peripherals, and it runs once.
     #[allow(unsafe_code)]
     let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
-    let pins = Pins::new(dp.PORTB, dp.PORTC, dp.PORTD);
-    let mut adc = Adc::new(dp.ADC);
-    // Timer1 free-running at clk/1024 as the sketch's clock (Timer0 belongs to the slave).
-    // SAFETY: clock-select bits CS12 and CS10 of TCCR1B; normal mode.
-    #[allow(unsafe_code)]
-    dp.TC1.tccr1b().write(|w| unsafe { w.bits(0b101) });
-    let now = || dp.TC1.tcnt1().read().bits();
-
-    let mut bank = UnoBank::new();
-    let _ = bank.add_range(1, 5);
-    let _ = bank.add_range(10001, 4);
-    let _ = bank.add_range(30001, 12);
-    let _ = bank.add_range(40001, 10);
-    let _ = bank.set(40001, 500);
-    let _ = bank.set(40002, 512);
-    SLAVE.start(ModbusSlave::new(CONFIG, dp.USART0, dp.TC0, bank));
-    // SAFETY: the slave is in its cell; its interrupt handlers may run from here on.
-    #[allow(unsafe_code)]
-    unsafe {
-        avr_device::interrupt::enable()
+    let (pins, mut adc) = match (Pins::new(dp.PORTB, dp.PORTC, dp.PORTD), Adc::new(dp.ADC)) {
+        (Ok(pins), Ok(adc)) => (pins, adc),
+        (Err(error), _) | (_, Err(error)) => board::halt(error),
     };
+    if let Err(error) = registers().and_then(|bank| SLAVE.start(CONFIG, dp.USART0, dp.TC0, bank)) {
+        board::halt(error);
+    }
 
     let mut led13 = pins.d13.into_output();
     let mut leds = [pins.d2.into_output(), pins.d3.into_output(), pins.d4.into_output(), pins.d5.into_output()];
@@ -83,8 +72,7 @@ fn main() -> ! {
     ];
     let _pots = [pins.a0.into_floating_input(), pins.a1.into_floating_input(), pins.a2.into_floating_input()];
 
-    let (mut second_start, mut seconds) = (now(), 0u16);
-    let (mut blink_start, mut blink_on) = (now(), true);
+    let (mut blink_start, mut blink_on) = (millis(), true);
     loop {
         for (input, switch) in (10001..).zip(switches.iter()) {
             let _ = SLAVE.set(input, u16::from(!switch.is_high()));
@@ -100,21 +88,16 @@ fn main() -> ! {
         for (register, value) in (30006..).zip(counters) {
             let _ = SLAVE.set(register, value);
         }
-
-        if now().wrapping_sub(second_start) >= TICKS_PER_SECOND {
-            second_start = second_start.wrapping_add(TICKS_PER_SECOND);
-            seconds = seconds.wrapping_add(1);
-            let _ = SLAVE.set(30004, seconds);
-        }
+        let _ = SLAVE.set(30004, (millis() / 1000) as u16);
 
         for (coil, led) in (2..).zip(leds.iter_mut()) {
             led.set(SLAVE.get(coil).unwrap_or(0) != 0);
         }
-        let half_period = ms_to_ticks(SLAVE.get(40001).unwrap_or(0));
+        let half_period = u32::from(SLAVE.get(40001).unwrap_or(0));
         if half_period == 0 {
             blink_on = true;
-        } else if now().wrapping_sub(blink_start) >= half_period {
-            blink_start = now();
+        } else if millis().wrapping_sub(blink_start) >= half_period {
+            blink_start = millis();
             blink_on = !blink_on;
         }
         led13.set(SLAVE.get(1).unwrap_or(0) != 0 && blink_on);

@@ -15,9 +15,10 @@
 //! [`bit_bytes`] converts a count of bits). Adding past capacity, a duplicate or a bad
 //! reference is an error that changes nothing.
 
+use crate::error::Error;
 use crate::model::DataModel;
 use crate::pdu::Exception;
-use crate::reference::{BankError, IntoReference, Reference, Table};
+use crate::reference::{IntoReference, Reference, Table};
 
 /// Bytes needed for `bits` coils and discrete inputs: use as `Bank<R, W, { bit_bytes(32) }>`.
 pub const fn bit_bytes(bits: usize) -> usize {
@@ -42,34 +43,6 @@ impl Run {
 
     fn key(&self) -> (Table, u16) {
         (self.table, self.start)
-    }
-}
-
-/// What the application reads and writes by reference: [`Bank`], and a wrapper that adds
-/// registers of its own. `avr::Shared` offers `get`, `set` and `master_writes` for every
-/// data model that has it.
-pub trait Variables {
-    /// The value at `reference` (see [`Bank::get`]).
-    fn value(&self, reference: Reference) -> Result<u16, BankError>;
-    /// Sets the value at `reference` (see [`Bank::set`]).
-    fn set_value(&mut self, reference: Reference, value: u16) -> Result<(), BankError>;
-    /// Successful master writes so far, wrapping (see [`Bank::master_writes`]).
-    fn write_count(&self) -> u16;
-}
-
-impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize> Variables
-    for Bank<RUNS, REGS, BIT_BYTES, PROTECTED>
-{
-    fn value(&self, reference: Reference) -> Result<u16, BankError> {
-        self.get(reference)
-    }
-
-    fn set_value(&mut self, reference: Reference, value: u16) -> Result<(), BankError> {
-        self.set(reference, value)
-    }
-
-    fn write_count(&self) -> u16 {
-        self.master_writes()
     }
 }
 
@@ -156,17 +129,17 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     }
 
     /// Adds one address; its value reads 0 until set.
-    pub fn add(&mut self, reference: impl IntoReference) -> Result<(), BankError> {
+    pub fn add(&mut self, reference: impl IntoReference) -> Result<(), Error> {
         self.add_range(reference, 1)
     }
 
     /// Adds `count` consecutive addresses from `first`: all of them, or none on error.
-    pub fn add_range(&mut self, first: impl IntoReference, count: u16) -> Result<(), BankError> {
+    pub fn add_range(&mut self, first: impl IntoReference, count: u16) -> Result<(), Error> {
         let first = first.into_reference()?;
         let (table, start) = (first.table, first.address);
         let last = match count.checked_sub(1).and_then(|n| start.checked_add(n)) {
             Some(last) => last,
-            None => return Err(BankError::BadRange),
+            None => return Err(Error::BadRange),
         };
         // The run the new range would follow, and the one it would precede.
         let runs = self.used();
@@ -174,20 +147,20 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         let before = at.checked_sub(1).and_then(|i| runs.get(i)).copied().filter(|r| r.table == table);
         let after = runs.get(at).copied().filter(|r| r.table == table);
         if before.is_some_and(|r| r.last >= start) || after.is_some_and(|r| r.start <= last) {
-            return Err(BankError::Duplicate);
+            return Err(Error::Duplicate);
         }
         let joins_before = before.filter(|r| r.last.checked_add(1) == Some(start));
         let joins_after = after.filter(|r| last.checked_add(1) == Some(r.start));
         let n = usize::from(count);
         if table.is_bits() {
             if self.bit_count + n > BIT_BYTES * 8 {
-                return Err(BankError::BitsFull);
+                return Err(Error::BitsFull);
             }
         } else if self.register_count + n > REGS {
-            return Err(BankError::RegistersFull);
+            return Err(Error::RegistersFull);
         }
         if joins_before.is_none() && joins_after.is_none() && self.run_count == RUNS {
-            return Err(BankError::RunsFull);
+            return Err(Error::RunsFull);
         }
 
         // Storage position: right after the values of the same kind that sort before.
@@ -302,16 +275,16 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     }
 
     /// The value: a register's word, or 0/1 for a coil or discrete input.
-    pub fn get(&self, reference: impl IntoReference) -> Result<u16, BankError> {
+    pub fn get(&self, reference: impl IntoReference) -> Result<u16, Error> {
         let Reference { table, address } = reference.into_reference()?;
-        let i = self.locate(table, address, 1).ok_or(BankError::NotFound)?;
+        let i = self.locate(table, address, 1).ok_or(Error::NotFound)?;
         Ok(if table.is_bits() { u16::from(self.bit(i)) } else { self.registers.get(i).copied().unwrap_or(0) })
     }
 
     /// Sets the value: a register's word, or for a coil or discrete input on when non-zero.
-    pub fn set(&mut self, reference: impl IntoReference, value: u16) -> Result<(), BankError> {
+    pub fn set(&mut self, reference: impl IntoReference, value: u16) -> Result<(), Error> {
         let Reference { table, address } = reference.into_reference()?;
-        let i = self.locate(table, address, 1).ok_or(BankError::NotFound)?;
+        let i = self.locate(table, address, 1).ok_or(Error::NotFound)?;
         if table.is_bits() {
             self.set_bit(i, value != 0);
         } else if let Some(slot) = self.registers.get_mut(i) {
@@ -326,13 +299,13 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     /// spec's answer for an address the server does not allow for this request) and changes
     /// nothing. The application still sets them with [`Bank::set`]. The addresses need not
     /// exist yet.
-    pub fn protect(&mut self, first: impl IntoReference, count: u16) -> Result<(), BankError> {
+    pub fn protect(&mut self, first: impl IntoReference, count: u16) -> Result<(), Error> {
         let first = first.into_reference()?;
         if !matches!(first.table, Table::Coils | Table::HoldingRegisters) {
-            return Err(BankError::BadReference);
+            return Err(Error::BadReference);
         }
-        let last = count.checked_sub(1).and_then(|n| first.address.checked_add(n)).ok_or(BankError::BadRange)?;
-        let slot = self.protected.get_mut(self.protected_count).ok_or(BankError::ProtectionsFull)?;
+        let last = count.checked_sub(1).and_then(|n| first.address.checked_add(n)).ok_or(Error::BadRange)?;
+        let slot = self.protected.get_mut(self.protected_count).ok_or(Error::ProtectionsFull)?;
         *slot = Protected { table: first.table, start: first.address, last };
         self.protected_count += 1;
         Ok(())
@@ -380,6 +353,18 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
 {
     fn has_range(&self, table: Table, start: u16, qty: u16) -> bool {
         self.locate(table, start, qty).is_some()
+    }
+
+    fn value(&self, reference: Reference) -> Result<u16, Error> {
+        self.get(reference)
+    }
+
+    fn set_value(&mut self, reference: Reference, value: u16) -> Result<(), Error> {
+        self.set(reference, value)
+    }
+
+    fn master_writes(&self) -> u16 {
+        self.master_writes
     }
 
     #[cfg(feature = "diagnostics")]

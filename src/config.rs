@@ -5,32 +5,11 @@
 //! bad value there stops the build. [`Config::try_new`] is for values read at run time
 //! (EEPROM, jumpers) and returns an error instead.
 
+use crate::error::Error;
 use crate::timing::{BaudDivisor, CharTimes, TimerPlan, CLOCK_HZ};
 
-/// Why a configuration value was refused.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[non_exhaustive]
-pub enum ConfigError {
-    /// A slave id outside 1–247 (0 is broadcast, 248–255 are reserved).
-    SlaveId,
-    /// A baud rate outside [`Config::MIN_BAUD`]–[`Config::MAX_BAUD`].
-    Baud,
-    /// A baud rate the 16 MHz USART can't make within 2.5 % (see [`BaudDivisor`]).
-    BaudError,
-}
-
-impl ConfigError {
-    /// A one-line description, for build errors and logs.
-    pub const fn message(self) -> &'static str {
-        match self {
-            ConfigError::SlaveId => "slave id must be 1-247",
-            ConfigError::Baud => "baud rate must be 1200-1000000",
-            ConfigError::BaudError => "baud rate more than 2.5% off at 16 MHz",
-        }
-    }
-}
-
 /// A slave (server) address on the serial line: 1–247.
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub struct SlaveId(u8);
 
@@ -39,10 +18,10 @@ impl SlaveId {
     pub const BROADCAST: u8 = 0;
 
     /// Checks that `id` is a unicast slave address (1–247).
-    pub const fn new(id: u8) -> Result<Self, ConfigError> {
+    pub const fn new(id: u8) -> Result<Self, Error> {
         match id {
             1..=247 => Ok(SlaveId(id)),
-            _ => Err(ConfigError::SlaveId),
+            _ => Err(Error::SlaveId),
         }
     }
 
@@ -53,6 +32,7 @@ impl SlaveId {
 }
 
 /// Parity of each character.
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Parity {
     /// No parity bit (the spec then asks for 2 stop bits; 1 is common in the field).
@@ -64,6 +44,7 @@ pub enum Parity {
 }
 
 /// Stop bits of each character.
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StopBits {
     /// One stop bit.
@@ -122,17 +103,17 @@ impl Config {
     }
 
     /// A configuration from run-time values.
-    pub const fn try_new(slave_id: u8, baud: u32, parity: Parity, stop_bits: StopBits) -> Result<Self, ConfigError> {
+    pub const fn try_new(slave_id: u8, baud: u32, parity: Parity, stop_bits: StopBits) -> Result<Self, Error> {
         let slave_id = match SlaveId::new(slave_id) {
             Ok(id) => id,
             Err(e) => return Err(e),
         };
         if baud < Self::MIN_BAUD || baud > Self::MAX_BAUD {
-            return Err(ConfigError::Baud);
+            return Err(Error::Baud);
         }
         let divisor = match BaudDivisor::new(baud, CLOCK_HZ) {
             Some(divisor) => divisor,
-            None => return Err(ConfigError::BaudError),
+            None => return Err(Error::BaudError),
         };
         let timer_plan = TimerPlan::new(CharTimes::new(baud, bits_per_char(parity, stop_bits)), CLOCK_HZ);
         Ok(Config { slave_id, baud, parity, stop_bits, divisor, timer_plan })
@@ -202,20 +183,20 @@ mod tests {
 
     #[test]
     fn slave_id_accepts_1_to_247_only() {
-        assert_eq!(SlaveId::new(0), Err(ConfigError::SlaveId));
+        assert_eq!(SlaveId::new(0), Err(Error::SlaveId));
         assert_eq!(SlaveId::new(1).map(SlaveId::get), Ok(1));
         assert_eq!(SlaveId::new(247).map(SlaveId::get), Ok(247));
-        assert_eq!(SlaveId::new(248), Err(ConfigError::SlaveId));
-        assert_eq!(SlaveId::new(255), Err(ConfigError::SlaveId));
+        assert_eq!(SlaveId::new(248), Err(Error::SlaveId));
+        assert_eq!(SlaveId::new(255), Err(Error::SlaveId));
     }
 
     #[test]
     fn run_time_baud_outside_range_is_an_error() {
-        assert_eq!(Config::try_new(1, 1199, Parity::Even, StopBits::One), Err(ConfigError::Baud));
-        assert_eq!(Config::try_new(1, 1_000_001, Parity::Even, StopBits::One), Err(ConfigError::Baud));
+        assert_eq!(Config::try_new(1, 1199, Parity::Even, StopBits::One), Err(Error::Baud));
+        assert_eq!(Config::try_new(1, 1_000_001, Parity::Even, StopBits::One), Err(Error::Baud));
         assert!(Config::try_new(1, 1200, Parity::Even, StopBits::One).is_ok());
         assert!(Config::try_new(1, 115_200, Parity::None, StopBits::One).is_ok());
-        assert_eq!(Config::try_new(1, 230_400, Parity::None, StopBits::One), Err(ConfigError::BaudError));
+        assert_eq!(Config::try_new(1, 230_400, Parity::None, StopBits::One), Err(Error::BaudError));
     }
 
     #[test]
@@ -232,5 +213,18 @@ mod tests {
         assert_eq!(bits(Parity::None, StopBits::Two), 11);
         assert_eq!(bits(Parity::Odd, StopBits::One), 11);
         assert_eq!(bits(Parity::Even, StopBits::Two), 12);
+    }
+}
+
+/// The line settings as a firmware prints them: `Config { slave_id: 1, baud: 19200, .. }`.
+#[cfg(feature = "ufmt")]
+impl ufmt::uDebug for Config {
+    fn fmt<W: ufmt::uWrite + ?Sized>(&self, f: &mut ufmt::Formatter<'_, W>) -> Result<(), W::Error> {
+        f.debug_struct("Config")?
+            .field("slave_id", &self.slave_id.get())?
+            .field("baud", &self.baud)?
+            .field("parity", &self.parity)?
+            .field("stop_bits", &self.stop_bits)?
+            .finish()
     }
 }

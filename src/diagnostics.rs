@@ -21,9 +21,9 @@
 //! | 11 | Return Slave Busy Count | 0000 | 0 (this slave never answers 06) |
 //! | 12 | Return Bus Character Overrun Count | 0000 | [`Counters::overruns`] |
 
+use crate::engine::Counters;
 use crate::model::DataModel;
 use crate::pdu::{word, Exception};
-use crate::slave::Counters;
 
 /// FC 7.
 pub const READ_EXCEPTION_STATUS: u8 = 0x07;

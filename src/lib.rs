@@ -1,31 +1,66 @@
 #![doc = include_str!("../README.md")]
 #![cfg_attr(not(test), no_std)]
+#![cfg_attr(target_arch = "avr", feature(asm_experimental_arch))]
 #![deny(missing_docs)]
 
 #[cfg(target_arch = "avr")]
-pub mod avr;
-pub mod bank;
-pub mod config;
-pub mod crc;
+mod avr;
+mod bank;
+mod config;
+mod crc;
 #[cfg(feature = "diagnostics")]
-pub mod diagnostics;
-pub mod framer;
-pub mod model;
-pub mod pdu;
-pub mod reference;
+mod diagnostics;
+mod engine;
+mod error;
+mod framer;
+mod model;
+mod pdu;
+mod reference;
 #[cfg(feature = "eeprom-settings")]
-pub mod settings;
-pub mod slave;
-pub mod timing;
+mod settings;
+mod timing;
 
-pub use bank::{bit_bytes, Bank, Variables};
-pub use config::{Config, ConfigError, Parity, SlaveId, StopBits};
-pub use crc::{crc16, Crc16};
-pub use framer::{FrameError, Framer, UartError};
+#[cfg(target_arch = "avr")]
+#[doc(hidden)]
+pub use avr::__private;
+#[cfg(target_arch = "avr")]
+pub use avr::{board, millis, NoPin, Slave};
+pub use bank::{bit_bytes, Bank};
+pub use config::{Config, Parity, SlaveId, StopBits};
+pub use engine::Counters;
+pub use error::Error;
 pub use model::DataModel;
-pub use pdu::{Exception, FunctionCode, Request};
-pub use reference::{BankError, IntoReference, Reference, Table};
+pub use pdu::Exception;
+pub use reference::{IntoReference, Reference, Table};
 #[cfg(feature = "eeprom-settings")]
 pub use settings::Configurable;
-pub use slave::{Counters, EndOfFrame, Slave};
-pub use timing::{BaudDivisor, CharTimes, Deadline, Prescaler, TimerPlan};
+
+/// The protocol engine's parts, for this crate's tests, simulator and benchmarks: not
+/// part of the API, and they change without notice.
+#[doc(hidden)]
+pub mod internal {
+    pub use crate::crc::{crc16, Crc16};
+    pub use crate::engine::{EndOfFrame, Engine};
+    pub use crate::framer::{FrameError, Framer, UartError, MAX_FRAME, MIN_FRAME};
+    pub use crate::pdu::{encode_exception, respond, FunctionCode, Request};
+    pub use crate::timing::{BaudDivisor, CharTimes, Deadline, Prescaler, TimerPlan};
+
+    /// The PDU engine.
+    pub mod pdu {
+        pub use crate::pdu::*;
+    }
+    /// Character times and the USART and Timer0 arithmetic.
+    pub mod timing {
+        pub use crate::timing::*;
+    }
+    /// FC 7, 8, 11 and 17.
+    #[cfg(feature = "diagnostics")]
+    pub mod diagnostics {
+        pub use crate::diagnostics::*;
+    }
+    /// The settings record and block.
+    #[cfg(feature = "eeprom-settings")]
+    pub mod settings {
+        pub use crate::settings::*;
+    }
+}

@@ -8,8 +8,9 @@
 
 #[cfg(feature = "eeprom-settings")]
 use crate::config::Config;
+use crate::error::Error;
 use crate::pdu::Exception;
-use crate::reference::Table;
+use crate::reference::{Reference, Table};
 
 /// The application's data as the master sees it.
 pub trait DataModel {
@@ -33,6 +34,25 @@ pub trait DataModel {
     /// Writes `values.len() / 2` (≥ 1) holding registers from `start`, big-endian; all of
     /// them or none.
     fn write_registers(&mut self, start: u16, values: &[u8]) -> Result<(), Exception>;
+
+    /// The value at `reference`, for the application (see [`crate::Bank::get`]); a model
+    /// that doesn't offer it answers [`Error::NotFound`].
+    fn value(&self, reference: Reference) -> Result<u16, Error> {
+        let _ = reference;
+        Err(Error::NotFound)
+    }
+
+    /// Sets the value at `reference`, for the application (see [`crate::Bank::set`]).
+    fn set_value(&mut self, reference: Reference, value: u16) -> Result<(), Error> {
+        let _ = (reference, value);
+        Err(Error::NotFound)
+    }
+
+    /// How many master writes succeeded so far, wrapping (see
+    /// [`crate::Bank::master_writes`]).
+    fn master_writes(&self) -> u16 {
+        0
+    }
 
     /// The eight application-defined status bits of FC 7 (Read Exception Status).
     fn exception_status(&self) -> u8 {

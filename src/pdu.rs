@@ -75,6 +75,7 @@ impl FunctionCode {
 
 /// An exception code, Application Protocol §7: the reply is the function code with bit 7
 /// set, then this code.
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Exception {
     /// 0x01 Illegal Function: the function code is not supported.

@@ -2,7 +2,10 @@
 //! the classic 5-digit references (00001 coils, 10001 discrete inputs, 30001 input
 //! registers, 40001 holding registers) that name their entries on the bench.
 
+use crate::error::Error;
+
 /// One of the four tables of the data model.
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Table {
     /// Coils (0x): single bits, read/write (FC 1, 5, 15).
@@ -22,29 +25,8 @@ impl Table {
     }
 }
 
-/// Why a reference or a register-bank operation was refused.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[non_exhaustive]
-pub enum BankError {
-    /// A classic reference outside 00001–09999, 10001–19999, 30001–39999, 40001–49999.
-    BadReference,
-    /// The address was never added to the bank.
-    NotFound,
-    /// The address (or one in the range) was added already.
-    Duplicate,
-    /// A range runs past address 65535, or is empty.
-    BadRange,
-    /// No room for another contiguous run of addresses (the bank's `RUNS`).
-    RunsFull,
-    /// No room for more registers (the bank's `REGS`).
-    RegistersFull,
-    /// No room for more coils or discrete inputs (the bank's `BIT_BYTES` × 8).
-    BitsFull,
-    /// No room for another read-only range (the bank's `PROTECTED`).
-    ProtectionsFull,
-}
-
 /// One entry of the data model: a table and a 0-based protocol address (0–65535).
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct Reference {
     /// The table.
@@ -76,14 +58,14 @@ impl Reference {
 
     /// The entry a classic 5-digit reference names: 40001 is holding register 0,
     /// 30010 input register 9, 10001 discrete input 0, 1 (00001) coil 0.
-    pub const fn classic(number: u32) -> Result<Self, BankError> {
+    pub const fn classic(number: u32) -> Result<Self, Error> {
         // Range matches rather than `/ 10_000`: no division on the AVR.
         let (table, first) = match number {
             1..=9_999 => (Table::Coils, 1),
             10_001..=19_999 => (Table::DiscreteInputs, 10_001),
             30_001..=39_999 => (Table::InputRegisters, 30_001),
             40_001..=49_999 => (Table::HoldingRegisters, 40_001),
-            _ => return Err(BankError::BadReference),
+            _ => return Err(Error::BadReference),
         };
         Ok(Reference { table, address: (number - first) as u16 })
     }
@@ -92,33 +74,33 @@ impl Reference {
 /// Anything that names an entry of the data model: a [`Reference`], or a classic
 /// reference number such as `40001` (any integer type a literal may take).
 pub trait IntoReference {
-    /// The entry, or [`BankError::BadReference`].
-    fn into_reference(self) -> Result<Reference, BankError>;
+    /// The entry, or [`Error::BadReference`].
+    fn into_reference(self) -> Result<Reference, Error>;
 }
 
 impl IntoReference for Reference {
-    fn into_reference(self) -> Result<Reference, BankError> {
+    fn into_reference(self) -> Result<Reference, Error> {
         Ok(self)
     }
 }
 
 impl IntoReference for u16 {
-    fn into_reference(self) -> Result<Reference, BankError> {
+    fn into_reference(self) -> Result<Reference, Error> {
         Reference::classic(u32::from(self))
     }
 }
 
 impl IntoReference for u32 {
-    fn into_reference(self) -> Result<Reference, BankError> {
+    fn into_reference(self) -> Result<Reference, Error> {
         Reference::classic(self)
     }
 }
 
 impl IntoReference for i32 {
-    fn into_reference(self) -> Result<Reference, BankError> {
+    fn into_reference(self) -> Result<Reference, Error> {
         match u32::try_from(self) {
             Ok(n) => Reference::classic(n),
-            Err(_) => Err(BankError::BadReference),
+            Err(_) => Err(Error::BadReference),
         }
     }
 }
@@ -140,9 +122,9 @@ mod tests {
     #[test]
     fn classic_references_outside_the_four_ranges_are_refused() {
         for bad in [0, 10000, 20001, 29999, 30000, 40000, 50000, 65535, 400001] {
-            assert_eq!(Reference::classic(bad), Err(BankError::BadReference), "{bad}");
+            assert_eq!(Reference::classic(bad), Err(Error::BadReference), "{bad}");
         }
-        assert_eq!((-1i32).into_reference(), Err(BankError::BadReference));
+        assert_eq!((-1i32).into_reference(), Err(Error::BadReference));
     }
 
     #[test]

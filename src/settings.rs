@@ -38,9 +38,10 @@
 
 use crate::config::{Config, Parity, SlaveId, StopBits};
 use crate::crc::Crc16;
+use crate::error::Error;
 use crate::model::DataModel;
 use crate::pdu::Exception;
-use crate::reference::{BankError, IntoReference, Reference, Table};
+use crate::reference::{IntoReference, Reference, Table};
 use crate::timing::{BaudDivisor, CLOCK_HZ};
 
 /// Length of the EEPROM record, in bytes.
@@ -243,14 +244,14 @@ impl<M: DataModel> Configurable<M> {
     /// 40101), showing `config`, the settings the slave starts with. Fails when `first` is
     /// not a holding register, the block would pass address 65535, or `model` already has
     /// one of the block's addresses.
-    pub fn new(model: M, first: impl IntoReference, config: Config) -> Result<Self, BankError> {
+    pub fn new(model: M, first: impl IntoReference, config: Config) -> Result<Self, Error> {
         let Reference { table, address } = first.into_reference()?;
         if table != Table::HoldingRegisters {
-            return Err(BankError::BadReference);
+            return Err(Error::BadReference);
         }
-        address.checked_add(BLOCK_LEN - 1).ok_or(BankError::BadRange)?;
+        address.checked_add(BLOCK_LEN - 1).ok_or(Error::BadRange)?;
         if (0..BLOCK_LEN).any(|k| model.has_range(Table::HoldingRegisters, address + k, 1)) {
-            return Err(BankError::Duplicate);
+            return Err(Error::Duplicate);
         }
         Ok(Configurable {
             model,
@@ -304,11 +305,6 @@ impl<M: DataModel> Configurable<M> {
         core::mem::take(&mut self.unsaved).then_some(self.current)
     }
 
-    /// How many master writes changed the settings block (wrapping).
-    pub fn settings_writes(&self) -> u16 {
-        self.writes
-    }
-
     /// Offset in the block of `qty` registers from `start`: `None` when they miss the block
     /// entirely, `Some(Err)` when they cover only part of it and something outside.
     fn in_block(&self, start: u16, qty: u16) -> Option<Result<usize, Exception>> {
@@ -325,27 +321,25 @@ impl<M: DataModel> Configurable<M> {
     }
 }
 
-impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize>
-    Configurable<crate::bank::Bank<RUNS, REGS, BIT_BYTES, PROTECTED>>
-{
+impl<M: DataModel> Configurable<M> {
     /// A value of the bank, or of the settings block (see [`crate::Bank::get`]).
-    pub fn get(&self, reference: impl IntoReference) -> Result<u16, BankError> {
+    pub fn get(&self, reference: impl IntoReference) -> Result<u16, Error> {
         let r = reference.into_reference()?;
         match (r.table, self.in_block(r.address, 1)) {
             (Table::HoldingRegisters, Some(Ok(k))) => {
-                self.settings().to_registers().get(k).copied().ok_or(BankError::NotFound)
+                self.settings().to_registers().get(k).copied().ok_or(Error::NotFound)
             }
-            _ => self.model.get(r),
+            _ => self.model.value(r),
         }
     }
 
     /// Sets a value of the bank (see [`crate::Bank::set`]); the settings block is the
-    /// master's, and setting it is [`BankError::BadReference`].
-    pub fn set(&mut self, reference: impl IntoReference, value: u16) -> Result<(), BankError> {
+    /// master's, and setting it is [`Error::BadReference`].
+    pub fn set(&mut self, reference: impl IntoReference, value: u16) -> Result<(), Error> {
         let r = reference.into_reference()?;
         match (r.table, self.in_block(r.address, 1)) {
-            (Table::HoldingRegisters, Some(_)) => Err(BankError::BadReference),
-            _ => self.model.set(r, value),
+            (Table::HoldingRegisters, Some(_)) => Err(Error::BadReference),
+            _ => self.model.set_value(r, value),
         }
     }
 
@@ -355,23 +349,19 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     }
 }
 
-impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize> crate::bank::Variables
-    for Configurable<crate::bank::Bank<RUNS, REGS, BIT_BYTES, PROTECTED>>
-{
-    fn value(&self, reference: Reference) -> Result<u16, BankError> {
+impl<M: DataModel> DataModel for Configurable<M> {
+    fn value(&self, reference: Reference) -> Result<u16, Error> {
         self.get(reference)
     }
 
-    fn set_value(&mut self, reference: Reference, value: u16) -> Result<(), BankError> {
+    fn set_value(&mut self, reference: Reference, value: u16) -> Result<(), Error> {
         self.set(reference, value)
     }
 
-    fn write_count(&self) -> u16 {
-        self.master_writes()
+    fn master_writes(&self) -> u16 {
+        Configurable::master_writes(self)
     }
-}
 
-impl<M: DataModel> DataModel for Configurable<M> {
     fn read_bits(&self, table: Table, start: u16, qty: u16, out: &mut [u8]) -> Result<(), Exception> {
         self.model.read_bits(table, start, qty, out)
     }

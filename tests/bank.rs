@@ -4,7 +4,7 @@
 
 mod common;
 
-use avr_modbus_slave::{bit_bytes, Bank, BankError, Reference, Table};
+use avr_modbus_slave::{bit_bytes, Bank, Error, Reference, Table};
 use common::{ask, exception_reply, slave, to_slave, with_crc, ID};
 
 type Small = Bank<4, 8, { bit_bytes(16) }>;
@@ -158,7 +158,7 @@ fn adding_an_address_twice_is_duplicate() {
     let mut bank: Small = Bank::new();
     bank.add(40001).unwrap();
     bank.set(40001, 7).unwrap();
-    assert_eq!(bank.add(40001), Err(BankError::Duplicate));
+    assert_eq!(bank.add(40001), Err(Error::Duplicate));
     assert_eq!(bank.get(40001), Ok(7));
     assert_eq!(bank.runs(), 1);
 }
@@ -167,7 +167,7 @@ fn adding_an_address_twice_is_duplicate() {
 fn a_range_overlapping_the_end_of_a_run_is_duplicate_and_adds_none() {
     let mut bank: Small = Bank::new();
     bank.add_range(40001, 3).unwrap();
-    assert_eq!(bank.add_range(40003, 3), Err(BankError::Duplicate));
+    assert_eq!(bank.add_range(40003, 3), Err(Error::Duplicate));
     assert!(!bank.contains(40004));
     assert!(!bank.contains(40005));
 }
@@ -176,7 +176,7 @@ fn a_range_overlapping_the_end_of_a_run_is_duplicate_and_adds_none() {
 fn a_range_overlapping_the_start_of_a_run_is_duplicate_and_adds_none() {
     let mut bank: Small = Bank::new();
     bank.add_range(40005, 2).unwrap();
-    assert_eq!(bank.add_range(40003, 3), Err(BankError::Duplicate));
+    assert_eq!(bank.add_range(40003, 3), Err(Error::Duplicate));
     assert!(!bank.contains(40003));
     assert!(!bank.contains(40004));
 }
@@ -185,7 +185,7 @@ fn a_range_overlapping_the_start_of_a_run_is_duplicate_and_adds_none() {
 fn a_range_covering_a_whole_run_is_duplicate() {
     let mut bank: Small = Bank::new();
     bank.add(40005).unwrap();
-    assert_eq!(bank.add_range(40001, 8), Err(BankError::Duplicate));
+    assert_eq!(bank.add_range(40001, 8), Err(Error::Duplicate));
     assert_eq!(bank.runs(), 1);
     assert!(!bank.contains(40001));
 }
@@ -205,7 +205,7 @@ fn a_fifth_run_in_a_four_run_bank_is_runs_full() {
     for n in [40001u32, 40003, 40005, 40007] {
         bank.add(n).unwrap();
     }
-    assert_eq!(bank.add(40009), Err(BankError::RunsFull));
+    assert_eq!(bank.add(40009), Err(Error::RunsFull));
     assert!(!bank.contains(40009));
     assert_eq!(bank.runs(), 4);
 }
@@ -226,10 +226,10 @@ fn registers_past_regs_are_registers_full() {
     let mut bank: Small = Bank::new();
     bank.add_range(40001, 6).unwrap();
     bank.set(40006, 6).unwrap();
-    assert_eq!(bank.add_range(30001, 3), Err(BankError::RegistersFull));
+    assert_eq!(bank.add_range(30001, 3), Err(Error::RegistersFull));
     assert!(!bank.contains(30001));
     assert_eq!(bank.add_range(30001, 2), Ok(()), "exactly REGS fit");
-    assert_eq!(bank.add(40007), Err(BankError::RegistersFull));
+    assert_eq!(bank.add(40007), Err(Error::RegistersFull));
     assert_eq!(bank.get(40006), Ok(6));
 }
 
@@ -237,29 +237,29 @@ fn registers_past_regs_are_registers_full() {
 fn bits_past_bit_bytes_times_8_are_bits_full() {
     let mut bank: Small = Bank::new();
     bank.add_range(1, 10).unwrap();
-    assert_eq!(bank.add_range(10001, 7), Err(BankError::BitsFull));
+    assert_eq!(bank.add_range(10001, 7), Err(Error::BitsFull));
     assert!(!bank.contains(10001));
     assert_eq!(bank.add_range(10001, 6), Ok(()), "exactly 16 bits fit");
-    assert_eq!(bank.add(11), Err(BankError::BitsFull));
+    assert_eq!(bank.add(11), Err(Error::BitsFull));
 }
 
 #[test]
 fn bad_classic_references_are_refused() {
     let mut bank: Small = Bank::new();
     for bad in [0u32, 10000, 20001, 29999, 30000, 40000, 50000, 99999] {
-        assert_eq!(bank.add(bad), Err(BankError::BadReference), "{bad}");
-        assert_eq!(bank.get(bad), Err(BankError::BadReference), "{bad}");
-        assert_eq!(bank.set(bad, 1), Err(BankError::BadReference), "{bad}");
+        assert_eq!(bank.add(bad), Err(Error::BadReference), "{bad}");
+        assert_eq!(bank.get(bad), Err(Error::BadReference), "{bad}");
+        assert_eq!(bank.set(bad, 1), Err(Error::BadReference), "{bad}");
     }
-    assert_eq!(bank.add(-40001), Err(BankError::BadReference));
+    assert_eq!(bank.add(-40001), Err(Error::BadReference));
     assert_eq!(bank.runs(), 0);
 }
 
 #[test]
 fn a_range_past_65535_is_bad_range() {
     let mut bank: Small = Bank::new();
-    assert_eq!(bank.add_range(Reference::holding_register(65535), 2), Err(BankError::BadRange));
-    assert_eq!(bank.add_range(Reference::coil(65530), 7), Err(BankError::BadRange));
+    assert_eq!(bank.add_range(Reference::holding_register(65535), 2), Err(Error::BadRange));
+    assert_eq!(bank.add_range(Reference::coil(65530), 7), Err(Error::BadRange));
     assert!(!bank.contains(Reference::holding_register(65535)));
     assert_eq!(bank.runs(), 0);
 }
@@ -267,7 +267,7 @@ fn a_range_past_65535_is_bad_range() {
 #[test]
 fn an_empty_range_is_bad_range() {
     let mut bank: Small = Bank::new();
-    assert_eq!(bank.add_range(40001, 0), Err(BankError::BadRange));
+    assert_eq!(bank.add_range(40001, 0), Err(Error::BadRange));
     assert_eq!(bank.runs(), 0);
 }
 
@@ -296,9 +296,9 @@ fn unset_values_read_zero_in_all_four_tables() {
 fn missing_addresses_are_not_found() {
     let mut bank: Small = Bank::new();
     bank.add(40002).unwrap();
-    assert_eq!(bank.get(40001), Err(BankError::NotFound));
-    assert_eq!(bank.set(40003, 1), Err(BankError::NotFound));
-    assert_eq!(bank.get(30002), Err(BankError::NotFound));
+    assert_eq!(bank.get(40001), Err(Error::NotFound));
+    assert_eq!(bank.set(40003, 1), Err(Error::NotFound));
+    assert_eq!(bank.get(30002), Err(Error::NotFound));
 }
 
 #[test]
@@ -487,7 +487,7 @@ fn application_sets_do_not_count_as_master_writes() {
 #[cfg(feature = "write-protect")]
 mod protection {
     use super::common::{ask, exception_reply, slave, to_slave};
-    use avr_modbus_slave::{Bank, BankError};
+    use avr_modbus_slave::{Bank, Error};
 
     type Guarded = Bank<4, 8, 1, 2>;
 
@@ -536,11 +536,11 @@ mod protection {
     #[test]
     fn protect_refuses_input_tables_bad_ranges_and_a_full_list() {
         let mut bank = Guarded::new();
-        assert_eq!(bank.protect(30001, 1), Err(BankError::BadReference));
-        assert_eq!(bank.protect(10001, 1), Err(BankError::BadReference));
-        assert_eq!(bank.protect(40001, 0), Err(BankError::BadRange));
+        assert_eq!(bank.protect(30001, 1), Err(Error::BadReference));
+        assert_eq!(bank.protect(10001, 1), Err(Error::BadReference));
+        assert_eq!(bank.protect(40001, 0), Err(Error::BadRange));
         bank.protect(40001, 1).unwrap();
         bank.protect(40002, 1).unwrap();
-        assert_eq!(bank.protect(40003, 1), Err(BankError::ProtectionsFull));
+        assert_eq!(bank.protect(40003, 1), Err(Error::ProtectionsFull));
     }
 }

@@ -4,7 +4,8 @@
 
 mod common;
 
-use avr_modbus_slave::{pdu, Exception, Reference, Request, Table};
+use avr_modbus_slave::internal::{pdu, Request};
+use avr_modbus_slave::{Exception, Reference, Table};
 use common::{
     exception_reply, exchange, full_bank, read_pdu, slave, snapshot, spec_bank, to_slave, with_crc, write_multiple_pdu,
     Failing,

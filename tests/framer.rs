@@ -4,7 +4,7 @@
 
 mod common;
 
-use avr_modbus_slave::{EndOfFrame, FrameError, Framer, Slave, UartError};
+use avr_modbus_slave::internal::{EndOfFrame, Engine, FrameError, Framer, UartError};
 use common::{spec_bank, to_slave, with_crc, TestBank, ID};
 
 /// A read of holding registers 40001–40002: answered `ID 03 04 00 00 00 00 CRC`.
@@ -31,21 +31,21 @@ fn read_reply() -> Vec<u8> {
     ])
 }
 
-fn feed(slave: &mut Slave, bytes: &[u8]) {
+fn feed(slave: &mut Engine, bytes: &[u8]) {
     for &byte in bytes {
         slave.on_byte(byte);
     }
 }
 
 /// A slave past its power-up wait.
-fn listening_slave() -> Slave {
+fn listening_slave() -> Engine {
     let mut slave = common::slave();
     assert_eq!(slave.on_end_deadline(), EndOfFrame::Nothing);
     slave
 }
 
 /// Processes a frame the slave accepted and returns the reply, then releases the buffer.
-fn answer(slave: &mut Slave, bank: &mut TestBank) -> Vec<u8> {
+fn answer(slave: &mut Engine, bank: &mut TestBank) -> Vec<u8> {
     let len = slave.process(bank);
     let reply = slave.reply().to_vec();
     assert_eq!(len, reply.len());
@@ -54,7 +54,7 @@ fn answer(slave: &mut Slave, bank: &mut TestBank) -> Vec<u8> {
 }
 
 /// The next good frame is answered normally.
-fn next_frame_is_answered(slave: &mut Slave) {
+fn next_frame_is_answered(slave: &mut Engine) {
     let mut bank = spec_bank();
     feed(slave, &read_request());
     assert_eq!(slave.on_end_deadline(), EndOfFrame::Reply);
@@ -171,7 +171,7 @@ fn a_frame_split_by_an_end_deadline_is_two_short_frames() {
 
 // ---- UART errors ------------------------------------------------------------------------
 
-fn damaged_at(position: usize, error: UartError) -> (EndOfFrame, Slave) {
+fn damaged_at(position: usize, error: UartError) -> (EndOfFrame, Engine) {
     let mut slave = listening_slave();
     let request = read_request();
     feed(&mut slave, &request[..position]);

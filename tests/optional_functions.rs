@@ -4,8 +4,9 @@
 
 mod common;
 
+use avr_modbus_slave::internal::EndOfFrame;
 #[allow(unused_imports)]
-use avr_modbus_slave::{Bank, EndOfFrame, Reference};
+use avr_modbus_slave::{Bank, Reference};
 #[allow(unused_imports)]
 use common::{ask, exception_reply, slave, to_slave, with_crc, ID};
 
@@ -132,7 +133,10 @@ mod extra {
             pdu.extend(std::iter::repeat_n(0, 244));
             pdu
         };
-        assert_eq!(avr_modbus_slave::Request::parse(&request), Err(avr_modbus_slave::Exception::IllegalDataValue));
+        assert_eq!(
+            avr_modbus_slave::internal::Request::parse(&request),
+            Err(avr_modbus_slave::Exception::IllegalDataValue)
+        );
     }
 
     #[test]
@@ -159,7 +163,7 @@ mod diagnostics {
         to_slave(&[0x03, 0x00, 0x00, 0x00, 0x01])
     }
 
-    fn counter(slave: &mut avr_modbus_slave::Slave, bank: &mut Registers, sub: u8) -> u16 {
+    fn counter(slave: &mut avr_modbus_slave::internal::Engine, bank: &mut Registers, sub: u8) -> u16 {
         let reply = ask(slave, bank, &to_slave(&[0x08, 0x00, sub, 0x00, 0x00]));
         assert_eq!(reply[..4], [ID, 0x08, 0x00, sub]);
         u16::from_be_bytes([reply[4], reply[5]])
@@ -178,7 +182,10 @@ mod diagnostics {
         ask(&mut slave, &mut bank, &to_slave(&[0x03, 0x00, 0x00, 0x00, 0x00])); // exception 03
         let mut bad = read_1();
         bad[7] ^= 0xFF;
-        assert_eq!(slave.handle_frame(&bad, &mut bank), EndOfFrame::Dropped(avr_modbus_slave::FrameError::BadCrc));
+        assert_eq!(
+            slave.handle_frame(&bad, &mut bank),
+            EndOfFrame::Dropped(avr_modbus_slave::internal::FrameError::BadCrc)
+        );
         slave.handle_frame(&with_crc(&[0x00, 0x06, 0x00, 0x00, 0x00, 0x07]), &mut bank); // broadcast
         slave.handle_frame(&with_crc(&[0x22, 0x03, 0x00, 0x00, 0x00, 0x01]), &mut bank); // other slave
                                                                                          // Bus messages: the 5 frames so far, then each counter request itself.

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use avr_modbus_slave::{Bank, BankError, Reference, Table};
+use avr_modbus_slave::{Bank, Error, Reference, Table};
 use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::sample::select;
@@ -55,24 +55,24 @@ fn runs(model: &BTreeMap<(Table, u16), u16>) -> usize {
 }
 
 /// The errors an add may give, or none when it must succeed.
-fn add_errors(model: &BTreeMap<(Table, u16), u16>, table: Table, start: u16, count: u16) -> Vec<BankError> {
+fn add_errors(model: &BTreeMap<(Table, u16), u16>, table: Table, start: u16, count: u16) -> Vec<Error> {
     if count == 0 || u32::from(start) + u32::from(count) > 0x1_0000 {
-        return vec![BankError::BadRange];
+        return vec![Error::BadRange];
     }
     let range = u32::from(start)..u32::from(start) + u32::from(count);
     if range.clone().any(|a| model.contains_key(&(table, a as u16))) {
-        return vec![BankError::Duplicate];
+        return vec![Error::Duplicate];
     }
     let mut errors = vec![];
     let same_kind = model.keys().filter(|(t, _)| is_bits(*t) == is_bits(table)).count();
     let limit = if is_bits(table) { BITS } else { REGS };
     if same_kind + usize::from(count) > limit {
-        errors.push(if is_bits(table) { BankError::BitsFull } else { BankError::RegistersFull });
+        errors.push(if is_bits(table) { Error::BitsFull } else { Error::RegistersFull });
     }
     let mut after = model.clone();
     after.extend(range.map(|a| ((table, a as u16), 0)));
     if runs(&after) > RUNS {
-        errors.push(BankError::RunsFull);
+        errors.push(Error::RunsFull);
     }
     errors
 }
@@ -113,7 +113,7 @@ proptest! {
                             prop_assert_eq!(bank.set(reference, value), Ok(()));
                             *slot = stored;
                         }
-                        None => prop_assert_eq!(bank.set(reference, value), Err(BankError::NotFound)),
+                        None => prop_assert_eq!(bank.set(reference, value), Err(Error::NotFound)),
                     }
                 }
             }

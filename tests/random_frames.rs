@@ -12,7 +12,8 @@ mod common;
 
 use std::collections::BTreeMap;
 
-use avr_modbus_slave::{Bank, EndOfFrame, FrameError, Reference, Slave, Table, UartError};
+use avr_modbus_slave::internal::{EndOfFrame, Engine, FrameError, UartError};
+use avr_modbus_slave::{Bank, Reference, Table};
 use common::{reference_crc, with_crc, ID};
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -260,7 +261,7 @@ fn check_bank(bank: &RandomBank, model: &Model) -> Result<(), TestCaseError> {
 }
 
 /// Sends one frame to the slave and to the model and compares everything.
-fn exchange(slave: &mut Slave, bank: &mut RandomBank, model: &mut Model, frame: &[u8]) -> Result<(), TestCaseError> {
+fn exchange(slave: &mut Engine, bank: &mut RandomBank, model: &mut Model, frame: &[u8]) -> Result<(), TestCaseError> {
     let (expected_end, expected_reply) = model.frame(frame);
     let end = slave.handle_frame(frame, bank);
     let reply = slave.reply().to_vec();

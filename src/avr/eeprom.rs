@@ -6,8 +6,10 @@
 //! EEMPE/EEPE sequence, which must complete within four clock cycles, runs with them
 //! disabled. Call the writing methods from the main loop, never from an interrupt.
 
-use avr_device::atmega328p::EEPROM;
-use avr_device::interrupt;
+use core::ops::Deref;
+
+use super::reg::{self, claim, EEARH, EEARL, EECR, EEDR};
+use crate::error::Error;
 
 #[cfg(feature = "eeprom-settings")]
 use crate::config::Config;
@@ -19,22 +21,24 @@ const EEPE: u8 = 1 << 1;
 const EEMPE: u8 = 1 << 2;
 
 /// The EEPROM.
-pub struct Eeprom {
-    regs: EEPROM,
-}
+pub struct Eeprom(());
 
 impl Eeprom {
     /// Size of the ATmega328P's EEPROM, in bytes.
     pub const SIZE: u16 = 1024;
 
-    /// Takes the EEPROM.
-    pub fn new(regs: EEPROM) -> Self {
-        Eeprom { regs }
+    /// Takes the EEPROM from the application's PAC (`dp.EEPROM`).
+    pub fn new<P: Deref>(eeprom: P) -> Result<Self, Error>
+    where
+        P::Target: Sized,
+    {
+        claim::<_, { reg::EEPROM.0 }, { reg::EEPROM.1 }>(eeprom)?;
+        Ok(Eeprom(()))
     }
 
     /// True while a write is in progress.
     pub fn is_busy(&self) -> bool {
-        self.regs.eecr().read().bits() & EEPE != 0
+        EECR.read() & EEPE != 0
     }
 
     fn wait(&self) {
@@ -43,7 +47,9 @@ impl Eeprom {
 
     fn select(&self, address: u16) {
         self.wait();
-        self.regs.eear().write(|w| w.set(address));
+        let [high, low] = address.to_be_bytes();
+        EEARH.write(high);
+        EEARL.write(low);
     }
 
     /// The byte at `address`; `None` past the end. Waits for a write in progress.
@@ -52,9 +58,9 @@ impl Eeprom {
             return None;
         }
         self.select(address);
-        // SAFETY: EERE starts a read; EEPE and EEMPE stay clear, so nothing is written.
-        self.regs.eecr().write(|w| unsafe { w.bits(EERE) });
-        Some(self.regs.eedr().read().bits())
+        // EERE starts a read; EEPE and EEMPE stay clear, so nothing is written.
+        EECR.write(EERE);
+        Some(EEDR.read())
     }
 
     /// Fills `out` from `address` on; false (and `out` untouched) if it would pass the end.
@@ -75,15 +81,13 @@ impl Eeprom {
         if self.read(address).is_none_or(|current| current == byte) {
             return false;
         }
-        self.regs.eedr().write(|w| w.set(byte));
-        interrupt::free(|_| {
-            // SAFETY: the datasheet's write sequence: EEMPE alone (EEPM = 00, erase and
-            // write; EERIE off), then EEPE within four cycles, which the disabled interrupts
-            // guarantee (two `out` instructions).
-            unsafe {
-                self.regs.eecr().write(|w| w.bits(EEMPE));
-                self.regs.eecr().write(|w| w.bits(EEMPE | EEPE));
-            }
+        EEDR.write(byte);
+        // The datasheet's write sequence: EEMPE alone (EEPM = 00, erase and write; EERIE
+        // off), then EEPE within four cycles, which the disabled interrupts guarantee (two
+        // `out` instructions).
+        reg::free(|| {
+            EECR.write(EEMPE);
+            EECR.write(EEMPE | EEPE);
         });
         true
     }
@@ -115,10 +119,5 @@ impl Eeprom {
     #[cfg(feature = "eeprom-settings")]
     pub fn store_config(&mut self, address: u16, config: &Config) -> usize {
         self.update_slice(address, &settings::encode(config))
-    }
-
-    /// Gives the peripheral back.
-    pub fn release(self) -> EEPROM {
-        self.regs
     }
 }

@@ -1,78 +1,116 @@
-//! The ATmega328P layer: USART0 on pins 0/1, Timer0 as the silence detector, and the
-//! interrupt-driven slave that ties them to [`crate::Slave`] (Modbus over Serial Line
-//! v1.02 §2.5.1.1 and §3.3, the communication LED).
+//! The ATmega328P layer: USART0 on pins 0/1, Timer0 as the silence detector and the
+//! application's millisecond clock, and the interrupt-driven [`Slave`] that ties them to
+//! the protocol engine (Modbus over Serial Line v1.02 §2.5.1.1 and §3.3).
 //!
 //! Everything here is thin: register writes and reads, and calls into the pure core. The
-//! drivers take the PAC peripherals (`USART0`, `TC0`, `PORTx`, `ADC`) by value, the same
-//! ones an `arduino-hal` application gets from `Peripherals::take()`.
+//! slave takes the `USART0` and `TC0` the application gets from its HAL's
+//! `Peripherals::take()` (arduino-hal's, or `avr-device`'s of any version), and reaches
+//! their registers by address, so no PAC version is part of this crate's API.
 #![allow(unsafe_code)]
 
 mod adc;
 mod eeprom;
 mod pins;
+mod reg;
 mod rtu;
 mod timer;
 mod usart;
 
-pub use adc::Adc;
-pub use eeprom::Eeprom;
-pub use pins::{NoPin, Pin, Pins};
-pub use rtu::{ModbusSlave, Shared};
-pub use timer::FrameTimer;
-pub use usart::Usart;
+pub use pins::NoPin;
+pub use rtu::Slave;
 
-/// Re-exported for the [`crate::modbus_slave!`] macro.
+/// Small drivers for firmware written without a HAL (this crate's examples): the Uno's
+/// pins by their board names, the ADC and the EEPROM. With arduino-hal, use its `pins!`,
+/// `Adc` and `Eeprom` instead; the slave takes arduino-hal's pins as they are.
+pub mod board {
+    pub use super::adc::Adc;
+    pub use super::eeprom::Eeprom;
+    pub use super::pins::{halt, Pin, Pins};
+}
+
+/// Milliseconds since the slave started, wrapping after 49.7 days: Arduino's `millis()`,
+/// kept by Timer0, which the slave owns.
+pub fn millis() -> u32 {
+    timer::millis()
+}
+
+/// For the handlers that [`crate::slave!`] binds.
 #[doc(hidden)]
-pub use avr_device;
+pub mod __private {
+    pub use super::rtu::Interrupt;
 
-/// Declares the shared slave `NAME` for a data model type and binds the five interrupts it
-/// needs (USART0 RX, UDRE and TX complete; Timer0 compare A and B).
+    /// Timer0 overflow: the millisecond clock.
+    #[inline(always)]
+    pub fn timer0_overflow() {
+        super::timer::on_overflow();
+    }
+}
+
+/// Declares the slave `NAME` for a data model type and binds the six interrupts it needs:
+/// USART0 RX complete, data register empty and TX complete, Timer0 compare A and B (the
+/// silences) and overflow (the clock of [`crate::millis`]).
 ///
 /// ```ignore
-/// avr_modbus_slave::modbus_slave!(SLAVE: Bank<4, 16, 2>);
-/// // in main:
-/// SLAVE.start(ModbusSlave::new(CONFIG, dp.USART0, dp.TC0, bank));
-/// unsafe { avr_device::interrupt::enable() };
-/// SLAVE.set(30001, reading);
+/// avr_modbus_slave::slave!(SLAVE: Registers);                  // no pins
+/// avr_modbus_slave::slave!(SLAVE: Registers, NoPin, LedPin);   // driver enable, LED
 /// ```
+///
+/// The handlers use the `avr-interrupt` calling convention: the firmware crate needs
+/// `#![feature(abi_avr_interrupt)]`, as every AVR interrupt handler does. Nothing else in
+/// the firmware may handle these six interrupts (no `default_serial!` on USART0, nothing
+/// on TC0).
 #[macro_export]
-macro_rules! modbus_slave {
+macro_rules! slave {
     ($name:ident : $model:ty) => {
-        $crate::modbus_slave!($name: $model, $crate::avr::NoPin, $crate::avr::NoPin);
+        $crate::slave!($name: $model, $crate::NoPin, $crate::NoPin);
     };
     ($name:ident : $model:ty, $de:ty, $led:ty) => {
-        static $name: $crate::avr::Shared<$model, $de, $led> = $crate::avr::Shared::new();
+        static $name: $crate::Slave<$model, $de, $led> = $crate::Slave::new();
 
         #[doc(hidden)]
-        mod __modbus_slave_interrupts {
-            /// USART0 RX complete.
-            #[$crate::avr::avr_device::interrupt(atmega328p)]
-            fn USART_RX() {
-                super::$name.in_interrupt(|s| s.on_usart_rx());
+        #[allow(non_snake_case)]
+        mod __avr_modbus_slave_interrupts {
+            use $crate::__private::Interrupt;
+
+            /// TIMER0_COMPA: the inter-character gap deadline.
+            #[export_name = "__vector_14"]
+            unsafe extern "avr-interrupt" fn TIMER0_COMPA() {
+                // SAFETY: an interrupt handler, which runs with interrupts disabled.
+                unsafe { super::$name.on_interrupt(Interrupt::TimerCompareA) }
             }
 
-            /// USART0 data register empty.
-            #[$crate::avr::avr_device::interrupt(atmega328p)]
-            fn USART_UDRE() {
-                super::$name.in_interrupt(|s| s.on_usart_udre());
+            /// TIMER0_COMPB: T3.5.
+            #[export_name = "__vector_15"]
+            unsafe extern "avr-interrupt" fn TIMER0_COMPB() {
+                // SAFETY: as above.
+                unsafe { super::$name.on_interrupt(Interrupt::TimerCompareB) }
             }
 
-            /// USART0 TX complete.
-            #[$crate::avr::avr_device::interrupt(atmega328p)]
-            fn USART_TX() {
-                super::$name.in_interrupt(|s| s.on_usart_tx());
+            /// TIMER0_OVF: the millisecond clock.
+            #[export_name = "__vector_16"]
+            unsafe extern "avr-interrupt" fn TIMER0_OVF() {
+                $crate::__private::timer0_overflow();
             }
 
-            /// Timer0 compare A: gap deadline.
-            #[$crate::avr::avr_device::interrupt(atmega328p)]
-            fn TIMER0_COMPA() {
-                super::$name.in_interrupt(|s| s.on_timer_compare_a());
+            /// USART_RX: a character arrived.
+            #[export_name = "__vector_18"]
+            unsafe extern "avr-interrupt" fn USART_RX() {
+                // SAFETY: as above.
+                unsafe { super::$name.on_interrupt(Interrupt::UsartRx) }
             }
 
-            /// Timer0 compare B: T3.5.
-            #[$crate::avr::avr_device::interrupt(atmega328p)]
-            fn TIMER0_COMPB() {
-                super::$name.in_interrupt(|s| s.on_timer_compare_b());
+            /// USART_UDRE: room for the next character of a reply.
+            #[export_name = "__vector_19"]
+            unsafe extern "avr-interrupt" fn USART_UDRE() {
+                // SAFETY: as above.
+                unsafe { super::$name.on_interrupt(Interrupt::UsartUdre) }
+            }
+
+            /// USART_TX: the reply has left the wire.
+            #[export_name = "__vector_20"]
+            unsafe extern "avr-interrupt" fn USART_TX() {
+                // SAFETY: as above.
+                unsafe { super::$name.on_interrupt(Interrupt::UsartTx) }
             }
         }
     };

@@ -3,15 +3,17 @@
 //! through the `embedded-hal` 1.0 pin traits (an `arduino-hal` pin works the same).
 
 use core::convert::Infallible;
-use core::ptr;
+use core::ops::Deref;
 
-use avr_device::atmega328p::{PORTB, PORTC, PORTD};
 use embedded_hal::digital::{ErrorType, InputPin, OutputPin, StatefulOutputPin};
 
+use super::reg::{self, claim, Reg};
+use crate::error::Error;
+
 /// Data-space address of PINB; DDRx and PORTx follow each PINx.
-const PINB: usize = 0x23;
-const PINC: usize = 0x26;
-const PIND: usize = 0x29;
+const PINB: usize = reg::PORTB.0;
+const PINC: usize = reg::PORTC.0;
+const PIND: usize = reg::PORTD.0;
 
 /// One pin of port B, C or D.
 pub struct Pin {
@@ -24,19 +26,19 @@ impl Pin {
         Pin { pin_register, mask: 1 << bit }
     }
 
+    /// PINx (offset 0), DDRx (1) or PORTx (2) of a port whose PAC peripheral
+    /// [`Pins::new`] took.
+    fn register(&self, offset: usize) -> Reg {
+        Reg::at(self.pin_register + offset)
+    }
+
     fn read(&self, offset: usize) -> u8 {
-        // SAFETY: PINx/DDRx/PORTx of a port whose PAC peripheral `Pins::new` consumed.
-        unsafe { ptr::read_volatile((self.pin_register + offset) as *const u8) }
+        self.register(offset).read()
     }
 
     fn update(&self, offset: usize, set: bool) {
         // Interrupts may drive other pins of the same port (the LED, driver enable).
-        avr_device::interrupt::free(|_| {
-            let value = self.read(offset);
-            let value = if set { value | self.mask } else { value & !self.mask };
-            // SAFETY: as in `read`; the read-modify-write runs with interrupts off.
-            unsafe { ptr::write_volatile((self.pin_register + offset) as *mut u8, value) }
-        });
+        reg::free(|| self.register(offset).modify(|value| if set { value | self.mask } else { value & !self.mask }));
     }
 
     /// Makes the pin an output, driven low.
@@ -159,9 +161,18 @@ pub struct Pins {
 }
 
 impl Pins {
-    /// Takes the three ports (all pins start as inputs, as after reset).
-    pub fn new(_b: PORTB, _c: PORTC, _d: PORTD) -> Self {
-        Pins {
+    /// Takes the three ports from the application's PAC (`dp.PORTB`, `dp.PORTC`,
+    /// `dp.PORTD`); all pins start as inputs, as after reset.
+    pub fn new<B: Deref, C: Deref, D: Deref>(portb: B, portc: C, portd: D) -> Result<Self, Error>
+    where
+        B::Target: Sized,
+        C::Target: Sized,
+        D::Target: Sized,
+    {
+        claim::<_, { reg::PORTB.0 }, { reg::PORTB.1 }>(portb)?;
+        claim::<_, { reg::PORTC.0 }, { reg::PORTC.1 }>(portc)?;
+        claim::<_, { reg::PORTD.0 }, { reg::PORTD.1 }>(portd)?;
+        Ok(Pins {
             d2: Pin::new(PIND, 2),
             d3: Pin::new(PIND, 3),
             d4: Pin::new(PIND, 4),
@@ -180,6 +191,17 @@ impl Pins {
             a3: Pin::new(PINC, 3),
             a4: Pin::new(PINC, 4),
             a5: Pin::new(PINC, 5),
-        }
+        })
     }
+}
+
+/// Stops the firmware when it could not start: lights the on-board LED "L" (pin 13) and
+/// sleeps with interrupts off, so that a start-up error is seen rather than a slave that
+/// answers half its map.
+pub fn halt(error: Error) -> ! {
+    let _ = error;
+    Pin::new(PINB, 5).into_output().set_high();
+    reg::free(|| loop {
+        core::hint::spin_loop();
+    })
 }

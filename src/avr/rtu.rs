@@ -6,26 +6,28 @@
 use core::cell::UnsafeCell;
 use core::mem::MaybeUninit;
 
-use avr_device::atmega328p::{TC0, USART0};
-use avr_device::interrupt;
+use core::ops::Deref;
+
 use embedded_hal::digital::OutputPin;
 
 use super::pins::NoPin;
+use super::reg::{self, claim};
 use super::timer::{Expired, FrameTimer};
 use super::usart::Usart;
-use crate::bank::Variables;
 use crate::config::Config;
 use crate::crc::Crc16;
+use crate::engine::{Counters, EndOfFrame, Engine};
+use crate::error::Error;
 use crate::model::DataModel;
-use crate::reference::{BankError, IntoReference};
-use crate::slave::{Counters, EndOfFrame, Slave};
+use crate::reference::IntoReference;
 
-/// The slave with its peripherals and the application's data model `M`; `DE` drives an
-/// RS-485 transceiver's driver-enable pin, `LED` the communication LED.
-pub struct ModbusSlave<M, DE = NoPin, LED = NoPin> {
+/// The running slave: its peripherals, protocol state, the application's data model `M`,
+/// the RS-485 driver-enable pin `DE` and the communication LED `LED`. It lives in a
+/// [`Slave`] and is reached only with interrupts disabled.
+pub(crate) struct Running<M, DE, LED> {
     usart: Usart,
     timer: FrameTimer,
-    slave: Slave,
+    engine: Engine,
     model: M,
     tx_next: usize,
     tx_len: usize,
@@ -34,87 +36,51 @@ pub struct ModbusSlave<M, DE = NoPin, LED = NoPin> {
     led: LED,
 }
 
-impl<M: DataModel> ModbusSlave<M> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
     /// Configures USART0 and Timer0 for `config` and starts the power-up wait (T3.5 of
-    /// silence before the first frame). Interrupts must be enabled by the application
-    /// once the slave is in its [`Shared`] cell.
-    pub fn new(config: Config, usart: USART0, timer: TC0, model: M) -> Self {
-        let mut timer = FrameTimer::new(timer, config.timer_plan());
-        let usart = Usart::new(usart, &config);
+    /// silence before the first frame).
+    fn new(config: Config, model: M, mut driver_enable: DE, mut led: LED) -> Self {
+        let _ = driver_enable.set_low();
+        let _ = led.set_low();
+        let mut timer = FrameTimer::new(config.timer_plan());
+        let usart = Usart::new(&config);
         timer.restart();
-        ModbusSlave {
+        Running {
             usart,
             timer,
-            slave: Slave::new(config.slave_id()),
+            engine: Engine::new(config.slave_id()),
             model,
             tx_next: 0,
             tx_len: 0,
             tx_crc: Crc16::new(),
-            driver_enable: NoPin,
-            led: NoPin,
+            driver_enable,
+            led,
         }
-    }
-}
-
-impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
-    /// Adds an RS-485 driver-enable pin: high from just before the first character of a
-    /// reply until the last one has left the wire (transmit complete).
-    pub fn with_driver_enable<P: OutputPin>(self, mut pin: P) -> ModbusSlave<M, P, LED> {
-        let _ = pin.set_low();
-        self.map_pins(|_, led| (pin, led))
-    }
-
-    /// Adds a communication LED: lit while this slave answers a frame addressed to it.
-    pub fn with_led<P: OutputPin>(self, mut pin: P) -> ModbusSlave<M, DE, P> {
-        let _ = pin.set_low();
-        self.map_pins(|driver_enable, _| (driver_enable, pin))
-    }
-
-    /// The same slave with other pins.
-    fn map_pins<D, L>(self, f: impl FnOnce(DE, LED) -> (D, L)) -> ModbusSlave<M, D, L> {
-        let ModbusSlave { usart, timer, slave, model, tx_next, tx_len, tx_crc, driver_enable, led } = self;
-        let (driver_enable, led) = f(driver_enable, led);
-        ModbusSlave { usart, timer, slave, model, tx_next, tx_len, tx_crc, driver_enable, led }
-    }
-
-    /// The data model.
-    pub fn model(&self) -> &M {
-        &self.model
-    }
-
-    /// The data model, to update inputs or read what the master wrote.
-    pub fn model_mut(&mut self) -> &mut M {
-        &mut self.model
-    }
-
-    /// The slave's counters.
-    pub fn counters(&self) -> Counters {
-        self.slave.counters()
     }
 
     /// USART0 RX complete: one character (or a damaged one) arrived. The silence timer
     /// restarts first, so that its deadlines count from as close to the stop bit as can be.
     #[inline(always)]
-    pub fn on_usart_rx(&mut self) {
+    fn on_usart_rx(&mut self) {
         self.timer.restart();
         match self.usart.read() {
-            Ok(byte) => self.slave.on_byte(byte),
-            Err(e) => self.slave.on_error(e),
+            Ok(byte) => self.engine.on_byte(byte),
+            Err(e) => self.engine.on_error(e),
         }
     }
 
     /// Timer0 compare A: the inter-character gap deadline.
     #[inline(always)]
-    pub fn on_timer_compare_a(&mut self) {
+    fn on_timer_compare_a(&mut self) {
         if self.timer.on_compare_a() == Expired::Now {
-            self.slave.on_gap_deadline();
+            self.engine.on_gap_deadline();
         }
     }
 
     /// Timer0 compare B: T3.5 of silence. A frame for this slave is answered from here:
     /// the address goes out first, then the request is processed while it is on the wire.
     #[inline(always)]
-    pub fn on_timer_compare_b(&mut self) {
+    fn on_timer_compare_b(&mut self) {
         if self.timer.on_compare_b() == Expired::NotYet {
             return;
         }
@@ -125,19 +91,19 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
             self.timer.restart();
             return;
         }
-        match self.slave.on_end_deadline() {
+        match self.engine.on_end_deadline() {
             EndOfFrame::Reply => {
                 let _ = self.driver_enable.set_high();
                 let _ = self.led.set_high();
-                let id = self.slave.id().get();
+                let id = self.engine.id().get();
                 self.usart.write(id);
                 self.tx_crc = Crc16::new().update(id);
-                self.tx_len = self.slave.prepare(&mut self.model);
+                self.tx_len = self.engine.prepare(&mut self.model);
                 self.tx_next = 1;
                 self.usart.start_feeding();
             }
             EndOfFrame::Broadcast | EndOfFrame::ListenOnly => {
-                self.slave.process(&mut self.model);
+                self.engine.process(&mut self.model);
             }
             EndOfFrame::Nothing | EndOfFrame::Dropped(_) | EndOfFrame::OtherSlave => {}
         }
@@ -146,11 +112,11 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
     /// USART0 data register empty: the next character of the reply, folded into the CRC,
     /// then the CRC's low and high bytes.
     #[inline(always)]
-    pub fn on_usart_udre(&mut self) {
+    fn on_usart_udre(&mut self) {
         let crc = self.tx_crc.to_wire();
         let (byte, last) = match self.tx_next.checked_sub(self.tx_len) {
             None => {
-                let byte = self.slave.reply().get(self.tx_next).copied().unwrap_or(0);
+                let byte = self.engine.reply().get(self.tx_next).copied().unwrap_or(0);
                 self.tx_crc = self.tx_crc.update(byte);
                 (byte, false)
             }
@@ -166,11 +132,11 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
 
     /// USART0 transmit complete: the reply has left the wire.
     #[inline(always)]
-    pub fn on_usart_tx(&mut self) {
+    fn on_usart_tx(&mut self) {
         self.usart.finished();
         let _ = self.driver_enable.set_low();
         let _ = self.led.set_low();
-        self.slave.on_reply_sent();
+        self.engine.on_reply_sent();
         #[cfg(feature = "eeprom-settings")]
         self.apply_new_settings();
     }
@@ -183,20 +149,29 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> ModbusSlave<M, DE, LED> {
         if let Some(config) = self.model.take_new_settings() {
             self.usart.configure(&config);
             self.timer.configure(config.timer_plan());
-            self.slave.set_id(config.slave_id());
+            self.engine.set_id(config.slave_id());
         }
     }
 }
 
-/// The slave shared between the application and the interrupts (declare it with
-/// [`crate::modbus_slave!`]).
+/// The Modbus RTU slave: declare it with [`crate::slave!`], start it with the
+/// application's `USART0` and `TC0`, then read and write its data like variables.
 ///
-/// Every access runs with interrupts disabled, and a flag refuses re-entry (a `with`
-/// inside another `with` gets `None`). The cell starts all-zero, so it lives in `.bss`
-/// and costs no flash for an initializer.
-pub struct Shared<M, DE = NoPin, LED = NoPin> {
+/// ```ignore
+/// avr_modbus_slave::slave!(SLAVE: Registers);
+/// // in main:
+/// SLAVE.start(CONFIG, dp.USART0, dp.TC0, bank)?;
+/// let setpoint = SLAVE.get(40001)?;
+/// SLAVE.set(30001, reading)?;
+/// ```
+///
+/// Every access from the application runs with interrupts disabled for a few
+/// microseconds; a flag refuses re-entry (a [`Slave::with`] inside another gets `None`).
+/// The slave starts all-zero, so it lives in `.bss` and costs no flash for an
+/// initializer.
+pub struct Slave<M, DE = NoPin, LED = NoPin> {
     state: UnsafeCell<u8>,
-    slave: UnsafeCell<MaybeUninit<ModbusSlave<M, DE, LED>>>,
+    running: UnsafeCell<MaybeUninit<Running<M, DE, LED>>>,
 }
 
 const EMPTY: u8 = 0;
@@ -204,54 +179,35 @@ const READY: u8 = 1;
 const IN_USE: u8 = 2;
 
 // SAFETY: the ATmega328P has one core, and the cell is only touched with interrupts
-// disabled (`interrupt::free`, or inside an interrupt handler), so no two accesses overlap.
-unsafe impl<M, DE, LED> Sync for Shared<M, DE, LED> {}
+// disabled (`reg::free`, or inside the slave's interrupt handlers), so no two accesses
+// overlap. What it holds moves in from `start`'s caller and is used from interrupts, hence
+// the `Send` bounds.
+unsafe impl<M: Send, DE: Send, LED: Send> Sync for Slave<M, DE, LED> {}
 
-impl<M, DE, LED> Default for Shared<M, DE, LED> {
-    fn default() -> Self {
-        Self::new()
-    }
+/// The interrupts the slave handles, for [`crate::slave!`].
+#[doc(hidden)]
+#[derive(Clone, Copy)]
+pub enum Interrupt {
+    UsartRx,
+    UsartUdre,
+    UsartTx,
+    TimerCompareA,
+    TimerCompareB,
 }
 
-impl<M, DE, LED> Shared<M, DE, LED> {
-    /// An empty cell.
-    pub const fn new() -> Self {
-        Shared { state: UnsafeCell::new(EMPTY), slave: UnsafeCell::new(MaybeUninit::zeroed()) }
-    }
-
-    /// Puts the slave in the cell; its interrupts start doing work once the application
-    /// enables interrupts. A second call is ignored.
-    pub fn start(&self, slave: ModbusSlave<M, DE, LED>) {
-        interrupt::free(|_| {
-            // SAFETY: interrupts are disabled, so nothing else accesses the cell.
-            unsafe {
-                if *self.state.get() == EMPTY {
-                    (*self.slave.get()).write(slave);
-                    *self.state.get() = READY;
-                }
-            }
-        });
-    }
-
-    /// Runs `f` on the slave with interrupts disabled; `None` before [`Shared::start`].
-    /// Keep `f` short: reception waits while it runs.
-    pub fn with<R>(&self, f: impl FnOnce(&mut ModbusSlave<M, DE, LED>) -> R) -> Option<R> {
-        // SAFETY: interrupts are disabled for the whole access.
-        interrupt::free(|_| unsafe { self.access(f) })
-    }
-
-    /// For the interrupt handlers of [`crate::modbus_slave!`].
+impl<M, DE, LED> Slave<M, DE, LED> {
+    /// A slave not yet started: what [`crate::slave!`] declares.
     #[doc(hidden)]
-    #[inline(always)]
-    pub fn in_interrupt(&self, f: impl FnOnce(&mut ModbusSlave<M, DE, LED>)) {
-        // SAFETY: interrupt handlers run with interrupts disabled; nothing here enables them.
-        unsafe { self.access(f) };
+    pub const fn new() -> Self {
+        Slave { state: UnsafeCell::new(EMPTY), running: UnsafeCell::new(MaybeUninit::zeroed()) }
     }
 
+    /// Runs `f` on the running slave.
+    ///
     /// # Safety
     /// Interrupts must be disabled for the whole call.
     #[inline(always)]
-    unsafe fn access<R>(&self, f: impl FnOnce(&mut ModbusSlave<M, DE, LED>) -> R) -> Option<R> {
+    unsafe fn access<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED>) -> R) -> Option<R> {
         // SAFETY: no other access can run (the caller's promise); READY means the slave
         // was written by `start`, and IN_USE keeps a nested call from aliasing it.
         unsafe {
@@ -259,47 +215,128 @@ impl<M, DE, LED> Shared<M, DE, LED> {
                 return None;
             }
             *self.state.get() = IN_USE;
-            let result = f((*self.slave.get()).assume_init_mut());
+            let result = f((*self.running.get()).assume_init_mut());
             *self.state.get() = READY;
             Some(result)
         }
     }
+
+    /// Runs `f` on the running slave with interrupts disabled.
+    fn locked<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED>) -> R) -> Option<R> {
+        // SAFETY: interrupts are disabled for the whole access.
+        reg::free(|| unsafe { self.access(f) })
+    }
 }
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin> Shared<M, DE, LED> {
-    /// Runs `f` on the data model with interrupts disabled.
-    pub fn with_model<R>(&self, f: impl FnOnce(&mut M) -> R) -> Option<R> {
-        self.with(|s| f(s.model_mut()))
+impl<M: DataModel> Slave<M> {
+    /// Starts the slave on Arduino pins 0 (RX) and 1 (TX): takes `USART0` and `TC0` from
+    /// the application's `Peripherals` (arduino-hal's or `avr-device`'s, any version),
+    /// configures them for `config`, and enables interrupts. From here on the slave
+    /// answers by itself; the application reads and writes `model` through
+    /// [`Slave::get`], [`Slave::set`] and [`Slave::with`].
+    pub fn start<U: Deref, T: Deref>(&self, config: Config, usart0: U, tc0: T, model: M) -> Result<(), Error>
+    where
+        U::Target: Sized,
+        T::Target: Sized,
+    {
+        self.start_with_pins(config, usart0, tc0, model, NoPin, NoPin)
+    }
+}
+
+impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
+    /// [`Slave::start`] with an RS-485 driver-enable pin (high from just before the first
+    /// character of a reply until its last one has left the wire) and a communication LED
+    /// (lit while the slave answers a frame addressed to it): any `embedded-hal` output
+    /// pin, arduino-hal's included, or [`crate::NoPin`].
+    pub fn start_with_pins<U: Deref, T: Deref>(
+        &self,
+        config: Config,
+        usart0: U,
+        tc0: T,
+        model: M,
+        driver_enable: DE,
+        led: LED,
+    ) -> Result<(), Error>
+    where
+        U::Target: Sized,
+        T::Target: Sized,
+    {
+        claim::<_, { reg::USART0.0 }, { reg::USART0.1 }>(usart0)?;
+        claim::<_, { reg::TC0.0 }, { reg::TC0.1 }>(tc0)?;
+        reg::free(|| {
+            // SAFETY: interrupts are disabled, so nothing else accesses the cell.
+            unsafe {
+                if *self.state.get() != EMPTY {
+                    return Err(Error::AlreadyStarted);
+                }
+                (*self.running.get()).write(Running::new(config, model, driver_enable, led));
+                *self.state.get() = READY;
+            }
+            Ok(())
+        })?;
+        // SAFETY: the slave is in its cell, so its interrupt handlers can run.
+        unsafe { reg::enable_interrupts() };
+        Ok(())
     }
 
-    /// The slave's counters (all zero before [`Shared::start`]).
+    /// Handles one of the slave's interrupts; called by the handlers [`crate::slave!`]
+    /// binds.
+    ///
+    /// # Safety
+    /// Only from an interrupt handler (interrupts disabled), and one that does not
+    /// enable them.
+    #[doc(hidden)]
+    #[inline(always)]
+    pub unsafe fn on_interrupt(&self, interrupt: Interrupt) {
+        // SAFETY: interrupts are disabled (the caller's promise).
+        unsafe {
+            self.access(|s| match interrupt {
+                Interrupt::UsartRx => s.on_usart_rx(),
+                Interrupt::UsartUdre => s.on_usart_udre(),
+                Interrupt::UsartTx => s.on_usart_tx(),
+                Interrupt::TimerCompareA => s.on_timer_compare_a(),
+                Interrupt::TimerCompareB => s.on_timer_compare_b(),
+            })
+        };
+    }
+
+    /// Runs `f` on the data model with interrupts disabled: `None` before
+    /// [`Slave::start`] or inside another `with`. Keep `f` short: reception waits while it
+    /// runs.
+    pub fn with<R>(&self, f: impl FnOnce(&mut M) -> R) -> Option<R> {
+        self.locked(|s| f(&mut s.model))
+    }
+
+    /// The slave's counters (all zero before [`Slave::start`]).
     pub fn counters(&self) -> Counters {
-        self.with(|s| s.counters()).unwrap_or_default()
+        self.locked(|s| s.engine.counters()).unwrap_or_default()
     }
 }
 
-impl<M: DataModel + Variables, DE: OutputPin, LED: OutputPin> Shared<M, DE, LED> {
-    /// Reads a value (see [`crate::Bank::get`]).
-    pub fn get(&self, reference: impl IntoReference) -> Result<u16, BankError> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
+    /// Reads a coil, input or register by its classic reference (see [`crate::Bank::get`]).
+    pub fn get(&self, reference: impl IntoReference) -> Result<u16, Error> {
         // The reference is worked out before interrupts go off: shorter critical section.
         let reference = reference.into_reference()?;
-        self.with_model(|model| model.value(reference)).unwrap_or(Err(BankError::NotFound))
+        self.with(|model| model.value(reference)).unwrap_or(Err(Error::NotFound))
     }
 
-    /// Sets a value (see [`crate::Bank::set`]).
-    pub fn set(&self, reference: impl IntoReference, value: u16) -> Result<(), BankError> {
+    /// Sets a coil, input or register by its classic reference (see [`crate::Bank::set`]).
+    pub fn set(&self, reference: impl IntoReference, value: u16) -> Result<(), Error> {
         let reference = reference.into_reference()?;
-        self.with_model(|model| model.set_value(reference, value)).unwrap_or(Err(BankError::NotFound))
+        self.with(|model| model.set_value(reference, value)).unwrap_or(Err(Error::NotFound))
     }
 
-    /// How many master writes succeeded so far (see [`crate::Bank::master_writes`]).
+    /// How many master writes succeeded so far, wrapping (see
+    /// [`crate::Bank::master_writes`]): compare it with the last value seen to learn that
+    /// the master wrote something.
     pub fn master_writes(&self) -> u16 {
-        self.with_model(|model| model.write_count()).unwrap_or(0)
+        self.with(|model| model.master_writes()).unwrap_or(0)
     }
 }
 
 #[cfg(feature = "eeprom-settings")]
-impl<M: DataModel, DE: OutputPin, LED: OutputPin> Shared<crate::settings::Configurable<M>, DE, LED> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<crate::settings::Configurable<M>, DE, LED> {
     /// The main loop's part of a settings change (feature `eeprom-settings`): call it
     /// from the main loop as often as it comes round. Returns how many EEPROM bytes it
     /// wrote when it stored new settings at `address`, else `None`.
@@ -310,10 +347,10 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Shared<crate::settings::Config
     /// here. Then stores the settings the slave switched to, skipping bytes that are
     /// already right (≈3.4 ms per byte written, up to ≈34 ms, interrupts enabled): no
     /// interrupt handler ever waits for the EEPROM or the division routines.
-    pub fn poll_settings(&self, eeprom: &mut super::Eeprom, address: u16) -> Option<usize> {
-        if let Some(settings) = self.with_model(|model| model.pending()).flatten() {
+    pub fn poll_settings(&self, eeprom: &mut super::eeprom::Eeprom, address: u16) -> Option<usize> {
+        if let Some(settings) = self.with(|model| model.pending()).flatten() {
             if let Some(config) = settings.to_config() {
-                self.with(|s| {
+                self.locked(|s| {
                     s.model.offer(settings, config);
                     if !s.usart.is_sending() {
                         s.apply_new_settings();
@@ -321,12 +358,12 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Shared<crate::settings::Config
                 });
             }
         }
-        let config = self.with_model(|model| model.take_unsaved()).flatten()?;
+        let config = self.with(|model| model.take_unsaved()).flatten()?;
         Some(eeprom.store_config(address, &config))
     }
 
     /// The line settings the slave runs (see [`crate::settings::Configurable::config`]).
     pub fn config(&self) -> Option<Config> {
-        self.with_model(|model| model.config())
+        self.with(|model| model.config())
     }
 }

@@ -1,7 +1,6 @@
 //! USART0 in asynchronous mode, 8 data bits, ATmega328P datasheet §20 (registers §20.11).
 
-use avr_device::atmega328p::USART0;
-
+use super::reg::{UBRR0H, UBRR0L, UCSR0A, UCSR0B, UCSR0C, UDR0};
 use crate::config::{Config, Parity, StopBits};
 use crate::framer::UartError;
 
@@ -19,9 +18,7 @@ const RXEN0: u8 = 1 << 4;
 const TXEN0: u8 = 1 << 3;
 
 /// USART0 on Arduino pins 0 (RX) and 1 (TX).
-pub struct Usart {
-    regs: USART0,
-}
+pub(crate) struct Usart;
 
 impl Usart {
     /// Configures the format and rate, enables receiver, transmitter and the receive
@@ -29,8 +26,8 @@ impl Usart {
     ///
     /// The frame format (UCSR0C) is written before the rate, and UBRR0's high byte before
     /// its low byte: the low-byte write is what applies the new rate.
-    pub fn new(regs: USART0, config: &Config) -> Self {
-        let mut usart = Usart { regs };
+    pub(crate) fn new(config: &Config) -> Self {
+        let mut usart = Usart;
         usart.configure(config);
         usart
     }
@@ -38,8 +35,7 @@ impl Usart {
     /// Applies `config`'s format and rate, as [`Usart::new`] does. Turning the receiver
     /// and transmitter off first flushes the receive buffer and drops a character being
     /// sent: call it when the reply has left the wire (transmit complete).
-    pub fn configure(&mut self, config: &Config) {
-        let regs = &self.regs;
+    pub(crate) fn configure(&mut self, config: &Config) {
         let divisor = config.divisor();
         let parity = match config.parity() {
             Parity::None => 0b00,
@@ -52,23 +48,21 @@ impl Usart {
         };
         // Asynchronous, parity, stop bits, 8 data bits (UCSZ01:0 = 11).
         let ucsr0c = (parity << 4) | (stop << 3) | 0b110;
-        // SAFETY: every bit pattern is a valid value of these USART registers; the values
-        // follow the datasheet's field layout.
-        unsafe {
-            regs.ucsr0b().write(|w| w.bits(0));
-            regs.ucsr0c().write(|w| w.bits(ucsr0c));
-            regs.ucsr0a().write(|w| w.bits(if divisor.double_speed { U2X0 } else { 0 }));
-            regs.ubrr0().write(|w| w.bits(divisor.ubrr));
-            regs.ucsr0b().write(|w| w.bits(RXCIE0 | RXEN0 | TXEN0));
-        }
+        let [ubrr_high, ubrr_low] = divisor.ubrr.to_be_bytes();
+        UCSR0B.write(0);
+        UCSR0C.write(ucsr0c);
+        UCSR0A.write(if divisor.double_speed { U2X0 } else { 0 });
+        UBRR0H.write(ubrr_high);
+        UBRR0L.write(ubrr_low);
+        UCSR0B.write(RXCIE0 | RXEN0 | TXEN0);
     }
 
     /// Reads the received character, or the error it came with. The status flags belong
     /// to the character in UDR0, so they are read first.
     #[inline(always)]
-    pub fn read(&self) -> Result<u8, UartError> {
-        let status = self.regs.ucsr0a().read().bits();
-        let byte = self.regs.udr0().read().bits();
+    pub(crate) fn read(&self) -> Result<u8, UartError> {
+        let status = UCSR0A.read();
+        let byte = UDR0.read();
         if status & DOR0 != 0 {
             Err(UartError::Overrun)
         } else if status & FE0 != 0 {
@@ -81,52 +75,48 @@ impl Usart {
     }
 
     /// True when a received character waits in UDR0.
-    pub fn has_data(&self) -> bool {
-        self.regs.ucsr0a().read().bits() & RXC0 != 0
+    pub(crate) fn has_data(&self) -> bool {
+        UCSR0A.read() & RXC0 != 0
     }
 
     /// Writes one character to the transmit buffer.
     #[inline(always)]
-    pub fn write(&self, byte: u8) {
-        // SAFETY: UDR0 takes any byte.
-        self.regs.udr0().write(|w| unsafe { w.bits(byte) });
+    pub(crate) fn write(&self, byte: u8) {
+        UDR0.write(byte);
     }
 
     /// Starts feeding a reply from the data-register-empty interrupt.
     #[inline(always)]
-    pub fn start_feeding(&self) {
+    pub(crate) fn start_feeding(&self) {
         self.modify_control(|b| b | UDRIE0);
     }
 
     /// The last character is in the buffer: stop the data-register-empty interrupt and
     /// wait for the transmit-complete one.
     #[inline(always)]
-    pub fn last_written(&self) {
-        // SAFETY: writing 1 to TXC0 clears it; U2X0 is written back unchanged and the
-        // error flags are read-only.
-        self.regs.ucsr0a().modify(|r, w| unsafe { w.bits((r.bits() & U2X0) | TXC0) });
+    pub(crate) fn last_written(&self) {
+        // Writing 1 to TXC0 clears it; U2X0 is written back unchanged and the error flags
+        // are read-only.
+        UCSR0A.modify(|bits| (bits & U2X0) | TXC0);
         self.modify_control(|b| (b & !UDRIE0) | TXCIE0);
     }
 
     /// True from [`Usart::start_feeding`] until [`Usart::finished`]: a reply is on its
     /// way.
-    pub fn is_sending(&self) -> bool {
-        self.regs.ucsr0b().read().bits() & (UDRIE0 | TXCIE0) != 0
+    #[cfg(feature = "eeprom-settings")]
+    pub(crate) fn is_sending(&self) -> bool {
+        UCSR0B.read() & (UDRIE0 | TXCIE0) != 0
     }
 
     /// The reply has left the wire: stop the transmit-complete interrupt.
     #[inline(always)]
-    pub fn finished(&self) {
+    pub(crate) fn finished(&self) {
         self.modify_control(|b| b & !TXCIE0);
     }
 
     fn modify_control(&self, f: impl FnOnce(u8) -> u8) {
-        // SAFETY: UCSR0B holds enable bits only; `f` changes interrupt enables.
-        self.regs.ucsr0b().modify(|r, w| unsafe { w.bits(f(r.bits())) });
-    }
-
-    /// Gives the peripheral back.
-    pub fn release(self) -> USART0 {
-        self.regs
+        // UCSR0B holds enable bits only; `f` changes interrupt enables. Only the slave's
+        // interrupt handlers and its critical sections change it.
+        UCSR0B.modify(f);
     }
 }

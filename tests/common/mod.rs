@@ -4,7 +4,8 @@
 //! Each test crate uses a different subset of these helpers.
 #![allow(dead_code)]
 
-use avr_modbus_slave::{Bank, DataModel, EndOfFrame, Exception, Reference, Slave, SlaveId, Table};
+use avr_modbus_slave::internal::{EndOfFrame, Engine};
+use avr_modbus_slave::{Bank, DataModel, Exception, Reference, SlaveId, Table};
 
 /// The address of the slave under test (the spec's examples use 0x11).
 pub const ID: u8 = 0x11;
@@ -63,12 +64,12 @@ pub fn write_multiple_pdu(function: u8, start: u16, qty: u16, data: &[u8]) -> Ve
 }
 
 /// The slave under test, just after power-up.
-pub fn slave() -> Slave {
-    Slave::new(SlaveId::new(ID).unwrap())
+pub fn slave() -> Engine {
+    Engine::new(SlaveId::new(ID).unwrap())
 }
 
 /// Sends `frame` as one whole frame and returns the reply, which must exist.
-pub fn ask<M: DataModel>(slave: &mut Slave, model: &mut M, frame: &[u8]) -> Vec<u8> {
+pub fn ask<M: DataModel>(slave: &mut Engine, model: &mut M, frame: &[u8]) -> Vec<u8> {
     assert_eq!(slave.handle_frame(frame, model), EndOfFrame::Reply, "frame {frame:02X?}");
     slave.reply().to_vec()
 }

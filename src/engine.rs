@@ -1,7 +1,7 @@
 //! The RTU slave without hardware, Modbus over Serial Line v1.02 §2.4 (master/slave
 //! protocol, broadcast, address check) and §6.1.3 (diagnostic counters).
 //!
-//! [`Slave`] joins the [`Framer`] to the PDU engine: the AVR layer forwards interrupts to
+//! [`Engine`], the slave's protocol state, joins the [`Framer`] to the PDU engine: the AVR layer forwards interrupts to
 //! its `on_*` methods, the host tests script the same calls. Data flows one way: bytes →
 //! framer → address and CRC check → [`respond`] → reply in the same buffer.
 
@@ -23,6 +23,7 @@ use crate::diagnostics::Diagnosed;
 const GET_COMM_EVENT_COUNTER: u8 = 0x0B;
 
 /// What the slave counted since start-up (each wraps at 65535).
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Counters {
     /// Frames that ended with T3.5 of silence, good or bad.
@@ -64,19 +65,19 @@ pub enum EndOfFrame {
     Dropped(FrameError),
     /// A good frame for another slave: silence.
     OtherSlave,
-    /// A good frame for this slave: call [`Slave::process`], then send [`Slave::reply`].
+    /// A good frame for this slave: call [`Engine::process`], then send [`Engine::reply`].
     /// Its first byte is this slave's address, known before processing.
     Reply,
-    /// A good broadcast: call [`Slave::process`] to execute it; nothing is sent.
+    /// A good broadcast: call [`Engine::process`] to execute it; nothing is sent.
     Broadcast,
     /// A good frame for this slave while it is in listen-only mode (FC 8 sub-function
-    /// 04): call [`Slave::process`], which only acts on a restart; nothing is sent.
+    /// 04): call [`Engine::process`], which only acts on a restart; nothing is sent.
     ListenOnly,
 }
 
 /// A Modbus RTU slave's protocol state: the frame buffer, the address, the counters.
 #[derive(Clone, Debug)]
-pub struct Slave {
+pub struct Engine {
     framer: Framer,
     id: SlaveId,
     counters: Counters,
@@ -93,10 +94,10 @@ enum Pending {
     ListenOnly(usize),
 }
 
-impl Slave {
+impl Engine {
     /// A slave with address `id`, just after power-up (waiting for T3.5 of silence).
     pub const fn new(id: SlaveId) -> Self {
-        Slave {
+        Engine {
             framer: Framer::new(),
             id,
             counters: Counters::new(),
@@ -176,7 +177,7 @@ impl Slave {
         }
     }
 
-    /// Executes the frame that [`Slave::on_end_deadline`] accepted and writes the reply
+    /// Executes the frame that [`Engine::on_end_deadline`] accepted and writes the reply
     /// (address, PDU, CRC) over it. Returns the reply's length; 0 when nothing is to be sent
     /// (a broadcast, listen-only mode), and then the buffer is released at once.
     pub fn process<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
@@ -193,8 +194,8 @@ impl Slave {
         self.reply_len
     }
 
-    /// Like [`Slave::process`] but leaves the CRC to the sender: returns the length of
-    /// address and PDU, and [`Slave::reply`] holds just those. The AVR layer folds each
+    /// Like [`Engine::process`] but leaves the CRC to the sender: returns the length of
+    /// address and PDU, and [`Engine::reply`] holds just those. The AVR layer folds each
     /// byte into a [`Crc16`] as it goes out and sends the two CRC bytes last, so a
     /// 255-byte reply costs no CRC time before it starts.
     pub fn prepare<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
@@ -292,7 +293,7 @@ impl Slave {
         self.listen_only
     }
 
-    /// The reply built by [`Slave::process`], valid until [`Slave::on_reply_sent`].
+    /// The reply built by [`Engine::process`], valid until [`Engine::on_reply_sent`].
     pub fn reply(&self) -> &[u8] {
         self.framer.buffer().get(..self.reply_len).unwrap_or(&[])
     }
@@ -307,7 +308,7 @@ impl Slave {
 
     /// Handles one whole frame as if it had arrived with correct timing: the ADU layer in
     /// one call, for tests and for links that deliver frames ready-made. Afterwards
-    /// [`Slave::reply`] holds the reply, if the result is [`EndOfFrame::Reply`].
+    /// [`Engine::reply`] holds the reply, if the result is [`EndOfFrame::Reply`].
     pub fn handle_frame<M: DataModel + ?Sized>(&mut self, frame: &[u8], model: &mut M) -> EndOfFrame {
         self.on_reply_sent();
         // Silence before the frame (also ends the power-up wait).

@@ -1,0 +1,59 @@
+//! The one error type of the crate: everything that can go wrong while the application
+//! sets the slave up or reads and writes its data. (What goes wrong on the line is no
+//! error here: a bad frame is dropped and counted, a bad request gets its Modbus
+//! exception.)
+
+/// Why a configuration, a register-bank operation or the start of the slave was refused.
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Error {
+    /// A slave id outside 1–247 (0 is broadcast, 248–255 are reserved).
+    SlaveId,
+    /// A baud rate outside [`crate::Config::MIN_BAUD`]–[`crate::Config::MAX_BAUD`].
+    Baud,
+    /// A baud rate the 16 MHz USART can't make within 2.5 %.
+    BaudError,
+    /// A classic reference outside 00001–09999, 10001–19999, 30001–39999, 40001–49999.
+    BadReference,
+    /// The address was never added to the bank.
+    NotFound,
+    /// The address (or one in the range) was added already.
+    Duplicate,
+    /// A range runs past address 65535, or is empty.
+    BadRange,
+    /// No room for another contiguous run of addresses (the bank's `RUNS`).
+    RunsFull,
+    /// No room for more registers (the bank's `REGS`).
+    RegistersFull,
+    /// No room for more coils or discrete inputs (the bank's `BIT_BYTES` × 8).
+    BitsFull,
+    /// No room for another read-only range (the bank's `PROTECTED`).
+    ProtectionsFull,
+    /// A peripheral handed to the crate is not the one asked for (another `USART` or
+    /// timer, say).
+    WrongPeripheral,
+    /// The slave was started already.
+    AlreadyStarted,
+}
+
+impl Error {
+    /// A one-line description, for build errors and logs.
+    pub const fn message(self) -> &'static str {
+        match self {
+            Error::SlaveId => "slave id must be 1-247",
+            Error::Baud => "baud rate must be 1200-1000000",
+            Error::BaudError => "baud rate more than 2.5% off at 16 MHz",
+            Error::BadReference => "not a classic reference (00001, 10001, 30001, 40001 ...)",
+            Error::NotFound => "address not in the bank",
+            Error::Duplicate => "address added twice",
+            Error::BadRange => "empty range, or past address 65535",
+            Error::RunsFull => "bank has no room for another run (RUNS)",
+            Error::RegistersFull => "bank has no room for more registers (REGS)",
+            Error::BitsFull => "bank has no room for more bits (BIT_BYTES)",
+            Error::ProtectionsFull => "bank has no room for another protected range",
+            Error::WrongPeripheral => "wrong peripheral",
+            Error::AlreadyStarted => "slave started twice",
+        }
+    }
+}
