@@ -37,8 +37,6 @@ pub fn millis() -> u32 {
 /// For the handlers that [`crate::slave!`] binds.
 #[doc(hidden)]
 pub mod __private {
-    pub use super::rtu::Interrupt;
-
     /// Timer0 overflow: the millisecond clock.
     #[inline(always)]
     pub fn timer0_overflow() {
@@ -70,20 +68,18 @@ macro_rules! slave {
         #[doc(hidden)]
         #[allow(non_snake_case)]
         mod __avr_modbus_slave_interrupts {
-            use $crate::__private::Interrupt;
-
             /// TIMER0_COMPA: the inter-character gap deadline.
             #[export_name = "__vector_14"]
             unsafe extern "avr-interrupt" fn TIMER0_COMPA() {
                 // SAFETY: an interrupt handler, which runs with interrupts disabled.
-                unsafe { super::$name.on_interrupt(Interrupt::TimerCompareA) }
+                unsafe { super::$name.on_timer_compare_a() }
             }
 
             /// TIMER0_COMPB: T3.5.
             #[export_name = "__vector_15"]
             unsafe extern "avr-interrupt" fn TIMER0_COMPB() {
                 // SAFETY: as above.
-                unsafe { super::$name.on_interrupt(Interrupt::TimerCompareB) }
+                unsafe { super::$name.on_timer_compare_b() }
             }
 
             /// TIMER0_OVF: the millisecond clock.
@@ -96,21 +92,21 @@ macro_rules! slave {
             #[export_name = "__vector_18"]
             unsafe extern "avr-interrupt" fn USART_RX() {
                 // SAFETY: as above.
-                unsafe { super::$name.on_interrupt(Interrupt::UsartRx) }
+                unsafe { super::$name.on_usart_rx() }
             }
 
             /// USART_UDRE: room for the next character of a reply.
             #[export_name = "__vector_19"]
             unsafe extern "avr-interrupt" fn USART_UDRE() {
                 // SAFETY: as above.
-                unsafe { super::$name.on_interrupt(Interrupt::UsartUdre) }
+                unsafe { super::$name.on_usart_udre() }
             }
 
             /// USART_TX: the reply has left the wire.
             #[export_name = "__vector_20"]
             unsafe extern "avr-interrupt" fn USART_TX() {
                 // SAFETY: as above.
-                unsafe { super::$name.on_interrupt(Interrupt::UsartTx) }
+                unsafe { super::$name.on_usart_tx() }
             }
         }
     };

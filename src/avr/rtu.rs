@@ -184,17 +184,6 @@ const IN_USE: u8 = 2;
 // the `Send` bounds.
 unsafe impl<M: Send, DE: Send, LED: Send> Sync for Slave<M, DE, LED> {}
 
-/// The interrupts the slave handles, for [`crate::slave!`].
-#[doc(hidden)]
-#[derive(Clone, Copy)]
-pub enum Interrupt {
-    UsartRx,
-    UsartUdre,
-    UsartTx,
-    TimerCompareA,
-    TimerCompareB,
-}
-
 impl<M, DE, LED> Slave<M, DE, LED> {
     /// A slave not yet started: what [`crate::slave!`] declares.
     #[doc(hidden)]
@@ -279,25 +268,61 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
         Ok(())
     }
 
-    /// Handles one of the slave's interrupts; called by the handlers [`crate::slave!`]
-    /// binds.
+    /// The handlers [`crate::slave!`] binds, one per interrupt, each inlined into its
+    /// vector.
     ///
     /// # Safety
-    /// Only from an interrupt handler (interrupts disabled), and one that does not
-    /// enable them.
+    /// Only from the interrupt handler it is named for (interrupts disabled), and one that
+    /// does not enable them.
     #[doc(hidden)]
     #[inline(always)]
-    pub unsafe fn on_interrupt(&self, interrupt: Interrupt) {
+    pub unsafe fn on_usart_rx(&self) {
         // SAFETY: interrupts are disabled (the caller's promise).
-        unsafe {
-            self.access(|s| match interrupt {
-                Interrupt::UsartRx => s.on_usart_rx(),
-                Interrupt::UsartUdre => s.on_usart_udre(),
-                Interrupt::UsartTx => s.on_usart_tx(),
-                Interrupt::TimerCompareA => s.on_timer_compare_a(),
-                Interrupt::TimerCompareB => s.on_timer_compare_b(),
-            })
-        };
+        unsafe { self.access(Running::on_usart_rx) };
+    }
+
+    /// See [`Slave::on_usart_rx`].
+    ///
+    /// # Safety
+    /// As for [`Slave::on_usart_rx`].
+    #[doc(hidden)]
+    #[inline(always)]
+    pub unsafe fn on_usart_udre(&self) {
+        // SAFETY: as above.
+        unsafe { self.access(Running::on_usart_udre) };
+    }
+
+    /// See [`Slave::on_usart_rx`].
+    ///
+    /// # Safety
+    /// As for [`Slave::on_usart_rx`].
+    #[doc(hidden)]
+    #[inline(always)]
+    pub unsafe fn on_usart_tx(&self) {
+        // SAFETY: as above.
+        unsafe { self.access(Running::on_usart_tx) };
+    }
+
+    /// See [`Slave::on_usart_rx`].
+    ///
+    /// # Safety
+    /// As for [`Slave::on_usart_rx`].
+    #[doc(hidden)]
+    #[inline(always)]
+    pub unsafe fn on_timer_compare_a(&self) {
+        // SAFETY: as above.
+        unsafe { self.access(Running::on_timer_compare_a) };
+    }
+
+    /// See [`Slave::on_usart_rx`].
+    ///
+    /// # Safety
+    /// As for [`Slave::on_usart_rx`].
+    #[doc(hidden)]
+    #[inline(always)]
+    pub unsafe fn on_timer_compare_b(&self) {
+        // SAFETY: as above.
+        unsafe { self.access(Running::on_timer_compare_b) };
     }
 
     /// Runs `f` on the data model with interrupts disabled: `None` before
