@@ -8,7 +8,7 @@ EXAMPLES := $(patsubst examples/%.rs,%,$(wildcard examples/*.rs))
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: help setup firmware sizes lint fmt-check clippy docs host-test test demo serve interop bench fuzz soak
+.PHONY: help setup firmware fixtures sizes lint fmt-check clippy docs host-test test demo serve interop bench fuzz soak
 
 help:
 	@echo "make demo   - build the Uno slave and poll it on a virtual Uno"
@@ -30,6 +30,17 @@ firmware: setup
 
 sizes: firmware
 
+# A user's firmware in the avr-hal template's form (fixtures/), outside the workspace, built
+# against avr-device 0.8.1 (arduino-hal's) and 0.9: tests/sim_template.rs runs both ELFs.
+FIXTURES := $(wildcard fixtures/template-*)
+fixtures: setup
+	@for f in $(FIXTURES); do \
+		echo "fixture: $$f"; \
+		(cd $$f && ../../.ci/cargo build --release --locked --target-dir ../../target/fixtures/$$(basename $$f)); \
+	done
+	@.ci/sizes $(foreach f,$(FIXTURES),target/fixtures/$(notdir $(f))/avr-none/release/$(subst .,,$(notdir $(f))).elf)
+
+
 fmt-check: setup
 	$(CARGO) fmt --all --check
 
@@ -39,22 +50,23 @@ OPTIONAL := diagnostics,extra-fc,write-protect
 clippy: setup
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL) -- -D warnings
-	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL),eeprom-settings -- -D warnings
+	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples -- -D warnings
-	$(CARGO) uno-clippy --examples --features examples,$(OPTIONAL),eeprom-settings -- -D warnings
+	$(CARGO) uno-clippy --examples --features examples,$(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 
 docs: setup
-	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings,ufmt
 	RUSTDOCFLAGS="-D warnings -C target-cpu=atmega328p" $(CARGO) doc --no-deps -p avr-modbus-slave --release \
-		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings
+		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings,ufmt
 
 lint: fmt-check clippy docs
 
-host-test: setup firmware
+host-test: setup firmware fixtures
 	$(CARGO) test --workspace --exclude virtual-uno
 	$(CARGO) test -p virtual-uno --bins
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL) --lib --test optional_functions --test exceptions --test adu --test framer --test bank
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings --test settings --test sim_configurable
+	$(CARGO) test -p avr-modbus-slave --features ufmt --test ufmt
 
 test: lint firmware host-test interop
 

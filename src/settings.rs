@@ -216,7 +216,7 @@ impl LineSettings {
 /// [`Config`] ([`Configurable::pending`], then [`Configurable::offer`]); the slave switches
 /// when the reply has left the wire ([`DataModel::take_new_settings`]), and the main loop
 /// stores what it switched to ([`Configurable::take_unsaved`]). On the Uno,
-/// `avr::Shared::poll_settings` does the main loop's part.
+/// `Slave::poll_settings` does the main loop's part.
 ///
 /// ```
 /// use avr_modbus_slave::settings::Configurable;

@@ -142,7 +142,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
     }
 
     /// Switches USART0, Timer0 and the slave id to settings the master wrote, if they are
-    /// ready (see [`Shared::poll_settings`]); called when nothing of a reply is left to send.
+    /// ready (see [`Slave::poll_settings`]); called when nothing of a reply is left to send.
     #[cfg(feature = "eeprom-settings")]
     #[inline(always)]
     fn apply_new_settings(&mut self) {

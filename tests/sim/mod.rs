@@ -7,7 +7,7 @@
 //! Each test crate uses a different subset of these helpers.
 #![allow(dead_code)]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use uno_sim::{Parity, TxByte, Uno, F_CPU};
 
@@ -244,7 +244,12 @@ impl Rtu {
 
     /// Boots example `name` after `before_reset` set up the board (pins, voltages).
     pub fn boot_with(name: &str, line: Line, before_reset: impl FnOnce(&mut Uno)) -> Rtu {
-        let mut uno = Uno::load(firmware(name)).expect("firmware loads");
+        Rtu::boot_elf(&firmware(name), line, before_reset)
+    }
+
+    /// Boots the firmware at `elf`, which must use `line`.
+    pub fn boot_elf(elf: &Path, line: Line, before_reset: impl FnOnce(&mut Uno)) -> Rtu {
+        let mut uno = Uno::load(elf).expect("firmware loads");
         before_reset(&mut uno);
         let tick = timer0_tick(&mut uno);
         uno.run_until(BOOT_CYCLES).expect("firmware runs");
