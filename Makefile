@@ -36,9 +36,9 @@ FIXTURES := $(wildcard fixtures/template-*)
 fixtures: setup
 	@for f in $(FIXTURES); do \
 		echo "fixture: $$f"; \
-		(cd $$f && ../../.ci/cargo build --release --locked --target-dir ../../target/fixtures/$$(basename $$f)); \
+		(cd $$f && ../../.ci/cargo build --release --locked --target-dir ../../target/fixtures); \
 	done
-	@.ci/sizes $(foreach f,$(FIXTURES),target/fixtures/$(notdir $(f))/avr-none/release/$(subst .,,$(notdir $(f))).elf)
+	@.ci/sizes $(foreach f,$(FIXTURES),target/fixtures/avr-none/release/$(subst .,,$(notdir $(f))).elf)
 
 
 fmt-check: setup

@@ -15,11 +15,7 @@ fn fixture(version: &str) -> PathBuf {
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target"));
     let name = format!("template-avr-device-{version}");
-    let elf = target
-        .join("fixtures")
-        .join(&name)
-        .join("avr-none/release")
-        .join(format!("{}.elf", name.replace('.', "")));
+    let elf = target.join("fixtures/avr-none/release").join(format!("{}.elf", name.replace('.', "")));
     assert!(elf.is_file(), "{} is missing: run `make fixtures` first", elf.display());
     elf
 }
