@@ -52,6 +52,17 @@ pub(crate) enum Diagnosed {
     Restart(usize),
 }
 
+/// True for FC 8 sub-function 04 with data 0000 (`pdu` without address and CRC): it puts
+/// the slave in listen-only mode and gets no reply.
+pub(crate) fn forces_listen_only(pdu: &[u8]) -> bool {
+    matches!(pdu, [DIAGNOSTICS, 0x00, 0x04, 0x00, 0x00])
+}
+
+/// True for FC 8 sub-function 01 with data 0000 or FF00: restart communications.
+pub(crate) fn restarts_communications(pdu: &[u8]) -> bool {
+    matches!(pdu, [DIAGNOSTICS, 0x00, 0x01, 0x00 | 0xFF, 0x00])
+}
+
 fn put(pdu: &mut [u8], at: usize, value: u16) {
     if let Some(slot) = pdu.get_mut(at..at + 2) {
         slot.copy_from_slice(&value.to_be_bytes());
@@ -98,8 +109,13 @@ pub(crate) fn respond<M: DataModel + ?Sized>(
 }
 
 fn diagnostics(pdu: &mut [u8], len: usize, counters: &Counters) -> Result<Diagnosed, Exception> {
-    let sub = word(pdu, 1);
-    let data = word(pdu, 3);
+    // Only the request's own bytes count: past `len` the buffer holds its CRC.
+    let request = pdu.get(..len).unwrap_or(&[]);
+    if len < 3 {
+        return Err(Exception::IllegalDataValue);
+    }
+    let sub = word(request, 1);
+    let data = word(request, 3);
     // Return Query Data echoes any number of data words; the others carry exactly one.
     if sub == 0x0000 {
         return if len >= 3 && len % 2 == 1 { Ok(Diagnosed::Reply(len)) } else { Err(Exception::IllegalDataValue) };

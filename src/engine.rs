@@ -70,9 +70,11 @@ pub enum EndOfFrame {
     Reply,
     /// A good broadcast: call [`Engine::process`] to execute it; nothing is sent.
     Broadcast,
-    /// A good frame for this slave while it is in listen-only mode (FC 8 sub-function
-    /// 04): call [`Engine::process`], which only acts on a restart; nothing is sent.
-    ListenOnly,
+    /// A good frame for this slave that gets no reply: every frame while the slave is in
+    /// listen-only mode, and FC 8 sub-function 04 that puts it there (Application
+    /// Protocol v1.1b3 §6.8.1). Call [`Engine::process`]; nothing is sent, not even the
+    /// address.
+    Silent,
 }
 
 /// A Modbus RTU slave's protocol state: the frame buffer, the address, the counters.
@@ -91,7 +93,7 @@ enum Pending {
     None,
     Unicast(usize),
     Broadcast(usize),
-    ListenOnly(usize),
+    Silent(usize),
 }
 
 impl Engine {
@@ -156,25 +158,46 @@ impl Engine {
         };
         bump(&mut self.counters.frames);
         let address = self.framer.buffer()[0];
-        if address == self.id.get() && self.listen_only {
-            bump(&mut self.counters.messages);
-            bump(&mut self.counters.no_response);
-            self.pending = Pending::ListenOnly(len);
-            EndOfFrame::ListenOnly
-        } else if address == self.id.get() {
-            bump(&mut self.counters.messages);
-            self.pending = Pending::Unicast(len);
-            EndOfFrame::Reply
-        } else if address == SlaveId::BROADCAST {
-            bump(&mut self.counters.messages);
+        if address != self.id.get() && address != SlaveId::BROADCAST {
+            self.framer.release();
+            return EndOfFrame::OtherSlave;
+        }
+        bump(&mut self.counters.messages);
+        let broadcast = address == SlaveId::BROADCAST;
+        if broadcast {
             bump(&mut self.counters.broadcasts);
+        }
+        // Whether anything will be sent is decided here, before the first byte could
+        // leave: the AVR layer starts the reply with the address as soon as this returns.
+        if self.listen_only || (!broadcast && self.enters_listen_only(len)) {
+            bump(&mut self.counters.no_response);
+            self.pending = Pending::Silent(len);
+            EndOfFrame::Silent
+        } else if broadcast {
             bump(&mut self.counters.no_response);
             self.pending = Pending::Broadcast(len);
             EndOfFrame::Broadcast
         } else {
-            self.framer.release();
-            EndOfFrame::OtherSlave
+            self.pending = Pending::Unicast(len);
+            EndOfFrame::Reply
         }
+    }
+
+    /// The request PDU of the frame of `len` bytes (with address and CRC) in the buffer.
+    fn request(&self, len: usize) -> &[u8] {
+        self.framer.buffer().get(1..len.saturating_sub(2).max(1)).unwrap_or(&[])
+    }
+
+    /// True for FC 8 sub-function 04 with data 0000: the one request that is executed
+    /// but never answered.
+    #[cfg(feature = "diagnostics")]
+    fn enters_listen_only(&self, len: usize) -> bool {
+        crate::diagnostics::forces_listen_only(self.request(len))
+    }
+
+    #[cfg(not(feature = "diagnostics"))]
+    fn enters_listen_only(&self, _len: usize) -> bool {
+        false
     }
 
     /// Executes the frame that [`Engine::on_end_deadline`] accepted and writes the reply
@@ -206,9 +229,9 @@ impl Engine {
                 self.execute_silently(len, model);
                 return 0;
             }
-            Pending::ListenOnly(_len) => {
+            Pending::Silent(_len) => {
                 #[cfg(feature = "diagnostics")]
-                self.listen(_len);
+                self.silent(_len);
                 self.framer.release();
                 return 0;
             }
@@ -233,12 +256,12 @@ impl Engine {
                 restart = true;
                 Ok(n)
             }
+            // Classified as silent by `on_end_deadline`, so never met here; were it met,
+            // the request would still be answered, as an echo.
             #[cfg(feature = "diagnostics")]
             Ok(Diagnosed::ListenOnly) => {
                 self.listen_only = true;
-                bump(&mut self.counters.no_response);
-                self.framer.release();
-                return 0;
+                Ok(pdu_len)
             }
             Err(e) => Err(e),
         };
@@ -267,24 +290,24 @@ impl Engine {
 
     /// A broadcast: writes are executed, nothing is answered.
     fn execute_silently<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M) {
-        let pdu = self.framer.buffer().get(1..1 + len.saturating_sub(3)).unwrap_or(&[]);
-        match Request::parse(pdu).and_then(|r| if r.is_write() { r.write(model) } else { Ok(()) }) {
+        match Request::parse(self.request(len)).and_then(|r| if r.is_write() { r.write(model) } else { Ok(()) }) {
             Ok(()) => bump(&mut self.counters.events),
             Err(_) => bump(&mut self.counters.exceptions),
         }
         self.framer.release();
     }
 
-    /// In listen-only mode only FC 8 sub-function 01 (restart communications) is acted
-    /// on, and even that is not answered.
+    /// A frame that gets no reply. FC 8 sub-function 04 enters listen-only mode; in it,
+    /// only FC 8 sub-function 01 (restart communications) is acted on, and even that is
+    /// not answered. Nothing else is executed, broadcasts included.
     #[cfg(feature = "diagnostics")]
-    fn listen(&mut self, len: usize) {
-        let pdu = self.framer.buffer().get(1..1 + len.saturating_sub(3)).unwrap_or(&[]);
-        if let [crate::diagnostics::DIAGNOSTICS, 0x00, 0x01, data_hi, 0x00] = *pdu {
-            if data_hi == 0x00 || data_hi == 0xFF {
-                self.counters = Counters::new();
-                self.listen_only = false;
-            }
+    fn silent(&mut self, len: usize) {
+        let pdu = self.request(len);
+        if !self.listen_only {
+            self.listen_only = crate::diagnostics::forces_listen_only(pdu);
+        } else if crate::diagnostics::restarts_communications(pdu) && self.framer.buffer()[0] != SlaveId::BROADCAST {
+            self.counters = Counters::new();
+            self.listen_only = false;
         }
     }
 
@@ -317,7 +340,7 @@ impl Engine {
             self.on_byte(byte);
         }
         let end = self.on_end_deadline();
-        if matches!(end, EndOfFrame::Reply | EndOfFrame::Broadcast | EndOfFrame::ListenOnly) {
+        if matches!(end, EndOfFrame::Reply | EndOfFrame::Broadcast | EndOfFrame::Silent) {
             self.process(model);
         }
         end

@@ -212,18 +212,53 @@ mod diagnostics {
     fn fc8_sub4_silences_the_slave_until_sub1() {
         let (mut slave, mut bank) = (slave(), bank());
         let listen_only = to_slave(&[0x08, 0x00, 0x04, 0x00, 0x00]);
-        assert_eq!(slave.handle_frame(&listen_only, &mut bank), EndOfFrame::Reply);
+        assert_eq!(slave.handle_frame(&listen_only, &mut bank), EndOfFrame::Silent, "decided before any byte");
         assert!(slave.reply().is_empty(), "force listen only is never answered");
         assert!(slave.is_listen_only());
-        assert_eq!(slave.handle_frame(&read_1(), &mut bank), EndOfFrame::ListenOnly);
+        assert_eq!(slave.handle_frame(&read_1(), &mut bank), EndOfFrame::Silent);
         // A write is not executed either.
         slave.handle_frame(&to_slave(&[0x06, 0x00, 0x00, 0x12, 0x34]), &mut bank);
         assert_eq!(bank.get(40001), Ok(0));
         let restart = to_slave(&[0x08, 0x00, 0x01, 0x00, 0x00]);
-        assert_eq!(slave.handle_frame(&restart, &mut bank), EndOfFrame::ListenOnly, "restart is not answered");
+        assert_eq!(slave.handle_frame(&restart, &mut bank), EndOfFrame::Silent, "restart is not answered");
         assert!(!slave.is_listen_only());
         assert_eq!(slave.counters(), avr_modbus_slave::Counters::new(), "restart clears the counters");
         assert_eq!(ask(&mut slave, &mut bank, &read_1()), to_slave(&[0x03, 0x02, 0x00, 0x00]));
+    }
+
+    #[test]
+    fn broadcast_writes_are_not_executed_in_listen_only_mode() {
+        let (mut slave, mut bank) = (slave(), bank());
+        slave.handle_frame(&to_slave(&[0x08, 0x00, 0x04, 0x00, 0x00]), &mut bank);
+        let broadcast = with_crc(&[
+            0x00, // broadcast
+            0x06, // write single register
+            0x00, 0x00, // 40001
+            0x12, 0x34, // value
+        ]);
+        assert_eq!(slave.handle_frame(&broadcast, &mut bank), EndOfFrame::Silent);
+        assert_eq!(bank.get(40001), Ok(0), "nothing is executed until FC 8/01");
+        // A broadcast restart is not one addressed to this slave: it stays silent.
+        let broadcast_restart = with_crc(&[0x00, 0x08, 0x00, 0x01, 0x00, 0x00]);
+        slave.handle_frame(&broadcast_restart, &mut bank);
+        assert!(slave.is_listen_only());
+    }
+
+    #[test]
+    fn fc8_sub4_with_other_data_is_answered_with_exception_03() {
+        let (mut slave, mut bank) = (slave(), bank());
+        let request = to_slave(&[0x08, 0x00, 0x04, 0xFF, 0x00]);
+        assert_eq!(slave.handle_frame(&request, &mut bank), EndOfFrame::Reply);
+        assert_eq!(slave.reply(), exception_reply(0x08, 0x03));
+        assert!(!slave.is_listen_only());
+    }
+
+    #[test]
+    fn fc8_pdu_shorter_than_its_fixed_part_is_exception_03_whatever_the_crc() {
+        let (mut slave, mut bank) = (slave(), bank());
+        for pdu in [&[0x08][..], &[0x08, 0x00], &[0x08, 0x0C], &[0x08, 0x00, 0x0B], &[0x08, 0x00, 0x0B, 0x00]] {
+            assert_eq!(ask(&mut slave, &mut bank, &to_slave(pdu)), exception_reply(0x08, 0x03), "PDU {pdu:02X?}");
+        }
     }
 
     #[test]

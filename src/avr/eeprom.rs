@@ -78,7 +78,7 @@ impl Eeprom {
     /// started (it completes ≈3.4 ms later, on its own); false when the byte was already
     /// there or `address` is past the end.
     pub fn update(&mut self, address: u16, byte: u8) -> bool {
-        if self.read(address).is_none_or(|current| current == byte) {
+        if self.read(address).map_or(true, |current| current == byte) {
             return false;
         }
         EEDR.write(byte);

@@ -102,7 +102,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
                 self.tx_next = 1;
                 self.usart.start_feeding();
             }
-            EndOfFrame::Broadcast | EndOfFrame::ListenOnly => {
+            EndOfFrame::Broadcast | EndOfFrame::Silent => {
                 self.engine.process(&mut self.model);
             }
             EndOfFrame::Nothing | EndOfFrame::Dropped(_) | EndOfFrame::OtherSlave => {}
