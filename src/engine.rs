@@ -329,16 +329,27 @@ impl Engine {
         self.framer.release();
     }
 
-    /// Handles one whole frame as if it had arrived with correct timing: the ADU layer in
-    /// one call, for tests and for links that deliver frames ready-made. Afterwards
-    /// [`Engine::reply`] holds the reply, if the result is [`EndOfFrame::Reply`].
+    /// Handles one whole frame as if it had arrived with correct timing: T3.5 of silence,
+    /// the frame's bytes, T3.5 of silence. The ADU layer in one call, for tests and for
+    /// links that deliver frames ready-made. Afterwards [`Engine::reply`] holds the reply,
+    /// if the result is [`EndOfFrame::Reply`].
+    ///
+    /// It can be mixed with the event methods ([`Engine::on_byte`] and the rest): as on
+    /// the wire, the silence before the frame first ends whatever they fed, which is then
+    /// handled as the AVR layer would (counted, executed if it is a good frame for this
+    /// slave; its reply is discarded), and a reply not yet sent is abandoned.
     pub fn handle_frame<M: DataModel + ?Sized>(&mut self, frame: &[u8], model: &mut M) -> EndOfFrame {
+        self.complete(model);
         self.on_reply_sent();
-        // Silence before the frame (also ends the power-up wait).
-        self.framer.on_end_deadline();
         for &byte in frame {
             self.on_byte(byte);
         }
+        self.complete(model)
+    }
+
+    /// T3.5 of silence: ends the frame in progress and executes it if it is one to
+    /// execute (also ends the power-up wait).
+    fn complete<M: DataModel + ?Sized>(&mut self, model: &mut M) -> EndOfFrame {
         let end = self.on_end_deadline();
         if matches!(end, EndOfFrame::Reply | EndOfFrame::Broadcast | EndOfFrame::Silent) {
             self.process(model);

@@ -409,3 +409,33 @@ fn prepare_leaves_the_crc_to_the_sender() {
     assert_eq!(lazy.reply(), &expected[..body]);
     assert_eq!(reference_crc(lazy.reply()).to_le_bytes(), expected[body..]);
 }
+
+#[test]
+fn bytes_fed_one_by_one_end_at_the_silence_before_a_whole_frame() {
+    let mut bank = spec_bank();
+    let mut slave = slave();
+    let request = to_slave(&[0x03, 0x00, 0x6B, 0x00, 0x03]);
+    slave.on_end_deadline(); // the power-up silence
+    // Half a frame on the byte path, then the whole frame in one call: the silence before
+    // it ends the half frame (too short: dropped and counted), and the frame is answered.
+    for &byte in &request[..3] {
+        slave.on_byte(byte);
+    }
+    assert_eq!(slave.handle_frame(&request, &mut bank), EndOfFrame::Reply);
+    assert_eq!(slave.reply(), with_crc(&[ID, 0x03, 0x06, 0x02, 0x2B, 0x00, 0x00, 0x00, 0x64]));
+    assert_eq!(slave.counters().malformed, 1);
+}
+
+#[test]
+fn a_whole_frame_fed_byte_by_byte_is_executed_before_the_next_whole_frame() {
+    let mut bank = spec_bank();
+    let mut slave = slave();
+    slave.on_end_deadline(); // the power-up silence
+    let write = to_slave(&[0x06, 0x00, 0x6B, 0x12, 0x34]);
+    for &byte in &write {
+        slave.on_byte(byte);
+    }
+    let read = to_slave(&[0x03, 0x00, 0x6B, 0x00, 0x01]);
+    assert_eq!(slave.handle_frame(&read, &mut bank), EndOfFrame::Reply, "not swallowed");
+    assert_eq!(slave.reply(), with_crc(&[ID, 0x03, 0x02, 0x12, 0x34]), "the write came first");
+}
