@@ -64,7 +64,7 @@ lint: fmt-check clippy docs
 host-test: setup firmware fixtures
 	$(CARGO) test --workspace --exclude virtual-uno
 	$(CARGO) test -p virtual-uno --bins
-	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL) --lib --test optional_functions --test exceptions --test adu --test framer --test bank
+	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL) --lib --test optional_functions --test exceptions --test adu --test framer --test bank --test random_frames
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings --test settings --test sim_configurable
 	$(CARGO) test -p avr-modbus-slave --features ufmt --test ufmt
 

@@ -16,7 +16,6 @@ pub const MIN_FRAME: usize = 4;
 
 /// Why a frame was dropped in silence (never answered with an exception).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[non_exhaustive]
 pub enum FrameError {
     /// Fewer than 4 bytes between two T3.5 silences.
     TooShort,

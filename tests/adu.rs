@@ -416,8 +416,8 @@ fn bytes_fed_one_by_one_end_at_the_silence_before_a_whole_frame() {
     let mut slave = slave();
     let request = to_slave(&[0x03, 0x00, 0x6B, 0x00, 0x03]);
     slave.on_end_deadline(); // the power-up silence
-    // Half a frame on the byte path, then the whole frame in one call: the silence before
-    // it ends the half frame (too short: dropped and counted), and the frame is answered.
+                             // Half a frame on the byte path, then the whole frame in one call: the silence before
+                             // it ends the half frame (too short: dropped and counted), and the frame is answered.
     for &byte in &request[..3] {
         slave.on_byte(byte);
     }

@@ -4,16 +4,17 @@
 //!
 //! The model is a `BTreeMap` of what the bank holds and a straightforward reading of
 //! Application Protocol §6–7 and Serial Line §2.4–2.5; it shares no code with the crate.
-//! It knows the eight core function codes, so it runs on builds without the optional
-//! ones (features `diagnostics`, `extra-fc`; those have their own tests).
-#![cfg(not(any(feature = "diagnostics", feature = "extra-fc")))]
+//! It knows the eight core function codes and, when the build has them, the optional
+//! ones: FC 22 and 23 (feature `extra-fc`), FC 7, 8, 11 and 17 with the serial-line
+//! counters and listen-only mode (feature `diagnostics`). It counts as the serial-line spec
+//! says, and every property compares the slave's counters with the model's.
 
 mod common;
 
 use std::collections::BTreeMap;
 
 use avr_modbus_slave::internal::{EndOfFrame, Engine, FrameError, UartError};
-use avr_modbus_slave::{Bank, Reference, Table};
+use avr_modbus_slave::{Bank, Counters, Reference, Table};
 use common::{reference_crc, with_crc, ID};
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -54,9 +55,17 @@ fn config() -> ProptestConfig {
 
 // ---- the reference model ----------------------------------------------------------------
 
-/// What the bank holds: (table, address) → value (0/1 for bits).
+/// What the bank holds, (table, address) → value (0/1 for bits), and what the slave has
+/// counted.
 #[derive(Clone, Debug, PartialEq)]
-struct Model(BTreeMap<(Table, u16), u16>);
+struct Model {
+    values: BTreeMap<(Table, u16), u16>,
+    counts: Counters,
+    listen_only: bool,
+}
+
+const DIAGNOSTICS: bool = cfg!(feature = "diagnostics");
+const EXTRA_FC: bool = cfg!(feature = "extra-fc");
 
 fn is_bits(table: Table) -> bool {
     matches!(table, Table::Coils | Table::DiscreteInputs)
@@ -75,7 +84,11 @@ fn fixture(salt: u16) -> (RandomBank, Model) {
             model.insert((table, address), value);
         }
     }
-    (bank, Model(model))
+    (bank, Model { values: model, counts: Counters::new(), listen_only: false })
+}
+
+fn bump(counter: &mut u16) {
+    *counter = counter.wrapping_add(1);
 }
 
 impl Model {
@@ -85,7 +98,7 @@ impl Model {
         if end > 0x1_0000 {
             return Err(2);
         }
-        let all = (u32::from(start)..end).all(|a| self.0.contains_key(&(table, a as u16)));
+        let all = (u32::from(start)..end).all(|a| self.values.contains_key(&(table, a as u16)));
         if all {
             Ok(())
         } else {
@@ -94,7 +107,7 @@ impl Model {
     }
 
     fn value(&self, table: Table, address: u32) -> u16 {
-        self.0[&(table, address as u16)]
+        self.values[&(table, address as u16)]
     }
 
     /// The response PDU to `pdu`, or the exception code; applies writes.
@@ -141,12 +154,12 @@ impl Model {
                             return Err(3);
                         }
                         self.check(Table::Coils, a, 1)?;
-                        self.0.insert((Table::Coils, a), u16::from(b == 0xFF00));
+                        self.values.insert((Table::Coils, a), u16::from(b == 0xFF00));
                         Ok(pdu.to_vec())
                     }
                     _ => {
                         self.check(Table::HoldingRegisters, a, 1)?;
-                        self.0.insert((Table::HoldingRegisters, a), b);
+                        self.values.insert((Table::HoldingRegisters, a), b);
                         Ok(pdu.to_vec())
                     }
                 }
@@ -172,12 +185,140 @@ impl Model {
                     } else {
                         u16::from_be_bytes([data[2 * k], data[2 * k + 1]])
                     };
-                    self.0.insert((table, start + k as u16), value);
+                    self.values.insert((table, start + k as u16), value);
                 }
                 Ok(pdu[..5].to_vec())
             }
+            0x16 if EXTRA_FC => {
+                if pdu.len() != 7 {
+                    return Err(3);
+                }
+                let (address, and, or) = (word(1), word(3), word(5));
+                self.check(Table::HoldingRegisters, address, 1)?;
+                let current = self.value(Table::HoldingRegisters, u32::from(address));
+                self.values.insert((Table::HoldingRegisters, address), (current & and) | (or & !and));
+                Ok(pdu.to_vec())
+            }
+            0x17 if EXTRA_FC => {
+                if pdu.len() < 10 {
+                    return Err(3);
+                }
+                let (read_start, read_qty, write_start, write_qty) = (word(1), word(3), word(5), word(7));
+                let byte_count = usize::from(pdu[9]);
+                if !(1..=125).contains(&read_qty)
+                    || !(1..=121).contains(&write_qty)
+                    || byte_count != 2 * usize::from(write_qty)
+                    || pdu.len() != 10 + byte_count
+                {
+                    return Err(3);
+                }
+                if u32::from(read_start) + u32::from(read_qty) > 0x1_0000
+                    || u32::from(write_start) + u32::from(write_qty) > 0x1_0000
+                {
+                    return Err(2);
+                }
+                // Both ranges exist before anything is written; the write comes first.
+                self.check(Table::HoldingRegisters, read_start, read_qty)?;
+                self.check(Table::HoldingRegisters, write_start, write_qty)?;
+                for k in 0..usize::from(write_qty) {
+                    let value = u16::from_be_bytes([pdu[10 + 2 * k], pdu[11 + 2 * k]]);
+                    self.values.insert((Table::HoldingRegisters, write_start + k as u16), value);
+                }
+                let mut out = vec![function, (2 * read_qty) as u8];
+                for k in 0..u32::from(read_qty) {
+                    out.extend(self.value(Table::HoldingRegisters, u32::from(read_start) + k).to_be_bytes());
+                }
+                Ok(out)
+            }
+            0x07 | 0x0B | 0x11 if DIAGNOSTICS && pdu.len() != 1 => Err(3),
+            // Exception status: the bank's eight bits, all clear here.
+            0x07 if DIAGNOSTICS => Ok(vec![0x07, 0x00]),
+            0x0B if DIAGNOSTICS => {
+                let [hi, lo] = self.counts.events.to_be_bytes();
+                Ok(vec![0x0B, 0x00, 0x00, hi, lo])
+            }
+            // Byte count, slave id, run indicator ON; no device description here.
+            0x11 if DIAGNOSTICS => Ok(vec![0x11, 0x02, ID, 0xFF]),
+            0x08 if DIAGNOSTICS => self.diagnostics(pdu),
             _ => Err(1),
         }
+    }
+
+    /// FC 8 (Application Protocol §6.8): the counter sub-functions answer with the count
+    /// as it stands when the request is handled (this request already counted as a
+    /// message).
+    fn diagnostics(&self, pdu: &[u8]) -> Result<Vec<u8>, u8> {
+        if pdu.len() < 3 {
+            return Err(3);
+        }
+        let sub = u16::from_be_bytes([pdu[1], pdu[2]]);
+        if sub == 0x0000 {
+            return if pdu.len() % 2 == 1 { Ok(pdu.to_vec()) } else { Err(3) };
+        }
+        let c = &self.counts;
+        let counter = match sub {
+            0x01 | 0x04 | 0x0A => None,
+            0x0B => Some(c.frames),
+            0x0C => Some(c.crc_errors),
+            0x0D => Some(c.exceptions),
+            0x0E => Some(c.messages),
+            0x0F => Some(c.no_response),
+            0x10 | 0x11 => Some(0),
+            0x12 => Some(c.overruns),
+            _ => return Err(1),
+        };
+        let data = if pdu.len() == 5 { u16::from_be_bytes([pdu[3], pdu[4]]) } else { 1 };
+        if pdu.len() != 5 || !(data == 0 || (sub == 0x01 && data == 0xFF00)) {
+            return Err(3);
+        }
+        let mut out = pdu.to_vec();
+        if let Some(value) = counter {
+            out[3..5].copy_from_slice(&value.to_be_bytes());
+        }
+        Ok(out)
+    }
+
+    /// A broadcast read (or anything else but a write) as far as parsing goes: length,
+    /// quantity, and the range inside 0–65535; the addresses are never looked up.
+    fn parse_read(pdu: &[u8]) -> Result<(), u8> {
+        let max = match pdu[0] {
+            0x01 | 0x02 => 2000,
+            0x03 | 0x04 => 125,
+            _ => return Err(1),
+        };
+        if pdu.len() != 5 {
+            return Err(3);
+        }
+        let (start, qty) = (u16::from_be_bytes([pdu[1], pdu[2]]), u16::from_be_bytes([pdu[3], pdu[4]]));
+        if qty == 0 || qty > max {
+            return Err(3);
+        }
+        if u32::from(start) + u32::from(qty) > 0x1_0000 {
+            return Err(2);
+        }
+        Ok(())
+    }
+
+    /// FC 8 sub-function 04 with data 0000: listen-only mode, never answered.
+    fn forces_listen_only(pdu: &[u8]) -> bool {
+        DIAGNOSTICS && pdu == [0x08, 0x00, 0x04, 0x00, 0x00]
+    }
+
+    /// FC 8 sub-functions 01 (restart) and 0A (clear counters): counters cleared after the
+    /// reply.
+    fn clears_counters(pdu: &[u8]) -> bool {
+        DIAGNOSTICS && ((pdu.len() == 5 && pdu[..3] == [0x08, 0x00, 0x01]) || pdu == [0x08, 0x00, 0x0A, 0x00, 0x00])
+    }
+
+    /// The counts of a frame dropped for `reason`.
+    fn dropped(&mut self, reason: FrameError) {
+        bump(&mut self.counts.frames);
+        bump(match reason {
+            FrameError::BadCrc => &mut self.counts.crc_errors,
+            FrameError::Uart => &mut self.counts.uart_errors,
+            FrameError::Overrun | FrameError::TooLong => &mut self.counts.overruns,
+            FrameError::TooShort | FrameError::Gap => &mut self.counts.malformed,
+        });
     }
 
     /// What a whole frame (with correct timing) should lead to, and the reply if any.
@@ -186,32 +327,76 @@ impl Model {
         if n == 0 {
             return (EndOfFrame::Nothing, vec![]);
         }
-        if n > 256 {
-            return (EndOfFrame::Dropped(FrameError::TooLong), vec![]);
+        let reason = if n > 256 {
+            Some(FrameError::TooLong)
+        } else if n < 4 {
+            Some(FrameError::TooShort)
+        } else {
+            let crc = reference_crc(&frame[..n - 2]);
+            (frame[n - 2..] != [crc as u8, (crc >> 8) as u8]).then_some(FrameError::BadCrc)
+        };
+        if let Some(reason) = reason {
+            self.dropped(reason);
+            return (EndOfFrame::Dropped(reason), vec![]);
         }
-        if n < 4 {
-            return (EndOfFrame::Dropped(FrameError::TooShort), vec![]);
-        }
-        let crc = reference_crc(&frame[..n - 2]);
-        if frame[n - 2..] != [crc as u8, (crc >> 8) as u8] {
-            return (EndOfFrame::Dropped(FrameError::BadCrc), vec![]);
-        }
+        self.good_frame(frame)
+    }
+
+    /// A frame whose CRC is right.
+    fn good_frame(&mut self, frame: &[u8]) -> (EndOfFrame, Vec<u8>) {
+        let n = frame.len();
+        bump(&mut self.counts.frames);
         let pdu = &frame[1..n - 2];
-        match frame[0] {
-            0 => {
-                if matches!(pdu[0], 0x05 | 0x06 | 0x0F | 0x10) {
-                    let _ = self.respond(pdu);
-                }
-                (EndOfFrame::Broadcast, vec![])
-            }
-            ID => {
-                let reply_pdu = self.respond(pdu).unwrap_or_else(|code| vec![pdu[0] | 0x80, code]);
-                let mut reply = vec![ID];
-                reply.extend(reply_pdu);
-                (EndOfFrame::Reply, with_crc(&reply))
-            }
-            _ => (EndOfFrame::OtherSlave, vec![]),
+        let (address, broadcast) = (frame[0], frame[0] == 0);
+        if address != ID && !broadcast {
+            return (EndOfFrame::OtherSlave, vec![]);
         }
+        bump(&mut self.counts.messages);
+        if broadcast {
+            bump(&mut self.counts.broadcasts);
+        }
+        if self.listen_only || (!broadcast && Self::forces_listen_only(pdu)) {
+            // Listen-only (Application Protocol §6.8.1): nothing executed, nothing sent;
+            // only a restart addressed to this slave ends it.
+            bump(&mut self.counts.no_response);
+            if !self.listen_only {
+                self.listen_only = true;
+            } else if !broadcast
+                && pdu.len() == 5
+                && pdu[..3] == [0x08, 0x00, 0x01]
+                && (pdu[3] == 0 || pdu[3] == 0xFF)
+                && pdu[4] == 0
+            {
+                self.counts = Counters::new();
+                self.listen_only = false;
+            }
+            return (EndOfFrame::Silent, vec![]);
+        }
+        if broadcast {
+            bump(&mut self.counts.no_response);
+            let writes = [0x05, 0x06, 0x0F, 0x10].contains(&pdu[0]) || (EXTRA_FC && [0x16, 0x17].contains(&pdu[0]));
+            // Writes are carried out; reads are only parsed (and may fail), never read.
+            let result = if writes { self.respond(pdu).map(|_| ()) } else { Self::parse_read(pdu) };
+            match result {
+                Ok(()) => bump(&mut self.counts.events),
+                Err(_) => bump(&mut self.counts.exceptions),
+            }
+            return (EndOfFrame::Broadcast, vec![]);
+        }
+        let result = self.respond(pdu);
+        match &result {
+            Ok(_) if pdu[0] != 0x0B || !DIAGNOSTICS => bump(&mut self.counts.events),
+            Ok(_) => {}
+            Err(_) => bump(&mut self.counts.exceptions),
+        }
+        bump(&mut self.counts.replies);
+        if result.is_ok() && Self::clears_counters(pdu) {
+            self.counts = Counters::new();
+        }
+        let reply_pdu = result.unwrap_or_else(|code| vec![pdu[0] | 0x80, code]);
+        let mut reply = vec![ID];
+        reply.extend(reply_pdu);
+        (EndOfFrame::Reply, with_crc(&reply))
     }
 }
 
@@ -243,18 +428,21 @@ fn check_well_formed(reply: &[u8], request_function: Option<u8>) -> Result<(), T
 
 /// The bank holds exactly the model's values, and nothing next to its runs.
 fn check_bank(bank: &RandomBank, model: &Model) -> Result<(), TestCaseError> {
-    for (&(table, address), &value) in &model.0 {
+    for (&(table, address), &value) in &model.values {
         prop_assert_eq!(bank.get(Reference { table, address }), Ok(value), "{:?} {}", table, address);
     }
     for (table, first, count) in LAYOUT {
         if let Some(before) = first.checked_sub(1) {
             prop_assert_eq!(
                 bank.contains(Reference { table, address: before }),
-                model.0.contains_key(&(table, before))
+                model.values.contains_key(&(table, before))
             );
         }
         if let Some(after) = first.checked_add(count) {
-            prop_assert_eq!(bank.contains(Reference { table, address: after }), model.0.contains_key(&(table, after)));
+            prop_assert_eq!(
+                bank.contains(Reference { table, address: after }),
+                model.values.contains_key(&(table, after))
+            );
         }
     }
     Ok(())
@@ -271,6 +459,8 @@ fn exchange(slave: &mut Engine, bank: &mut RandomBank, model: &mut Model, frame:
     if end != EndOfFrame::Reply {
         prop_assert!(reply.is_empty());
     }
+    prop_assert_eq!(slave.counters(), model.counts, "frame {:02X?}", frame);
+    prop_assert_eq!(slave.is_listen_only(), model.listen_only);
     check_bank(bank, model)
 }
 
@@ -292,6 +482,8 @@ fn quantity() -> impl Strategy<Value = u16> {
 fn function() -> impl Strategy<Value = u8> {
     prop_oneof![
         8 => select(vec![0x01u8, 0x02, 0x03, 0x04, 0x05, 0x06, 0x0F, 0x10]),
+        // The optional ones: exception 01 in a build without their feature.
+        3 => select(vec![0x07u8, 0x08, 0x0B, 0x11, 0x16, 0x17]),
         1 => any::<u8>(),
     ]
 }
@@ -301,6 +493,26 @@ fn function() -> impl Strategy<Value = u8> {
 fn request_pdu() -> impl Strategy<Value = Vec<u8>> {
     (function(), address(), quantity(), any::<u16>(), any::<u64>()).prop_map(|(function, start, qty, raw, seed)| {
         let mut pdu = vec![function];
+        match function {
+            // No data: a longer PDU is exception 03.
+            0x07 | 0x0B | 0x11 => {
+                pdu.extend((0..u16::from(raw % 8 == 0)).map(|_| raw as u8));
+                return pdu;
+            }
+            0x08 => {
+                let subs = [0x00, 0x01, 0x04, 0x0A, 0x0B, 0x0C, 0x0D, 0x0E, 0x0F, 0x10, 0x11, 0x12, 0x13, 0x02, raw];
+                let sub: u16 = subs[usize::from(qty) % subs.len()];
+                let data = match raw % 5 {
+                    0 => 0xFF00,
+                    1 => raw,
+                    _ => 0x0000,
+                };
+                pdu.extend(sub.to_be_bytes());
+                pdu.extend(data.to_be_bytes());
+                return pdu;
+            }
+            _ => {}
+        }
         pdu.extend(start.to_be_bytes());
         let mut noise = seed | 1;
         let mut next = move || {
@@ -320,6 +532,19 @@ fn request_pdu() -> impl Strategy<Value = Vec<u8>> {
                 pdu.extend(value.to_be_bytes());
             }
             0x06 => pdu.extend(raw.to_be_bytes()),
+            0x16 => {
+                pdu.extend(raw.to_be_bytes());
+                pdu.extend((seed as u16).to_be_bytes());
+            }
+            0x17 => {
+                let write_qty = 1 + raw % 6;
+                let write_start = EDGES[usize::from(raw >> 8) % EDGES.len()];
+                pdu.extend(qty.to_be_bytes());
+                pdu.extend(write_start.to_be_bytes());
+                pdu.extend(write_qty.to_be_bytes());
+                pdu.push((2 * write_qty) as u8);
+                pdu.extend((0..2 * write_qty).map(|_| next()));
+            }
             0x0F | 0x10 => {
                 let bytes = if function == 0x0F { usize::from(qty).div_ceil(8) } else { 2 * usize::from(qty) };
                 let bytes = bytes.min(246 + usize::from(raw % 4));
@@ -537,11 +762,14 @@ proptest! {
                     let end = slave.on_end_deadline();
                     match receiver.end() {
                         None => prop_assert_eq!(end, EndOfFrame::Nothing),
-                        Some(Err(reason)) => prop_assert_eq!(end, EndOfFrame::Dropped(reason)),
+                        Some(Err(reason)) => {
+                            model.dropped(reason);
+                            prop_assert_eq!(end, EndOfFrame::Dropped(reason));
+                        }
                         Some(Ok(frame)) => {
                             let (expected_end, expected_reply) = model.frame(&frame);
                             prop_assert_eq!(end, expected_end, "frame {:02X?}", frame);
-                            if matches!(end, EndOfFrame::Reply | EndOfFrame::Broadcast) {
+                            if matches!(end, EndOfFrame::Reply | EndOfFrame::Broadcast | EndOfFrame::Silent) {
                                 let len = slave.process(&mut bank);
                                 prop_assert_eq!(len, expected_reply.len());
                                 check_well_formed(slave.reply(), frame.get(1).copied())?;
@@ -550,6 +778,8 @@ proptest! {
                             }
                         }
                     }
+                    prop_assert_eq!(slave.counters(), model.counts);
+                    prop_assert_eq!(slave.is_listen_only(), model.listen_only);
                     check_bank(&bank, &model)?;
                 }
             }
