@@ -80,7 +80,7 @@ demo: firmware
 serve: firmware
 	demo/serve.sh $(EXAMPLE) $(ARGS)
 
-# mbpoll, pymodbus and libmodbus against the firmware on the virtual Uno, with answer rates.
+# mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on the virtual Uno, with answer rates.
 interop: firmware
 	$(CARGO) test -p virtual-uno --test interop -- --nocapture --test-threads=1
 

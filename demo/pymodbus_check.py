@@ -11,7 +11,10 @@ a broadcast write read back afterwards, then N back-to-back reads with the answe
 potentiometer through it. Prints one line per step; exits 1 if any step went wrong.
 Written for pymodbus 3.0 (Debian 12's python3-pymodbus); `slave=` is passed everywhere.
 `strict=False`: with it pyserial sets the line twice, and on a Linux pty (which drops PARENB)
-the second tcsetattr with parity fails with EINVAL.
+the second tcsetattr with parity fails with EINVAL. Even then, parity E or O works only for
+the first pyserial connection to a pty: pyserial leaves the pty at the new speed, and the
+next connection's tcsetattr, whose only change is PARENB, fails the same way. Users of the
+virtual Uno set parity N instead (README, "Python masters").
 """
 
 import argparse

@@ -20,8 +20,15 @@ port=${SERVE_PORT:-/tmp/ttyUNO}
 # How to reach the slave, once the firmware has set up its USART ("serial: 19200 8E1 ...").
 settings() {
   local baud=${1%% *} format=${1#* }
-  local parity
+  local parity python_parity python_note strict=""
   case ${format:1:1} in N) parity=None ;; E) parity=Even ;; O) parity=Odd ;; *) parity=${format:1:1} ;; esac
+  # pyserial and a pty's missing parity bit: README, "Python masters".
+  case ${format:1:1} in
+    N) python_parity=N python_note="as the slave" ;;
+    E) python_parity=N python_note="not E: pyserial gets EINVAL setting even parity on a pty; none is served like even" ;;
+    *) python_parity=${format:1:1} python_note="pymodbus: with strict=False, once per virtual Uno; minimalmodbus: always"
+       strict=", strict=False" ;;
+  esac
   cat <<TEXT
 
   Connect a Modbus RTU master to $port (the pty printed above), slave id 1:
@@ -29,6 +36,11 @@ settings() {
                 Baud $baud, Data Bits ${format:0:1}, Parity $parity, Stop Bits ${format:2:1}, RTS None;
                 then Modbus Mode RTU, Slave Addr 1, Connect
     mbpoll:     mbpoll -m rtu -b $baud -P ${parity,,} -s ${format:2:1} -a 1 -t 3 -c 5 $port
+    Python:     parity "$python_parity" ($python_note)
+      pymodbus:      ModbusSerialClient("$port", baudrate=$baud, parity="$python_parity",
+                                        stopbits=${format:2:1}, bytesize=8, timeout=1$strict), then slave=1 on each call
+      minimalmodbus: uno = minimalmodbus.Instrument("$port", 1)
+                     uno.serial.baudrate = $baud; uno.serial.parity = "$python_parity"; uno.serial.stopbits = ${format:2:1}
   A master at another baud rate, stop bits or odd parity gets no answer, and the virtual Uno
   says why (a pty does not pass on whether parity is none or even: both are served).
   Type here: pin 6 0 | pin 6 z | adc A0 2500 | pins    Ctrl-C stops.

@@ -1,12 +1,15 @@
 //! Real Modbus masters against the firmware on the virtual Uno: mbpoll (Debian), pymodbus
-//! (`demo/pymodbus_check.py`) and libmodbus, the library behind mbpoll and QModMaster
+//! (`demo/pymodbus_check.py`), minimalmodbus (`demo/minimalmodbus_check.py`, the library of
+//! most Arduino Modbus tutorials) and libmodbus, the library behind mbpoll and QModMaster
 //! (`demo/libmodbus_check.c`, compiled here). Each test starts its own virtual Uno on a fresh
 //! pty and fails with both transcripts on any mismatch.
 //!
 //! mbpoll sends only well-formed requests to slaves 1-247 (it refuses address 0 and more than
 //! 125 values), so exception 03 and the broadcast are checked through libmodbus directly.
 //!
-//! Needs the firmware (`make firmware`), mbpoll, python3-pymodbus, libmodbus-dev and a C compiler.
+//! Needs the firmware (`make firmware`) and what `make setup` installs and checks: mbpoll,
+//! libmodbus-dev and a C compiler, and the Python in `$INTEROP_PYTHON` (target/python: Debian's
+//! python3 with python3-pymodbus, python3-serial-asyncio and minimalmodbus).
 
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
@@ -262,24 +265,27 @@ fn mbpoll_with_other_line_settings_gets_no_answer_and_a_warning() {
 }
 
 // ------------------------------------------------------------------------------------------
-// pymodbus
+// pymodbus and minimalmodbus
 
-/// A Python 3 that can import pymodbus and pyserial (Debian's lives in /usr/bin).
-fn python() -> &'static str {
-    ["/usr/bin/python3", "python3"]
-        .into_iter()
-        .find(|py| Command::new(py).args(["-c", "import pymodbus, serial"]).output().is_ok_and(|o| o.status.success()))
-        .expect("no python3 with pymodbus and pyserial: apt-get install python3-pymodbus python3-serial")
+/// The Python `.ci/setup` prepared, named in target/toolchain.env (which `.ci/cargo` reads);
+/// Debian's python3 without it, which has pymodbus but not minimalmodbus.
+fn python() -> String {
+    std::env::var("INTEROP_PYTHON").unwrap_or_else(|_| "/usr/bin/python3".into())
+}
+
+/// Runs `demo/SCRIPT PORT --control FIFO ARGS` (killed after `limit`); its transcript.
+fn python_check(script: &str, uno: &VirtualUno, args: &str, limit: Duration) -> (bool, String) {
+    let mut cmd = Command::new(python());
+    cmd.arg(workspace().join("demo").join(script)).arg(uno.port());
+    cmd.args(["--control", uno.control.to_str().unwrap()]).args(args.split_whitespace());
+    let (ok, out) = run(&mut cmd, limit);
+    println!("{out}");
+    (ok, out)
 }
 
 fn pymodbus(uno: &VirtualUno, args: &str, limit: Duration) {
-    let script = workspace().join("demo/pymodbus_check.py");
-    let mut cmd = Command::new(python());
-    cmd.arg(script).arg(uno.port()).args(["--control", uno.control.to_str().unwrap()]);
-    cmd.args(args.split_whitespace());
-    let (ok, out) = run(&mut cmd, limit);
-    println!("{out}");
-    assert!(ok, "pymodbus_check.py {args} failed\n{}", transcript(&out, uno));
+    let (ok, out) = python_check("pymodbus_check.py", uno, args, limit);
+    assert!(ok, "pymodbus_check.py {args} failed (python: {})\n{}", python(), transcript(&out, uno));
 }
 
 #[test]
@@ -307,6 +313,31 @@ fn pymodbus_and_libmodbus_at_115200_8e1() {
     assert!(uno.log().contains("serial: 115200 8E1"), "{}", uno.log());
     pymodbus(&uno, "--board dip_switch --preset 6 --baud 115200 --parity E --reads 100", Duration::from_secs(60));
     libmodbus(&uno, "115200 E 1 100");
+}
+
+/// minimalmodbus as the tutorials use it (open, then set the line on `instrument.serial`), at
+/// parity none: the virtual Uno serves none and even alike, and a pty refuses even (below).
+#[test]
+fn minimalmodbus_runs_every_function_code_exception_02_broadcast_and_300_reads() {
+    let _one = serialise();
+    let uno = VirtualUno::start(&firmware("uno_slave"), &[]);
+    let (ok, out) = python_check("minimalmodbus_check.py", &uno, "--parity N --reads 300", Duration::from_secs(90));
+    assert!(ok, "minimalmodbus_check.py failed (python: {})\n{}", python(), transcript(&out, &uno));
+}
+
+/// What the README tells Python users: on a Linux pty, setting even parity on an open port
+/// (minimalmodbus's way) fails with EINVAL, because the pty drops PARENB and glibc reports a
+/// tcsetattr that changed nothing. If this test fails, the README's advice is out of date.
+#[test]
+fn minimalmodbus_cannot_set_even_parity_on_a_pty() {
+    let _one = serialise();
+    let uno = VirtualUno::start(&firmware("uno_slave"), &[]);
+    let (ok, out) = python_check("minimalmodbus_check.py", &uno, "--parity E", Duration::from_secs(30));
+    assert!(
+        !ok && out.contains("FAIL cannot set") && out.contains("(22, 'Invalid argument')"),
+        "expected tcsetattr to refuse PARENB with EINVAL\n{}",
+        transcript(&out, &uno)
+    );
 }
 
 // ------------------------------------------------------------------------------------------
