@@ -16,7 +16,7 @@ help:
 	@echo "make test   - set up, lint, build every firmware, run all tests"
 	@echo "make firmware - build every example for the Uno ($(FIRMWARE_DIR))"
 	@echo "make bench  - flash, RAM, stack, interrupt cycles, turnaround, throughput -> bench/results.md"
-	@echo "make fuzz   - long random-frame run against the reference model (FUZZ_CASES, FUZZ_SEED)"
+	@echo "make fuzz   - coverage-guided fuzz targets (FUZZ_SECONDS each), then a long property run"
 	@echo "make soak   - 100000 mixed transactions against uno_slave in simavr (~15 min; SOAK_TRANSACTIONS)"
 
 setup:
@@ -87,12 +87,16 @@ interop: firmware
 bench: setup firmware
 	$(CARGO) run --release -p bench
 
-# Random frames, mutated requests and event sequences against a reference model: a long
-# run of the property tests that `make test` runs 2000 cases of. Reports cases executed.
-FUZZ_CASES ?= 1000000
+# Coverage-guided fuzzing (cargo-fuzz, libFuzzer): every target under fuzz/ for FUZZ_SECONDS
+# each, with its executions, rate and findings (.ci/fuzz). Then a long seeded run of the
+# property tests that `make test` runs 2000 cases of (PROPERTY_CASES, FUZZ_SEED).
+FUZZ_SECONDS ?= 600
+PROPERTY_CASES ?= 1000000
 fuzz: setup
-	FUZZ_CASES=$(FUZZ_CASES) FUZZ_SEED=$${FUZZ_SEED:-$$(date +%s)} $(CARGO) test --release -p avr-modbus-slave --test random_frames -- --nocapture
-	@echo "fuzz: $(FUZZ_CASES) cases per property, 3 properties"
+	@.ci/fuzz $(FUZZ_SECONDS)
+	FUZZ_CASES=$(PROPERTY_CASES) FUZZ_SEED=$${FUZZ_SEED:-$$(date +%s)} $(CARGO) test --release -p avr-modbus-slave \
+		--features $(OPTIONAL) --test random_frames -- --nocapture
+	@echo "fuzz: $(PROPERTY_CASES) cases per property, 3 properties, features $(OPTIONAL)"
 
 # Long mixed-request run against uno_slave at 19200 8E1 with a reference model of its bank
 # (100000: ~1400 s simulated, ~15 min wall). `make test` runs 2000.
