@@ -4,6 +4,7 @@
 
 mod common;
 
+#[allow(unused_imports)] // only the feature-gated modules use it
 use avr_modbus_slave::internal::EndOfFrame;
 #[allow(unused_imports)]
 use avr_modbus_slave::{Bank, Reference};
