@@ -11,8 +11,13 @@
  * and starts at the default, whatever a master stored. Settings written with the jumper on
  * are stored as usual; remove it and reset to start with them.
  *
- * Wiring: Uno pins 0 (RX) and 1 (TX) to the TTL side of a MAX3232 board, GND to GND; the
- * recovery jumper between pin 12 and GND (open in normal use).
+ * Wiring: on an RS-485 bus, Uno pin 1 (TX) to the transceiver's DI, pin 0 (RX) to RO, pin 10
+ * to DE and /RE tied together (high only while the slave answers), GND to GND; A/B to the
+ * bus. Or pins 0 and 1 to the TTL side of a MAX3232 board for a point-to-point line (pin 10
+ * then unused). The on-board LED (pin 13) is lit while the slave answers a frame addressed
+ * to it; it stays dark for broadcasts, other slaves' frames, damaged frames and in
+ * listen-only mode (FC 8 sub-function 04). The recovery jumper between pin 12 and GND
+ * (open in normal use).
  *
  * | reference   | address | meaning                                              |
  * |-------------|---------|------------------------------------------------------|
@@ -34,7 +39,7 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::board::{self, Eeprom, Pins};
+use avr_modbus_slave::board::{self, Eeprom, Pin, Pins};
 use avr_modbus_slave::{bit_bytes, Bank, Config, Configurable, Error, Parity, StopBits};
 use panic_halt as _;
 
@@ -54,7 +59,7 @@ const FROM_JUMPER: u16 = 2;
 
 type Registers = Configurable<Bank<3, 7, { bit_bytes(8) }>>;
 
-avr_modbus_slave::slave!(SLAVE: Registers);
+avr_modbus_slave::slave!(SLAVE: Registers, Pin, Pin);
 
 /// Reads the jumper and the EEPROM, builds the register map and starts the slave.
 fn start(dp: avr_device::atmega328p::Peripherals) -> Result<Eeprom, Error> {
@@ -78,7 +83,9 @@ fn start(dp: avr_device::atmega328p::Peripherals) -> Result<Eeprom, Error> {
     bank.set(30001, source)?;
     bank.set_device_info(b"avr-modbus-slave configurable");
     let model = Configurable::new(bank, SETTINGS_BLOCK, config)?;
-    SLAVE.start(config, dp.USART0, dp.TC0, model)?;
+    let driver_enable = pins.d10.into_output();
+    let led = pins.d13.into_output();
+    SLAVE.start_with_pins(config, dp.USART0, dp.TC0, model, driver_enable, led)?;
     Ok(eeprom)
 }
 

@@ -9,7 +9,7 @@ use crate::config::SlaveId;
 use crate::crc::Crc16;
 use crate::framer::{FrameError, Framer, UartError};
 use crate::model::DataModel;
-use crate::pdu::{encode_exception, respond, Request};
+use crate::pdu::{encode_exception, respond, Exception, Request};
 
 #[cfg(not(feature = "diagnostics"))]
 #[derive(Clone, Copy)]
@@ -246,7 +246,7 @@ impl Engine {
         #[cfg(feature = "diagnostics")]
         let diagnosed = crate::diagnostics::respond(pdu, pdu_len, model, &self.counters, self.id.get());
         #[cfg(not(feature = "diagnostics"))]
-        let diagnosed: Result<Diagnosed, crate::pdu::Exception> = Ok(Diagnosed::NotDiagnostic);
+        let diagnosed: Result<Diagnosed, Exception> = Ok(Diagnosed::NotDiagnostic);
         let result = match diagnosed {
             Ok(Diagnosed::NotDiagnostic) => respond(pdu, pdu_len, model),
             #[cfg(feature = "diagnostics")]
@@ -288,13 +288,44 @@ impl Engine {
         self.reply_len
     }
 
-    /// A broadcast: writes are executed, nothing is answered.
+    /// A broadcast: writes are executed, nothing is answered. Reads and diagnostics are
+    /// only checked, and counted as the same request sent to this slave would be: an event
+    /// when valid (FC 11 (0x0B) excepted), an exception when not.
     fn execute_silently<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M) {
-        match Request::parse(self.request(len)).and_then(|r| if r.is_write() { r.write(model) } else { Ok(()) }) {
-            Ok(()) => bump(&mut self.counters.events),
+        let result = match self.check_diagnostic(len, model) {
+            Some(checked) => checked,
+            None => Request::parse(self.request(len))
+                .and_then(|r| if r.is_write() { r.write(model) } else { Ok(()) })
+                .map(|()| true),
+        };
+        match result {
+            Ok(true) => bump(&mut self.counters.events),
+            Ok(false) => {}
             Err(_) => bump(&mut self.counters.exceptions),
         }
         self.framer.release();
+    }
+
+    /// For a broadcast of FC 7, 8, 11 (0x0B) or 17 (0x11): whether it is valid, and if so
+    /// whether it counts as an event (all but FC 11); `None` for other function codes.
+    /// Nothing is acted on (a broadcast FC 8 neither clears the counters nor enters
+    /// listen-only mode); the reply built over the request is dropped.
+    #[cfg(feature = "diagnostics")]
+    fn check_diagnostic<M: DataModel + ?Sized>(&mut self, len: usize, model: &M) -> Option<Result<bool, Exception>> {
+        let pdu_len = len.saturating_sub(3);
+        let (_, pdu) = self.framer.buffer_mut().split_at_mut(1);
+        let code = pdu.first().copied().unwrap_or(0);
+        match crate::diagnostics::respond(pdu, pdu_len, model, &self.counters, self.id.get()) {
+            Ok(Diagnosed::NotDiagnostic) => None,
+            Ok(_) => Some(Ok(code != GET_COMM_EVENT_COUNTER)),
+            Err(exception) => Some(Err(exception)),
+        }
+    }
+
+    #[cfg(not(feature = "diagnostics"))]
+    #[inline(always)]
+    fn check_diagnostic<M: DataModel + ?Sized>(&mut self, _len: usize, _model: &M) -> Option<Result<bool, Exception>> {
+        None
     }
 
     /// A frame that gets no reply. FC 8 sub-function 04 enters listen-only mode; in it,

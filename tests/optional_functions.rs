@@ -4,6 +4,7 @@
 
 mod common;
 
+#[allow(unused_imports)] // only the feature-gated modules use it
 use avr_modbus_slave::internal::EndOfFrame;
 #[allow(unused_imports)]
 use avr_modbus_slave::{Bank, Reference};
@@ -242,6 +243,44 @@ mod diagnostics {
         let broadcast_restart = with_crc(&[0x00, 0x08, 0x00, 0x01, 0x00, 0x00]);
         slave.handle_frame(&broadcast_restart, &mut bank);
         assert!(slave.is_listen_only());
+    }
+
+    /// `pdu` broadcast: address 0, the PDU, the CRC.
+    fn broadcast(pdu: &[u8]) -> Vec<u8> {
+        let mut frame = vec![0x00];
+        frame.extend_from_slice(pdu);
+        with_crc(&frame)
+    }
+
+    #[test]
+    fn broadcast_diagnostics_are_valid_requests_not_exceptions() {
+        let (mut slave, mut bank) = (slave(), bank());
+        for pdu in [&[0x07][..], &[0x08, 0x00, 0x00, 0x12, 0x34], &[0x0B], &[0x11]] {
+            assert_eq!(slave.handle_frame(&broadcast(pdu), &mut bank), EndOfFrame::Broadcast, "{pdu:02X?}");
+        }
+        assert_eq!(slave.counters().exceptions, 0, "FC 7, 8, 11 and 17 are supported");
+        assert_eq!(slave.counters().events, 3, "FC 7, 8 and 17; FC 11 does not count itself");
+    }
+
+    #[test]
+    fn broadcast_diagnostics_that_would_be_exceptions_count_as_exceptions() {
+        let (mut slave, mut bank) = (slave(), bank());
+        // Unknown sub-function (01), counter sub-function with data (03), FC 7 with data (03).
+        for pdu in [&[0x08, 0x00, 0x02, 0x00, 0x00][..], &[0x08, 0x00, 0x0B, 0x00, 0x01], &[0x07, 0x00]] {
+            slave.handle_frame(&broadcast(pdu), &mut bank);
+        }
+        assert_eq!(slave.counters().exceptions, 3);
+        assert_eq!(slave.counters().events, 0);
+    }
+
+    #[test]
+    fn broadcast_fc8_neither_clears_the_counters_nor_silences_the_slave() {
+        let (mut slave, mut bank) = (slave(), bank());
+        ask(&mut slave, &mut bank, &read_1());
+        slave.handle_frame(&broadcast(&[0x08, 0x00, 0x0A, 0x00, 0x00]), &mut bank);
+        slave.handle_frame(&broadcast(&[0x08, 0x00, 0x04, 0x00, 0x00]), &mut bank);
+        assert!(!slave.is_listen_only(), "a broadcast does not enter listen-only mode");
+        assert_eq!(slave.counters().messages, 3, "not cleared: FC 3 and the two broadcasts");
     }
 
     #[test]

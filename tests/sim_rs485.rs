@@ -10,33 +10,6 @@ use sim::{read_request, with_crc, Line, Rtu, ID};
 const DRIVER_ENABLE: u8 = 10;
 const LED: u8 = 13;
 
-/// Cycles at which `pin` went high and low while the exchange of `request` ran.
-struct Edges {
-    rose: Option<u64>,
-    fell: Option<u64>,
-}
-
-fn run_watching(rtu: &mut Rtu, request: &[u8], pin: u8, until: u64) -> (Edges, Vec<uno_sim::TxByte>) {
-    let request_end = rtu.send(request);
-    let mut edges = Edges { rose: None, fell: None };
-    let mut reply = Vec::new();
-    let mut was_high = rtu.uno.pin(pin).unwrap().level;
-    assert!(!was_high, "pin {pin} is low while listening");
-    while rtu.uno.now() < request_end + until {
-        rtu.uno.run_for(8).unwrap();
-        reply.extend(rtu.uno.take_tx());
-        let high = rtu.uno.pin(pin).unwrap().level;
-        match (was_high, high) {
-            (false, true) if edges.rose.is_none() => edges.rose = Some(rtu.uno.now()),
-            (true, false) if edges.fell.is_none() => edges.fell = Some(rtu.uno.now()),
-            _ => {}
-        }
-        was_high = high;
-    }
-    rtu.quiet_since = rtu.uno.now();
-    (edges, reply)
-}
-
 fn lab_lights() -> Rtu {
     Rtu::boot("lab_lights", Line::B19200_8E1)
 }
@@ -45,8 +18,9 @@ fn lab_lights() -> Rtu {
 fn driver_enable_rises_before_the_first_reply_bit_and_falls_after_the_last() {
     let mut rtu = lab_lights();
     let window = 40 * rtu.char_cycles;
-    let (edges, reply) = run_watching(&mut rtu, &read_request(ID, 0x02, 0, 2), DRIVER_ENABLE, window);
-    assert_eq!(reply.iter().map(|b| b.byte).collect::<Vec<_>>(), with_crc(&[ID, 0x02, 0x01, 0x00]));
+    let watched = rtu.exchange_watching(&read_request(ID, 0x02, 0, 2), &[DRIVER_ENABLE], window);
+    let (edges, reply) = (watched.pin(DRIVER_ENABLE), &watched.exchange.reply);
+    assert_eq!(watched.exchange.bytes(), with_crc(&[ID, 0x02, 0x01, 0x00]));
     let (first, last) = (reply.first().unwrap().start_cycle, reply.last().unwrap().end_cycle);
     let (rose, fell) = (edges.rose.expect("DE rose"), edges.fell.expect("DE fell"));
     assert!(rose <= first, "DE rose at {rose}, after the first start bit at {first}");
@@ -60,8 +34,11 @@ fn driver_enable_stays_low_for_frames_not_answered() {
     let mut rtu = lab_lights();
     let window = 40 * rtu.char_cycles;
     for request in [read_request(0x22, 0x02, 0, 2), read_request(0, 0x02, 0, 2)] {
-        let (edges, reply) = run_watching(&mut rtu, &request, DRIVER_ENABLE, window);
-        assert!(reply.is_empty() && edges.rose.is_none(), "request {request:02X?}");
+        let watched = rtu.exchange_watching(&request, &[DRIVER_ENABLE], window);
+        assert!(
+            watched.exchange.reply.is_empty() && watched.pin(DRIVER_ENABLE).rose.is_none(),
+            "request {request:02X?}"
+        );
     }
 }
 
@@ -69,9 +46,10 @@ fn driver_enable_stays_low_for_frames_not_answered() {
 fn the_communication_led_flashes_for_each_frame_addressed_to_the_slave() {
     let mut rtu = lab_lights();
     let window = 40 * rtu.char_cycles;
-    let (edges, reply) = run_watching(&mut rtu, &read_request(ID, 0x02, 0, 2), LED, window);
-    assert!(!reply.is_empty());
+    let watched = rtu.exchange_watching(&read_request(ID, 0x02, 0, 2), &[LED], window);
+    assert!(!watched.exchange.reply.is_empty());
+    let edges = watched.pin(LED);
     assert!(edges.rose.is_some() && edges.fell.is_some(), "LED flashed");
-    let (edges, _) = run_watching(&mut rtu, &read_request(0x22, 0x02, 0, 2), LED, window);
-    assert!(edges.rose.is_none(), "LED stays dark for another slave's frame");
+    let watched = rtu.exchange_watching(&read_request(0x22, 0x02, 0, 2), &[LED], window);
+    assert!(watched.pin(LED).rose.is_none(), "LED stays dark for another slave's frame");
 }

@@ -325,6 +325,79 @@ impl Rtu {
     }
 }
 
+// ---------------------------------------------------------------------------------------
+// Output pins watched while the slave works (RS-485 driver enable, communication LED)
+
+/// When a watched pin first went high and first went low.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Edges {
+    /// Cycle of the first rising edge.
+    pub rose: Option<u64>,
+    /// Cycle of the first falling edge.
+    pub fell: Option<u64>,
+}
+
+/// What the slave did while [`Rtu::watch`] ran.
+#[derive(Clone, Debug)]
+pub struct Watched {
+    /// The characters it sent (empty: none).
+    pub exchange: Exchange,
+    /// The edges of each watched pin, in the order asked for.
+    pub edges: Vec<(u8, Edges)>,
+}
+
+impl Watched {
+    /// The edges of `pin`, which must have been watched.
+    pub fn pin(&self, pin: u8) -> Edges {
+        self.edges.iter().find(|(p, _)| *p == pin).map(|&(_, e)| e).expect("pin watched")
+    }
+}
+
+impl Rtu {
+    /// Runs the firmware one instruction at a time until `window` cycles after
+    /// `request_end` (a request already scheduled), recording every character it sends
+    /// and the first rising and falling edge of each of `pins`. A pin level changes only
+    /// by an instruction, so checking after each one misses no pulse, however short.
+    /// Every pin must be a low output when the watch starts.
+    pub fn watch(&mut self, request_end: u64, pins: &[u8], window: u64) -> Watched {
+        let mut was_high = Vec::with_capacity(pins.len());
+        for &pin in pins {
+            let state = self.uno.pin(pin).expect("Uno pin");
+            assert!(state.output && !state.level, "pin {pin} is a low output while the slave listens: {state:?}");
+            was_high.push(false);
+        }
+        let mut edges = vec![Edges::default(); pins.len()];
+        // Collected at the end: what was sent before the watch started is not this reply's.
+        self.assert_silent("before the watch");
+        while self.uno.now() < request_end + window {
+            self.uno.step().expect("firmware runs");
+            let now = self.uno.now();
+            for ((&pin, was), edge) in pins.iter().zip(was_high.iter_mut()).zip(edges.iter_mut()) {
+                let high = self.uno.pin(pin).expect("Uno pin").level;
+                match (*was, high) {
+                    (false, true) if edge.rose.is_none() => edge.rose = Some(now),
+                    (true, false) if edge.fell.is_none() => edge.fell = Some(now),
+                    _ => {}
+                }
+                *was = high;
+            }
+        }
+        let reply = self.uno.take_tx();
+        if let Some(last) = reply.last() {
+            let busy = self.uno.tx_busy_until().unwrap_or(0).max(last.end_cycle);
+            self.quiet_since = self.quiet_since.max(busy);
+        }
+        Watched { exchange: Exchange { request_end, reply }, edges: pins.iter().copied().zip(edges).collect() }
+    }
+
+    /// Sends `request` after T3.5 of silence and [watches](Rtu::watch) `pins` until
+    /// `window` cycles after its last character.
+    pub fn exchange_watching(&mut self, request: &[u8], pins: &[u8], window: u64) -> Watched {
+        let end = self.send(request);
+        self.watch(end, pins, window)
+    }
+}
+
 /// Runs until the reply to a request that ended at `request_end` is complete (two
 /// characters of idle line after its last one), or, if none has started by then, until
 /// T3.5 plus ten characters after the request.
