@@ -177,6 +177,19 @@ const fn bits_per_char(parity: Parity, stop_bits: StopBits) -> u32 {
     1 + 8 + parity + stop
 }
 
+/// The line settings as a firmware prints them: `Config { slave_id: 1, baud: 19200, .. }`.
+#[cfg(feature = "ufmt")]
+impl ufmt::uDebug for Config {
+    fn fmt<W: ufmt::uWrite + ?Sized>(&self, f: &mut ufmt::Formatter<'_, W>) -> Result<(), W::Error> {
+        f.debug_struct("Config")?
+            .field("slave_id", &self.slave_id.get())?
+            .field("baud", &self.baud)?
+            .field("parity", &self.parity)?
+            .field("stop_bits", &self.stop_bits)?
+            .finish()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -213,18 +226,5 @@ mod tests {
         assert_eq!(bits(Parity::None, StopBits::Two), 11);
         assert_eq!(bits(Parity::Odd, StopBits::One), 11);
         assert_eq!(bits(Parity::Even, StopBits::Two), 12);
-    }
-}
-
-/// The line settings as a firmware prints them: `Config { slave_id: 1, baud: 19200, .. }`.
-#[cfg(feature = "ufmt")]
-impl ufmt::uDebug for Config {
-    fn fmt<W: ufmt::uWrite + ?Sized>(&self, f: &mut ufmt::Formatter<'_, W>) -> Result<(), W::Error> {
-        f.debug_struct("Config")?
-            .field("slave_id", &self.slave_id.get())?
-            .field("baud", &self.baud)?
-            .field("parity", &self.parity)?
-            .field("stop_bits", &self.stop_bits)?
-            .finish()
     }
 }

@@ -419,8 +419,17 @@ impl Model {
             bump(&mut self.counts.no_response);
             let writes = [0x05, 0x06, 0x0F, 0x10].contains(&pdu[0]) || (EXTRA_FC && [0x16, 0x17].contains(&pdu[0]));
             // Writes are carried out; reads are only parsed (and may fail), never read.
-            let result = if writes { self.respond(pdu).map(|_| ()) } else { Self::parse_read(pdu) };
+            let diagnostic = DIAGNOSTICS && [0x07, 0x08, 0x0B, 0x11].contains(&pdu[0]);
+            let result = if writes {
+                self.respond(pdu).map(|_| ())
+            } else if diagnostic {
+                // Checked as the same request to this slave would be, never acted on.
+                self.clone().respond(pdu).map(|_| ())
+            } else {
+                Self::parse_read(pdu)
+            };
             match result {
+                Ok(()) if pdu[0] == 0x0B && DIAGNOSTICS => {}
                 Ok(()) => bump(&mut self.counts.events),
                 Err(_) => bump(&mut self.counts.exceptions),
             }
