@@ -73,6 +73,8 @@ fn main() -> ! {
     let _pots = [pins.a0.into_floating_input(), pins.a1.into_floating_input(), pins.a2.into_floating_input()];
 
     let (mut blink_start, mut blink_on) = (millis(), true);
+    // Whole seconds counted from millis() by subtraction: no 32-bit division (1.2 KB).
+    let (mut second_start, mut uptime_s) = (0u32, 0u16);
     loop {
         for (input, switch) in (10001..).zip(switches.iter()) {
             let _ = SLAVE.set(input, u16::from(!switch.is_high()));
@@ -88,7 +90,11 @@ fn main() -> ! {
         for (register, value) in (30006..).zip(counters) {
             let _ = SLAVE.set(register, value);
         }
-        let _ = SLAVE.set(30004, (millis() / 1000) as u16);
+        while millis().wrapping_sub(second_start) >= 1000 {
+            second_start = second_start.wrapping_add(1000);
+            uptime_s = uptime_s.wrapping_add(1);
+        }
+        let _ = SLAVE.set(30004, uptime_s);
 
         for (coil, led) in (2..).zip(leds.iter_mut()) {
             led.set(SLAVE.get(coil).unwrap_or(0) != 0);

@@ -43,7 +43,7 @@ pub mod internal {
     pub use crate::engine::{EndOfFrame, Engine};
     pub use crate::framer::{FrameError, Framer, UartError, MAX_FRAME, MIN_FRAME};
     pub use crate::pdu::{encode_exception, respond, FunctionCode, Request};
-    pub use crate::timing::{BaudDivisor, CharTimes, Deadline, Prescaler, TimerPlan};
+    pub use crate::timing::{BaudDivisor, CharTimes, Deadline, TimerPlan, Uptime};
 
     /// The PDU engine.
     pub mod pdu {

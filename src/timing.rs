@@ -1,8 +1,16 @@
 //! Character times and silences, Modbus over Serial Line v1.02 §2.5.1.1 (T1.5, T3.5),
-//! and the ATmega328P arithmetic that turns them into USART and Timer0 settings.
+//! and the ATmega328P arithmetic that turns them into USART settings and Timer0 deadlines,
+//! and Timer0's overflows into milliseconds.
+//!
+//! Timer0 runs freely at clk/64 from the slave's start (datasheet §15): its overflow
+//! interrupt keeps [`Uptime`], and a received character sets each deadline as a compare
+//! value relative to the counter, a number of tick edges after the first edge that follows
+//! the receive interrupt's read of TCNT0 (found by polling, [`edge_after_read`]). Nothing
+//! restarts the counter, so the milliseconds never lose a tick.
 //!
 //! Everything here is `const fn` math: the AVR layer only copies the results into
-//! registers, and the host tests check the results over a table of configurations.
+//! registers, and the host tests check the results (`tests/timing.rs`: every accepted
+//! rate and character format).
 
 /// The Uno's CPU clock.
 pub const CLOCK_HZ: u32 = 16_000_000;
@@ -11,11 +19,6 @@ pub const CLOCK_HZ: u32 = 16_000_000;
 pub const FIXED_TIMES_ABOVE_BAUD: u32 = 19_200;
 
 const NS_PER_S: u32 = 1_000_000_000;
-
-/// A lower bound of the time from a character's stop bit to the Timer0 restart in the
-/// receive interrupt (interrupt response and handler prologue, about 34 cycles in the
-/// release build): the deadlines count from the restart, so they are shortened by this.
-pub const RX_RESTART_LATENCY_NS: u32 = 2_000;
 
 /// ⌈n · 10⁹ / d⌉ nanoseconds in 32-bit arithmetic (no 64-bit division on the AVR, where a
 /// run-time [`crate::Config::try_new`] computes this): 10⁹ = q·d + r, so
@@ -64,74 +67,219 @@ impl CharTimes {
     }
 }
 
-/// Timer0 clock divider (TCCR0B CS02:0).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Prescaler {
-    /// clk/1 (CS0 = 0b001).
-    Div1,
-    /// clk/8 (CS0 = 0b010).
-    Div8,
-    /// clk/64 (CS0 = 0b011).
-    Div64,
-    /// clk/256 (CS0 = 0b100).
-    Div256,
-    /// clk/1024 (CS0 = 0b101).
-    Div1024,
+/// Timer0's clock divider, the same at every baud rate: clk/64, a tick of 4 µs at 16 MHz and
+/// an overflow every 1.024 ms, as in Arduino's core. A tick is small beside the silences
+/// (T1.5 is 750 µs or more), the overflow interrupt that keeps [`Uptime`] runs about 980
+/// times a second, and the longest deadline (T3.5 at 1200 bps with 12-bit characters,
+/// 35 ms) is 35 counter turns, which 16-bit tick counts hold with room to spare.
+pub const TIMER0_DIVISOR: u32 = 64;
+
+/// The clock-select bits CS02:0 of TCCR0B for [`TIMER0_DIVISOR`].
+pub const TIMER0_CLOCK_SELECT: u8 = 0b011;
+
+/// Timer0 ticks in a millisecond at [`CLOCK_HZ`]: 250.
+pub const TICKS_PER_MS: u32 = CLOCK_HZ / TIMER0_DIVISOR / 1000;
+const _: () = assert!(TICKS_PER_MS * TIMER0_DIVISOR * 1000 == CLOCK_HZ, "a millisecond must be whole ticks");
+
+/// Milliseconds since Timer0 started, kept by its overflow interrupt as Arduino's core
+/// keeps `millis()`: a turn of the counter is 256 ticks, one millisecond and 6 ticks
+/// (1.024 ms), so each overflow adds a millisecond and carries the 6 ticks into `fract`.
+/// Nothing is rounded away: `millis · 250 + fract` is always the number of ticks counted
+/// (modulo 2³² milliseconds), so the clock never drifts from Timer0.
+///
+/// `repr(C)`: the simulator tests read it from the firmware's RAM (`millis` little-endian
+/// at offset 0, `fract` at 4; the AVR aligns nothing).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Uptime {
+    /// Whole milliseconds, wrapping after 2³² (49.7 days).
+    pub millis: u32,
+    /// Ticks past the last whole millisecond: 0–249.
+    pub fract: u8,
 }
 
-impl Prescaler {
-    const ALL: [Prescaler; 5] =
-        [Prescaler::Div1, Prescaler::Div8, Prescaler::Div64, Prescaler::Div256, Prescaler::Div1024];
+impl Uptime {
+    /// Timer0 just started.
+    pub const ZERO: Uptime = Uptime { millis: 0, fract: 0 };
 
-    /// The division factor.
-    pub const fn divisor(self) -> u32 {
-        match self {
-            Prescaler::Div1 => 1,
-            Prescaler::Div8 => 8,
-            Prescaler::Div64 => 64,
-            Prescaler::Div256 => 256,
-            Prescaler::Div1024 => 1024,
+    /// Ticks of a turn beyond its whole millisecond.
+    const TURN_SPARE_TICKS: u8 = (256 - TICKS_PER_MS) as u8;
+
+    /// The clock after one more overflow.
+    pub const fn after_overflow(self) -> Self {
+        let mut millis = self.millis.wrapping_add(1);
+        let mut fract = self.fract + Self::TURN_SPARE_TICKS;
+        if fract >= TICKS_PER_MS as u8 {
+            fract -= TICKS_PER_MS as u8;
+            millis = millis.wrapping_add(1);
         }
+        Uptime { millis, fract }
     }
 
-    /// The clock-select bits CS02:0 of TCCR0B.
-    pub const fn cs_bits(self) -> u8 {
-        match self {
-            Prescaler::Div1 => 0b001,
-            Prescaler::Div8 => 0b010,
-            Prescaler::Div64 => 0b011,
-            Prescaler::Div256 => 0b100,
-            Prescaler::Div1024 => 0b101,
+    /// Whole milliseconds at the moment TCNT0 read `tcnt`, the overflow flag (TOV0, read
+    /// after TCNT0) being `overflow_pending` (see [`overflow_before`]): the ticks counted
+    /// divided by 250, rounded down, so the result is never ahead of Timer0 and less than a
+    /// millisecond behind it.
+    pub const fn millis_at(self, tcnt: u8, overflow_pending: bool) -> u32 {
+        let mut ticks = self.fract as u16 + tcnt as u16;
+        if overflow_before(tcnt, overflow_pending) {
+            ticks += 256;
         }
+        // At most 249 + 255 + 256 ticks: up to three more milliseconds, no division.
+        let mut millis = self.millis;
+        while ticks >= TICKS_PER_MS as u16 {
+            ticks -= TICKS_PER_MS as u16;
+            millis = millis.wrapping_add(1);
+        }
+        millis
     }
 }
 
-/// A Timer0 deadline: after `wraps` full turns of the 8-bit counter, the compare match
-/// at `ocr` is the one that counts.
+/// Whether an overflow flag (TOV0) found set just after reading `tcnt` from TCNT0 is an
+/// overflow before that read, which the overflow interrupt has not counted yet: yes, unless
+/// the read gave 255, in which case the counter overflowed between the two reads. (A flag
+/// left pending for a whole turn would be misread; interrupts are never held off that long.)
+pub const fn overflow_before(tcnt: u8, overflow_pending: bool) -> bool {
+    overflow_pending && tcnt != 255
+}
+
+/// Ticks counted since Timer0 started, modulo 2¹⁶, from the turns the overflow interrupt
+/// counted (modulo 2⁸), TCNT0 and the overflow flag read after it.
+pub const fn tick_count(turns: u8, tcnt: u8, overflow_pending: bool) -> u16 {
+    let turns = if overflow_before(tcnt, overflow_pending) { turns.wrapping_add(1) } else { turns };
+    (turns as u16) << 8 | tcnt as u16
+}
+
+/// The shortest time, in CPU cycles, from the USART flagging a received character (RXC0) to
+/// the receive interrupt's first read of TCNT0, which is the first thing its handler does
+/// (`slave!` binds it): the interrupt response (4), the vector table's jump (3) and the
+/// handler's prologue, which saves 15 registers before it calls into the slave (32). A
+/// CPU that was sleeping or in the middle of a longer instruction takes up to 4 cycles
+/// more; one held off by another interrupt or a critical section, that much more.
+/// Deadlines count from this bound, so a later read only makes them later.
+/// `tests/sim_clock.rs` checks it on every example.
+pub const RX_LATENCY_CYCLES: u32 = 39;
+
+/// How the receive interrupt finds Timer0's phase, which the free-running prescaler hides:
+/// after its first read of TCNT0 it polls the counter until it changes (the loop in
+/// `src/avr/timer.rs`). Poll 1 reads it this many cycles after the first read…
+pub const SYNC_FIRST_POLL_CYCLES: u32 = 2;
+/// …and each further poll this many cycles after the one before.
+pub const SYNC_POLL_CYCLES: u32 = 5;
+/// Allowance for the moment within its cycle at which an `in` instruction samples TCNT0.
+const SYNC_SLACK_CYCLES: u32 = 1;
+/// Polls at most: the counter changes within a tick of the first read.
+pub const SYNC_MAX_POLLS: u8 =
+    ((TIMER0_DIVISOR + SYNC_SLACK_CYCLES - SYNC_FIRST_POLL_CYCLES).div_ceil(SYNC_POLL_CYCLES) + 1) as u8;
+
+/// Cycles from the first read of TCNT0 to the tick edge after it, earliest and latest, when
+/// poll `polls` (1 or more) was the first to see the counter changed: the edge came after
+/// the poll before it and no later than that poll.
+pub const fn edge_after_read(polls: u8) -> (u32, u32) {
+    let polls = if polls == 0 { 1 } else { polls as u32 };
+    let seen = SYNC_FIRST_POLL_CYCLES + (polls - 1) * SYNC_POLL_CYCLES;
+    let before = if polls == 1 { 0 } else { seen - SYNC_POLL_CYCLES };
+    (before.saturating_sub(SYNC_SLACK_CYCLES), seen + SYNC_SLACK_CYCLES)
+}
+
+/// CPU cycles in `ns` nanoseconds, rounded up. For a whole number of MHz (the Uno's 16) in
+/// 32-bit arithmetic: ns · MHz stays below 2³² for every silence in range (35 ms · 16).
+const fn cycles(ns: u32, clock_hz: u32) -> u32 {
+    if clock_hz % 1_000_000 == 0 {
+        (ns * (clock_hz / 1_000_000)).div_ceil(1000)
+    } else {
+        (ns as u64 * clock_hz as u64).div_ceil(NS_PER_S as u64) as u32
+    }
+}
+
+/// A silence deadline, counted in Timer0 tick edges from the first edge after the receive
+/// interrupt read TCNT0: its compare flag rises `ticks` edges after that one, or one edge
+/// sooner when that first edge came late enough after the read (the poll count tells).
+///
+/// The flag that ends it therefore rises at or after the exact time (for a receive
+/// interrupt of [`RX_LATENCY_CYCLES`] or more) and less than 72 cycles (4.5 µs at 16 MHz)
+/// after it: a tick, the 5 cycles between two polls with their slack, and the rounding of
+/// the exact time up to whole cycles. Times count from the end of the character as the
+/// USART reports it; a receive interrupt held off beyond its shortest latency makes the
+/// deadline that much later. `tests/timing.rs` checks every accepted rate and format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Deadline {
-    /// Compare value (OCR0A or OCR0B); never 0, so a match can't coincide with a restart.
-    pub ocr: u8,
-    /// Matches to let pass before the one that counts.
-    pub wraps: u8,
+    /// Edges after the first one, when the first came right after the read.
+    pub ticks: u16,
+    /// From this poll count on (the first edge came late enough), one edge fewer still
+    /// expires at or after the exact time; `u8::MAX`: never.
+    pub one_less_from: u8,
 }
 
 impl Deadline {
-    /// Timer clocks from a restart (TCNT0 = 0) to the one that raises the compare flag
-    /// that counts: the flag rises on the clock after TCNT0 reached OCR0x (datasheet
-    /// §15.7), so one more than the count.
-    pub const fn ticks(self) -> u32 {
-        self.wraps as u32 * 256 + self.ocr as u32 + 1
+    /// The deadline `ns` nanoseconds after the end of a character.
+    pub const fn new(ns: u32, clock_hz: u32) -> Self {
+        let after_read = cycles(ns, clock_hz).saturating_sub(RX_LATENCY_CYCLES);
+        let ticks = after_read.div_ceil(TIMER0_DIVISOR);
+        // `ticks` edges after an edge that came right after the read are this much late.
+        let spare = ticks * TIMER0_DIVISOR - after_read;
+        let mut one_less_from = u8::MAX;
+        let mut polls = 1;
+        while polls <= SYNC_MAX_POLLS {
+            if edge_after_read(polls).0 + spare >= TIMER0_DIVISOR {
+                one_less_from = polls;
+                break;
+            }
+            polls += 1;
+        }
+        Deadline { ticks: ticks as u16, one_less_from }
+    }
+
+    /// Edges after the first one, for a first edge seen at poll `polls`.
+    pub const fn edges(self, polls: u8) -> u16 {
+        if polls >= self.one_less_from {
+            self.ticks - 1
+        } else {
+            self.ticks
+        }
+    }
+
+    /// The compare value (OCR0A/OCR0B) for a read of TCNT0 that gave `tcnt` and whose next
+    /// edge came at poll `polls`: the compare flag rises on the timer clock after TCNT0
+    /// equals it (datasheet §15.7), `edges` edges after the first. Earlier matches of
+    /// the same value (a turn before, or one that rose while the interrupt was masked) are
+    /// told apart by [`has_passed`].
+    pub const fn compare_value(self, tcnt: u8, polls: u8) -> u8 {
+        // Low bytes only: the interrupt needs no 16-bit arithmetic for it.
+        tcnt.wrapping_add(self.ticks as u8).wrapping_sub((polls >= self.one_less_from) as u8)
+    }
+
+    /// The tick count (see [`tick_count`]) that the counter enters when the deadline
+    /// passes, for a read of TCNT0 at tick count `start` whose next edge came at poll `polls`.
+    pub const fn due(self, start: u16, polls: u8) -> u16 {
+        let due = start.wrapping_add(self.ticks);
+        if polls >= self.one_less_from {
+            due
+        } else {
+            due.wrapping_add(1)
+        }
+    }
+
+    /// Earliest and latest expiry in CPU cycles after the end of the character, for a
+    /// receive interrupt of the shortest latency and a first edge seen at poll `polls`.
+    pub const fn expiry_cycles(self, polls: u8) -> (u32, u32) {
+        let (first, last) = edge_after_read(polls);
+        let edges = self.edges(polls) as u32 * TIMER0_DIVISOR;
+        (RX_LATENCY_CYCLES + first + edges, RX_LATENCY_CYCLES + last + edges)
     }
 }
 
+/// Whether the counter, at tick count `now`, has reached `due`: tick counts less than 2¹⁵
+/// ticks (131 ms) apart compare correctly across the 16-bit wrap.
+pub const fn has_passed(due: u16, now: u16) -> bool {
+    now.wrapping_sub(due) as i16 >= 0
+}
+
 /// Timer0 settings for the frame detector: a deadline for the inter-character gap
-/// ([`CharTimes::gap_deadline_ns`]) and one for the end of frame (T3.5), both counted
-/// from the end of the last received character.
+/// ([`CharTimes::gap_deadline_ns`]) and one for the end of frame (T3.5), both counted from
+/// the end of the last received character.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TimerPlan {
-    /// Clock divider.
-    pub prescaler: Prescaler,
     /// Compare A: a character reported after this had a gap longer than T1.5.
     pub gap: Deadline,
     /// Compare B: T3.5 of silence, the frame is complete.
@@ -139,61 +287,9 @@ pub struct TimerPlan {
 }
 
 impl TimerPlan {
-    /// The longest deadline the plan allows, in ticks: eight turns of the counter (each
-    /// extra turn costs one short compare interrupt per deadline).
-    const MAX_TICKS: u64 = 2048;
-
-    /// Picks the finest prescaler that reaches T3.5 within eight counter turns.
-    ///
-    /// The prescaler runs freely, so on silicon a restart lands anywhere inside a tick and
-    /// a deadline of `n` ticks expires between `n − 1` and `n` ticks later. The end
-    /// deadline (T3.5) must never expire early, or a reply could start before the silence
-    /// the spec demands: `n` is T3.5 rounded up plus one, so it expires up to two ticks
-    /// late. The gap deadline must not be lenient, or a gap over T1.5 would pass: `n` is
-    /// only rounded up, so it expires less than one tick from the exact time, either way.
-    /// (In simulation the prescaler has no phase and both expire at `n` ticks.) Both count
-    /// from the restart, [`RX_RESTART_LATENCY_NS`] or more after the stop bit.
+    /// The two deadlines for `times` at `clock_hz`.
     pub const fn new(times: CharTimes, clock_hz: u32) -> Self {
-        let mut i = 0;
-        while i < Prescaler::ALL.len() - 1 {
-            if Self::ticks(times.t35_ns, clock_hz, Prescaler::ALL[i]) <= Self::MAX_TICKS {
-                break;
-            }
-            i += 1;
-        }
-        let prescaler = Prescaler::ALL[i];
-        TimerPlan {
-            prescaler,
-            gap: Self::deadline(times.gap_deadline_ns() - RX_RESTART_LATENCY_NS, clock_hz, prescaler, 0),
-            end: Self::deadline(times.t35_ns - RX_RESTART_LATENCY_NS, clock_hz, prescaler, 1),
-        }
-    }
-
-    /// The duration of one tick in nanoseconds (rounded down).
-    pub const fn tick_ns(&self, clock_hz: u32) -> u32 {
-        (self.prescaler.divisor() as u64 * NS_PER_S as u64 / clock_hz as u64) as u32
-    }
-
-    /// ⌈ns / tick⌉. For a whole number of MHz (the Uno's 16) in 32-bit arithmetic:
-    /// ns · MHz stays below 2³² for every silence in range (35 ms · 16 = 5.6 · 10⁸).
-    const fn ticks(ns: u32, clock_hz: u32, prescaler: Prescaler) -> u64 {
-        if clock_hz.is_multiple_of(1_000_000) {
-            (ns * (clock_hz / 1_000_000)).div_ceil(1000 * prescaler.divisor()) as u64
-        } else {
-            (ns as u64 * clock_hz as u64).div_ceil(prescaler.divisor() as u64 * NS_PER_S as u64)
-        }
-    }
-
-    /// A deadline expiring `ticks(ns) + margin` timer clocks after a restart: the compare
-    /// value is one less, as the flag rises on the clock after the match.
-    const fn deadline(ns: u32, clock_hz: u32, prescaler: Prescaler, margin: u64) -> Deadline {
-        let mut ticks = Self::ticks(ns, clock_hz, prescaler) + margin - 1;
-        if ticks.is_multiple_of(256) {
-            ticks += 1;
-        }
-        // At 1200 bps with clk/256 T3.5 is 2007 ticks; nothing in range exceeds 255 wraps.
-        let wraps = ticks / 256;
-        Deadline { ocr: (ticks % 256) as u8, wraps: if wraps > 255 { 255 } else { wraps as u8 } }
+        TimerPlan { gap: Deadline::new(times.gap_deadline_ns(), clock_hz), end: Deadline::new(times.t35_ns, clock_hz) }
     }
 }
 
@@ -339,44 +435,100 @@ mod tests {
     }
 
     #[test]
-    fn end_deadline_never_early_gap_deadline_never_lenient() {
-        let latency = RX_RESTART_LATENCY_NS as u64;
-        for baud in [1200, 2400, 4800, 9600, 19_200, 38_400, 57_600, 115_200, 250_000, 500_000, 1_000_000] {
-            for (parity, stop) in
-                [(Parity::Even, StopBits::One), (Parity::None, StopBits::One), (Parity::None, StopBits::Two)]
-            {
-                let t = times(baud, parity, stop);
-                let plan = TimerPlan::new(t, CLOCK_HZ);
-                let tick = plan.prescaler.divisor() as u64 * 1_000_000_000 / CLOCK_HZ as u64;
-                // On silicon a deadline of n ticks expires between n − 1 and n ticks after
-                // the restart, which comes at least `latency` after the stop bit.
-                let (end, t35) = (plan.end.ticks() as u64, t.t35_ns as u64);
-                assert!(latency + (end - 1) * tick >= t35, "{baud}: T3.5 early: {end} ticks of {tick} ns < {t35}");
-                assert!(latency + end * tick < t35 + 2 * tick, "{baud}: T3.5 more than 2 ticks late");
-                let (gap, limit) = (plan.gap.ticks() as u64, t.gap_deadline_ns() as u64);
-                assert!(latency + gap * tick >= limit, "{baud}: gap deadline early in simulation");
-                assert!(latency + gap * tick < limit + tick, "{baud}: gap deadline lenient");
-                assert!(plan.end.ocr != 0 && plan.gap.ocr != 0);
-                assert!(plan.gap.ticks() < plan.end.ticks(), "{baud}: gap deadline after T3.5");
-            }
+    fn uptime_adds_1024_us_per_overflow_without_drift() {
+        let mut clock = Uptime::ZERO;
+        for turn in 1..=1_000_000_u64 {
+            clock = clock.after_overflow();
+            // millis · 250 + fract = 256 ticks per turn, exactly.
+            assert_eq!(u64::from(clock.millis) * 250 + u64::from(clock.fract), turn * 256, "turn {turn}");
+        }
+        // 125 turns are 128 ms exactly.
+        let mut clock = Uptime::ZERO;
+        for _ in 0..125 {
+            clock = clock.after_overflow();
+        }
+        assert_eq!(clock, Uptime { millis: 128, fract: 0 });
+    }
+
+    #[test]
+    fn uptime_wraps_after_2_to_the_32_ms() {
+        let clock = Uptime { millis: u32::MAX, fract: 249 };
+        assert_eq!(clock.after_overflow(), Uptime { millis: 1, fract: 5 });
+        assert_eq!(clock.millis_at(1, false), 0);
+    }
+
+    #[test]
+    fn millis_at_rounds_down_and_counts_a_pending_overflow() {
+        let clock = Uptime { millis: 7, fract: 200 };
+        assert_eq!(clock.millis_at(49, false), 7); // 249 ticks past 7 ms
+        assert_eq!(clock.millis_at(50, false), 8); // 250
+        assert_eq!(clock.millis_at(255, false), 8); // 455
+                                                    // An overflow not yet counted: 200 + 3 + 256 = 459 ticks.
+        assert_eq!(clock.millis_at(3, true), 8);
+        // Most there can be: 249 + 254 + 256 = 759 ticks, three more milliseconds.
+        assert_eq!(Uptime { millis: 7, fract: 249 }.millis_at(254, true), 10);
+        // TCNT0 read 255 and the flag rose after it: not counted.
+        assert_eq!(clock.millis_at(255, true), 8);
+    }
+
+    #[test]
+    fn tick_counts_count_a_pending_overflow_unless_tcnt_read_255() {
+        assert_eq!(tick_count(3, 10, false), 0x030A);
+        assert_eq!(tick_count(3, 0, true), 0x0400);
+        assert_eq!(tick_count(3, 255, true), 0x03FF);
+        assert_eq!(tick_count(255, 1, true), 0x0001);
+    }
+
+    #[test]
+    fn has_passed_compares_across_the_16_bit_wrap() {
+        assert!(has_passed(100, 100));
+        assert!(!has_passed(100, 99));
+        assert!(has_passed(0xFFF0, 0x0010));
+        assert!(!has_passed(0x0010, 0xFFF0));
+        // A match one turn before the one that counts.
+        assert!(!has_passed(1000, 1000 - 256));
+    }
+
+    #[test]
+    fn compare_value_is_the_low_byte_of_the_count_before_the_due_one() {
+        let deadline = Deadline { ticks: 0x0300, one_less_from: 5 };
+        for (tcnt, polls) in [(0x12, 1), (0x12, 5), (0xFF, 4), (0x00, 14)] {
+            let due = deadline.due(0x0A00 | u16::from(tcnt), polls);
+            assert_eq!(deadline.compare_value(tcnt, polls), due.wrapping_sub(1) as u8, "{tcnt} {polls}");
+        }
+        // Whole turns: the compare value is the value read, which the counter has left.
+        assert_eq!(deadline.compare_value(0x12, 1), 0x12);
+        assert_eq!(deadline.compare_value(0x12, 5), 0x11);
+    }
+
+    #[test]
+    fn sync_polls_bracket_the_tick_edge() {
+        assert_eq!(SYNC_MAX_POLLS, 14);
+        assert_eq!(edge_after_read(1), (0, 3));
+        assert_eq!(edge_after_read(2), (1, 8));
+        assert_eq!(edge_after_read(14), (61, 68));
+        // Every possible edge (1 to 64 cycles after the read) falls in some poll's window.
+        for edge in 1..=TIMER0_DIVISOR {
+            assert!((1..=SYNC_MAX_POLLS).any(|p| {
+                let (first, last) = edge_after_read(p);
+                (first..=last).contains(&edge)
+            }));
         }
     }
 
     #[test]
-    fn prescaler_is_the_finest_that_reaches_t35_in_eight_turns() {
-        let plan = |baud| TimerPlan::new(times(baud, Parity::Even, StopBits::One), CLOCK_HZ);
-        assert_eq!(plan(1200).prescaler, Prescaler::Div256);
-        // (32 083 334 − 2 000) ns / 16 µs = 2005.1 → 2006 ticks, + 1 for the prescaler
-        // phase; the compare value is one less.
-        assert_eq!(plan(1200).end, Deadline { ocr: 214, wraps: 7 });
-        assert_eq!(plan(1200).end.ticks(), 2007);
-        // (9 166 667 + 13 750 000 − 2 000) ns / 16 µs = 1432.2 → 1433 ticks.
-        assert_eq!(plan(1200).gap, Deadline { ocr: 152, wraps: 5 });
-        assert_eq!(plan(9600).prescaler, Prescaler::Div64);
-        assert_eq!(plan(19_200).prescaler, Prescaler::Div64);
-        assert_eq!(plan(115_200).prescaler, Prescaler::Div64);
-        assert_eq!(plan(115_200).end.ticks(), (1_750_000_u32 - 2_000).div_ceil(4_000) + 1);
-        assert_eq!(plan(115_200).gap.ticks(), (95_487 + 750_000_u32 - 2_000).div_ceil(4_000));
+    fn t35_at_19200_8e1_worked_example() {
+        let plan = TimerPlan::new(times(19_200, Parity::Even, StopBits::One), CLOCK_HZ);
+        // 2 005 209 ns = 32 083.3 → 32 084 cycles; 39 of them before the read: 32 045 =
+        // 500.7 ticks → 501 edges after the first one, 19 cycles to spare. From poll 11
+        // on the first edge came 46 or more cycles after the read: 500 edges are enough.
+        assert_eq!(plan.end, Deadline { ticks: 501, one_less_from: 11 });
+        assert_eq!(plan.end.expiry_cycles(1), (39 + 501 * 64, 39 + 3 + 501 * 64));
+        assert_eq!(plan.end.expiry_cycles(10), (39 + 41 + 501 * 64, 39 + 48 + 501 * 64));
+        assert_eq!(plan.end.expiry_cycles(11), (39 + 46 + 500 * 64, 39 + 53 + 500 * 64));
+        assert!(plan.end.expiry_cycles(11).0 >= 32_084);
+        assert_eq!(plan.end.due(0x1234, 1), 0x1234 + 502);
+        assert_eq!(plan.end.due(0x1234, 11), 0x1234 + 501);
     }
 
     #[test]

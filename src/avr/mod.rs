@@ -29,7 +29,10 @@ pub mod board {
 }
 
 /// Milliseconds since the slave started, wrapping after 49.7 days: Arduino's `millis()`,
-/// kept by Timer0, which the slave owns.
+/// kept by Timer0, which the slave owns and runs freely at clk/64 (an overflow interrupt
+/// every 1.024 ms). Never ahead of true time and less than a millisecond behind it, with no
+/// drift beyond the crystal's; 0 before [`Slave::start`]. Compare times with
+/// `wrapping_sub`, as on Arduino: `millis().wrapping_sub(since) >= 500`.
 pub fn millis() -> u32 {
     timer::millis()
 }
@@ -41,6 +44,15 @@ pub mod __private {
     #[inline(always)]
     pub fn timer0_overflow() {
         super::timer::on_overflow();
+    }
+
+    /// USART0 receive complete, before anything else: when the character arrived.
+    ///
+    /// # Safety
+    /// Only first thing in the USART_RX interrupt handler (interrupts disabled).
+    #[inline(always)]
+    pub unsafe fn usart_rx_arrived() {
+        super::timer::on_receive();
     }
 }
 
@@ -91,6 +103,8 @@ macro_rules! slave {
             /// USART_RX: a character arrived.
             #[export_name = "__vector_18"]
             unsafe extern "avr-interrupt" fn USART_RX() {
+                // SAFETY: as above; the handler's first call.
+                unsafe { $crate::__private::usart_rx_arrived() };
                 // SAFETY: as above.
                 unsafe { super::$name.on_usart_rx() }
             }

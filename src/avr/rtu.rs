@@ -1,7 +1,7 @@
 //! The interrupt-driven slave, Modbus over Serial Line v1.02 §2.5.1.1: every character
-//! restarts Timer0, T3.5 of silence ends the frame, and the reply starts from that same
-//! interrupt, so the application's main loop never has to call anything for the slave
-//! to answer.
+//! sets the silence deadlines on Timer0 anew, T3.5 of silence ends the frame, and the reply
+//! starts from that same interrupt, so the application's main loop never has to call
+//! anything for the slave to answer.
 
 use core::cell::UnsafeCell;
 use core::mem::MaybeUninit;
@@ -58,8 +58,9 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
         }
     }
 
-    /// USART0 RX complete: one character (or a damaged one) arrived. The silence timer
-    /// restarts first, so that its deadlines count from as close to the stop bit as can be.
+    /// USART0 RX complete: one character (or a damaged one) arrived. The interrupt handler
+    /// set the silence deadlines before it got here (`timer::on_receive`), so that they
+    /// count from as close to the stop bit as can be; the restart takes note.
     #[inline(always)]
     fn on_usart_rx(&mut self) {
         self.timer.restart();

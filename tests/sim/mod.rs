@@ -207,6 +207,8 @@ pub struct Rtu {
     /// One tick of Timer0 (the silence detector), in cycles, from the clock select the
     /// firmware wrote when it started the timer.
     pub tick: u64,
+    /// Cycle at which the firmware started Timer0 (the clock of `millis()`).
+    pub timer0_started: u64,
     /// The line has been idle since this cycle (end of the last character either way).
     pub quiet_since: u64,
 }
@@ -217,10 +219,12 @@ const BOOT_CYCLES: u64 = us_to_cycles(2_000);
 /// Data-space address of TCCR0B (clock select CS02:0 in bits 2:0).
 const TCCR0B: u16 = 0x45;
 
-/// Runs the firmware one instruction at a time until it starts Timer0 (its power-up wait)
-/// and returns the timer's tick in cycles.
-fn timer0_tick(uno: &mut Uno) -> u64 {
+/// Runs the firmware one instruction at a time until it starts Timer0 and returns the
+/// timer's tick in cycles and the cycle at which the instruction that started it began
+/// (simavr counts the timer from there).
+fn timer0_tick(uno: &mut Uno) -> (u64, u64) {
     while uno.now() < BOOT_CYCLES {
+        let before = uno.now();
         uno.step().expect("firmware runs");
         let divisor = match uno.read_ram(TCCR0B, 1).expect("TCCR0B")[0] & 0b111 {
             0 => continue,
@@ -231,7 +235,7 @@ fn timer0_tick(uno: &mut Uno) -> u64 {
             5 => 1024,
             external => panic!("Timer0 clocked from pin T0 (CS0 = {external:#05b})"),
         };
-        return divisor;
+        return (divisor, before);
     }
     panic!("the firmware did not start Timer0 within {BOOT_CYCLES} cycles");
 }
@@ -251,12 +255,12 @@ impl Rtu {
     pub fn boot_elf(elf: &Path, line: Line, before_reset: impl FnOnce(&mut Uno)) -> Rtu {
         let mut uno = Uno::load(elf).expect("firmware loads");
         before_reset(&mut uno);
-        let tick = timer0_tick(&mut uno);
+        let (tick, timer0_started) = timer0_tick(&mut uno);
         uno.run_until(BOOT_CYCLES).expect("firmware runs");
         let char_cycles = uno.wire_char_cycles().expect("the firmware enabled USART0");
         // The slave's own power-up wait counts from its start; the master waits T3.5 from here.
         let quiet_since = uno.now();
-        Rtu { uno, line, char_cycles, tick, quiet_since }
+        Rtu { uno, line, char_cycles, tick, timer0_started, quiet_since }
     }
 
     /// Boots `dip_switch` with its switches set to `preset` (0-7).

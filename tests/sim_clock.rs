@@ -1,0 +1,213 @@
+//! Timer0 as the application's clock, on the release firmware: `millis()` against
+//! simulated time while the slave is polled, and the receive interrupt's latency that the
+//! silence deadlines assume (`timing::RX_LATENCY_CYCLES`).
+//!
+//! The clock is read from the firmware's RAM (the overflow interrupt's `CLOCK`) and TIFR0,
+//! at random moments; what `millis()` would return there follows from it and from TCNT0,
+//! which runs at clk/64 from the cycle the firmware started Timer0. All times are
+//! simulated cycles: the runs are unpaced, as fast as simavr goes.
+
+mod sim;
+
+use std::time::Instant;
+
+use avr_modbus_slave::internal::timing::{Uptime, RX_LATENCY_CYCLES, TICKS_PER_MS, TIMER0_DIVISOR};
+use sim::{read_request, registers_reply, Line, Rng, Rtu, ID};
+use uno_sim::{vector, Uno, F_CPU};
+
+/// Data-space address of TIFR0 (TOV0 is bit 0).
+const TIFR0: u16 = 0x35;
+/// Cycles in one turn of Timer0 (256 ticks).
+const TURN: u64 = 256 * TIMER0_DIVISOR as u64;
+/// Cycles in a millisecond.
+const MS: u64 = F_CPU / 1000;
+
+/// Where the overflow interrupt keeps its clock: `avr::timer::CLOCK` (an `Uptime`, then
+/// the turns), or its three fields when the optimiser split the static (`CLOCK.0` = the
+/// milliseconds, `.1` the fraction, `.2` the turns).
+struct ClockInRam {
+    millis: u16,
+    fract: u16,
+    turns: u16,
+}
+
+impl ClockInRam {
+    fn find(uno: &Uno) -> ClockInRam {
+        let find = |suffix: &str| {
+            uno.symbols()
+                .iter()
+                .find(|s| s.name.ends_with(suffix) && s.name.contains("avr_modbus_slave"))
+                .map(|s| (s.addr as u16, s.size))
+        };
+        if let Some((addr, size)) = find("5timer5CLOCK") {
+            assert_eq!(size, 6, "CLOCK is an Uptime (5 bytes) and a turn count");
+            return ClockInRam { millis: addr, fract: addr + 4, turns: addr + 5 };
+        }
+        match (find("5timer5CLOCK.0"), find("5timer5CLOCK.1"), find("5timer5CLOCK.2")) {
+            (Some((millis, 4)), Some((fract, 1)), Some((turns, 1))) => ClockInRam { millis, fract, turns },
+            other => panic!("no Timer0 clock in {}: {other:?}", uno.path().display()),
+        }
+    }
+
+    /// The overflow interrupt's clock and turn count, and whether an overflow is pending.
+    fn read(&self, uno: &Uno) -> (Uptime, u8, bool) {
+        let millis = uno.read_ram(self.millis, 4).expect("RAM");
+        let fract = uno.read_ram(self.fract, 1).expect("RAM")[0];
+        let turns = uno.read_ram(self.turns, 1).expect("RAM")[0];
+        let pending = uno.read_ram(TIFR0, 1).expect("TIFR0")[0] & 1 != 0;
+        (Uptime { millis: u32::from_le_bytes(millis.try_into().unwrap()), fract }, turns, pending)
+    }
+}
+
+/// Checks the clock at the current cycle and returns how far `millis()` is behind the time
+/// since Timer0 started, in cycles.
+fn check_clock(uno: &mut Uno, clock: &ClockInRam, started: u64) -> u64 {
+    // The overflow handler's stores are not one instruction: let it finish. An overflow due
+    // at this very cycle is not raised yet (simavr handles it before the next instruction).
+    while uno.in_isr() == Some(vector::TIMER0_OVF) || (uno.now() - started) % TURN == 0 {
+        uno.step().expect("firmware runs");
+    }
+    let elapsed = uno.now() - started;
+    let (uptime, turns, pending) = clock.read(uno);
+    // Every turn completed has been counted, but one whose interrupt is still pending.
+    let counted = elapsed / TURN - u64::from(pending);
+    assert_eq!(
+        u64::from(uptime.millis) * u64::from(TICKS_PER_MS) + u64::from(uptime.fract),
+        counted * 256,
+        "{elapsed} cycles after the start: {uptime:?} is not {counted} turns"
+    );
+    assert_eq!(turns, counted as u8, "turn count");
+    // What millis() returns at this cycle: TCNT0 is the tick within the turn.
+    let tcnt = ((elapsed % TURN) / u64::from(TIMER0_DIVISOR)) as u8;
+    let millis = u64::from(uptime.millis_at(tcnt, pending));
+    assert!(millis * MS <= elapsed, "millis() = {millis} is ahead of {elapsed} cycles");
+    let behind = elapsed - millis * MS;
+    assert!(behind < MS, "millis() = {millis} is {behind} cycles behind {elapsed} cycles");
+    behind
+}
+
+/// Polls `dip_switch` at `preset` for 60 s of simulated time with FC 03 requests and
+/// random pauses, checking the clock after every reply and at random moments between.
+fn millis_keeps_simulated_time_for_60_s(preset: usize) {
+    let wall = Instant::now();
+    let mut rtu = Rtu::boot_dip(preset);
+    let started = rtu.timer0_started;
+    let clock = ClockInRam::find(&rtu.uno);
+    let request = read_request(ID, 0x03, 0, 4);
+    let reply = registers_reply(ID, 0x03, &[0; 4]);
+    let mut rng = Rng(0xC10C_0000 + preset as u64);
+    let (mut least, mut most, mut samples, mut replies) = (u64::MAX, 0, 0, 0);
+    let end = started + 60 * F_CPU;
+    while rtu.uno.now() < end {
+        assert_eq!(rtu.ask(&request), reply, "{}: request {replies}", rtu.line.name());
+        replies += 1;
+        let pause_until = rtu.uno.now() + rng.below(20 * MS);
+        loop {
+            let behind = check_clock(&mut rtu.uno, &clock, started);
+            (least, most, samples) = (least.min(behind), most.max(behind), samples + 1);
+            let next = rtu.uno.now() + 1 + rng.below(3 * MS);
+            if next >= pause_until {
+                break;
+            }
+            rtu.uno.run_until(next).expect("firmware runs");
+        }
+        rtu.uno.run_until(pause_until).expect("firmware runs");
+    }
+    let seconds = (rtu.uno.now() - started) as f64 / F_CPU as f64;
+    let overflow = rtu.uno.isr_stats(vector::TIMER0_OVF);
+    eprintln!(
+        "{}: {seconds:.1} s simulated, {replies} requests answered, {samples} samples: millis() \
+         {:.1}..{:.1} µs behind the time since Timer0 started; TIMER0_OVF {} entries, max {} \
+         cycles ({:.1} s wall)",
+        rtu.line.name(),
+        least as f64 * 1000.0 / MS as f64,
+        most as f64 * 1000.0 / MS as f64,
+        overflow.entries,
+        overflow.max_cycles,
+        wall.elapsed().as_secs_f64()
+    );
+    assert_eq!(overflow.entries, (rtu.uno.now() - started) / TURN, "one overflow interrupt per turn");
+}
+
+#[test]
+fn at_1200_millis_keeps_simulated_time_for_60_s() {
+    millis_keeps_simulated_time_for_60_s(7);
+}
+
+#[test]
+fn at_19200_millis_keeps_simulated_time_for_60_s() {
+    millis_keeps_simulated_time_for_60_s(0);
+}
+
+#[test]
+fn at_115200_millis_keeps_simulated_time_for_60_s() {
+    millis_keeps_simulated_time_for_60_s(4);
+}
+
+/// `uno_slave` publishes `millis() / 1000` as input register 30004.
+#[test]
+fn uno_slave_counts_its_uptime_in_seconds() {
+    let mut rtu = Rtu::boot("uno_slave", Line::B19200_8E1);
+    let started = rtu.timer0_started;
+    rtu.uno.run_until(started + 5 * F_CPU / 2).expect("firmware runs");
+    let request = read_request(ID, 0x04, 3, 1);
+    assert_eq!(rtu.ask(&request), registers_reply(ID, 0x04, &[2]), "30004 at 2.5 s");
+}
+
+/// Cycles from RXC0 to the receive interrupt's first read of TCNT0, for a byte arriving at
+/// `arrival`: the handler is stepped through, and the read is the instruction two before
+/// the first one that repeats (the poll loop's `in`; see `sync_to_tick`).
+fn rx_latency(rtu: &mut Rtu, arrival: u64) -> Option<u64> {
+    rtu.uno.send_byte(0x00, arrival).expect("byte scheduled");
+    rtu.uno.run_until(arrival.saturating_sub(200)).expect("firmware runs");
+    let mut seen: Vec<(u32, u64)> = Vec::new();
+    while seen.len() < 300 {
+        let before = rtu.uno.now();
+        let step = rtu.uno.step().expect("firmware runs");
+        if step.vector != Some(vector::USART_RX) {
+            if seen.is_empty() {
+                continue;
+            }
+            break;
+        }
+        if let Some(first) = seen.iter().position(|&(pc, _)| pc == step.pc) {
+            // The loop's first poll, preceded by the read and by `ldi`.
+            let read = first.checked_sub(2)?;
+            return (seen[read].0 + 4 == step.pc).then(|| seen[read].1 - arrival);
+        }
+        seen.push((step.pc, before));
+    }
+    None
+}
+
+/// The receive interrupt's latency over arrivals at 64 phases of Timer0 and of the main
+/// loop: never below what the deadlines assume.
+fn rx_latency_is_at_least_the_assumed(mut rtu: Rtu, what: &str) {
+    let mut latencies = Vec::new();
+    for i in 0..64 {
+        let arrival = rtu.uno.now() + rtu.line.t35() + 1000 + i * 97;
+        if let Some(latency) = rx_latency(&mut rtu, arrival) {
+            latencies.push(latency);
+        }
+        // Let the one-byte frame end.
+        rtu.uno.run_for(2 * rtu.line.t35()).expect("firmware runs");
+    }
+    assert!(latencies.len() >= 32, "{what}: the poll loop was found {} times out of 64", latencies.len());
+    let (least, most) = (latencies.iter().min().unwrap(), latencies.iter().max().unwrap());
+    eprintln!(
+        "{what}: RXC0 to the first read of TCNT0 {least}..{most} cycles ({} arrivals), deadlines assume {}",
+        latencies.len(),
+        RX_LATENCY_CYCLES
+    );
+    assert!(*least >= u64::from(RX_LATENCY_CYCLES), "{what}: TCNT0 read {least} cycles after RXC0");
+}
+
+#[test]
+fn receive_interrupt_reads_timer0_no_sooner_than_the_deadlines_assume() {
+    for name in ["minimal", "uno_slave", "busy_loop", "lab_lights", "max_frame", "configurable"] {
+        rx_latency_is_at_least_the_assumed(Rtu::boot(name, Line::B19200_8E1), name);
+    }
+    for preset in [0, 4, 7] {
+        rx_latency_is_at_least_the_assumed(Rtu::boot_dip(preset), &format!("dip_switch preset {preset}"));
+    }
+}

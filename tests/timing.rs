@@ -1,0 +1,121 @@
+//! The silence deadlines against the exact T1.5 and T3.5 of Modbus over Serial Line v1.02
+//! §2.5.1.1, for every rate the crate accepts in 100 bps steps and every character format.
+//!
+//! A deadline counts from the receive interrupt's read of TCNT0 (at least
+//! `RX_LATENCY_CYCLES` after the character's end) and the tick edge the interrupt polled
+//! for; `Deadline::expiry_cycles` gives, for each poll count, the earliest and latest cycle
+//! its compare flag can rise. Here both are checked against the exact times, worked out
+//! independently as fractions of cycles: never early, and late by less than
+//! `ACCURACY_CYCLES`.
+
+use avr_modbus_slave::internal::timing::{Deadline, CLOCK_HZ, SYNC_MAX_POLLS, TIMER0_DIVISOR};
+use avr_modbus_slave::{Config, Parity, StopBits};
+
+/// The documented accuracy: a deadline passes less than 72 cycles (4.5 µs) after the
+/// exact time: a Timer0 tick, the 5 cycles between two polls and their 2 cycles of slack,
+/// and the rounding of the exact time up to whole nanoseconds and cycles.
+const ACCURACY_CYCLES: u64 = TIMER0_DIVISOR as u64 + 8;
+
+const FORMATS: [(Parity, StopBits); 6] = [
+    (Parity::None, StopBits::One),
+    (Parity::None, StopBits::Two),
+    (Parity::Even, StopBits::One),
+    (Parity::Even, StopBits::Two),
+    (Parity::Odd, StopBits::One),
+    (Parity::Odd, StopBits::Two),
+];
+
+/// An exact duration: `num / den` CPU cycles.
+#[derive(Clone, Copy, Debug)]
+struct Exact {
+    num: u128,
+    den: u128,
+}
+
+/// The end-of-character gap deadline (one character plus T1.5, see
+/// `CharTimes::gap_deadline_ns`) and T3.5, exactly, for `bits` bits per character.
+fn exact_times(baud: u32, bits: u32) -> (Exact, Exact) {
+    let (baud, bits, hz) = (u128::from(baud), u128::from(bits), u128::from(CLOCK_HZ));
+    let char_num = bits * hz; // / baud
+    if baud <= 19_200 {
+        // 1 + 1.5 characters, and 3.5 characters.
+        (Exact { num: 5 * char_num, den: 2 * baud }, Exact { num: 7 * char_num, den: 2 * baud })
+    } else {
+        // One character + 750 µs, and 1750 µs.
+        let us = hz / 1_000_000;
+        (Exact { num: char_num + 750 * us * baud, den: baud }, Exact { num: 1750 * us, den: 1 })
+    }
+}
+
+/// Checks `deadline` against `exact` for every poll count; returns the worst lateness in
+/// cycles.
+fn check(deadline: Deadline, exact: Exact, what: &str) -> f64 {
+    let mut worst: f64 = 0.0;
+    for polls in 1..=SYNC_MAX_POLLS {
+        let (earliest, latest) = deadline.expiry_cycles(polls);
+        let (earliest, latest) = (u128::from(earliest), u128::from(latest));
+        assert!(
+            earliest * exact.den >= exact.num,
+            "{what}, poll {polls}: expires {earliest} cycles after the character, before {:.2}",
+            exact.num as f64 / exact.den as f64
+        );
+        assert!(
+            latest * exact.den < exact.num + u128::from(ACCURACY_CYCLES) * exact.den,
+            "{what}, poll {polls}: expires up to {latest} cycles after the character, {:.2} late",
+            latest as f64 - exact.num as f64 / exact.den as f64
+        );
+        worst = worst.max(latest as f64 - exact.num as f64 / exact.den as f64);
+    }
+    worst
+}
+
+fn check_config(baud: u32, parity: Parity, stop_bits: StopBits) -> Option<(f64, f64)> {
+    let config = Config::try_new(1, baud, parity, stop_bits).ok()?;
+    let what = format!("{baud} {parity:?} {stop_bits:?}");
+    let plan = config.timer_plan();
+    let (gap, t35) = exact_times(baud, config.bits_per_char());
+    let late = (check(plan.gap, gap, &format!("{what} gap")), check(plan.end, t35, &format!("{what} T3.5")));
+    for polls in 1..=SYNC_MAX_POLLS {
+        assert!(plan.gap.edges(polls) < plan.end.edges(polls), "{what}: the gap deadline comes after T3.5");
+    }
+    // Tick counts are compared in 16 bits with room for an interrupt held off a turn.
+    assert!(plan.end.ticks < 0x7F00, "{what}: {} ticks", plan.end.ticks);
+    Some(late)
+}
+
+#[test]
+fn every_accepted_rate_and_format_meets_t15_and_t35_within_the_documented_accuracy() {
+    let (mut configs, mut refused) = (0, 0);
+    let (mut gap_worst, mut t35_worst) = (0.0_f64, 0.0_f64);
+    for baud in (Config::MIN_BAUD..=Config::MAX_BAUD).step_by(100) {
+        for (parity, stop_bits) in FORMATS {
+            match check_config(baud, parity, stop_bits) {
+                Some((gap, t35)) => {
+                    configs += 1;
+                    gap_worst = gap_worst.max(gap);
+                    t35_worst = t35_worst.max(t35);
+                }
+                None => refused += 1,
+            }
+        }
+    }
+    eprintln!(
+        "{configs} configurations ({refused} refused: rate error over 2.5 %); latest expiry past the exact \
+         time: gap deadline {gap_worst:.2} cycles, T3.5 {t35_worst:.2} cycles ({ACCURACY_CYCLES} allowed)"
+    );
+    // From 1200 to 115200 every 100 bps is accepted.
+    assert!(configs >= 6 * ((115_200 - 1200) / 100 + 1), "{configs}");
+}
+
+/// Rates where the Timer0 restart of earlier versions expired more than a tick late (their
+/// deadline was a whole number of counter turns, which it could not set).
+#[test]
+fn rates_reported_late_before_are_within_the_accuracy() {
+    for (baud, parity, stop_bits) in [
+        (36_000, Parity::None, StopBits::One),
+        (6100, Parity::None, StopBits::One),
+        (4700, Parity::Even, StopBits::One),
+    ] {
+        check_config(baud, parity, stop_bits).expect("accepted");
+    }
+}
