@@ -65,7 +65,8 @@ host-test: setup firmware fixtures
 	$(CARGO) test --workspace --exclude virtual-uno
 	$(CARGO) test -p virtual-uno --bins
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL) --lib --test optional_functions --test exceptions --test adu --test framer --test bank
-	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings --test settings --test sim_configurable
+	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings --test settings --test settings_slots \
+		--test sim_configurable --test sim_settings_reset
 	$(CARGO) test -p avr-modbus-slave --features ufmt --test ufmt
 
 test: lint firmware host-test interop
