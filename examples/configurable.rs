@@ -4,8 +4,13 @@
  * write at the old settings and switches once the reply has left the wire and the main
  * loop (`SLAVE.poll_settings`) has computed the new USART and Timer0 settings, under 4 ms
  * after the request (3.7 ms measured at 115200). The main loop then stores them in EEPROM (≈3.4 ms per changed byte), where
- * the next start-up finds them. A blank or damaged EEPROM record means the compiled-in
- * default, 19200 8E1, slave id 1.
+ * the next start-up finds them.
+ *
+ * EEPROM: bytes 0–21, two slots of 11 bytes for the settings record; a store writes the
+ * slot without the newest record and completes it with its last byte, so a reset or power
+ * cut during a store leaves the old settings or the new ones. Only when neither slot holds
+ * a valid record (blank or damaged EEPROM) does the device start at the compiled-in
+ * default, 19200 8E1, slave id 1. A record left at byte 0 by earlier firmware is read.
  *
  * Recovery: a jumper from pin 12 to GND at start-up (power-up or reset) ignores the EEPROM
  * and starts at the default, whatever a master stored. Settings written with the jumper on
@@ -22,8 +27,8 @@
  * | reference   | address | meaning                                              |
  * |-------------|---------|------------------------------------------------------|
  * | 00001–00008 | 0–7     | coils kept for the master                            |
- * | 30001       | 0       | settings used at start-up: 0 default (blank or damaged EEPROM), 1 EEPROM, 2 default forced by the jumper |
- * | 30002       | 1       | EEPROM bytes written by the last save (0–10)         |
+ * | 30001       | 0       | settings used at start-up: 0 default (no valid record in EEPROM), 1 EEPROM, 2 default forced by the jumper |
+ * | 30002       | 1       | EEPROM bytes written by the last save (0–12)         |
  * | 30003       | 2       | saves since start-up                                 |
  * | 40001–40004 | 0–3     | holding registers kept for the master                |
  * | 40101       | 100     | slave id, 1–247                                      |
@@ -46,7 +51,7 @@ use panic_halt as _;
 /// The compiled-in default, and what the jumper forces.
 const DEFAULT: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 
-/// EEPROM address of the settings record.
+/// EEPROM address of the two settings slots (22 bytes).
 const SETTINGS_AT: u16 = 0;
 
 /// Where the settings block starts.

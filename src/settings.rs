@@ -23,32 +23,25 @@
 //!   write only after the reply to it has left the wire (see
 //!   [`DataModel::take_new_settings`]).
 //!
-//! * **The EEPROM record**: [`RECORD_LEN`] bytes, [`encode`]d and [`decode`]d here and
-//!   stored by the AVR layer. A blank (0xFF) or damaged record decodes to `None`, and the
-//!   application then starts with its compiled-in default.
-//!
-//!   | byte | content                                  |
-//!   |-----:|------------------------------------------|
-//!   | 0    | [`MAGIC`]                                |
-//!   | 1    | slave id                                 |
-//!   | 2–5  | baud rate, `u32` little-endian           |
-//!   | 6    | parity code (0 none, 1 odd, 2 even)      |
-//!   | 7    | stop bits (1 or 2)                       |
-//!   | 8–9  | CRC-16/MODBUS of bytes 0–7, low byte first |
+//! * **The EEPROM record**: [`RECORD_LEN`] bytes with a sequence number and a CRC
+//!   ([`encode`], [`decode`]; a format-1 record of earlier firmware is still read,
+//!   [`decode_legacy`]), kept in two [`Slots`] so that a reset during a store leaves the
+//!   old settings or the new ones, never neither. The AVR layer reads and writes the
+//!   slots' bytes. When neither slot holds a valid record, the application starts with its
+//!   compiled-in default.
 
 use crate::config::{Config, Parity, SlaveId, StopBits};
-use crate::crc::Crc16;
 use crate::error::Error;
 use crate::model::DataModel;
 use crate::pdu::Exception;
 use crate::reference::{IntoReference, Reference, Table};
 use crate::timing::{BaudDivisor, CLOCK_HZ};
 
-/// Length of the EEPROM record, in bytes.
-pub const RECORD_LEN: usize = 10;
+mod record;
+mod slots;
 
-/// First byte of a record: format version 1 ('M' for Modbus). A blank EEPROM reads 0xFF.
-pub const MAGIC: u8 = 0x4D;
+pub use record::{decode, decode_legacy, encode, Record, LEGACY_LEN, LEGACY_MAGIC, MAGIC, RECORD_LEN};
+pub use slots::{is_newer, Newest, Slot, Slots, Write, Writes, MAX_WRITES, SLOTS_LEN};
 
 /// Registers in the settings block.
 pub const BLOCK_LEN: u16 = 4;
@@ -96,40 +89,6 @@ pub const fn stop_bits_from_count(count: u16) -> Option<StopBits> {
         2 => Some(StopBits::Two),
         _ => None,
     }
-}
-
-/// The EEPROM record of `config`.
-pub fn encode(config: &Config) -> [u8; RECORD_LEN] {
-    let [b0, b1, b2, b3] = config.baud().to_le_bytes();
-    let mut record = [
-        MAGIC,
-        config.slave_id().get(),
-        b0,
-        b1,
-        b2,
-        b3,
-        parity_code(config.parity()),
-        stop_bits_count(config.stop_bits()),
-        0,
-        0,
-    ];
-    let [lo, hi] = Crc16::new().update_slice(record.get(..RECORD_LEN - 2).unwrap_or(&[])).to_wire();
-    record[RECORD_LEN - 2] = lo;
-    record[RECORD_LEN - 1] = hi;
-    record
-}
-
-/// The configuration in an EEPROM record; `None` when the record is blank, damaged (bad
-/// magic or CRC) or holds settings [`Config::try_new`] refuses. Takes well under a
-/// millisecond on the Uno (see [`LineSettings::to_config`]).
-pub fn decode(record: &[u8; RECORD_LEN]) -> Option<Config> {
-    let [magic, id, b0, b1, b2, b3, parity, stop, _, _] = *record;
-    if magic != MAGIC || !Crc16::new().update_slice(record).is_residue_ok() {
-        return None;
-    }
-    let parity = parity_from_code(u16::from(parity))?;
-    let stop_bits = stop_bits_from_count(u16::from(stop))?;
-    LineSettings { slave_id: id, baud: u32::from_le_bytes([b0, b1, b2, b3]), parity, stop_bits }.to_config()
 }
 
 /// Line settings as plain values: what the master writes, checked with integer math fast

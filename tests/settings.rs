@@ -1,12 +1,15 @@
-//! Line settings kept in EEPROM (feature `eeprom-settings`): the record's encoding, blank
-//! and damaged records, and the settings block a master reads and writes with FC 03, 06
+//! Line settings kept in EEPROM (feature `eeprom-settings`): the record's encoding (and
+//! the format-1 record of earlier firmware), blank and damaged records, and the settings
+//! block a master reads and writes with FC 03, 06
 //! and 16, with exception 03 for settings the slave can't run.
 
 #![cfg(feature = "eeprom-settings")]
 
 mod common;
 
-use avr_modbus_slave::internal::settings::{decode, encode, Configurable, LineSettings, MAGIC, RECORD_LEN};
+use avr_modbus_slave::internal::settings::{
+    decode, decode_legacy, encode, Configurable, LineSettings, Record, LEGACY_LEN, LEGACY_MAGIC, MAGIC, RECORD_LEN,
+};
 use avr_modbus_slave::internal::EndOfFrame;
 use avr_modbus_slave::{bit_bytes, Bank, Config, DataModel, Error, Parity, Reference, StopBits};
 use common::{ask, exception_reply, read_pdu, slave, to_slave, with_crc, write_multiple_pdu, ID};
@@ -49,9 +52,9 @@ fn record_round_trips_every_format() {
     for baud in [1200, 9600, 19_200, 31_250, 57_600, 115_200, 1_000_000] {
         for parity in [Parity::None, Parity::Odd, Parity::Even] {
             for stop in [StopBits::One, StopBits::Two] {
-                for id in [1, 17, 247] {
+                for (id, sequence) in [(1, 0), (17, 128), (247, 255)] {
                     let config = Config::try_new(id, baud, parity, stop).unwrap();
-                    assert_eq!(decode(&encode(&config)), Some(config), "{config:?}");
+                    assert_eq!(decode(&encode(&config, sequence)), Some(Record { sequence, config }), "{config:?}");
                 }
             }
         }
@@ -59,31 +62,34 @@ fn record_round_trips_every_format() {
 }
 
 #[test]
-fn record_layout_is_magic_id_baud_parity_stop_crc() {
-    let record = encode(&Config::new(17, 9600, Parity::Odd, StopBits::Two));
+fn record_layout_is_magic_sequence_id_baud_parity_stop_crc() {
+    let record = encode(&Config::new(17, 9600, Parity::Odd, StopBits::Two), 0xA5);
     assert_eq!(
-        record[..8],
+        record[..9],
         [
-            MAGIC, // format
+            MAGIC, // format 2
+            0xA5,  // sequence number
             17,    // slave id
             0x80, 0x25, 0x00, 0x00, // 9600, u32 little-endian
             1,    // parity: odd
             2,    // stop bits
         ]
     );
-    let crc = common::reference_crc(&record[..8]);
-    assert_eq!(record[8..], crc.to_le_bytes());
+    assert_eq!(MAGIC, 0x4E);
+    let crc = common::reference_crc(&record[..9]);
+    assert_eq!(record[9..], crc.to_le_bytes());
 }
 
 #[test]
 fn blank_eeprom_decodes_to_none() {
     assert_eq!(decode(&[0xFF; RECORD_LEN]), None);
     assert_eq!(decode(&[0x00; RECORD_LEN]), None);
+    assert_eq!(decode_legacy(&[0xFF; LEGACY_LEN]), None);
 }
 
 #[test]
 fn any_flipped_bit_decodes_to_none() {
-    let record = encode(&DEFAULT);
+    let record = encode(&DEFAULT, 7);
     for byte in 0..RECORD_LEN {
         for bit in 0..8 {
             let mut damaged = record;
@@ -96,23 +102,58 @@ fn any_flipped_bit_decodes_to_none() {
 #[test]
 fn record_with_good_crc_but_settings_the_slave_cant_run_decodes_to_none() {
     let resealed = |mut record: [u8; RECORD_LEN]| {
-        let crc = common::reference_crc(&record[..8]).to_le_bytes();
-        record[8..].copy_from_slice(&crc);
+        let crc = common::reference_crc(&record[..9]).to_le_bytes();
+        record[9..].copy_from_slice(&crc);
         record
     };
-    let good = encode(&DEFAULT);
+    let good = encode(&DEFAULT, 0);
     let mut id_zero = good;
-    id_zero[1] = 0;
+    id_zero[2] = 0;
     let mut parity_3 = good;
-    parity_3[6] = 3;
+    parity_3[7] = 3;
     let mut stop_3 = good;
-    stop_3[7] = 3;
+    stop_3[8] = 3;
     let mut baud_230400 = good;
-    baud_230400[2..6].copy_from_slice(&230_400u32.to_le_bytes());
+    baud_230400[3..7].copy_from_slice(&230_400u32.to_le_bytes());
     for record in [id_zero, parity_3, stop_3, baud_230400] {
         assert_eq!(decode(&resealed(record)), None, "{record:02X?}");
     }
-    assert_eq!(decode(&resealed(good)), Some(DEFAULT));
+    assert_eq!(decode(&resealed(good)), Some(Record { sequence: 0, config: DEFAULT }));
+}
+
+/// A format-1 record, as earlier firmware wrote it.
+fn legacy_record() -> [u8; LEGACY_LEN] {
+    let mut record = [
+        0x4D, // format 1 ('M')
+        17,   // slave id
+        0x80, 0x25, 0x00, 0x00, // 9600, u32 little-endian
+        1,    // parity: odd
+        2,    // stop bits
+        0, 0, // CRC of bytes 0-7, below
+    ];
+    let crc = common::reference_crc(&record[..8]);
+    record[8..].copy_from_slice(&crc.to_le_bytes());
+    record
+}
+
+#[test]
+fn format_1_record_of_earlier_firmware_still_decodes() {
+    assert_eq!(LEGACY_MAGIC, 0x4D);
+    assert_eq!(decode_legacy(&legacy_record()), Some(Config::new(17, 9600, Parity::Odd, StopBits::Two)));
+    for byte in 0..LEGACY_LEN {
+        let mut damaged = legacy_record();
+        damaged[byte] ^= 0x01;
+        assert_eq!(decode_legacy(&damaged), None, "byte {byte}");
+    }
+}
+
+#[test]
+fn neither_format_decodes_as_the_other() {
+    let mut padded = [0xFF; RECORD_LEN];
+    padded[..LEGACY_LEN].copy_from_slice(&legacy_record());
+    assert_eq!(decode(&padded), None);
+    let record = encode(&DEFAULT, LEGACY_MAGIC);
+    assert_eq!(decode_legacy(record[..LEGACY_LEN].try_into().unwrap()), None);
 }
 
 // ---- the block as registers ----------------------------------------------------------------

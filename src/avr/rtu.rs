@@ -370,9 +370,10 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<crate::settings::Configu
     /// When the master has written new settings, computes their [`Config`] (under 1 ms
     /// of 32-bit arithmetic, with interrupts enabled) and hands it to the slave, which switches when
     /// the reply to the write has left the wire; if it already has, the switch happens
-    /// here. Then stores the settings the slave switched to, skipping bytes that are
-    /// already right (≈3.4 ms per byte written, up to ≈34 ms, interrupts enabled): no
-    /// interrupt handler ever waits for the EEPROM or the division routines.
+    /// here. Then stores the settings the slave switched to in the two slots at `address`
+    /// ([`super::eeprom::Eeprom::store_config`]: a reset during the store leaves the old
+    /// settings or the new ones; ≈3.4 ms per byte written, at most 12, interrupts
+    /// enabled): no interrupt handler ever waits for the EEPROM or the division routines.
     pub fn poll_settings(&self, eeprom: &mut super::eeprom::Eeprom, address: u16) -> Option<usize> {
         if let Some(settings) = self.with(|model| model.pending()).flatten() {
             if let Some(config) = settings.to_config() {
