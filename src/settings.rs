@@ -178,7 +178,7 @@ impl LineSettings {
 /// `Slave::poll_settings` does the main loop's part.
 ///
 /// ```
-/// use avr_modbus_slave::settings::Configurable;
+/// use avr_modbus_slave::Configurable;
 /// use avr_modbus_slave::{bit_bytes, Bank, Config, Parity, StopBits};
 /// const DEFAULT: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 /// let mut bank: Bank<1, 4, { bit_bytes(0) }> = Bank::new();
