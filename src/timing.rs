@@ -150,15 +150,17 @@ pub const fn tick_count(turns: u8, tcnt: u8, overflow_pending: bool) -> u16 {
     (turns as u16) << 8 | tcnt as u16
 }
 
-/// The shortest time, in CPU cycles, from the USART flagging a received character (RXC0) to
-/// the receive interrupt's first read of TCNT0, which is the first thing its handler does
-/// (`slave!` binds it): the interrupt response (4), the vector table's jump (3) and the
-/// handler's prologue, which saves 15 registers before it calls into the slave (32). A
-/// CPU that was sleeping or in the middle of a longer instruction takes up to 4 cycles
-/// more; one held off by another interrupt or a critical section, that much more.
-/// Deadlines count from this bound, so a later read only makes them later.
-/// `tests/sim_clock.rs` checks it on every example.
-pub const RX_LATENCY_CYCLES: u32 = 39;
+/// A lower bound of the time, in CPU cycles, from the USART flagging a received character
+/// (RXC0) to the receive interrupt's first read of TCNT0, which is the first thing its
+/// handler does (`slave!` binds it): the interrupt response (4), the vector table's jump
+/// (3) and the handler's prologue, which saves the registers the handler uses before it
+/// reaches the read. The prologue is the compiler's, and it varies a little with the
+/// firmware: 15 registers saved (32 cycles, 39 in all) in most examples, 14 in
+/// `lab_lights` (37); the bound leaves room for two fewer. A CPU that was sleeping or in
+/// the middle of a longer instruction takes up to 4 cycles more; one held off by another
+/// interrupt or a critical section, that much more. Deadlines count from this bound, so a
+/// later read only makes them later. `tests/sim_clock.rs` checks it on every example.
+pub const RX_LATENCY_CYCLES: u32 = 33;
 
 /// How the receive interrupt finds Timer0's phase, which the free-running prescaler hides:
 /// after its first read of TCNT0 it polls the counter until it changes (the loop in
