@@ -4,6 +4,7 @@
 //! It runs under every feature set `make test` builds; the model knows the optional
 //! function codes when the build has them.
 
+mod common;
 mod model;
 
 use avr_modbus_slave::internal::UartError;

@@ -5,11 +5,14 @@
 
 #![cfg(feature = "eeprom-settings")]
 
+mod common;
+
 use avr_modbus_slave::internal::settings::{
     decode, encode, is_newer, Newest, Record, Slot, Slots, Write, LEGACY_MAGIC, MAGIC, MAX_WRITES, RECORD_LEN,
     SLOTS_LEN,
 };
 use avr_modbus_slave::{Config, Parity, StopBits};
+use common::reference_crc;
 
 const DEFAULT: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 const OLD: Config = Config::new(5, 9600, Parity::None, StopBits::Two);
@@ -41,25 +44,9 @@ fn legacy(config: &Config) -> [u8; RECORD_LEN] {
     record[2..6].copy_from_slice(&config.baud().to_le_bytes());
     record[6] = parity;
     record[7] = stop_bits;
-    let crc = crc16(&record[..8]);
+    let crc = reference_crc(&record[..8]);
     record[8..10].copy_from_slice(&crc.to_le_bytes());
     record
-}
-
-/// CRC-16/MODBUS, Serial Line v1.02 §6.2.2.
-fn crc16(bytes: &[u8]) -> u16 {
-    let mut crc: u16 = 0xFFFF;
-    for &byte in bytes {
-        crc ^= u16::from(byte);
-        for _ in 0..8 {
-            let carry = crc & 1;
-            crc >>= 1;
-            if carry == 1 {
-                crc ^= 0xA001;
-            }
-        }
-    }
-    crc
 }
 
 fn damaged(mut record: [u8; RECORD_LEN]) -> [u8; RECORD_LEN] {

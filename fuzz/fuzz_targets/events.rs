@@ -7,6 +7,8 @@
 //! reply sent, 7 a request (length byte, then the PDU; address and CRC added).
 #![no_main]
 
+#[path = "../../tests/common/mod.rs"]
+mod common;
 #[path = "../../tests/model/mod.rs"]
 mod model;
 

@@ -6,6 +6,8 @@
 //! bytes. Mode bit 0: append a correct CRC; bit 1: address this slave; bit 2: broadcast.
 #![no_main]
 
+#[path = "../../tests/common/mod.rs"]
+mod common;
 #[path = "../../tests/model/mod.rs"]
 mod model;
 

@@ -2,7 +2,8 @@
 //! crate: what the bank holds, what the slave counts, the replies it owes, and the
 //! receiver of Serial Line §2.5.1.1. The property tests (`tests/random_frames.rs`) and
 //! the coverage-guided fuzz targets (`fuzz/`) both drive the slave and this model with
-//! the same inputs and compare everything.
+//! the same inputs and compare everything. It takes the spec's CRC and the frame helpers
+//! from `tests/common`, which the including crate declares beside it.
 //!
 //! The model is a `BTreeMap` of what the bank holds and a straightforward reading of
 //! Application Protocol §6–7 and Serial Line §2.4–2.5. It knows the eight core function
@@ -16,36 +17,11 @@ use std::collections::BTreeMap;
 use avr_modbus_slave::internal::{EndOfFrame, Engine, FrameError, UartError};
 use avr_modbus_slave::{Bank, Counters, Reference, SlaveId, Table};
 
-/// The slave id under test.
-pub const ID: u8 = 0x11;
+pub use super::common::{reference_crc, with_crc, ID};
 
 /// A slave at [`ID`], just after power-up.
 pub fn slave() -> Engine {
     Engine::new(SlaveId::new(ID).expect("a unicast id"))
-}
-
-/// CRC-16/MODBUS as Serial Line v1.02 §6.2.2 describes it.
-pub fn reference_crc(bytes: &[u8]) -> u16 {
-    let mut crc: u16 = 0xFFFF;
-    for &byte in bytes {
-        crc ^= u16::from(byte);
-        for _ in 0..8 {
-            let carry = crc & 1;
-            crc >>= 1;
-            if carry == 1 {
-                crc ^= 0xA001;
-            }
-        }
-    }
-    crc
-}
-
-/// The frame with its CRC appended, low byte first.
-pub fn with_crc(frame: &[u8]) -> Vec<u8> {
-    let crc = reference_crc(frame);
-    let mut out = frame.to_vec();
-    out.extend(crc.to_le_bytes());
-    out
 }
 
 /// `Err` with a message unless `cond`.
