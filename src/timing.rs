@@ -521,16 +521,16 @@ mod tests {
     #[test]
     fn t35_at_19200_8e1_worked_example() {
         let plan = TimerPlan::new(times(19_200, Parity::Even, StopBits::One), CLOCK_HZ);
-        // 2 005 209 ns = 32 083.3 → 32 084 cycles; 39 of them before the read: 32 045 =
-        // 500.7 ticks → 501 edges after the first one, 19 cycles to spare. From poll 11
-        // on the first edge came 46 or more cycles after the read: 500 edges are enough.
-        assert_eq!(plan.end, Deadline { ticks: 501, one_less_from: 11 });
-        assert_eq!(plan.end.expiry_cycles(1), (39 + 501 * 64, 39 + 3 + 501 * 64));
-        assert_eq!(plan.end.expiry_cycles(10), (39 + 41 + 501 * 64, 39 + 48 + 501 * 64));
-        assert_eq!(plan.end.expiry_cycles(11), (39 + 46 + 500 * 64, 39 + 53 + 500 * 64));
-        assert!(plan.end.expiry_cycles(11).0 >= 32_084);
+        // 2 005 209 ns = 32 083.3 → 32 084 cycles; 33 of them before the read: 32 051 =
+        // 500.8 ticks → 501 edges after the first one, 13 cycles to spare. From poll 12
+        // on the first edge came 51 or more cycles after the read: 500 edges are enough.
+        assert_eq!(plan.end, Deadline { ticks: 501, one_less_from: 12 });
+        assert_eq!(plan.end.expiry_cycles(1), (33 + 501 * 64, 33 + 3 + 501 * 64));
+        assert_eq!(plan.end.expiry_cycles(11), (33 + 46 + 501 * 64, 33 + 53 + 501 * 64));
+        assert_eq!(plan.end.expiry_cycles(12), (33 + 51 + 500 * 64, 33 + 58 + 500 * 64));
+        assert!(plan.end.expiry_cycles(12).0 >= 32_084);
         assert_eq!(plan.end.due(0x1234, 1), 0x1234 + 502);
-        assert_eq!(plan.end.due(0x1234, 11), 0x1234 + 501);
+        assert_eq!(plan.end.due(0x1234, 12), 0x1234 + 501);
     }
 
     #[test]
