@@ -45,7 +45,7 @@
 #![feature(abi_avr_interrupt)]
 
 use avr_modbus_slave::board::{self, Eeprom, Pin, Pins};
-use avr_modbus_slave::{bit_bytes, Bank, Config, Configurable, Error, Parity, StopBits};
+use avr_modbus_slave::{Config, Configurable, Error, Parity, StopBits};
 use panic_halt as _;
 
 /// The compiled-in default, and what the jumper forces.
@@ -62,7 +62,12 @@ const FROM_DEFAULT: u16 = 0;
 const FROM_EEPROM: u16 = 1;
 const FROM_JUMPER: u16 = 2;
 
-type Registers = Configurable<Bank<3, 7, { bit_bytes(8) }>>;
+avr_modbus_slave::register_map! {
+    /// The table above, without the settings block (`Configurable` adds it).
+    struct Map { 1..=8, 30001..=30003, 40001..=40004 }
+}
+
+type Registers = Configurable<Map>;
 
 avr_modbus_slave::slave!(SLAVE: Registers, Pin, Pin);
 
@@ -81,10 +86,7 @@ fn start(dp: avr_device::atmega328p::Peripherals) -> Result<Eeprom, Error> {
         (false, None) => (DEFAULT, FROM_DEFAULT),
     };
 
-    let mut bank = Bank::new();
-    bank.add_range(1, 8)?;
-    bank.add_range(30001, 3)?;
-    bank.add_range(40001, 4)?;
+    let mut bank = Map::new();
     bank.set(30001, source)?;
     bank.set_device_info(b"avr-modbus-slave configurable");
     let model = Configurable::new(bank, SETTINGS_BLOCK, config)?;

@@ -27,7 +27,7 @@
 #![feature(abi_avr_interrupt)]
 
 use avr_modbus_slave::board::{self, Pins};
-use avr_modbus_slave::{bit_bytes, Bank, Config, Error, Parity, StopBits};
+use avr_modbus_slave::{Config, Error, Parity, StopBits};
 use panic_halt as _;
 
 const PRESETS: [Config; 8] = [
@@ -41,9 +41,12 @@ const PRESETS: [Config; 8] = [
     Config::new(1, 1_200, Parity::Even, StopBits::One),
 ];
 
-type DipBank = Bank<4, 11, { bit_bytes(19) }>;
+avr_modbus_slave::register_map! {
+    /// The table above.
+    struct Registers { 1..=16, 10001..=10003, 30001, 40001..=40010 }
+}
 
-avr_modbus_slave::slave!(SLAVE: DipBank);
+avr_modbus_slave::slave!(SLAVE: Registers);
 
 fn start(dp: avr_device::atmega328p::Peripherals) -> Result<(), Error> {
     let pins = Pins::new(dp.PORTB, dp.PORTC, dp.PORTD)?;
@@ -53,11 +56,7 @@ fn start(dp: avr_device::atmega328p::Peripherals) -> Result<(), Error> {
     let closed = switches.map(|s| !s.is_high());
     let preset = closed.iter().rev().fold(0usize, |n, &on| (n << 1) | usize::from(on));
 
-    let mut bank = DipBank::new();
-    bank.add_range(1, 16)?;
-    bank.add_range(10001, 3)?;
-    bank.add(30001)?;
-    bank.add_range(40001, 10)?;
+    let mut bank = Registers::new();
     for (input, on) in (10001..).zip(closed) {
         bank.set(input, u16::from(on))?;
     }

@@ -18,13 +18,16 @@
 #![feature(abi_avr_interrupt)]
 
 use avr_modbus_slave::board::{self, Pins};
-use avr_modbus_slave::{bit_bytes, Bank, Config, Error, Parity, StopBits};
+use avr_modbus_slave::{Config, Error, Parity, StopBits};
 use panic_halt as _;
 
 const SLOW: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 const FAST: Config = Config::new(1, 115_200, Parity::Even, StopBits::One);
 
-type Registers = Bank<1, 125, { bit_bytes(0) }>;
+avr_modbus_slave::register_map! {
+    /// 125 holding registers: the longest read.
+    struct Registers { 40001..=40125 }
+}
 
 avr_modbus_slave::slave!(SLAVE: Registers);
 
@@ -35,9 +38,7 @@ fn start(dp: avr_device::atmega328p::Peripherals) -> Result<(), Error> {
     avr_device::asm::delay_cycles(1_000);
     let config = if jumper.is_high() { SLOW } else { FAST };
 
-    let mut bank = Registers::new();
-    bank.add_range(40001, 125)?;
-    SLAVE.start(config, dp.USART0, dp.TC0, bank)
+    SLAVE.start(config, dp.USART0, dp.TC0, Registers::new())
 }
 
 #[avr_device::entry]

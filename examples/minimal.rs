@@ -17,27 +17,24 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::{bit_bytes, board, Bank, Config, Error, Parity, StopBits};
+use avr_modbus_slave::{board, Config, Parity, StopBits};
 use panic_halt as _;
 
 const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 
-type Registers = Bank<1, 4, { bit_bytes(0) }>;
+avr_modbus_slave::register_map! {
+    /// Four holding registers.
+    struct Registers { 40001..=40004 }
+}
 
 avr_modbus_slave::slave!(SLAVE: Registers);
-
-fn registers() -> Result<Registers, Error> {
-    let mut bank = Registers::new();
-    bank.add_range(40001, 4)?;
-    Ok(bank)
-}
 
 #[avr_device::entry]
 fn main() -> ! {
     // SAFETY: the only place that takes the peripherals, and it runs once.
     #[allow(unsafe_code)]
     let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
-    if let Err(error) = registers().and_then(|bank| SLAVE.start(CONFIG, dp.USART0, dp.TC0, bank)) {
+    if let Err(error) = SLAVE.start(CONFIG, dp.USART0, dp.TC0, Registers::new()) {
         board::halt(error);
     }
 

@@ -19,30 +19,29 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::{bit_bytes, board, Bank, Config, Error, Parity, StopBits};
+use avr_modbus_slave::{board, Config, Parity, StopBits};
 use panic_halt as _;
 
 const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 
-type Registers = Bank<4, 24, { bit_bytes(32) }>;
+avr_modbus_slave::register_map! {
+    /// The contract's map: 16 coils, 16 discrete inputs, 8 input and 16 holding registers.
+    struct Registers {
+        1..=16,
+        10001..=10016,
+        30001..=30008,
+        40001..=40016,
+    }
+}
 
 avr_modbus_slave::slave!(SLAVE: Registers);
-
-fn registers() -> Result<Registers, Error> {
-    let mut bank = Registers::new();
-    bank.add_range(1, 16)?;
-    bank.add_range(10001, 16)?;
-    bank.add_range(30001, 8)?;
-    bank.add_range(40001, 16)?;
-    Ok(bank)
-}
 
 #[avr_device::entry]
 fn main() -> ! {
     // SAFETY: the only place that takes the peripherals, and it runs once.
     #[allow(unsafe_code)]
     let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
-    if let Err(error) = registers().and_then(|bank| SLAVE.start(CONFIG, dp.USART0, dp.TC0, bank)) {
+    if let Err(error) = SLAVE.start(CONFIG, dp.USART0, dp.TC0, Registers::new()) {
         board::halt(error);
     }
     #[allow(clippy::empty_loop)]

@@ -29,21 +29,20 @@
 #![feature(abi_avr_interrupt)]
 
 use avr_modbus_slave::board::{self, Adc, Pins};
-use avr_modbus_slave::{bit_bytes, millis, Bank, Config, Error, Parity, StopBits};
+use avr_modbus_slave::{millis, Config, Error, Parity, StopBits};
 use panic_halt as _;
 
 const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 
-type UnoBank = Bank<4, 22, { bit_bytes(9) }>;
+avr_modbus_slave::register_map! {
+    /// The table above.
+    struct Registers { 1..=5, 10001..=10004, 30001..=30012, 40001..=40010 }
+}
 
-avr_modbus_slave::slave!(SLAVE: UnoBank);
+avr_modbus_slave::slave!(SLAVE: Registers);
 
-fn registers() -> Result<UnoBank, Error> {
-    let mut bank = UnoBank::new();
-    bank.add_range(1, 5)?;
-    bank.add_range(10001, 4)?;
-    bank.add_range(30001, 12)?;
-    bank.add_range(40001, 10)?;
+fn registers() -> Result<Registers, Error> {
+    let mut bank = Registers::new();
     bank.set(40001, 500)?;
     bank.set(40002, 512)?;
     Ok(bank)

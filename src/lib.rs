@@ -13,6 +13,7 @@ mod diagnostics;
 mod engine;
 mod error;
 mod framer;
+mod map;
 mod model;
 mod pdu;
 mod reference;
@@ -45,6 +46,10 @@ pub mod internal {
     pub use crate::pdu::{encode_exception, respond, FunctionCode, Request};
     pub use crate::timing::{BaudDivisor, CharTimes, Deadline, TimerPlan, Uptime};
 
+    /// The compile-time register map's parts, for [`crate::register_map!`].
+    pub mod map {
+        pub use crate::map::{Layout, Span, Values};
+    }
     /// The PDU engine.
     pub mod pdu {
         pub use crate::pdu::*;

@@ -1,0 +1,469 @@
+//! A register map fixed when the firmware is built, Application Protocol v1.1b3 §4.3: the
+//! ranges of classic references a firmware serves, declared with [`crate::register_map!`].
+//!
+//! The ranges are checked while the firmware compiles (a bad reference, an empty range or
+//! two ranges that overlap fail the build) and cost no RAM: only the values do, registers
+//! as `u16` and coils and discrete inputs packed 8 to a byte. A lookup is a chain of
+//! compares against constants, one per declared range; by a constant reference
+//! (`SLAVE.set(30001, x)`) it folds to an index. Ranges of one table that touch
+//! (40001–40004 and 40005–40008) are stored side by side, so the master reads across them
+//! as across one range.
+
+use crate::error::Error;
+use crate::pdu::Exception;
+use crate::reference::{Reference, Table};
+
+/// One declared range, as the lookup needs it.
+#[doc(hidden)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Span {
+    table: Table,
+    start: u16,
+    last: u16,
+    /// The last address of the ranges of the same table that follow this one without a
+    /// gap: a request from inside this range may run up to here.
+    reach: u16,
+    /// Index of the value of `start` in the register or bit storage.
+    offset: u16,
+}
+
+/// A classic reference range `first..=last` as (table, first address, last address);
+/// panics (a build error, since it only runs in `const` items) when it is not one.
+const fn decode(range: (u32, u32)) -> (Table, u16, u16) {
+    let (first, last) = match (Reference::classic(range.0), Reference::classic(range.1)) {
+        (Ok(first), Ok(last)) => (first, last),
+        _ => panic!("register_map!: not a classic reference (00001, 10001, 30001, 40001 ...)"),
+    };
+    if first.table as u8 != last.table as u8 || first.address > last.address {
+        panic!("register_map!: a range runs from its first reference up to its last, in one table");
+    }
+    (first.table, first.address, last.address)
+}
+
+/// True when `a` is stored before `b`: registers and bits are two storages, each in table
+/// and then address order.
+const fn sorts_before(a: (Table, u16), b: (Table, u16)) -> bool {
+    (a.0 as u8) < (b.0 as u8) || ((a.0 as u8) == (b.0 as u8) && a.1 < b.1)
+}
+
+/// The register map's layout, worked out while the firmware compiles.
+#[doc(hidden)]
+pub struct Layout;
+
+impl Layout {
+    /// Checks `ranges` (each `(first, last)` in classic references): every reference valid,
+    /// no two ranges overlapping. Panics otherwise, which in a `const` is a build error.
+    pub const fn check(ranges: &[(u32, u32)]) {
+        let mut i = 0;
+        while i < ranges.len() {
+            let (table, start, last) = decode(ranges[i]);
+            let mut j = i + 1;
+            while j < ranges.len() {
+                let (other, other_start, other_last) = decode(ranges[j]);
+                if table as u8 == other as u8 && start <= other_last && other_start <= last {
+                    panic!("register_map!: two ranges overlap");
+                }
+                j += 1;
+            }
+            i += 1;
+        }
+    }
+
+    /// Registers (input and holding together) the ranges hold.
+    pub const fn words(ranges: &[(u32, u32)]) -> usize {
+        Self::count(ranges, false)
+    }
+
+    /// Bytes of coils and discrete inputs (together) the ranges hold.
+    pub const fn bit_bytes(ranges: &[(u32, u32)]) -> usize {
+        Self::count(ranges, true).div_ceil(8)
+    }
+
+    const fn count(ranges: &[(u32, u32)], bits: bool) -> usize {
+        Self::check(ranges);
+        let mut n = 0;
+        let mut i = 0;
+        while i < ranges.len() {
+            let (table, start, last) = decode(ranges[i]);
+            if table.is_bits() == bits {
+                n += (last - start) as usize + 1;
+            }
+            i += 1;
+        }
+        n
+    }
+
+    /// The span of the range of `ranges` that starts at classic reference `first`.
+    pub const fn span(ranges: &[(u32, u32)], first: u32) -> Span {
+        Self::check(ranges);
+        let mut at = 0;
+        while at < ranges.len() && ranges[at].0 != first {
+            at += 1;
+        }
+        let (table, start, last) = decode(ranges[at]);
+        let (mut offset, mut reach) = (0u16, last);
+        let mut i = 0;
+        while i < ranges.len() {
+            let (other, other_start, other_last) = decode(ranges[i]);
+            if other.is_bits() == table.is_bits() && sorts_before((other, other_start), (table, start)) {
+                offset += other_last - other_start + 1;
+            }
+            i += 1;
+        }
+        // Follow the ranges of the same table that continue without a gap.
+        let mut extended = true;
+        while extended && reach < u16::MAX {
+            extended = false;
+            let mut k = 0;
+            while k < ranges.len() {
+                let (other, other_start, other_last) = decode(ranges[k]);
+                if other as u8 == table as u8 && other_start == reach + 1 {
+                    reach = other_last;
+                    extended = true;
+                }
+                k += 1;
+            }
+        }
+        Span { table, start, last, reach, offset }
+    }
+}
+
+impl Span {
+    /// The storage index of `start` when `start..start + qty` (`qty` ≥ 1) all exist and
+    /// `start` lies in this range.
+    #[inline(always)]
+    pub fn index(self, table: Table, start: u16, qty: u16) -> Option<usize> {
+        if table != self.table || start < self.start || start > self.last || qty.wrapping_sub(1) > self.reach - start {
+            return None;
+        }
+        Some(usize::from(self.offset) + usize::from(start - self.start))
+    }
+}
+
+/// The values of a register map: what [`crate::register_map!`] wraps.
+#[doc(hidden)]
+#[derive(Clone, Debug)]
+pub struct Values<const WORDS: usize, const BIT_BYTES: usize> {
+    words: [u16; WORDS],
+    bits: [u8; BIT_BYTES],
+    master_writes: u16,
+    #[cfg(feature = "diagnostics")]
+    exception_status: u8,
+    #[cfg(feature = "diagnostics")]
+    device_info: &'static [u8],
+}
+
+impl<const WORDS: usize, const BIT_BYTES: usize> Default for Values<WORDS, BIT_BYTES> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
+    /// Every value 0.
+    pub const fn new() -> Self {
+        Values {
+            words: [0; WORDS],
+            bits: [0; BIT_BYTES],
+            master_writes: 0,
+            #[cfg(feature = "diagnostics")]
+            exception_status: 0,
+            #[cfg(feature = "diagnostics")]
+            device_info: &[],
+        }
+    }
+
+    fn bit(&self, i: usize) -> bool {
+        self.bits.get(i / 8).is_some_and(|byte| byte & (1 << (i % 8)) != 0)
+    }
+
+    fn set_bit(&mut self, i: usize, on: bool) {
+        let mask = 1 << (i % 8);
+        if let Some(byte) = self.bits.get_mut(i / 8) {
+            if on {
+                *byte |= mask;
+            } else {
+                *byte &= !mask;
+            }
+        }
+    }
+
+    /// The value at storage index `at` of `table`'s kind.
+    #[inline(always)]
+    pub fn get(&self, table: Table, at: Option<usize>) -> Result<u16, Error> {
+        let i = at.ok_or(Error::NotFound)?;
+        Ok(if table.is_bits() { u16::from(self.bit(i)) } else { self.words.get(i).copied().unwrap_or(0) })
+    }
+
+    /// Sets the value at storage index `at` of `table`'s kind.
+    #[inline(always)]
+    pub fn set(&mut self, table: Table, at: Option<usize>, value: u16) -> Result<(), Error> {
+        let i = at.ok_or(Error::NotFound)?;
+        if table.is_bits() {
+            self.set_bit(i, value != 0);
+        } else if let Some(slot) = self.words.get_mut(i) {
+            *slot = value;
+        }
+        Ok(())
+    }
+
+    /// FC 1 / 2: `qty` bits from storage index `at`, packed LSB first.
+    pub fn read_bits(&self, at: Option<usize>, qty: u16, out: &mut [u8]) -> Result<(), Exception> {
+        let first = at.ok_or(Exception::IllegalDataAddress)?;
+        out.fill(0);
+        for k in 0..usize::from(qty) {
+            if let (true, Some(byte)) = (self.bit(first + k), out.get_mut(k / 8)) {
+                *byte |= 1 << (k % 8);
+            }
+        }
+        Ok(())
+    }
+
+    /// FC 3 / 4: `out.len() / 2` registers from storage index `at`, big-endian.
+    pub fn read_words(&self, at: Option<usize>, out: &mut [u8]) -> Result<(), Exception> {
+        let first = at.ok_or(Exception::IllegalDataAddress)?;
+        for (pair, value) in out.chunks_exact_mut(2).zip(self.words.get(first..).unwrap_or(&[])) {
+            pair.copy_from_slice(&value.to_be_bytes());
+        }
+        Ok(())
+    }
+
+    /// FC 5 / 15: `qty` coils from storage index `at`, packed LSB first.
+    pub fn write_bits(&mut self, at: Option<usize>, qty: u16, packed: &[u8]) -> Result<(), Exception> {
+        let first = at.ok_or(Exception::IllegalDataAddress)?;
+        for k in 0..usize::from(qty) {
+            let byte = packed.get(k / 8).copied().unwrap_or(0);
+            self.set_bit(first + k, byte & (1 << (k % 8)) != 0);
+        }
+        self.master_writes = self.master_writes.wrapping_add(1);
+        Ok(())
+    }
+
+    /// FC 6 / 16: registers from storage index `at`, big-endian.
+    pub fn write_words(&mut self, at: Option<usize>, values: &[u8]) -> Result<(), Exception> {
+        let first = at.ok_or(Exception::IllegalDataAddress)?;
+        for (slot, pair) in self.words.get_mut(first..).unwrap_or(&mut []).iter_mut().zip(values.chunks_exact(2)) {
+            if let [hi, lo] = *pair {
+                *slot = u16::from_be_bytes([hi, lo]);
+            }
+        }
+        self.master_writes = self.master_writes.wrapping_add(1);
+        Ok(())
+    }
+
+    /// Successful master writes so far, wrapping.
+    #[inline(always)]
+    pub fn master_writes(&self) -> u16 {
+        self.master_writes
+    }
+
+    /// FC 7's status bits (0 without feature `diagnostics`).
+    #[inline(always)]
+    pub fn exception_status(&self) -> u8 {
+        #[cfg(feature = "diagnostics")]
+        return self.exception_status;
+        #[cfg(not(feature = "diagnostics"))]
+        0
+    }
+
+    /// FC 17's device description (empty without feature `diagnostics`).
+    #[inline(always)]
+    pub fn device_info(&self) -> &[u8] {
+        #[cfg(feature = "diagnostics")]
+        return self.device_info;
+        #[cfg(not(feature = "diagnostics"))]
+        &[]
+    }
+
+    /// Sets FC 7's status bits (nothing without feature `diagnostics`).
+    pub fn set_exception_status(&mut self, bits: u8) {
+        #[cfg(feature = "diagnostics")]
+        {
+            self.exception_status = bits;
+        }
+        let _ = bits;
+    }
+
+    /// Sets FC 17's device description (nothing without feature `diagnostics`).
+    pub fn set_device_info(&mut self, info: &'static [u8]) {
+        #[cfg(feature = "diagnostics")]
+        {
+            self.device_info = info;
+        }
+        let _ = info;
+    }
+}
+
+/// Declares a register map fixed when the firmware is built: a struct holding the values
+/// of exactly the classic references listed, each a single reference or a range
+/// `first..=last`, in any order. It implements [`crate::DataModel`], so
+/// [`crate::slave!`] takes it, and has `new()` (every value 0), `get`, `set`,
+/// `contains`, `master_writes`, `set_exception_status` and `set_device_info`, as
+/// [`crate::Bank`] does.
+///
+/// ```
+/// avr_modbus_slave::register_map! {
+///     /// The contract map: 16 coils, 16 inputs, 8 input and 16 holding registers.
+///     pub struct Registers {
+///         00001..=00016,
+///         10001..=10016,
+///         30001..=30008,
+///         40001..=40016,
+///     }
+/// }
+/// let mut map = Registers::new();
+/// map.set(40001, 1500).unwrap();
+/// assert_eq!(map.get(40001), Ok(1500));
+/// assert_eq!(map.get(40017), Err(avr_modbus_slave::Error::NotFound));
+/// assert_eq!(core::mem::size_of::<Registers>(), 2 * 24 + 4 + 2);
+/// ```
+///
+/// A reference that is not a classic one, an empty range or two ranges that overlap fail
+/// the build:
+///
+/// ```compile_fail
+/// avr_modbus_slave::register_map! {
+///     struct Overlapping { 40001..=40010, 40005 }
+/// }
+/// let _ = Overlapping::new();
+/// ```
+#[macro_export]
+macro_rules! register_map {
+    ($(#[$attr:meta])* $vis:vis struct $name:ident { $($first:literal $(..= $last:literal)?),+ $(,)? }) => {
+        $(#[$attr])*
+        $vis struct $name(
+            $crate::internal::map::Values<
+                { $crate::internal::map::Layout::words(&[$($crate::__range!($first $(..= $last)?)),+]) },
+                { $crate::internal::map::Layout::bit_bytes(&[$($crate::__range!($first $(..= $last)?)),+]) },
+            >,
+        );
+
+        impl $name {
+            /// The map with every value 0.
+            #[allow(dead_code)]
+            $vis const fn new() -> Self {
+                $name($crate::internal::map::Values::new())
+            }
+
+            /// Storage index of `start..start + qty` (`qty` ≥ 1) of `table`, when all exist.
+            #[inline(always)]
+            fn locate(table: $crate::Table, start: u16, qty: u16) -> ::core::option::Option<usize> {
+                const RANGES: &[(u32, u32)] = &[$($crate::__range!($first $(..= $last)?)),+];
+                $(
+                    {
+                        const SPAN: $crate::internal::map::Span = $crate::internal::map::Layout::span(RANGES, $first);
+                        if let ::core::option::Option::Some(at) = SPAN.index(table, start, qty) {
+                            return ::core::option::Option::Some(at);
+                        }
+                    }
+                )+
+                ::core::option::Option::None
+            }
+
+            #[inline(always)]
+            fn locate_one(reference: $crate::Reference) -> ::core::option::Option<usize> {
+                Self::locate(reference.table, reference.address, 1)
+            }
+
+            /// The value: a register's word, or 0/1 for a coil or discrete input.
+            #[allow(dead_code)]
+            #[inline(always)]
+            $vis fn get(&self, reference: impl $crate::IntoReference) -> ::core::result::Result<u16, $crate::Error> {
+                let reference = reference.into_reference()?;
+                self.0.get(reference.table, Self::locate_one(reference))
+            }
+
+            /// Sets the value: a register's word, or for a coil or discrete input on when non-zero.
+            #[allow(dead_code)]
+            #[inline(always)]
+            $vis fn set(&mut self, reference: impl $crate::IntoReference, value: u16) -> ::core::result::Result<(), $crate::Error> {
+                let reference = reference.into_reference()?;
+                self.0.set(reference.table, Self::locate_one(reference), value)
+            }
+
+            /// True if the map has the reference.
+            #[allow(dead_code)]
+            $vis fn contains(&self, reference: impl $crate::IntoReference) -> bool {
+                reference.into_reference().is_ok_and(|r| Self::locate_one(r).is_some())
+            }
+
+            /// How many write requests from the master have succeeded (wrapping).
+            #[allow(dead_code)]
+            $vis fn master_writes(&self) -> u16 {
+                self.0.master_writes()
+            }
+
+            /// Sets the eight status bits FC 7 (Read Exception Status) reports (feature
+            /// `diagnostics`; without it there is no FC 7 and nothing is kept).
+            #[allow(dead_code)]
+            $vis fn set_exception_status(&mut self, bits: u8) {
+                self.0.set_exception_status(bits);
+            }
+
+            /// Sets the device description FC 17 (0x11, Report Server ID) reports (feature
+            /// `diagnostics`; without it there is no FC 17 and nothing is kept).
+            #[allow(dead_code)]
+            $vis fn set_device_info(&mut self, info: &'static [u8]) {
+                self.0.set_device_info(info);
+            }
+        }
+
+        impl $crate::DataModel for $name {
+            fn read_bits(&self, table: $crate::Table, start: u16, qty: u16, out: &mut [u8]) -> ::core::result::Result<(), $crate::Exception> {
+                self.0.read_bits(Self::locate(table, start, qty), qty, out)
+            }
+
+            fn read_registers(&self, table: $crate::Table, start: u16, out: &mut [u8]) -> ::core::result::Result<(), $crate::Exception> {
+                self.0.read_words(Self::locate(table, start, (out.len() / 2) as u16), out)
+            }
+
+            fn has_range(&self, table: $crate::Table, start: u16, qty: u16) -> bool {
+                Self::locate(table, start, qty).is_some()
+            }
+
+            fn write_coils(&mut self, start: u16, qty: u16, packed: &[u8]) -> ::core::result::Result<(), $crate::Exception> {
+                self.0.write_bits(Self::locate($crate::Table::Coils, start, qty), qty, packed)
+            }
+
+            fn write_registers(&mut self, start: u16, values: &[u8]) -> ::core::result::Result<(), $crate::Exception> {
+                let qty = (values.len() / 2) as u16;
+                self.0.write_words(Self::locate($crate::Table::HoldingRegisters, start, qty), values)
+            }
+
+            #[inline(always)]
+            fn value(&self, reference: $crate::Reference) -> ::core::result::Result<u16, $crate::Error> {
+                self.0.get(reference.table, Self::locate_one(reference))
+            }
+
+            #[inline(always)]
+            fn set_value(&mut self, reference: $crate::Reference, value: u16) -> ::core::result::Result<(), $crate::Error> {
+                self.0.set(reference.table, Self::locate_one(reference), value)
+            }
+
+            #[inline(always)]
+            fn master_writes(&self) -> u16 {
+                self.0.master_writes()
+            }
+
+            fn exception_status(&self) -> u8 {
+                self.0.exception_status()
+            }
+
+            fn device_info(&self) -> &[u8] {
+                self.0.device_info()
+            }
+        }
+    };
+}
+
+/// One range of [`register_map!`] as `(first, last)`.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __range {
+    ($first:literal ..= $last:literal) => {
+        ($first, $last)
+    };
+    ($first:literal) => {
+        ($first, $first)
+    };
+}
