@@ -8,14 +8,14 @@ EXAMPLES := $(patsubst examples/%.rs,%,$(wildcard examples/*.rs))
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: help setup firmware fixtures sizes lint fmt-check clippy docs host-test test demo serve interop bench fuzz soak
+.PHONY: help setup firmware fixtures sizes lint fmt-check clippy docs host-test test demo serve interop bench bench-features fuzz soak
 
 help:
 	@echo "make demo   - build the Uno slave and poll it on a virtual Uno"
 	@echo "make serve EXAMPLE=uno_slave - keep a virtual Uno running for QModMaster or any master"
 	@echo "make test   - set up, lint, build every firmware, run all tests"
 	@echo "make firmware - build every example for the Uno ($(FIRMWARE_DIR))"
-	@echo "make bench  - flash, RAM, stack, interrupt cycles, turnaround, throughput -> bench/results.md"
+	@echo "make bench  - size-issue targets (met or not), flash, RAM, stack, interrupt cycles, turnaround, throughput -> bench/results.md"
 	@echo "make fuzz   - coverage-guided fuzz targets (FUZZ_SECONDS each), then a long property run"
 	@echo "make soak   - 100000 mixed transactions against uno_slave in simavr (~15 min; SOAK_TRANSACTIONS)"
 
@@ -86,8 +86,19 @@ serve: firmware
 interop: firmware
 	$(CARGO) test -p virtual-uno --test interop -- --nocapture --test-threads=1
 
-bench: setup firmware
+bench: setup firmware bench-features
 	$(CARGO) run --release -p bench
+
+# minimal built with each optional feature, as `firmware` builds it, into its own target
+# directory (firmware's ELF files stay as they are): make bench compares their sizes.
+BENCH_FEATURES_DIR := target/bench-features
+BENCH_FEATURES := extra-fc diagnostics write-protect
+bench-features: setup
+	@mkdir -p $(BENCH_FEATURES_DIR)
+	@for f in "" $(BENCH_FEATURES); do \
+		$(CARGO) uno --example minimal --features examples$${f:+,$$f} --target-dir $(BENCH_FEATURES_DIR); \
+		cp $(BENCH_FEATURES_DIR)/avr-atmega328p/release/examples/minimal.elf $(BENCH_FEATURES_DIR)/minimal$${f:++$$f}.elf; \
+	done
 
 # Coverage-guided fuzzing (cargo-fuzz, libFuzzer): every target under fuzz/ for FUZZ_SECONDS
 # each, with its executions, rate and findings (.ci/fuzz). Then a long seeded run of the
