@@ -60,10 +60,9 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
 
     /// USART0 RX complete: one character (or a damaged one) arrived. The interrupt handler
     /// set the silence deadlines before it got here (`timer::on_receive`), so that they
-    /// count from as close to the stop bit as can be; the restart takes note.
+    /// count from as close to the stop bit as can be.
     #[inline(always)]
     fn on_usart_rx(&mut self) {
-        self.timer.restart();
         match self.usart.read() {
             Ok(byte) => self.engine.on_byte(byte),
             Err(e) => self.engine.on_error(e),
@@ -278,8 +277,12 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
     #[doc(hidden)]
     #[inline(always)]
     pub unsafe fn on_usart_rx(&self) {
-        // SAFETY: interrupts are disabled (the caller's promise).
-        unsafe { self.access(Running::on_usart_rx) };
+        // SAFETY: interrupts are disabled (the caller's promise), and stay so, so no other
+        // access overlaps this one: the application's run with interrupts disabled, and the
+        // handlers don't nest. The slave is there: only `start` enables the receive
+        // interrupt, after writing it. The other handlers keep `access`'s check; this one,
+        // once per character, is kept short.
+        unsafe { (*self.running.get()).assume_init_mut().on_usart_rx() };
     }
 
     /// See [`Slave::on_usart_rx`].
