@@ -115,9 +115,11 @@ impl Deadlines {
     /// registers are written is a match of the old values during this interrupt, pending:
     /// no match of the new values can come so soon (`low` is at least 1, two tick edges
     /// away). Such a flag is noted, and its interrupt let pass. (Clearing it through TIFR0
-    /// would do on the ATmega328P, but simavr 1.6 then also clears a pending overflow, and
-    /// the simulated clock would lose a turn; and simavr raises no interrupt for a flag
-    /// that rose while its interrupt was masked, which the silicon does: hence no masking.)
+    /// would do on the ATmega328P, but under simavr 1.6 the simulated clock then loses
+    /// turns (`tests/sim_clock.rs` saw it: the write also clears a pending overflow). And
+    /// masking a compare interrupt between deadlines made simavr late by a turn: a flag
+    /// that rose while masked, noted here, brought no interrupt once unmasked there, though
+    /// it does on the silicon. Hence no masking, and a compare interrupt each per turn.)
     #[inline(always)]
     fn set(&mut self) {
         let tcnt = TCNT0.read();
