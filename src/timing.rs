@@ -4,9 +4,8 @@
 //!
 //! Timer0 runs freely at clk/64 from the slave's start (datasheet §15): its overflow
 //! interrupt keeps [`Uptime`], and a received character sets each deadline as a compare
-//! value relative to the counter, a number of tick edges after the first edge that follows
-//! the receive interrupt's read of TCNT0 (found by polling, [`edge_after_read`]). Nothing
-//! restarts the counter, so the milliseconds never lose a tick.
+//! value relative to the receive interrupt's one read of TCNT0 and a count of whole turns
+//! ([`Deadline`]). Nothing restarts the counter, so the milliseconds never lose a tick.
 //!
 //! Everything here is `const fn` math: the AVR layer only copies the results into
 //! registers, and the host tests check the results (`tests/timing.rs`: every accepted
@@ -71,7 +70,7 @@ impl CharTimes {
 /// an overflow every 1.024 ms, as in Arduino's core. A tick is small beside the silences
 /// (T1.5 is 750 µs or more), the overflow interrupt that keeps [`Uptime`] runs about 980
 /// times a second, and the longest deadline (T3.5 at 1200 bps with 12-bit characters,
-/// 35 ms) is 35 counter turns, which 16-bit tick counts hold with room to spare.
+/// 35 ms) is 35 counter turns, which the compare interrupts count in a byte.
 pub const TIMER0_DIVISOR: u32 = 64;
 
 /// The clock-select bits CS02:0 of TCCR0B for [`TIMER0_DIVISOR`].
@@ -143,46 +142,23 @@ pub const fn overflow_before(tcnt: u8, overflow_pending: bool) -> bool {
     overflow_pending && tcnt != 255
 }
 
-/// Ticks counted since Timer0 started, modulo 2¹⁶, from the turns the overflow interrupt
-/// counted (modulo 2⁸), TCNT0 and the overflow flag read after it.
-pub const fn tick_count(turns: u8, tcnt: u8, overflow_pending: bool) -> u16 {
-    let turns = if overflow_before(tcnt, overflow_pending) { turns.wrapping_add(1) } else { turns };
-    (turns as u16) << 8 | tcnt as u16
-}
-
 /// A lower bound of the time, in CPU cycles, from the USART flagging a received character
-/// (RXC0) to the receive interrupt's first read of TCNT0, which is the first thing its
-/// handler does (`slave!` binds it): the interrupt response (4), the vector table's jump
-/// (3) and the handler's prologue, which saves the registers the handler uses before it
-/// reaches the read. The prologue is the compiler's, and it varies a little with the
-/// firmware: 15 registers saved (32 cycles, 39 in all) in most examples, 14 in
-/// `lab_lights` (37); the bound leaves room for two fewer. A CPU that was sleeping or in
-/// the middle of a longer instruction takes up to 4 cycles more; one held off by another
-/// interrupt or a critical section, that much more. Deadlines count from this bound, so a
-/// later read only makes them later. `tests/sim_clock.rs` checks it on every example.
-pub const RX_LATENCY_CYCLES: u32 = 33;
+/// (RXC0) to the receive interrupt's read of TCNT0, the first thing its handler does
+/// (`slave!` binds it): the interrupt response (4), the vector table's jump (3) and the
+/// handler's prologue, which saves SREG (through `r0`, 5 cycles), `r1` (3) and the
+/// registers the handler uses (2 each) before it reaches the read. The prologue is the
+/// compiler's: 5 registers saved in every example (25 cycles in all); the bound leaves room
+/// for two fewer. A CPU that was sleeping or in the middle of a longer instruction takes up
+/// to 4 cycles more; one held off by another interrupt or a critical section, that much
+/// more. Deadlines count from this bound, so a later read only makes them later.
+/// `tests/sim_clock.rs` checks it on every example.
+pub const RX_LATENCY_CYCLES: u32 = 21;
 
-/// How the receive interrupt finds Timer0's phase, which the free-running prescaler hides:
-/// after its first read of TCNT0 it polls the counter until it changes (the loop in
-/// `src/avr/timer.rs`). Poll 1 reads it this many cycles after the first read…
-pub const SYNC_FIRST_POLL_CYCLES: u32 = 2;
-/// …and each further poll this many cycles after the one before.
-pub const SYNC_POLL_CYCLES: u32 = 5;
-/// Allowance for the moment within its cycle at which an `in` instruction samples TCNT0.
-const SYNC_SLACK_CYCLES: u32 = 1;
-/// Polls at most: the counter changes within a tick of the first read.
-pub const SYNC_MAX_POLLS: u8 =
-    ((TIMER0_DIVISOR + SYNC_SLACK_CYCLES - SYNC_FIRST_POLL_CYCLES).div_ceil(SYNC_POLL_CYCLES) + 1) as u8;
-
-/// Cycles from the first read of TCNT0 to the tick edge after it, earliest and latest, when
-/// poll `polls` (1 or more) was the first to see the counter changed: the edge came after
-/// the poll before it and no later than that poll.
-pub const fn edge_after_read(polls: u8) -> (u32, u32) {
-    let polls = if polls == 0 { 1 } else { polls as u32 };
-    let seen = SYNC_FIRST_POLL_CYCLES + (polls - 1) * SYNC_POLL_CYCLES;
-    let before = if polls == 1 { 0 } else { seen - SYNC_POLL_CYCLES };
-    (before.saturating_sub(SYNC_SLACK_CYCLES), seen + SYNC_SLACK_CYCLES)
-}
+/// Cycles from the receive interrupt's read of TCNT0 to the next tick edge, earliest and
+/// latest: the prescaler runs freely, so the edge can come anywhere within a tick of the
+/// read, with one cycle allowed either way for the moment within its cycle at which an
+/// `in` instruction samples TCNT0.
+pub const EDGE_AFTER_READ: (u32, u32) = (0, TIMER0_DIVISOR + 1);
 
 /// CPU cycles in `ns` nanoseconds, rounded up. For a whole number of MHz (the Uno's 16) in
 /// 32-bit arithmetic: ns · MHz stays below 2³² for every silence in range (35 ms · 16).
@@ -194,87 +170,57 @@ const fn cycles(ns: u32, clock_hz: u32) -> u32 {
     }
 }
 
-/// A silence deadline, counted in Timer0 tick edges from the first edge after the receive
-/// interrupt read TCNT0: its compare flag rises `ticks` edges after that one, or one edge
-/// sooner when that first edge came late enough after the read (the poll count tells).
+/// A silence deadline as the receive interrupt sets it, without waiting for a tick edge:
+/// compare value = TCNT0 as read + [`Deadline::low`], then [`Deadline::turns`] more
+/// matches of that value (one per 256 ticks), which the compare interrupt counts.
 ///
-/// The flag that ends it therefore rises at or after the exact time (for a receive
-/// interrupt of [`RX_LATENCY_CYCLES`] or more) and less than 72 cycles (4.5 µs at 16 MHz)
-/// after it: a tick, the 5 cycles between two polls with their slack, and the rounding of
-/// the exact time up to whole cycles. Times count from the end of the character as the
-/// USART reports it; a receive interrupt held off beyond its shortest latency makes the
-/// deadline that much later. `tests/timing.rs` checks every accepted rate and format.
+/// The compare flag rises on the tick that takes TCNT0 past the compare value (datasheet
+/// §15.7), so the deadline passes at tick edge [`Deadline::edges`] after the read, the first
+/// edge coming 0 to 65 cycles after it ([`EDGE_AFTER_READ`]). `edges` is the fewest for
+/// which even the earliest first edge, after a receive interrupt of the shortest latency
+/// ([`RX_LATENCY_CYCLES`]), is at or after the exact time: never early. The latest comes
+/// less than 2 ticks + 2 cycles (130 cycles, 8.1 µs at 16 MHz) after the exact time: the
+/// unknown prescaler phase (65 cycles), the rounding up to whole ticks (63) and to whole
+/// cycles and nanoseconds. A compare value equal to the count read could be left by the
+/// counter before the interrupt writes it (a whole turn late), so `low` is never 0: for
+/// those deadlines (about 1 in 256: 49 of the 39 672 checked) one edge more, up to
+/// 3 ticks + 2 cycles (194 cycles, 12.1 µs) late. Times count from the end of the character as the USART
+/// reports it; a receive interrupt held off beyond its shortest latency makes the deadline
+/// that much later, and a compare interrupt held off for more than a turn (1.024 ms), a
+/// turn later. `tests/timing.rs` checks every accepted rate and format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Deadline {
-    /// Edges after the first one, when the first came right after the read.
-    pub ticks: u16,
-    /// From this poll count on (the first edge came late enough), one edge fewer still
-    /// expires at or after the exact time; `u8::MAX`: never.
-    pub one_less_from: u8,
+    /// Added to TCNT0 as read: the compare value. Never 0.
+    pub low: u8,
+    /// Matches of the compare value to let pass before the one that ends the deadline.
+    pub turns: u8,
 }
 
 impl Deadline {
-    /// The deadline `ns` nanoseconds after the end of a character.
+    /// The deadline `ns` nanoseconds after the end of a character, at most 65 536 ticks
+    /// (262 ms at 16 MHz, beyond any T3.5 at 1200 bps or more).
     pub const fn new(ns: u32, clock_hz: u32) -> Self {
-        let after_read = cycles(ns, clock_hz).saturating_sub(RX_LATENCY_CYCLES);
-        let ticks = after_read.div_ceil(TIMER0_DIVISOR);
-        // `ticks` edges after an edge that came right after the read are this much late.
-        let spare = ticks * TIMER0_DIVISOR - after_read;
-        let mut one_less_from = u8::MAX;
-        let mut polls = 1;
-        while polls <= SYNC_MAX_POLLS {
-            if edge_after_read(polls).0 + spare >= TIMER0_DIVISOR {
-                one_less_from = polls;
-                break;
-            }
-            polls += 1;
+        let after_read = cycles(ns, clock_hz).saturating_sub(RX_LATENCY_CYCLES + EDGE_AFTER_READ.0);
+        // Edges after the first one: the first is at least `EDGE_AFTER_READ.0` after the read.
+        let mut after_first = after_read.div_ceil(TIMER0_DIVISOR);
+        if after_first % 256 == 0 {
+            after_first += 1;
         }
-        Deadline { ticks: ticks as u16, one_less_from }
+        Deadline { low: (after_first % 256) as u8, turns: (after_first / 256) as u8 }
     }
 
-    /// Edges after the first one, for a first edge seen at poll `polls`.
-    pub const fn edges(self, polls: u8) -> u16 {
-        if polls >= self.one_less_from {
-            self.ticks - 1
-        } else {
-            self.ticks
-        }
-    }
-
-    /// The compare value (OCR0A/OCR0B) for a read of TCNT0 that gave `tcnt` and whose next
-    /// edge came at poll `polls`: the compare flag rises on the timer clock after TCNT0
-    /// equals it (datasheet §15.7), `edges` edges after the first. Earlier matches of
-    /// the same value (a turn before, or one that rose while the interrupt was masked) are
-    /// told apart by [`has_passed`].
-    pub const fn compare_value(self, tcnt: u8, polls: u8) -> u8 {
-        // Low bytes only: the interrupt needs no 16-bit arithmetic for it.
-        tcnt.wrapping_add(self.ticks as u8).wrapping_sub((polls >= self.one_less_from) as u8)
-    }
-
-    /// The tick count (see [`tick_count`]) that the counter enters when the deadline
-    /// passes, for a read of TCNT0 at tick count `start` whose next edge came at poll `polls`.
-    pub const fn due(self, start: u16, polls: u8) -> u16 {
-        let due = start.wrapping_add(self.ticks);
-        if polls >= self.one_less_from {
-            due
-        } else {
-            due.wrapping_add(1)
-        }
+    /// Tick edges from the read of TCNT0 to the one that ends the deadline (the first edge
+    /// after the read is edge 1).
+    pub const fn edges(self) -> u32 {
+        self.turns as u32 * 256 + self.low as u32 + 1
     }
 
     /// Earliest and latest expiry in CPU cycles after the end of the character, for a
-    /// receive interrupt of the shortest latency and a first edge seen at poll `polls`.
-    pub const fn expiry_cycles(self, polls: u8) -> (u32, u32) {
-        let (first, last) = edge_after_read(polls);
-        let edges = self.edges(polls) as u32 * TIMER0_DIVISOR;
-        (RX_LATENCY_CYCLES + first + edges, RX_LATENCY_CYCLES + last + edges)
+    /// receive interrupt of the shortest latency.
+    pub const fn expiry_cycles(self) -> (u32, u32) {
+        let after_first = (self.edges() - 1) * TIMER0_DIVISOR;
+        (RX_LATENCY_CYCLES + EDGE_AFTER_READ.0 + after_first, RX_LATENCY_CYCLES + EDGE_AFTER_READ.1 + after_first)
     }
-}
-
-/// Whether the counter, at tick count `now`, has reached `due`: tick counts less than 2¹⁵
-/// ticks (131 ms) apart compare correctly across the 16-bit wrap.
-pub const fn has_passed(due: u16, now: u16) -> bool {
-    now.wrapping_sub(due) as i16 >= 0
 }
 
 /// Timer0 settings for the frame detector: a deadline for the inter-character gap
@@ -474,63 +420,27 @@ mod tests {
     }
 
     #[test]
-    fn tick_counts_count_a_pending_overflow_unless_tcnt_read_255() {
-        assert_eq!(tick_count(3, 10, false), 0x030A);
-        assert_eq!(tick_count(3, 0, true), 0x0400);
-        assert_eq!(tick_count(3, 255, true), 0x03FF);
-        assert_eq!(tick_count(255, 1, true), 0x0001);
-    }
-
-    #[test]
-    fn has_passed_compares_across_the_16_bit_wrap() {
-        assert!(has_passed(100, 100));
-        assert!(!has_passed(100, 99));
-        assert!(has_passed(0xFFF0, 0x0010));
-        assert!(!has_passed(0x0010, 0xFFF0));
-        // A match one turn before the one that counts.
-        assert!(!has_passed(1000, 1000 - 256));
-    }
-
-    #[test]
-    fn compare_value_is_the_low_byte_of_the_count_before_the_due_one() {
-        let deadline = Deadline { ticks: 0x0300, one_less_from: 5 };
-        for (tcnt, polls) in [(0x12, 1), (0x12, 5), (0xFF, 4), (0x00, 14)] {
-            let due = deadline.due(0x0A00 | u16::from(tcnt), polls);
-            assert_eq!(deadline.compare_value(tcnt, polls), due.wrapping_sub(1) as u8, "{tcnt} {polls}");
-        }
-        // Whole turns: the compare value is the value read, which the counter has left.
-        assert_eq!(deadline.compare_value(0x12, 1), 0x12);
-        assert_eq!(deadline.compare_value(0x12, 5), 0x11);
-    }
-
-    #[test]
-    fn sync_polls_bracket_the_tick_edge() {
-        assert_eq!(SYNC_MAX_POLLS, 14);
-        assert_eq!(edge_after_read(1), (0, 3));
-        assert_eq!(edge_after_read(2), (1, 8));
-        assert_eq!(edge_after_read(14), (61, 68));
-        // Every possible edge (1 to 64 cycles after the read) falls in some poll's window.
-        for edge in 1..=TIMER0_DIVISOR {
-            assert!((1..=SYNC_MAX_POLLS).any(|p| {
-                let (first, last) = edge_after_read(p);
-                (first..=last).contains(&edge)
-            }));
-        }
-    }
-
-    #[test]
     fn t35_at_19200_8e1_worked_example() {
         let plan = TimerPlan::new(times(19_200, Parity::Even, StopBits::One), CLOCK_HZ);
-        // 2 005 209 ns = 32 083.3 → 32 084 cycles; 33 of them before the read: 32 051 =
-        // 500.8 ticks → 501 edges after the first one, 13 cycles to spare. From poll 12
-        // on the first edge came 51 or more cycles after the read: 500 edges are enough.
-        assert_eq!(plan.end, Deadline { ticks: 501, one_less_from: 12 });
-        assert_eq!(plan.end.expiry_cycles(1), (33 + 501 * 64, 33 + 3 + 501 * 64));
-        assert_eq!(plan.end.expiry_cycles(11), (33 + 46 + 501 * 64, 33 + 53 + 501 * 64));
-        assert_eq!(plan.end.expiry_cycles(12), (33 + 51 + 500 * 64, 33 + 58 + 500 * 64));
-        assert!(plan.end.expiry_cycles(12).0 >= 32_084);
-        assert_eq!(plan.end.due(0x1234, 1), 0x1234 + 502);
-        assert_eq!(plan.end.due(0x1234, 12), 0x1234 + 501);
+        // 2 005 209 ns = 32 083.3 → 32 084 cycles; 21 of them before the read: 32 063 =
+        // 500.98 ticks → 501 edges after the first one, which may come right after the
+        // read: 502 edges, the compare value 245 (502 − 1 − 256) past the count read, and
+        // one match of it let pass.
+        assert_eq!(plan.end, Deadline { low: 245, turns: 1 });
+        assert_eq!(plan.end.edges(), 502);
+        assert_eq!(plan.end.expiry_cycles(), (21 + 501 * 64, 21 + 65 + 501 * 64));
+        assert!(plan.end.expiry_cycles().0 >= 32_084);
+    }
+
+    #[test]
+    fn a_compare_value_equal_to_the_count_read_is_one_edge_later() {
+        // 256 · 64 cycles after the read's earliest first edge: 256 edges after it, which
+        // would be a compare value of the count read itself.
+        let ns = (RX_LATENCY_CYCLES + 256 * TIMER0_DIVISOR) * 1000 / 16;
+        let deadline = Deadline::new(ns, CLOCK_HZ);
+        assert_eq!(deadline, Deadline { low: 1, turns: 1 });
+        // A tick sooner: 255 edges after the first.
+        assert_eq!(Deadline::new(ns - 4000, CLOCK_HZ), Deadline { low: 255, turns: 0 });
     }
 
     #[test]

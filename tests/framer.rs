@@ -372,3 +372,67 @@ fn a_frame_released_before_processing_is_never_processed_later() {
     assert_eq!(bank.get(40001), Ok(0));
     assert!(slave.reply().is_empty());
 }
+
+// ---- the CRC, checked once the frame has ended --------------------------------------------
+
+#[test]
+fn a_bad_crc_found_at_the_gap_deadline_drops_the_frame_at_t35() {
+    let mut slave = listening_slave();
+    let mut request = read_request();
+    request[7] ^= 0x01; // CRC hi, one bit off
+    feed(&mut slave, &request);
+    slave.on_gap_deadline();
+    assert_eq!(slave.on_end_deadline(), EndOfFrame::Dropped(FrameError::BadCrc));
+    assert_eq!(slave.counters().crc_errors, 1);
+    next_frame_is_answered(&mut slave);
+}
+
+#[test]
+fn a_bad_crc_is_found_at_t35_when_no_gap_deadline_came() {
+    let mut slave = listening_slave();
+    let mut request = read_request();
+    request[6] ^= 0x80; // CRC lo, one bit off
+    feed(&mut slave, &request);
+    assert_eq!(slave.on_end_deadline(), EndOfFrame::Dropped(FrameError::BadCrc));
+    next_frame_is_answered(&mut slave);
+}
+
+#[test]
+fn a_second_gap_deadline_keeps_the_crc_found_at_the_first() {
+    let mut framer = Framer::new();
+    framer.on_end_deadline();
+    for &byte in &read_request() {
+        framer.on_byte(byte);
+    }
+    framer.on_gap_deadline();
+    framer.on_gap_deadline();
+    assert_eq!(framer.on_end_deadline(), Some(Ok(8)));
+}
+
+#[test]
+fn framer_accepts_exactly_256_bytes_checked_at_the_gap_deadline() {
+    let mut framer = Framer::new();
+    framer.on_end_deadline();
+    let mut frame = vec![0x2Bu8; 254];
+    frame[0] = ID;
+    let frame = with_crc(&frame);
+    for &byte in &frame {
+        framer.on_byte(byte);
+    }
+    framer.on_gap_deadline();
+    assert_eq!(framer.on_end_deadline(), Some(Ok(256)));
+    assert_eq!(&framer.buffer()[..], &frame[..]);
+}
+
+#[test]
+fn a_256_byte_frame_with_a_bad_crc_is_dropped_for_its_crc() {
+    let mut framer = Framer::new();
+    framer.on_end_deadline();
+    let mut frame = with_crc(&[0x2Bu8; 254]);
+    frame[255] ^= 0x10;
+    for &byte in &frame {
+        framer.on_byte(byte);
+    }
+    framer.on_gap_deadline();
+    assert_eq!(framer.on_end_deadline(), Some(Err(FrameError::BadCrc)));
+}

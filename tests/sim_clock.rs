@@ -22,13 +22,12 @@ const TURN: u64 = 256 * TIMER0_DIVISOR as u64;
 /// Cycles in a millisecond.
 const MS: u64 = F_CPU / 1000;
 
-/// Where the overflow interrupt keeps its clock: `avr::timer::CLOCK` (an `Uptime`, then
-/// the turns), or its three fields when the optimiser split the static (`CLOCK.0` = the
-/// milliseconds, `.1` the fraction, `.2` the turns).
+/// Where the overflow interrupt keeps its clock: `avr::timer::CLOCK` (an `Uptime`), or its
+/// two fields when the optimiser split the static (`CLOCK.0` = the milliseconds, `.1` the
+/// fraction).
 struct ClockInRam {
     millis: u16,
     fract: u16,
-    turns: u16,
 }
 
 impl ClockInRam {
@@ -40,22 +39,21 @@ impl ClockInRam {
                 .map(|s| (s.addr as u16, s.size))
         };
         if let Some((addr, size)) = find("5timer5CLOCK") {
-            assert_eq!(size, 6, "CLOCK is an Uptime (5 bytes) and a turn count");
-            return ClockInRam { millis: addr, fract: addr + 4, turns: addr + 5 };
+            assert_eq!(size, 5, "CLOCK is an Uptime (5 bytes)");
+            return ClockInRam { millis: addr, fract: addr + 4 };
         }
-        match (find("5timer5CLOCK.0"), find("5timer5CLOCK.1"), find("5timer5CLOCK.2")) {
-            (Some((millis, 4)), Some((fract, 1)), Some((turns, 1))) => ClockInRam { millis, fract, turns },
+        match (find("5timer5CLOCK.0"), find("5timer5CLOCK.1")) {
+            (Some((millis, 4)), Some((fract, 1))) => ClockInRam { millis, fract },
             other => panic!("no Timer0 clock in {}: {other:?}", uno.path().display()),
         }
     }
 
-    /// The overflow interrupt's clock and turn count, and whether an overflow is pending.
-    fn read(&self, uno: &Uno) -> (Uptime, u8, bool) {
+    /// The overflow interrupt's clock, and whether an overflow is pending.
+    fn read(&self, uno: &Uno) -> (Uptime, bool) {
         let millis = uno.read_ram(self.millis, 4).expect("RAM");
         let fract = uno.read_ram(self.fract, 1).expect("RAM")[0];
-        let turns = uno.read_ram(self.turns, 1).expect("RAM")[0];
         let pending = uno.read_ram(TIFR0, 1).expect("TIFR0")[0] & 1 != 0;
-        (Uptime { millis: u32::from_le_bytes(millis.try_into().unwrap()), fract }, turns, pending)
+        (Uptime { millis: u32::from_le_bytes(millis.try_into().unwrap()), fract }, pending)
     }
 }
 
@@ -68,7 +66,7 @@ fn check_clock(uno: &mut Uno, clock: &ClockInRam, started: u64) -> u64 {
         uno.step().expect("firmware runs");
     }
     let elapsed = uno.now() - started;
-    let (uptime, turns, pending) = clock.read(uno);
+    let (uptime, pending) = clock.read(uno);
     // Every turn completed has been counted, but one whose interrupt is still pending.
     let counted = elapsed / TURN - u64::from(pending);
     assert_eq!(
@@ -76,7 +74,6 @@ fn check_clock(uno: &mut Uno, clock: &ClockInRam, started: u64) -> u64 {
         counted * 256,
         "{elapsed} cycles after the start: {uptime:?} is not {counted} turns"
     );
-    assert_eq!(turns, counted as u8, "turn count");
     // What millis() returns at this cycle: TCNT0 is the tick within the turn.
     let tcnt = ((elapsed % TURN) / u64::from(TIMER0_DIVISOR)) as u8;
     let millis = u64::from(uptime.millis_at(tcnt, pending));
@@ -154,28 +151,52 @@ fn uno_slave_counts_its_uptime_in_seconds() {
     assert_eq!(rtu.ask(&request), registers_reply(ID, 0x04, &[2]), "30004 at 2.5 s");
 }
 
-/// Cycles from RXC0 to the receive interrupt's first read of TCNT0, for a byte arriving at
-/// `arrival`: the handler is stepped through, and the read is the instruction two before
-/// the first one that repeats (the poll loop's `in`; see `sync_to_tick`).
-fn rx_latency(rtu: &mut Rtu, arrival: u64) -> Option<u64> {
+/// The program's code from the ELF file: (address, bytes) of each executable section.
+fn code_sections(elf: &std::path::Path) -> Vec<(u32, Vec<u8>)> {
+    let b = std::fs::read(elf).expect("ELF");
+    let u16_at = |o: usize| u16::from_le_bytes([b[o], b[o + 1]]) as usize;
+    let u32_at = |o: usize| u32::from_le_bytes(b[o..o + 4].try_into().unwrap());
+    let (shoff, shentsize, shnum) = (u32_at(0x20) as usize, u16_at(0x2E), u16_at(0x30));
+    (0..shnum)
+        .map(|i| shoff + i * shentsize)
+        .filter(|&h| u32_at(h + 4) == 1 && u32_at(h + 8) & 0x4 != 0) // PROGBITS, executable
+        .map(|h| {
+            let (addr, offset, size) = (u32_at(h + 0x0C), u32_at(h + 0x10) as usize, u32_at(h + 0x14) as usize);
+            (addr, b[offset..offset + size].to_vec())
+        })
+        .collect()
+}
+
+/// Whether the instruction at `pc` is `in Rd, TCNT0` (I/O address 0x26): 1011 0AAd dddd AAAA.
+fn reads_tcnt0(code: &[(u32, Vec<u8>)], pc: u32) -> bool {
+    code.iter().any(|(addr, bytes)| {
+        let Some(at) = pc.checked_sub(*addr).map(|o| o as usize).filter(|&o| o + 1 < bytes.len()) else {
+            return false;
+        };
+        let word = u16::from_le_bytes([bytes[at], bytes[at + 1]]);
+        word & 0xF800 == 0xB000 && ((word >> 5) & 0x30) | (word & 0x0F) == 0x26
+    })
+}
+
+/// Cycles from RXC0 to the receive interrupt's read of TCNT0, for a byte arriving at
+/// `arrival`: the handler is stepped through up to its `in` from TCNT0.
+fn rx_latency(rtu: &mut Rtu, code: &[(u32, Vec<u8>)], arrival: u64) -> Option<u64> {
     rtu.uno.send_byte(0x00, arrival).expect("byte scheduled");
     rtu.uno.run_until(arrival.saturating_sub(200)).expect("firmware runs");
-    let mut seen: Vec<(u32, u64)> = Vec::new();
-    while seen.len() < 300 {
+    let mut entered = false;
+    for _ in 0..2000 {
         let before = rtu.uno.now();
         let step = rtu.uno.step().expect("firmware runs");
         if step.vector != Some(vector::USART_RX) {
-            if seen.is_empty() {
-                continue;
+            if entered {
+                return None;
             }
-            break;
+            continue;
         }
-        if let Some(first) = seen.iter().position(|&(pc, _)| pc == step.pc) {
-            // The loop's first poll, preceded by the read and by `ldi`.
-            let read = first.checked_sub(2)?;
-            return (seen[read].0 + 4 == step.pc).then(|| seen[read].1 - arrival);
+        entered = true;
+        if reads_tcnt0(code, step.pc) {
+            return Some(before - arrival);
         }
-        seen.push((step.pc, before));
     }
     None
 }
@@ -183,16 +204,17 @@ fn rx_latency(rtu: &mut Rtu, arrival: u64) -> Option<u64> {
 /// The receive interrupt's latency over arrivals at 64 phases of Timer0 and of the main
 /// loop: never below what the deadlines assume.
 fn rx_latency_is_at_least_the_assumed(mut rtu: Rtu, what: &str) {
+    let code = code_sections(rtu.uno.path());
     let mut latencies = Vec::new();
     for i in 0..64 {
         let arrival = rtu.uno.now() + rtu.line.t35() + 1000 + i * 97;
-        if let Some(latency) = rx_latency(&mut rtu, arrival) {
+        if let Some(latency) = rx_latency(&mut rtu, &code, arrival) {
             latencies.push(latency);
         }
         // Let the one-byte frame end.
         rtu.uno.run_for(2 * rtu.line.t35()).expect("firmware runs");
     }
-    assert!(latencies.len() >= 32, "{what}: the poll loop was found {} times out of 64", latencies.len());
+    assert!(latencies.len() >= 32, "{what}: the read of TCNT0 was found {} times out of 64", latencies.len());
     let (least, most) = (latencies.iter().min().unwrap(), latencies.iter().max().unwrap());
     eprintln!(
         "{what}: RXC0 to the first read of TCNT0 {least}..{most} cycles ({} arrivals), deadlines assume {}",

@@ -60,10 +60,9 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
 
     /// USART0 RX complete: one character (or a damaged one) arrived. The interrupt handler
     /// set the silence deadlines before it got here (`timer::on_receive`), so that they
-    /// count from as close to the stop bit as can be; the restart takes note.
+    /// count from as close to the stop bit as can be.
     #[inline(always)]
     fn on_usart_rx(&mut self) {
-        self.timer.restart();
         match self.usart.read() {
             Ok(byte) => self.engine.on_byte(byte),
             Err(e) => self.engine.on_error(e),
@@ -211,6 +210,22 @@ impl<M, DE, LED> Slave<M, DE, LED> {
         }
     }
 
+    /// Runs `f` on the running slave from one of the handlers that Timer0 and the receiver
+    /// raise once per character or per turn, without [`Slave::access`]'s check, which keeps
+    /// them short.
+    ///
+    /// # Safety
+    /// Only from the slave's receive or Timer0 interrupt handlers (interrupts disabled, and
+    /// they stay so), so no other access overlaps this one: the application's run with
+    /// interrupts disabled, and the handlers don't nest. The slave is there: only `start`
+    /// enables those interrupts, after writing it.
+    #[inline(always)]
+    unsafe fn access_in_handler<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED>) -> R) -> R {
+        // SAFETY: as promised by the caller, nothing else reaches the slave meanwhile, and
+        // it was written.
+        unsafe { f((*self.running.get()).assume_init_mut()) }
+    }
+
     /// Runs `f` on the running slave with interrupts disabled.
     fn locked<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED>) -> R) -> Option<R> {
         // SAFETY: interrupts are disabled for the whole access.
@@ -278,8 +293,8 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
     #[doc(hidden)]
     #[inline(always)]
     pub unsafe fn on_usart_rx(&self) {
-        // SAFETY: interrupts are disabled (the caller's promise).
-        unsafe { self.access(Running::on_usart_rx) };
+        // SAFETY: the receive interrupt handler (the caller's promise).
+        unsafe { self.access_in_handler(Running::on_usart_rx) };
     }
 
     /// See [`Slave::on_usart_rx`].
@@ -289,7 +304,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
     #[doc(hidden)]
     #[inline(always)]
     pub unsafe fn on_usart_udre(&self) {
-        // SAFETY: as above.
+        // SAFETY: interrupts are disabled (the caller's promise).
         unsafe { self.access(Running::on_usart_udre) };
     }
 
@@ -311,8 +326,8 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
     #[doc(hidden)]
     #[inline(always)]
     pub unsafe fn on_timer_compare_a(&self) {
-        // SAFETY: as above.
-        unsafe { self.access(Running::on_timer_compare_a) };
+        // SAFETY: a Timer0 interrupt handler (the caller's promise).
+        unsafe { self.access_in_handler(Running::on_timer_compare_a) };
     }
 
     /// See [`Slave::on_usart_rx`].
@@ -322,8 +337,8 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
     #[doc(hidden)]
     #[inline(always)]
     pub unsafe fn on_timer_compare_b(&self) {
-        // SAFETY: as above.
-        unsafe { self.access(Running::on_timer_compare_b) };
+        // SAFETY: a Timer0 interrupt handler (the caller's promise).
+        unsafe { self.access_in_handler(Running::on_timer_compare_b) };
     }
 
     /// Runs `f` on the data model with interrupts disabled: `None` before

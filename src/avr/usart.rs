@@ -1,5 +1,7 @@
 //! USART0 in asynchronous mode, 8 data bits, ATmega328P datasheet §20 (registers §20.11).
 
+use core::arch::asm;
+
 use super::reg::{UBRR0H, UBRR0L, UCSR0A, UCSR0B, UCSR0C, UDR0};
 use crate::config::{Config, Parity, StopBits};
 use crate::framer::UartError;
@@ -16,6 +18,29 @@ const TXCIE0: u8 = 1 << 6;
 const UDRIE0: u8 = 1 << 5;
 const RXEN0: u8 = 1 << 4;
 const TXEN0: u8 = 1 << 3;
+
+/// UCSR0A's data-space address (`reg::UCSR0A`), for the assembly below.
+const UCSR0A_ADDRESS: u16 = 0xC0;
+
+/// UCSR0A's error flags (DOR0, FE0, UPE0), in one register: written out so that the
+/// compiler keeps no second copy of the status for the error path, which costs the receive
+/// interrupt a saved register.
+#[inline(always)]
+fn read_errors() -> u8 {
+    let errors: u8;
+    // SAFETY: reads UCSR0A (a read has no side effect) into the one register named.
+    unsafe {
+        asm!(
+            "lds {errors}, {ucsr0a}",
+            "andi {errors}, {mask}",
+            errors = out(reg_upper) errors,
+            ucsr0a = const UCSR0A_ADDRESS,
+            mask = const DOR0 | FE0 | UPE0,
+            options(nostack),
+        );
+    }
+    errors
+}
 
 /// USART0 on Arduino pins 0 (RX) and 1 (TX).
 pub(crate) struct Usart;
@@ -61,16 +86,16 @@ impl Usart {
     /// to the character in UDR0, so they are read first.
     #[inline(always)]
     pub(crate) fn read(&self) -> Result<u8, UartError> {
-        let status = UCSR0A.read();
+        let errors = read_errors();
         let byte = UDR0.read();
-        if status & DOR0 != 0 {
-            Err(UartError::Overrun)
-        } else if status & FE0 != 0 {
-            Err(UartError::Framing)
-        } else if status & UPE0 != 0 {
-            Err(UartError::Parity)
-        } else {
+        if errors == 0 {
             Ok(byte)
+        } else if errors & DOR0 != 0 {
+            Err(UartError::Overrun)
+        } else if errors & FE0 != 0 {
+            Err(UartError::Framing)
+        } else {
+            Err(UartError::Parity)
         }
     }
 
