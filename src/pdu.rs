@@ -1,16 +1,24 @@
 //! The PDU engine, Modbus Application Protocol v1.1b3 §6.1–6.6, §6.11–6.12 (function
-//! codes 01–06, 0F, 10) and §7 (exception responses).
+//! codes 01–06, 0F, 10), §6.16–6.17 (16, 17, feature `extra-fc`) and §7 (exception
+//! responses).
 //!
 //! [`Request::parse`] borrows the request PDU and applies the checks in the spec's order:
 //! function code (01), then quantity, byte count, value and length (03), then the end of
-//! the range inside 0–65535 (02). [`respond`] runs the request against a [`DataModel`]
-//! (which answers 02 for missing addresses and 04 for failures) and writes the response
-//! PDU over the request, in the same buffer.
+//! the range inside 0–65535 (02). The limits are per table, not per function code
+//! ([`max_read`], [`max_write`], [`byte_count`]): a read of bits or registers, a write of
+//! coils or registers. [`respond`] runs the request against a [`DataModel`] (which answers
+//! 02 for missing addresses and 04 for failures) and writes the response PDU over the
+//! request, in the same buffer.
+//!
+//! The checks are written as comparisons, never as a `match` from a code to a constant:
+//! on AVR the compiler would turn such a `match` into a lookup table, and constant tables
+//! are copied to RAM at start-up.
 
 use crate::model::DataModel;
 use crate::reference::Table;
 
-/// A function code, Application Protocol §5.1.
+/// A function code, Application Protocol §5.1: every code this crate answers, and the
+/// rest.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FunctionCode {
     /// 0x01 Read Coils, §6.1.
@@ -25,10 +33,18 @@ pub enum FunctionCode {
     WriteSingleCoil,
     /// 0x06 Write Single Register, §6.6.
     WriteSingleRegister,
+    /// 0x07 Read Exception Status, §6.7 (feature `diagnostics`).
+    ReadExceptionStatus,
+    /// 0x08 Diagnostics, §6.8 (feature `diagnostics`).
+    Diagnostics,
+    /// 0x0B Get Comm Event Counter, §6.9 (feature `diagnostics`).
+    GetCommEventCounter,
     /// 0x0F Write Multiple Coils, §6.11.
     WriteMultipleCoils,
     /// 0x10 Write Multiple Registers, §6.12.
     WriteMultipleRegisters,
+    /// 0x11 Report Server ID, §6.13 (feature `diagnostics`).
+    ReportServerId,
     /// 0x16 Mask Write Register, §6.16 (feature `extra-fc`).
     MaskWriteRegister,
     /// 0x17 Read/Write Multiple Registers, §6.17 (feature `extra-fc`).
@@ -47,8 +63,12 @@ impl FunctionCode {
             0x04 => FunctionCode::ReadInputRegisters,
             0x05 => FunctionCode::WriteSingleCoil,
             0x06 => FunctionCode::WriteSingleRegister,
+            0x07 => FunctionCode::ReadExceptionStatus,
+            0x08 => FunctionCode::Diagnostics,
+            0x0B => FunctionCode::GetCommEventCounter,
             0x0F => FunctionCode::WriteMultipleCoils,
             0x10 => FunctionCode::WriteMultipleRegisters,
+            0x11 => FunctionCode::ReportServerId,
             0x16 => FunctionCode::MaskWriteRegister,
             0x17 => FunctionCode::ReadWriteMultipleRegisters,
             other => FunctionCode::Unknown(other),
@@ -64,12 +84,27 @@ impl FunctionCode {
             FunctionCode::ReadInputRegisters => 0x04,
             FunctionCode::WriteSingleCoil => 0x05,
             FunctionCode::WriteSingleRegister => 0x06,
+            FunctionCode::ReadExceptionStatus => 0x07,
+            FunctionCode::Diagnostics => 0x08,
+            FunctionCode::GetCommEventCounter => 0x0B,
             FunctionCode::WriteMultipleCoils => 0x0F,
             FunctionCode::WriteMultipleRegisters => 0x10,
+            FunctionCode::ReportServerId => 0x11,
             FunctionCode::MaskWriteRegister => 0x16,
             FunctionCode::ReadWriteMultipleRegisters => 0x17,
             FunctionCode::Unknown(other) => other,
         }
+    }
+
+    /// True for the serial-line diagnostics, FC 7, 8, 11 (0x0B) and 17 (0x11).
+    pub const fn is_diagnostic(self) -> bool {
+        matches!(
+            self,
+            FunctionCode::ReadExceptionStatus
+                | FunctionCode::Diagnostics
+                | FunctionCode::GetCommEventCounter
+                | FunctionCode::ReportServerId
+        )
     }
 }
 
@@ -99,67 +134,65 @@ pub const MAX_WRITE_REGISTERS: u16 = 0x007B;
 /// Largest quantity of registers written by FC 23 (Read/Write Multiple): 121.
 pub const MAX_READ_WRITE_REGISTERS: u16 = 0x0079;
 
+/// The largest quantity one read of `table` may ask for: FC 1, 2 and FC 3, 4 (and 23's
+/// read).
+pub const fn max_read(table: Table) -> u16 {
+    if table.is_bits() {
+        MAX_READ_BITS
+    } else {
+        MAX_READ_REGISTERS
+    }
+}
+
+/// The largest quantity one write of `table` may carry: FC 15 and FC 16.
+pub const fn max_write(table: Table) -> u16 {
+    if table.is_bits() {
+        MAX_WRITE_COILS
+    } else {
+        MAX_WRITE_REGISTERS
+    }
+}
+
+/// The bytes `qty` values of `table` take in a request or response: packed bits, or two
+/// bytes per register.
+pub const fn byte_count(table: Table, qty: u16) -> u16 {
+    if table.is_bits() {
+        qty.div_ceil(8)
+    } else {
+        qty.saturating_mul(2)
+    }
+}
+
 /// FC 05's value for ON.
 const COIL_ON: u16 = 0xFF00;
 /// FC 05's value for OFF.
 const COIL_OFF: u16 = 0x0000;
 
-/// A parsed request, borrowing its data from the request PDU.
+/// A parsed request, borrowing its data from the request PDU. The written values stay
+/// as they came on the wire: FC 05's value byte 0xFF or 0x00 is a packed coil (bit 0),
+/// FC 06's value a big-endian register.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Request<'a> {
-    /// FC 1.
-    ReadCoils {
+    /// FC 1–4.
+    Read {
+        /// Coils (FC 1), discrete inputs (2), holding (3) or input registers (4).
+        table: Table,
         /// First address.
         start: u16,
-        /// Number of coils, 1–2000.
+        /// Number of bits, 1–2000, or registers, 1–125.
         qty: u16,
     },
-    /// FC 2.
-    ReadDiscreteInputs {
+    /// FC 5 and 15 (0x0F).
+    WriteCoils {
         /// First address.
         start: u16,
-        /// Number of inputs, 1–2000.
-        qty: u16,
-    },
-    /// FC 3.
-    ReadHoldingRegisters {
-        /// First address.
-        start: u16,
-        /// Number of registers, 1–125.
-        qty: u16,
-    },
-    /// FC 4.
-    ReadInputRegisters {
-        /// First address.
-        start: u16,
-        /// Number of registers, 1–125.
-        qty: u16,
-    },
-    /// FC 5.
-    WriteSingleCoil {
-        /// Address.
-        address: u16,
-        /// New state (0xFF00 on, 0x0000 off on the wire).
-        on: bool,
-    },
-    /// FC 6.
-    WriteSingleRegister {
-        /// Address.
-        address: u16,
-        /// New value.
-        value: u16,
-    },
-    /// FC 15 (0x0F).
-    WriteMultipleCoils {
-        /// First address.
-        start: u16,
-        /// Number of coils, 1–1968.
+        /// Number of coils, 1–1968 (1 for FC 5).
         qty: u16,
         /// The states, packed LSB first, `qty.div_ceil(8)` bytes.
         packed: &'a [u8],
     },
-    /// FC 16 (0x10).
-    WriteMultipleRegisters {
+    /// FC 6 and 16 (0x10).
+    WriteRegisters {
         /// First address.
         start: u16,
         /// The values, big-endian, 2–246 bytes.
@@ -197,8 +230,18 @@ pub(crate) fn word(pdu: &[u8], at: usize) -> u16 {
     }
 }
 
-/// 02 unless `start..start + qty` stays inside 0–65535.
-fn check_range(start: u16, qty: u16) -> Result<(), Exception> {
+/// 03 unless `ok`.
+fn value_check(ok: bool) -> Result<(), Exception> {
+    if ok {
+        Ok(())
+    } else {
+        Err(Exception::IllegalDataValue)
+    }
+}
+
+/// 03 unless `qty` is 1–`max`; then 02 unless `start..start + qty` stays inside 0–65535.
+fn check_quantity(start: u16, qty: u16, max: u16) -> Result<(), Exception> {
+    value_check(qty != 0 && qty <= max)?;
     if u32::from(start) + u32::from(qty) > 0x1_0000 {
         Err(Exception::IllegalDataAddress)
     } else {
@@ -209,68 +252,56 @@ fn check_range(start: u16, qty: u16) -> Result<(), Exception> {
 impl<'a> Request<'a> {
     /// Parses a request PDU (function code and data, no address or CRC).
     pub fn parse(pdu: &'a [u8]) -> Result<Self, Exception> {
-        let code = FunctionCode::from_u8(pdu.first().copied().unwrap_or(0));
         let (a, b) = (word(pdu, 1), word(pdu, 3));
-        match code {
-            FunctionCode::Unknown(_) => Err(Exception::IllegalFunction),
-            #[cfg(not(feature = "extra-fc"))]
-            FunctionCode::MaskWriteRegister | FunctionCode::ReadWriteMultipleRegisters => {
-                Err(Exception::IllegalFunction)
+        let single = pdu.len() == 5;
+        match FunctionCode::from_u8(pdu.first().copied().unwrap_or(0)) {
+            code @ (FunctionCode::ReadCoils
+            | FunctionCode::ReadDiscreteInputs
+            | FunctionCode::ReadHoldingRegisters
+            | FunctionCode::ReadInputRegisters) => {
+                let table = read_table(code);
+                value_check(single)?;
+                check_quantity(a, b, max_read(table))?;
+                Ok(Request::Read { table, start: a, qty: b })
+            }
+            FunctionCode::WriteSingleCoil => {
+                value_check(single && (b == COIL_ON || b == COIL_OFF))?;
+                Ok(Request::WriteCoils { start: a, qty: 1, packed: pdu.get(3..4).unwrap_or(&[]) })
+            }
+            FunctionCode::WriteSingleRegister => {
+                value_check(single)?;
+                Ok(Request::WriteRegisters { start: a, values: pdu.get(3..5).unwrap_or(&[]) })
+            }
+            FunctionCode::WriteMultipleCoils => {
+                let packed = Self::write_data(pdu, Table::Coils, 6, a, b)?;
+                Ok(Request::WriteCoils { start: a, qty: b, packed })
+            }
+            FunctionCode::WriteMultipleRegisters => {
+                let values = Self::write_data(pdu, Table::HoldingRegisters, 6, a, b)?;
+                Ok(Request::WriteRegisters { start: a, values })
             }
             #[cfg(feature = "extra-fc")]
-            FunctionCode::MaskWriteRegister => match pdu.len() {
-                7 => Ok(Request::MaskWriteRegister { address: a, and_mask: b, or_mask: word(pdu, 5) }),
-                _ => Err(Exception::IllegalDataValue),
-            },
+            FunctionCode::MaskWriteRegister => {
+                value_check(pdu.len() == 7)?;
+                Ok(Request::MaskWriteRegister { address: a, and_mask: b, or_mask: word(pdu, 5) })
+            }
             #[cfg(feature = "extra-fc")]
             FunctionCode::ReadWriteMultipleRegisters => Self::parse_read_write(pdu, a, b),
-            FunctionCode::WriteMultipleCoils => Self::parse_write_multiple(pdu, a, b, MAX_WRITE_COILS, b.div_ceil(8))
-                .map(|packed| Request::WriteMultipleCoils { start: a, qty: b, packed }),
-            FunctionCode::WriteMultipleRegisters => {
-                Self::parse_write_multiple(pdu, a, b, MAX_WRITE_REGISTERS, b.saturating_mul(2))
-                    .map(|values| Request::WriteMultipleRegisters { start: a, values })
-            }
-            _ if pdu.len() != 5 => Err(Exception::IllegalDataValue),
-            FunctionCode::WriteSingleCoil => match b {
-                COIL_ON | COIL_OFF => Ok(Request::WriteSingleCoil { address: a, on: b == COIL_ON }),
-                _ => Err(Exception::IllegalDataValue),
-            },
-            FunctionCode::WriteSingleRegister => Ok(Request::WriteSingleRegister { address: a, value: b }),
-            FunctionCode::ReadCoils | FunctionCode::ReadDiscreteInputs => {
-                Self::check_read(a, b, MAX_READ_BITS)?;
-                Ok(if code == FunctionCode::ReadCoils {
-                    Request::ReadCoils { start: a, qty: b }
-                } else {
-                    Request::ReadDiscreteInputs { start: a, qty: b }
-                })
-            }
-            FunctionCode::ReadHoldingRegisters | FunctionCode::ReadInputRegisters => {
-                Self::check_read(a, b, MAX_READ_REGISTERS)?;
-                Ok(if code == FunctionCode::ReadHoldingRegisters {
-                    Request::ReadHoldingRegisters { start: a, qty: b }
-                } else {
-                    Request::ReadInputRegisters { start: a, qty: b }
-                })
-            }
+            _ => Err(Exception::IllegalFunction),
         }
     }
 
-    fn check_read(start: u16, qty: u16, max: u16) -> Result<(), Exception> {
-        if qty == 0 || qty > max {
-            return Err(Exception::IllegalDataValue);
-        }
-        check_range(start, qty)
-    }
-
-    /// FC 15 / 16: quantity in range, byte count as the quantity requires and equal to
-    /// the data that follows; returns the data.
-    fn parse_write_multiple(pdu: &'a [u8], start: u16, qty: u16, max: u16, bytes: u16) -> Result<&'a [u8], Exception> {
-        let byte_count = pdu.get(5).copied();
-        if qty == 0 || qty > max || byte_count.map(u16::from) != Some(bytes) || pdu.len() != 6 + usize::from(bytes) {
-            return Err(Exception::IllegalDataValue);
-        }
-        check_range(start, qty)?;
-        Ok(pdu.get(6..).unwrap_or(&[]))
+    /// FC 15 / 16 (and 23's write): quantity in range, byte count at `at - 1` as the
+    /// quantity requires and equal to the data that follows (03), then the range (02);
+    /// returns the data.
+    fn write_data(pdu: &'a [u8], table: Table, at: usize, start: u16, qty: u16) -> Result<&'a [u8], Exception> {
+        let bytes = byte_count(table, qty);
+        let byte_count = pdu.get(at - 1).copied().map(u16::from);
+        value_check(byte_count == Some(bytes) && pdu.len() == at + usize::from(bytes))?;
+        // FC 23 writes fewer registers than FC 16.
+        let max = if at == 6 { max_write(table) } else { MAX_READ_WRITE_REGISTERS };
+        check_quantity(start, qty, max)?;
+        Ok(pdu.get(at..).unwrap_or(&[]))
     }
 
     /// FC 23: read quantity 1–125, write quantity 1–121, byte count twice the write
@@ -278,63 +309,27 @@ impl<'a> Request<'a> {
     #[cfg(feature = "extra-fc")]
     fn parse_read_write(pdu: &'a [u8], read_start: u16, read_qty: u16) -> Result<Self, Exception> {
         let (write_start, write_qty) = (word(pdu, 5), word(pdu, 7));
-        let bytes = write_qty.saturating_mul(2);
-        let byte_count = pdu.get(9).copied().map(u16::from);
-        if read_qty == 0
-            || read_qty > MAX_READ_REGISTERS
-            || write_qty == 0
-            || write_qty > MAX_READ_WRITE_REGISTERS
-            || byte_count != Some(bytes)
-            || pdu.len() != 10 + usize::from(bytes)
-        {
-            return Err(Exception::IllegalDataValue);
-        }
-        check_range(read_start, read_qty)?;
-        check_range(write_start, write_qty)?;
-        Ok(Request::ReadWriteMultipleRegisters {
-            read_start,
-            read_qty,
-            write_start,
-            values: pdu.get(10..).unwrap_or(&[]),
-        })
+        // Every 03 comes before any 02.
+        value_check(read_qty != 0 && read_qty <= MAX_READ_REGISTERS)?;
+        value_check(write_qty != 0 && write_qty <= MAX_READ_WRITE_REGISTERS)?;
+        let bytes = byte_count(Table::HoldingRegisters, write_qty);
+        value_check(pdu.get(9).copied().map(u16::from) == Some(bytes) && pdu.len() == 10 + usize::from(bytes))?;
+        check_quantity(read_start, read_qty, MAX_READ_REGISTERS)?;
+        let values = Self::write_data(pdu, Table::HoldingRegisters, 10, write_start, write_qty)?;
+        Ok(Request::ReadWriteMultipleRegisters { read_start, read_qty, write_start, values })
     }
 
-    /// The function code of this request.
-    pub fn function_code(&self) -> FunctionCode {
-        match self {
-            Request::ReadCoils { .. } => FunctionCode::ReadCoils,
-            Request::ReadDiscreteInputs { .. } => FunctionCode::ReadDiscreteInputs,
-            Request::ReadHoldingRegisters { .. } => FunctionCode::ReadHoldingRegisters,
-            Request::ReadInputRegisters { .. } => FunctionCode::ReadInputRegisters,
-            Request::WriteSingleCoil { .. } => FunctionCode::WriteSingleCoil,
-            Request::WriteSingleRegister { .. } => FunctionCode::WriteSingleRegister,
-            Request::WriteMultipleCoils { .. } => FunctionCode::WriteMultipleCoils,
-            Request::WriteMultipleRegisters { .. } => FunctionCode::WriteMultipleRegisters,
-            #[cfg(feature = "extra-fc")]
-            Request::MaskWriteRegister { .. } => FunctionCode::MaskWriteRegister,
-            #[cfg(feature = "extra-fc")]
-            Request::ReadWriteMultipleRegisters { .. } => FunctionCode::ReadWriteMultipleRegisters,
-        }
-    }
-
-    /// True for the function codes that change data (the ones a broadcast executes).
+    /// True for the requests that change data (the ones a broadcast executes).
     pub fn is_write(&self) -> bool {
-        !matches!(
-            self,
-            Request::ReadCoils { .. }
-                | Request::ReadDiscreteInputs { .. }
-                | Request::ReadHoldingRegisters { .. }
-                | Request::ReadInputRegisters { .. }
-        )
+        !matches!(self, Request::Read { .. })
     }
 
     /// Carries out a write request; a read does nothing here.
     pub fn write<M: DataModel + ?Sized>(&self, model: &mut M) -> Result<(), Exception> {
         match *self {
-            Request::WriteSingleCoil { address, on } => model.write_coils(address, 1, &[on as u8]),
-            Request::WriteSingleRegister { address, value } => model.write_registers(address, &value.to_be_bytes()),
-            Request::WriteMultipleCoils { start, qty, packed } => model.write_coils(start, qty, packed),
-            Request::WriteMultipleRegisters { start, values } => model.write_registers(start, values),
+            Request::Read { .. } => Ok(()),
+            Request::WriteCoils { start, qty, packed } => model.write_coils(start, qty, packed),
+            Request::WriteRegisters { start, values } => model.write_registers(start, values),
             #[cfg(feature = "extra-fc")]
             Request::MaskWriteRegister { address, and_mask, or_mask } => {
                 let mut current = [0; 2];
@@ -350,8 +345,24 @@ impl<'a> Request<'a> {
                 }
                 model.write_registers(write_start, values)
             }
-            _ => Ok(()),
         }
+    }
+}
+
+/// The table FC 1–4 read (`code` is one of them). Two comparisons, no lookup table.
+fn read_table(code: FunctionCode) -> Table {
+    let registers = !matches!(code, FunctionCode::ReadCoils | FunctionCode::ReadDiscreteInputs);
+    let second = matches!(code, FunctionCode::ReadDiscreteInputs | FunctionCode::ReadHoldingRegisters);
+    if registers {
+        if second {
+            Table::HoldingRegisters
+        } else {
+            Table::InputRegisters
+        }
+    } else if second {
+        Table::DiscreteInputs
+    } else {
+        Table::Coils
     }
 }
 
@@ -361,24 +372,21 @@ impl<'a> Request<'a> {
 /// longest response, 252 bytes (FC 03 × 125); with less, a read answers 04.
 pub fn respond<M: DataModel + ?Sized>(pdu: &mut [u8], len: usize, model: &mut M) -> Result<usize, Exception> {
     let request = Request::parse(pdu.get(..len).ok_or(Exception::ServerDeviceFailure)?)?;
+    request.write(model)?;
     let (table, start, qty) = match request {
-        Request::ReadCoils { start, qty } => (Table::Coils, start, qty),
-        Request::ReadDiscreteInputs { start, qty } => (Table::DiscreteInputs, start, qty),
-        Request::ReadHoldingRegisters { start, qty } => (Table::HoldingRegisters, start, qty),
-        Request::ReadInputRegisters { start, qty } => (Table::InputRegisters, start, qty),
+        Request::Read { table, start, qty } => (table, start, qty),
         #[cfg(feature = "extra-fc")]
         Request::ReadWriteMultipleRegisters { read_start, read_qty, .. } => {
-            request.write(model)?;
             (Table::HoldingRegisters, read_start, read_qty)
         }
         // FC 22's response is its request (7 bytes).
         #[cfg(feature = "extra-fc")]
-        Request::MaskWriteRegister { .. } => return request.write(model).map(|()| 7),
+        Request::MaskWriteRegister { .. } => return Ok(7),
         // Every other write's response is the first five bytes of its request: an echo
         // for FC 5 / 6, function code, start and quantity for FC 15 / 16.
-        write => return write.write(model).map(|()| 5),
+        _ => return Ok(5),
     };
-    let bytes = if table.is_bits() { usize::from(qty.div_ceil(8)) } else { 2 * usize::from(qty) };
+    let bytes = usize::from(byte_count(table, qty));
     let data = pdu.get_mut(2..2 + bytes).ok_or(Exception::ServerDeviceFailure)?;
     if table.is_bits() {
         model.read_bits(table, start, qty, data)?;
