@@ -9,7 +9,7 @@ use crate::config::SlaveId;
 use crate::crc::Crc16;
 use crate::framer::{FrameError, Framer, UartError};
 use crate::model::DataModel;
-use crate::pdu::{encode_exception, respond, Exception, FunctionCode, Request};
+use crate::pdu::{encode_exception, execute, extra, Exception, FunctionCode};
 
 #[cfg(feature = "diagnostics")]
 use crate::diagnostics;
@@ -236,21 +236,24 @@ impl Engine {
     }
 
     /// The one dispatch on the function code: FC 7, 8, 11 (0x0B) and 17 (0x11) go to the
-    /// diagnostics (exception 01 without feature `diagnostics`), every other code to the
-    /// PDU engine. The reply PDU is written over the request. A broadcast (`unicast`
+    /// diagnostics (exception 01 without feature `diagnostics`), FC 22 (0x16) and 23 (0x17)
+    /// to the extra codes (exception 01 without feature `extra-fc`), every other code to
+    /// the PDU engine. The reply PDU is written over the request. A broadcast (`unicast`
     /// false) only checks a read and executes a write.
     fn handle<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M, unicast: bool) -> Result<Answer, Exception> {
         // The PDU sits between the address and the CRC.
         let pdu_len = len.saturating_sub(3);
         let (_, pdu) = self.framer.buffer_mut().split_at_mut(1);
-        let code = FunctionCode::from_u8(pdu.first().copied().unwrap_or(0));
-        if code.is_diagnostic() {
-            diagnostics::respond(pdu, pdu_len, model, &self.counters, self.id.get())
-        } else if unicast {
-            respond(pdu, pdu_len, model).map(Answer::Reply)
-        } else {
-            Request::parse(pdu.get(..pdu_len).unwrap_or(&[])).and_then(|r| r.write(model)).map(|()| Answer::Reply(0))
-        }
+        let result = match FunctionCode::from_u8(pdu.first().copied().unwrap_or(0)) {
+            code if code.is_diagnostic() => {
+                return diagnostics::respond(pdu, pdu_len, model, &self.counters, self.id.get())
+            }
+            FunctionCode::MaskWriteRegister | FunctionCode::ReadWriteMultipleRegisters => {
+                extra::respond(pdu, pdu_len, model, unicast)
+            }
+            _ => execute(pdu, pdu_len, model, unicast),
+        };
+        result.map(Answer::Reply)
     }
 
     /// Counts a handled request: an exception, or an event (FC 11 (0x0B) excepted, which

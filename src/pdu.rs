@@ -17,6 +17,25 @@
 use crate::model::DataModel;
 use crate::reference::Table;
 
+#[cfg(feature = "extra-fc")]
+pub mod extra;
+
+/// Without feature `extra-fc`: FC 22 and 23 answer exception 01.
+#[cfg(not(feature = "extra-fc"))]
+pub(crate) mod extra {
+    use super::Exception;
+    use crate::model::DataModel;
+
+    pub(crate) fn respond<M: DataModel + ?Sized>(
+        _pdu: &mut [u8],
+        _len: usize,
+        _model: &mut M,
+        _reply: bool,
+    ) -> Result<usize, Exception> {
+        Err(Exception::IllegalFunction)
+    }
+}
+
 /// A function code, Application Protocol §5.1: every code this crate answers, and the
 /// rest.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -168,58 +187,22 @@ const COIL_ON: u16 = 0xFF00;
 /// FC 05's value for OFF.
 const COIL_OFF: u16 = 0x0000;
 
-/// A parsed request, borrowing its data from the request PDU. The written values stay
-/// as they came on the wire: FC 05's value byte 0xFF or 0x00 is a packed coil (bit 0),
-/// FC 06's value a big-endian register.
+/// A checked request of FC 1–6, 15 (0x0F) or 16 (0x10), borrowing its data from the
+/// request PDU: the addresses it reads or writes, and for a write the values as they came
+/// on the wire (FC 05's value byte, 0xFF or 0x00, is one packed coil).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Request<'a> {
-    /// FC 1–4.
-    Read {
-        /// Coils (FC 1), discrete inputs (2), holding (3) or input registers (4).
-        table: Table,
-        /// First address.
-        start: u16,
-        /// Number of bits, 1–2000, or registers, 1–125.
-        qty: u16,
-    },
-    /// FC 5 and 15 (0x0F).
-    WriteCoils {
-        /// First address.
-        start: u16,
-        /// Number of coils, 1–1968 (1 for FC 5).
-        qty: u16,
-        /// The states, packed LSB first, `qty.div_ceil(8)` bytes.
-        packed: &'a [u8],
-    },
-    /// FC 6 and 16 (0x10).
-    WriteRegisters {
-        /// First address.
-        start: u16,
-        /// The values, big-endian, 2–246 bytes.
-        values: &'a [u8],
-    },
-    /// FC 22 (0x16): the register becomes `(current & and_mask) | (or_mask & !and_mask)`.
-    #[cfg(feature = "extra-fc")]
-    MaskWriteRegister {
-        /// Address.
-        address: u16,
-        /// AND mask.
-        and_mask: u16,
-        /// OR mask.
-        or_mask: u16,
-    },
-    /// FC 23 (0x17): the write happens first, then the read.
-    #[cfg(feature = "extra-fc")]
-    ReadWriteMultipleRegisters {
-        /// First address read.
-        read_start: u16,
-        /// Number of registers read, 1–125.
-        read_qty: u16,
-        /// First address written.
-        write_start: u16,
-        /// The values written, big-endian, 2–242 bytes.
-        values: &'a [u8],
-    },
+pub struct Request<'a> {
+    /// Read by FC 1 (coils), 2 (discrete inputs), 3 (holding registers), 4 (input
+    /// registers); written by FC 5 and 15 (coils), 6 and 16 (holding registers).
+    pub table: Table,
+    /// First address.
+    pub start: u16,
+    /// Number of bits (1–2000 read, 1–1968 written) or registers (1–125 read, 1–123
+    /// written).
+    pub qty: u16,
+    /// The values written, packed LSB first (coils) or big-endian (registers); empty for
+    /// a read.
+    pub values: &'a [u8],
 }
 
 /// The big-endian word at `at`, 0 past the end (the length checks decide what that means).
@@ -231,7 +214,7 @@ pub(crate) fn word(pdu: &[u8], at: usize) -> u16 {
 }
 
 /// 03 unless `ok`.
-fn value_check(ok: bool) -> Result<(), Exception> {
+pub(crate) fn value_check(ok: bool) -> Result<(), Exception> {
     if ok {
         Ok(())
     } else {
@@ -239,9 +222,13 @@ fn value_check(ok: bool) -> Result<(), Exception> {
     }
 }
 
-/// 03 unless `qty` is 1–`max`; then 02 unless `start..start + qty` stays inside 0–65535.
-fn check_quantity(start: u16, qty: u16, max: u16) -> Result<(), Exception> {
-    value_check(qty != 0 && qty <= max)?;
+/// 03 unless `qty` is 1–`max`.
+pub(crate) fn quantity_check(qty: u16, max: u16) -> Result<(), Exception> {
+    value_check(qty != 0 && qty <= max)
+}
+
+/// 02 unless `start..start + qty` stays inside 0–65535.
+pub(crate) fn range_check(start: u16, qty: u16) -> Result<(), Exception> {
     if u32::from(start) + u32::from(qty) > 0x1_0000 {
         Err(Exception::IllegalDataAddress)
     } else {
@@ -249,102 +236,66 @@ fn check_quantity(start: u16, qty: u16, max: u16) -> Result<(), Exception> {
     }
 }
 
+/// The values of a write of `qty` (1–`max`) values of `table` whose byte count is at
+/// `at - 1`: the byte count must be the one the quantity needs and equal to the bytes that
+/// follow (03). FC 15 and 16, and FC 23's write.
+pub(crate) fn written_values(pdu: &[u8], at: usize, table: Table, qty: u16, max: u16) -> Result<&[u8], Exception> {
+    quantity_check(qty, max)?;
+    let bytes = byte_count(table, qty);
+    let count = pdu.get(at - 1).copied().map(u16::from);
+    value_check(count == Some(bytes) && pdu.len() == at + usize::from(bytes))?;
+    Ok(pdu.get(at..).unwrap_or(&[]))
+}
+
 impl<'a> Request<'a> {
-    /// Parses a request PDU (function code and data, no address or CRC).
+    /// Parses a request PDU (function code and data, no address or CRC) of FC 1–6, 15 or
+    /// 16; other codes are exception 01.
     pub fn parse(pdu: &'a [u8]) -> Result<Self, Exception> {
-        let (a, b) = (word(pdu, 1), word(pdu, 3));
+        let (start, b) = (word(pdu, 1), word(pdu, 3));
         let single = pdu.len() == 5;
-        match FunctionCode::from_u8(pdu.first().copied().unwrap_or(0)) {
+        let (table, qty, values) = match FunctionCode::from_u8(pdu.first().copied().unwrap_or(0)) {
             code @ (FunctionCode::ReadCoils
             | FunctionCode::ReadDiscreteInputs
             | FunctionCode::ReadHoldingRegisters
             | FunctionCode::ReadInputRegisters) => {
                 let table = read_table(code);
                 value_check(single)?;
-                check_quantity(a, b, max_read(table))?;
-                Ok(Request::Read { table, start: a, qty: b })
+                quantity_check(b, max_read(table))?;
+                (table, b, &[][..])
             }
             FunctionCode::WriteSingleCoil => {
                 value_check(single && (b == COIL_ON || b == COIL_OFF))?;
-                Ok(Request::WriteCoils { start: a, qty: 1, packed: pdu.get(3..4).unwrap_or(&[]) })
+                (Table::Coils, 1, pdu.get(3..4).unwrap_or(&[]))
             }
             FunctionCode::WriteSingleRegister => {
                 value_check(single)?;
-                Ok(Request::WriteRegisters { start: a, values: pdu.get(3..5).unwrap_or(&[]) })
+                (Table::HoldingRegisters, 1, pdu.get(3..5).unwrap_or(&[]))
             }
             FunctionCode::WriteMultipleCoils => {
-                let packed = Self::write_data(pdu, Table::Coils, 6, a, b)?;
-                Ok(Request::WriteCoils { start: a, qty: b, packed })
+                (Table::Coils, b, written_values(pdu, 6, Table::Coils, b, MAX_WRITE_COILS)?)
             }
             FunctionCode::WriteMultipleRegisters => {
-                let values = Self::write_data(pdu, Table::HoldingRegisters, 6, a, b)?;
-                Ok(Request::WriteRegisters { start: a, values })
+                (Table::HoldingRegisters, b, written_values(pdu, 6, Table::HoldingRegisters, b, MAX_WRITE_REGISTERS)?)
             }
-            #[cfg(feature = "extra-fc")]
-            FunctionCode::MaskWriteRegister => {
-                value_check(pdu.len() == 7)?;
-                Ok(Request::MaskWriteRegister { address: a, and_mask: b, or_mask: word(pdu, 5) })
-            }
-            #[cfg(feature = "extra-fc")]
-            FunctionCode::ReadWriteMultipleRegisters => Self::parse_read_write(pdu, a, b),
-            _ => Err(Exception::IllegalFunction),
-        }
-    }
-
-    /// FC 15 / 16 (and 23's write): quantity in range, byte count at `at - 1` as the
-    /// quantity requires and equal to the data that follows (03), then the range (02);
-    /// returns the data.
-    fn write_data(pdu: &'a [u8], table: Table, at: usize, start: u16, qty: u16) -> Result<&'a [u8], Exception> {
-        let bytes = byte_count(table, qty);
-        let byte_count = pdu.get(at - 1).copied().map(u16::from);
-        value_check(byte_count == Some(bytes) && pdu.len() == at + usize::from(bytes))?;
-        // FC 23 writes fewer registers than FC 16.
-        let max = if at == 6 { max_write(table) } else { MAX_READ_WRITE_REGISTERS };
-        check_quantity(start, qty, max)?;
-        Ok(pdu.get(at..).unwrap_or(&[]))
-    }
-
-    /// FC 23: read quantity 1–125, write quantity 1–121, byte count twice the write
-    /// quantity and equal to the data that follows (03); both ranges inside 0–65535 (02).
-    #[cfg(feature = "extra-fc")]
-    fn parse_read_write(pdu: &'a [u8], read_start: u16, read_qty: u16) -> Result<Self, Exception> {
-        let (write_start, write_qty) = (word(pdu, 5), word(pdu, 7));
-        // Every 03 comes before any 02.
-        value_check(read_qty != 0 && read_qty <= MAX_READ_REGISTERS)?;
-        value_check(write_qty != 0 && write_qty <= MAX_READ_WRITE_REGISTERS)?;
-        let bytes = byte_count(Table::HoldingRegisters, write_qty);
-        value_check(pdu.get(9).copied().map(u16::from) == Some(bytes) && pdu.len() == 10 + usize::from(bytes))?;
-        check_quantity(read_start, read_qty, MAX_READ_REGISTERS)?;
-        let values = Self::write_data(pdu, Table::HoldingRegisters, 10, write_start, write_qty)?;
-        Ok(Request::ReadWriteMultipleRegisters { read_start, read_qty, write_start, values })
+            _ => return Err(Exception::IllegalFunction),
+        };
+        range_check(start, qty)?;
+        Ok(Request { table, start, qty, values })
     }
 
     /// True for the requests that change data (the ones a broadcast executes).
     pub fn is_write(&self) -> bool {
-        !matches!(self, Request::Read { .. })
+        !self.values.is_empty()
     }
 
     /// Carries out a write request; a read does nothing here.
     pub fn write<M: DataModel + ?Sized>(&self, model: &mut M) -> Result<(), Exception> {
-        match *self {
-            Request::Read { .. } => Ok(()),
-            Request::WriteCoils { start, qty, packed } => model.write_coils(start, qty, packed),
-            Request::WriteRegisters { start, values } => model.write_registers(start, values),
-            #[cfg(feature = "extra-fc")]
-            Request::MaskWriteRegister { address, and_mask, or_mask } => {
-                let mut current = [0; 2];
-                model.read_registers(Table::HoldingRegisters, address, &mut current)?;
-                let value = (u16::from_be_bytes(current) & and_mask) | (or_mask & !and_mask);
-                model.write_registers(address, &value.to_be_bytes())
-            }
-            #[cfg(feature = "extra-fc")]
-            Request::ReadWriteMultipleRegisters { read_start, read_qty, write_start, values } => {
-                // All or nothing: the read range must exist before anything is written.
-                if !model.has_range(Table::HoldingRegisters, read_start, read_qty) {
-                    return Err(Exception::IllegalDataAddress);
-                }
-                model.write_registers(write_start, values)
-            }
+        if !self.is_write() {
+            Ok(())
+        } else if self.table.is_bits() {
+            model.write_coils(self.start, self.qty, self.values)
+        } else {
+            model.write_registers(self.start, self.values)
         }
     }
 }
@@ -366,28 +317,47 @@ fn read_table(code: FunctionCode) -> Table {
     }
 }
 
-/// Handles the request PDU `pdu[..len]` and writes the response PDU over it, from
-/// `pdu[0]`. Returns the response length, or the exception; on an exception `pdu` holds
-/// the request unchanged (see [`encode_exception`]). `pdu` must have room for the
-/// longest response, 252 bytes (FC 03 × 125); with less, a read answers 04.
+/// Handles the request PDU `pdu[..len]` of FC 1–6, 15 or 16 and writes the response PDU
+/// over it, from `pdu[0]`. Returns the response length, or the exception; on an exception
+/// `pdu` holds the request unchanged (see [`encode_exception`]). `pdu` must have room for
+/// the longest response, 252 bytes (FC 03 × 125); with less, a read answers 04.
 pub fn respond<M: DataModel + ?Sized>(pdu: &mut [u8], len: usize, model: &mut M) -> Result<usize, Exception> {
+    execute(pdu, len, model, true)
+}
+
+/// [`respond`], or for a broadcast (`reply` false) the same checks and writes with no
+/// read and no response (returns 0 for a read).
+pub(crate) fn execute<M: DataModel + ?Sized>(
+    pdu: &mut [u8],
+    len: usize,
+    model: &mut M,
+    reply: bool,
+) -> Result<usize, Exception> {
     let request = Request::parse(pdu.get(..len).ok_or(Exception::ServerDeviceFailure)?)?;
-    request.write(model)?;
-    let (table, start, qty) = match request {
-        Request::Read { table, start, qty } => (table, start, qty),
-        #[cfg(feature = "extra-fc")]
-        Request::ReadWriteMultipleRegisters { read_start, read_qty, .. } => {
-            (Table::HoldingRegisters, read_start, read_qty)
-        }
-        // FC 22's response is its request (7 bytes).
-        #[cfg(feature = "extra-fc")]
-        Request::MaskWriteRegister { .. } => return Ok(7),
-        // Every other write's response is the first five bytes of its request: an echo
-        // for FC 5 / 6, function code, start and quantity for FC 15 / 16.
-        _ => return Ok(5),
-    };
-    let bytes = usize::from(byte_count(table, qty));
-    let data = pdu.get_mut(2..2 + bytes).ok_or(Exception::ServerDeviceFailure)?;
+    if request.is_write() {
+        // The response of a write is the first five bytes of its request: an echo for
+        // FC 5 / 6, function code, start and quantity for FC 15 / 16.
+        return request.write(model).map(|()| 5);
+    }
+    let Request { table, start, qty, .. } = request;
+    if reply {
+        read_response(pdu, model, table, start, qty)
+    } else {
+        Ok(0)
+    }
+}
+
+/// Reads `qty` values of `table` from `start` into a read response: byte count at
+/// `pdu[1]`, data from `pdu[2]`. Returns the response length.
+pub(crate) fn read_response<M: DataModel + ?Sized>(
+    pdu: &mut [u8],
+    model: &M,
+    table: Table,
+    start: u16,
+    qty: u16,
+) -> Result<usize, Exception> {
+    let bytes = byte_count(table, qty);
+    let data = pdu.get_mut(2..2 + usize::from(bytes)).ok_or(Exception::ServerDeviceFailure)?;
     if table.is_bits() {
         model.read_bits(table, start, qty, data)?;
     } else {
@@ -396,7 +366,7 @@ pub fn respond<M: DataModel + ?Sized>(pdu: &mut [u8], len: usize, model: &mut M)
     if let Some(count) = pdu.get_mut(1) {
         *count = bytes as u8;
     }
-    Ok(2 + bytes)
+    Ok(2 + usize::from(bytes))
 }
 
 /// Writes the exception response (function code | 0x80, exception code) at `pdu[0..2]`;

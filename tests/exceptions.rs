@@ -792,7 +792,7 @@ fn request_parse_applies_the_65536_limit() {
     assert_eq!(Request::parse(&read_pdu(0x03, 0xFFFF, 2)), Err(Exception::IllegalDataAddress));
     assert_eq!(
         Request::parse(&read_pdu(0x03, 0xFFFF, 1)),
-        Ok(Request::Read { table: Table::HoldingRegisters, start: 0xFFFF, qty: 1 })
+        Ok(Request { table: Table::HoldingRegisters, start: 0xFFFF, qty: 1, values: &[] })
     );
     assert_eq!(Request::parse(&write_multiple_pdu(0x0F, 0xFFF9, 8, &[0xFF])), Err(Exception::IllegalDataAddress));
 }
