@@ -3,7 +3,7 @@
 //!
 //! [`Engine`], the slave's protocol state, joins the [`Framer`] to the PDU engine: the AVR layer forwards interrupts to
 //! its `on_*` methods, the host tests script the same calls. Data flows one way: bytes →
-//! framer → address and CRC check → [`respond`] → reply in the same buffer.
+//! framer → address and CRC check → [`respond`](crate::pdu::respond) → reply in the same buffer.
 
 use crate::config::SlaveId;
 use crate::crc::Crc16;
