@@ -36,11 +36,11 @@ impl SlaveId {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Parity {
     /// No parity bit (the spec then asks for 2 stop bits; 1 is common in the field).
-    None,
+    None = 0,
     /// Even parity: the spec's required default.
-    Even,
+    Even = 2,
     /// Odd parity.
-    Odd,
+    Odd = 1,
 }
 
 /// Stop bits of each character.

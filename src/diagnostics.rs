@@ -21,36 +21,17 @@
 //! | 11 | Return Slave Busy Count | 0000 | 0 (this slave never answers 06) |
 //! | 12 | Return Bus Character Overrun Count | 0000 | [`Counters::overruns`] |
 
-use crate::engine::Counters;
+use crate::engine::{Answer, Counters};
 use crate::model::DataModel;
-use crate::pdu::{word, Exception};
+use crate::pdu::{word, Exception, FunctionCode};
 
-/// FC 7.
-pub const READ_EXCEPTION_STATUS: u8 = 0x07;
-/// FC 8.
-pub const DIAGNOSTICS: u8 = 0x08;
-/// FC 11 (0x0B).
-pub const GET_COMM_EVENT_COUNTER: u8 = 0x0B;
-/// FC 17 (0x11).
-pub const REPORT_SERVER_ID: u8 = 0x11;
+/// FC 8, for the slice patterns below.
+const DIAGNOSTICS: u8 = FunctionCode::Diagnostics.value();
 
 /// FC 8 sub-function 01: restart communications.
 pub const RESTART_COMMUNICATIONS: u16 = 0x0001;
 /// FC 8 sub-function 04: force listen-only mode.
 pub const FORCE_LISTEN_ONLY: u16 = 0x0004;
-
-/// What a diagnostic request asks of the slave beyond its reply.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Diagnosed {
-    /// Not a diagnostic function code: the PDU engine handles it.
-    NotDiagnostic,
-    /// Send this many bytes of reply PDU.
-    Reply(usize),
-    /// Enter listen-only mode, send nothing.
-    ListenOnly,
-    /// Send the reply, then clear the counters and leave listen-only mode.
-    Restart(usize),
-}
 
 /// True for FC 8 sub-function 04 with data 0000 (`pdu` without address and CRC): it puts
 /// the slave in listen-only mode and gets no reply.
@@ -69,30 +50,31 @@ fn put(pdu: &mut [u8], at: usize, value: u16) {
     }
 }
 
-/// Handles FC 7, 8, 11 (0x0B) and 17 (0x11) in place (the reply PDU over the request).
+/// Handles FC 7, 8, 11 (0x0B) and 17 (0x11) in place (the reply PDU over the request);
+/// the engine sends only these codes here.
 pub(crate) fn respond<M: DataModel + ?Sized>(
     pdu: &mut [u8],
     len: usize,
     model: &M,
     counters: &Counters,
     slave_id: u8,
-) -> Result<Diagnosed, Exception> {
+) -> Result<Answer, Exception> {
     let code = pdu.first().copied().unwrap_or(0);
-    match code {
-        READ_EXCEPTION_STATUS | GET_COMM_EVENT_COUNTER | REPORT_SERVER_ID if len != 1 => {
-            Err(Exception::IllegalDataValue)
-        }
-        READ_EXCEPTION_STATUS => {
+    match FunctionCode::from_u8(code) {
+        FunctionCode::Diagnostics => diagnostics(pdu, len, counters),
+        // FC 7, 11 and 17 carry no data.
+        _ if len != 1 => Err(Exception::IllegalDataValue),
+        FunctionCode::ReadExceptionStatus => {
             put(pdu, 0, u16::from_be_bytes([code, model.exception_status()]));
-            Ok(Diagnosed::Reply(2))
+            Ok(Answer::Reply(2))
         }
-        GET_COMM_EVENT_COUNTER => {
+        FunctionCode::GetCommEventCounter => {
             // Status word 0000: no previous command still being processed.
             put(pdu, 1, 0);
             put(pdu, 3, counters.events);
-            Ok(Diagnosed::Reply(5))
+            Ok(Answer::Reply(5))
         }
-        REPORT_SERVER_ID => {
+        FunctionCode::ReportServerId => {
             let info = model.device_info();
             let info = info.get(..info.len().min(249)).unwrap_or(&[]);
             put(pdu, 1, u16::from_be_bytes([2 + info.len() as u8, slave_id]));
@@ -101,14 +83,13 @@ pub(crate) fn respond<M: DataModel + ?Sized>(
             if let Some(slot) = pdu.get_mut(4..4 + info.len()) {
                 slot.copy_from_slice(info);
             }
-            Ok(Diagnosed::Reply(4 + info.len()))
+            Ok(Answer::Reply(4 + info.len()))
         }
-        DIAGNOSTICS => diagnostics(pdu, len, counters),
-        _ => Ok(Diagnosed::NotDiagnostic),
+        _ => Err(Exception::IllegalFunction),
     }
 }
 
-fn diagnostics(pdu: &mut [u8], len: usize, counters: &Counters) -> Result<Diagnosed, Exception> {
+fn diagnostics(pdu: &mut [u8], len: usize, counters: &Counters) -> Result<Answer, Exception> {
     // Only the request's own bytes count: past `len` the buffer holds its CRC.
     let request = pdu.get(..len).unwrap_or(&[]);
     if len < 3 {
@@ -118,7 +99,7 @@ fn diagnostics(pdu: &mut [u8], len: usize, counters: &Counters) -> Result<Diagno
     let data = word(request, 3);
     // Return Query Data echoes any number of data words; the others carry exactly one.
     if sub == 0x0000 {
-        return if len >= 3 && len % 2 == 1 { Ok(Diagnosed::Reply(len)) } else { Err(Exception::IllegalDataValue) };
+        return if len >= 3 && len % 2 == 1 { Ok(Answer::Reply(len)) } else { Err(Exception::IllegalDataValue) };
     }
     let counter = match sub {
         RESTART_COMMUNICATIONS | FORCE_LISTEN_ONLY | 0x000A => None,
@@ -138,11 +119,11 @@ fn diagnostics(pdu: &mut [u8], len: usize, counters: &Counters) -> Result<Diagno
     match (sub, counter) {
         (_, Some(value)) => {
             put(pdu, 3, value);
-            Ok(Diagnosed::Reply(5))
+            Ok(Answer::Reply(5))
         }
-        (RESTART_COMMUNICATIONS, None) => Ok(Diagnosed::Restart(5)),
-        (FORCE_LISTEN_ONLY, None) => Ok(Diagnosed::ListenOnly),
+        (RESTART_COMMUNICATIONS, None) => Ok(Answer::Restart(5)),
+        (FORCE_LISTEN_ONLY, None) => Ok(Answer::ListenOnly),
         // Clear Counters: the reply is the echo; the caller clears.
-        _ => Ok(Diagnosed::Restart(5)),
+        _ => Ok(Answer::Restart(5)),
     }
 }

@@ -3,24 +3,29 @@
 //!
 //! [`Engine`], the slave's protocol state, joins the [`Framer`] to the PDU engine: the AVR layer forwards interrupts to
 //! its `on_*` methods, the host tests script the same calls. Data flows one way: bytes →
-//! framer → address and CRC check → [`respond`] → reply in the same buffer.
+//! framer → address and CRC check → [`respond`](crate::pdu::respond) → reply in the same buffer.
 
 use crate::config::SlaveId;
 use crate::crc::Crc16;
 use crate::framer::{FrameError, Framer, UartError};
 use crate::model::DataModel;
-use crate::pdu::{encode_exception, respond, Exception, Request};
+use crate::pdu::{encode_exception, execute, extra, Exception, FunctionCode};
 
-#[cfg(not(feature = "diagnostics"))]
-#[derive(Clone, Copy)]
-enum Diagnosed {
-    NotDiagnostic,
-}
 #[cfg(feature = "diagnostics")]
-use crate::diagnostics::Diagnosed;
+use crate::diagnostics;
 
-/// FC 11 (0x0B)'s requests are not counted as events.
-const GET_COMM_EVENT_COUNTER: u8 = 0x0B;
+/// What a request the engine handled asks of it beyond counting.
+#[cfg_attr(not(feature = "diagnostics"), allow(dead_code))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Answer {
+    /// Send this many bytes of reply PDU.
+    Reply(usize),
+    /// FC 8 sub-function 04: enter listen-only mode, send nothing.
+    ListenOnly,
+    /// FC 8 sub-functions 01 and 0A: send this many bytes, then clear the counters and
+    /// leave listen-only mode.
+    Restart(usize),
+}
 
 /// What the slave counted since start-up (each wraps at 65535).
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
@@ -146,12 +151,7 @@ impl Engine {
             None => return EndOfFrame::Nothing,
             Some(Err(e)) => {
                 bump(&mut self.counters.frames);
-                bump(match e {
-                    FrameError::BadCrc => &mut self.counters.crc_errors,
-                    FrameError::Uart => &mut self.counters.uart_errors,
-                    FrameError::Overrun | FrameError::TooLong => &mut self.counters.overruns,
-                    FrameError::TooShort | FrameError::Gap => &mut self.counters.malformed,
-                });
+                self.counters.count_dropped(e);
                 return EndOfFrame::Dropped(e);
             }
             Some(Ok(len)) => len,
@@ -190,14 +190,8 @@ impl Engine {
 
     /// True for FC 8 sub-function 04 with data 0000: the one request that is executed
     /// but never answered.
-    #[cfg(feature = "diagnostics")]
     fn enters_listen_only(&self, len: usize) -> bool {
-        crate::diagnostics::forces_listen_only(self.request(len))
-    }
-
-    #[cfg(not(feature = "diagnostics"))]
-    fn enters_listen_only(&self, _len: usize) -> bool {
-        false
+        diagnostics::forces_listen_only(self.request(len))
     }
 
     /// Executes the frame that [`Engine::on_end_deadline`] accepted and writes the reply
@@ -222,124 +216,105 @@ impl Engine {
     /// byte into a [`Crc16`] as it goes out and sends the two CRC bytes last, so a
     /// 255-byte reply costs no CRC time before it starts.
     pub fn prepare<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
-        let pending = core::mem::replace(&mut self.pending, Pending::None);
-        let len = match pending {
-            Pending::None => return 0,
+        match core::mem::replace(&mut self.pending, Pending::None) {
+            Pending::None => 0,
             Pending::Broadcast(len) => {
                 self.execute_silently(len, model);
-                return 0;
+                0
             }
-            Pending::Silent(_len) => {
-                #[cfg(feature = "diagnostics")]
-                self.silent(_len);
-                self.framer.release();
-                return 0;
+            Pending::Silent(len) => {
+                self.stay_silent(len);
+                0
             }
-            Pending::Unicast(len) => len,
-        };
+            Pending::Unicast(len) => self.answer(len, model),
+        }
+    }
+
+    /// The one dispatch on the function code: FC 7, 8, 11 (0x0B) and 17 (0x11) go to the
+    /// diagnostics (exception 01 without feature `diagnostics`), FC 22 (0x16) and 23 (0x17)
+    /// to the extra codes (exception 01 without feature `extra-fc`), every other code to
+    /// the PDU engine. The reply PDU is written over the request. A broadcast (`unicast`
+    /// false) only checks a read and executes a write.
+    fn handle<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M, unicast: bool) -> Result<Answer, Exception> {
         // The PDU sits between the address and the CRC.
         let pdu_len = len.saturating_sub(3);
         let (_, pdu) = self.framer.buffer_mut().split_at_mut(1);
-        let code = pdu.first().copied().unwrap_or(0);
-        #[cfg(feature = "diagnostics")]
-        let mut restart = false;
-        #[cfg(feature = "diagnostics")]
-        let diagnosed = crate::diagnostics::respond(pdu, pdu_len, model, &self.counters, self.id.get());
-        #[cfg(not(feature = "diagnostics"))]
-        let diagnosed: Result<Diagnosed, Exception> = Ok(Diagnosed::NotDiagnostic);
-        let result = match diagnosed {
-            Ok(Diagnosed::NotDiagnostic) => respond(pdu, pdu_len, model),
-            #[cfg(feature = "diagnostics")]
-            Ok(Diagnosed::Reply(n)) => Ok(n),
-            #[cfg(feature = "diagnostics")]
-            Ok(Diagnosed::Restart(n)) => {
-                restart = true;
-                Ok(n)
+        let result = match FunctionCode::from_u8(pdu.first().copied().unwrap_or(0)) {
+            code if code.is_diagnostic() => {
+                return diagnostics::respond(pdu, pdu_len, model, &self.counters, self.id.get())
             }
-            // Classified as silent by `on_end_deadline`, so never met here; were it met,
-            // the request would still be answered, as an echo.
-            #[cfg(feature = "diagnostics")]
-            Ok(Diagnosed::ListenOnly) => {
-                self.listen_only = true;
-                Ok(pdu_len)
+            FunctionCode::MaskWriteRegister | FunctionCode::ReadWriteMultipleRegisters => {
+                extra::respond(pdu, pdu_len, model, unicast)
             }
-            Err(e) => Err(e),
+            _ => execute(pdu, pdu_len, model, unicast),
         };
-        let reply_pdu = match result {
-            Ok(n) => {
-                if code != GET_COMM_EVENT_COUNTER {
+        result.map(Answer::Reply)
+    }
+
+    /// Counts a handled request: an exception, or an event (FC 11 (0x0B) excepted, which
+    /// reads the event counter).
+    fn count(&mut self, result: &Result<Answer, Exception>) {
+        match result {
+            Err(_) => bump(&mut self.counters.exceptions),
+            Ok(_) => {
+                if self.framer.buffer().get(1).copied() != Some(FunctionCode::GetCommEventCounter.value()) {
                     bump(&mut self.counters.events);
                 }
-                n
             }
-            Err(exception) => {
-                bump(&mut self.counters.exceptions);
-                encode_exception(pdu, exception)
+        }
+    }
+
+    /// A request to this slave: handled, counted, and its reply (address and PDU) left in
+    /// the buffer; returns the reply's length.
+    fn answer<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M) -> usize {
+        let result = self.handle(len, model, true);
+        self.count(&result);
+        let reply_pdu = match result {
+            Ok(Answer::Reply(n) | Answer::Restart(n)) => n,
+            // Classified as silent by `on_end_deadline`, so never met here; were it met,
+            // the request would still be answered, as an echo.
+            Ok(Answer::ListenOnly) => {
+                self.listen_only = true;
+                len.saturating_sub(3)
             }
+            Err(exception) => encode_exception(self.framer.buffer_mut().get_mut(1..).unwrap_or(&mut []), exception),
         };
         // The longest reply PDU is 252 bytes, so address, PDU and CRC always fit.
         self.reply_len = 1 + reply_pdu;
         bump(&mut self.counters.replies);
-        #[cfg(feature = "diagnostics")]
-        if restart {
-            self.counters = Counters::new();
-            self.listen_only = false;
+        if let Ok(Answer::Restart(_)) = result {
+            self.restart();
         }
         self.reply_len
     }
 
     /// A broadcast: writes are executed, nothing is answered. Reads and diagnostics are
     /// only checked, and counted as the same request sent to this slave would be: an event
-    /// when valid (FC 11 (0x0B) excepted), an exception when not.
+    /// when valid (FC 11 (0x0B) excepted), an exception when not. Nothing is acted on: a
+    /// broadcast FC 8 neither clears the counters nor enters listen-only mode.
     fn execute_silently<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M) {
-        let result = match self.check_diagnostic(len, model) {
-            Some(checked) => checked,
-            None => Request::parse(self.request(len))
-                .and_then(|r| if r.is_write() { r.write(model) } else { Ok(()) })
-                .map(|()| true),
-        };
-        match result {
-            Ok(true) => bump(&mut self.counters.events),
-            Ok(false) => {}
-            Err(_) => bump(&mut self.counters.exceptions),
-        }
+        let result = self.handle(len, model, false);
+        self.count(&result);
         self.framer.release();
-    }
-
-    /// For a broadcast of FC 7, 8, 11 (0x0B) or 17 (0x11): whether it is valid, and if so
-    /// whether it counts as an event (all but FC 11); `None` for other function codes.
-    /// Nothing is acted on (a broadcast FC 8 neither clears the counters nor enters
-    /// listen-only mode); the reply built over the request is dropped.
-    #[cfg(feature = "diagnostics")]
-    fn check_diagnostic<M: DataModel + ?Sized>(&mut self, len: usize, model: &M) -> Option<Result<bool, Exception>> {
-        let pdu_len = len.saturating_sub(3);
-        let (_, pdu) = self.framer.buffer_mut().split_at_mut(1);
-        let code = pdu.first().copied().unwrap_or(0);
-        match crate::diagnostics::respond(pdu, pdu_len, model, &self.counters, self.id.get()) {
-            Ok(Diagnosed::NotDiagnostic) => None,
-            Ok(_) => Some(Ok(code != GET_COMM_EVENT_COUNTER)),
-            Err(exception) => Some(Err(exception)),
-        }
-    }
-
-    #[cfg(not(feature = "diagnostics"))]
-    #[inline(always)]
-    fn check_diagnostic<M: DataModel + ?Sized>(&mut self, _len: usize, _model: &M) -> Option<Result<bool, Exception>> {
-        None
     }
 
     /// A frame that gets no reply. FC 8 sub-function 04 enters listen-only mode; in it,
     /// only FC 8 sub-function 01 (restart communications) is acted on, and even that is
     /// not answered. Nothing else is executed, broadcasts included.
-    #[cfg(feature = "diagnostics")]
-    fn silent(&mut self, len: usize) {
+    fn stay_silent(&mut self, len: usize) {
         let pdu = self.request(len);
         if !self.listen_only {
-            self.listen_only = crate::diagnostics::forces_listen_only(pdu);
-        } else if crate::diagnostics::restarts_communications(pdu) && self.framer.buffer()[0] != SlaveId::BROADCAST {
-            self.counters = Counters::new();
-            self.listen_only = false;
+            self.listen_only = diagnostics::forces_listen_only(pdu);
+        } else if diagnostics::restarts_communications(pdu) && self.framer.buffer()[0] != SlaveId::BROADCAST {
+            self.restart();
         }
+        self.framer.release();
+    }
+
+    /// FC 8 sub-function 01 or 0A: the counters cleared, listen-only mode left.
+    fn restart(&mut self) {
+        self.counters = Counters::new();
+        self.listen_only = false;
     }
 
     /// True while FC 8 sub-function 04 keeps the slave silent.
@@ -390,6 +365,17 @@ impl Engine {
 }
 
 impl Counters {
+    /// Counts a dropped frame in the counter for its error. Each counter adds whether the
+    /// error is one of its own: comparisons, where a `match` choosing the counter would be
+    /// a table of counter addresses, copied to RAM on AVR.
+    fn count_dropped(&mut self, e: FrameError) {
+        let add = |counter: &mut u16, mine: bool| *counter = counter.wrapping_add(u16::from(mine));
+        add(&mut self.crc_errors, e == FrameError::BadCrc);
+        add(&mut self.uart_errors, e == FrameError::Uart);
+        add(&mut self.overruns, matches!(e, FrameError::Overrun | FrameError::TooLong));
+        add(&mut self.malformed, matches!(e, FrameError::TooShort | FrameError::Gap));
+    }
+
     /// All zero.
     pub const fn new() -> Self {
         Counters {
@@ -405,5 +391,32 @@ impl Counters {
             no_response: 0,
             events: 0,
         }
+    }
+}
+
+/// Without feature `diagnostics`: FC 7, 8, 11 and 17 answer exception 01 and the slave is
+/// never listen-only.
+#[cfg(not(feature = "diagnostics"))]
+mod diagnostics {
+    use super::{Answer, Counters};
+    use crate::model::DataModel;
+    use crate::pdu::Exception;
+
+    pub(crate) fn respond<M: DataModel + ?Sized>(
+        _pdu: &mut [u8],
+        _len: usize,
+        _model: &M,
+        _counters: &Counters,
+        _slave_id: u8,
+    ) -> Result<Answer, Exception> {
+        Err(Exception::IllegalFunction)
+    }
+
+    pub(crate) fn forces_listen_only(_pdu: &[u8]) -> bool {
+        false
+    }
+
+    pub(crate) fn restarts_communications(_pdu: &[u8]) -> bool {
+        false
     }
 }

@@ -1,16 +1,43 @@
 //! The PDU engine, Modbus Application Protocol v1.1b3 §6.1–6.6, §6.11–6.12 (function
-//! codes 01–06, 0F, 10) and §7 (exception responses).
+//! codes 01–06, 0F, 10), §6.16–6.17 (16, 17, feature `extra-fc`) and §7 (exception
+//! responses).
 //!
 //! [`Request::parse`] borrows the request PDU and applies the checks in the spec's order:
 //! function code (01), then quantity, byte count, value and length (03), then the end of
-//! the range inside 0–65535 (02). [`respond`] runs the request against a [`DataModel`]
-//! (which answers 02 for missing addresses and 04 for failures) and writes the response
-//! PDU over the request, in the same buffer.
+//! the range inside 0–65535 (02). The limits are per table, not per function code
+//! ([`max_read`], [`max_write`], [`byte_count`]): a read of bits or registers, a write of
+//! coils or registers. [`respond`] runs the request against a [`DataModel`] (which answers
+//! 02 for missing addresses and 04 for failures) and writes the response PDU over the
+//! request, in the same buffer.
+//!
+//! The checks are written as comparisons, never as a `match` from a code to a constant:
+//! on AVR the compiler would turn such a `match` into a lookup table, and constant tables
+//! are copied to RAM at start-up.
 
 use crate::model::DataModel;
 use crate::reference::Table;
 
-/// A function code, Application Protocol §5.1.
+#[cfg(feature = "extra-fc")]
+pub mod extra;
+
+/// Without feature `extra-fc`: FC 22 and 23 answer exception 01.
+#[cfg(not(feature = "extra-fc"))]
+pub(crate) mod extra {
+    use super::Exception;
+    use crate::model::DataModel;
+
+    pub(crate) fn respond<M: DataModel + ?Sized>(
+        _pdu: &mut [u8],
+        _len: usize,
+        _model: &mut M,
+        _reply: bool,
+    ) -> Result<usize, Exception> {
+        Err(Exception::IllegalFunction)
+    }
+}
+
+/// A function code, Application Protocol §5.1: every code this crate answers, and the
+/// rest.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FunctionCode {
     /// 0x01 Read Coils, §6.1.
@@ -25,10 +52,18 @@ pub enum FunctionCode {
     WriteSingleCoil,
     /// 0x06 Write Single Register, §6.6.
     WriteSingleRegister,
+    /// 0x07 Read Exception Status, §6.7 (feature `diagnostics`).
+    ReadExceptionStatus,
+    /// 0x08 Diagnostics, §6.8 (feature `diagnostics`).
+    Diagnostics,
+    /// 0x0B Get Comm Event Counter, §6.9 (feature `diagnostics`).
+    GetCommEventCounter,
     /// 0x0F Write Multiple Coils, §6.11.
     WriteMultipleCoils,
     /// 0x10 Write Multiple Registers, §6.12.
     WriteMultipleRegisters,
+    /// 0x11 Report Server ID, §6.13 (feature `diagnostics`).
+    ReportServerId,
     /// 0x16 Mask Write Register, §6.16 (feature `extra-fc`).
     MaskWriteRegister,
     /// 0x17 Read/Write Multiple Registers, §6.17 (feature `extra-fc`).
@@ -47,8 +82,12 @@ impl FunctionCode {
             0x04 => FunctionCode::ReadInputRegisters,
             0x05 => FunctionCode::WriteSingleCoil,
             0x06 => FunctionCode::WriteSingleRegister,
+            0x07 => FunctionCode::ReadExceptionStatus,
+            0x08 => FunctionCode::Diagnostics,
+            0x0B => FunctionCode::GetCommEventCounter,
             0x0F => FunctionCode::WriteMultipleCoils,
             0x10 => FunctionCode::WriteMultipleRegisters,
+            0x11 => FunctionCode::ReportServerId,
             0x16 => FunctionCode::MaskWriteRegister,
             0x17 => FunctionCode::ReadWriteMultipleRegisters,
             other => FunctionCode::Unknown(other),
@@ -64,12 +103,27 @@ impl FunctionCode {
             FunctionCode::ReadInputRegisters => 0x04,
             FunctionCode::WriteSingleCoil => 0x05,
             FunctionCode::WriteSingleRegister => 0x06,
+            FunctionCode::ReadExceptionStatus => 0x07,
+            FunctionCode::Diagnostics => 0x08,
+            FunctionCode::GetCommEventCounter => 0x0B,
             FunctionCode::WriteMultipleCoils => 0x0F,
             FunctionCode::WriteMultipleRegisters => 0x10,
+            FunctionCode::ReportServerId => 0x11,
             FunctionCode::MaskWriteRegister => 0x16,
             FunctionCode::ReadWriteMultipleRegisters => 0x17,
             FunctionCode::Unknown(other) => other,
         }
+    }
+
+    /// True for the serial-line diagnostics, FC 7, 8, 11 (0x0B) and 17 (0x11).
+    pub const fn is_diagnostic(self) -> bool {
+        matches!(
+            self,
+            FunctionCode::ReadExceptionStatus
+                | FunctionCode::Diagnostics
+                | FunctionCode::GetCommEventCounter
+                | FunctionCode::ReportServerId
+        )
     }
 }
 
@@ -99,94 +153,56 @@ pub const MAX_WRITE_REGISTERS: u16 = 0x007B;
 /// Largest quantity of registers written by FC 23 (Read/Write Multiple): 121.
 pub const MAX_READ_WRITE_REGISTERS: u16 = 0x0079;
 
+/// The largest quantity one read of `table` may ask for: FC 1, 2 and FC 3, 4 (and 23's
+/// read).
+pub const fn max_read(table: Table) -> u16 {
+    if table.is_bits() {
+        MAX_READ_BITS
+    } else {
+        MAX_READ_REGISTERS
+    }
+}
+
+/// The largest quantity one write of `table` may carry: FC 15 and FC 16.
+pub const fn max_write(table: Table) -> u16 {
+    if table.is_bits() {
+        MAX_WRITE_COILS
+    } else {
+        MAX_WRITE_REGISTERS
+    }
+}
+
+/// The bytes `qty` values of `table` take in a request or response: packed bits, or two
+/// bytes per register.
+pub const fn byte_count(table: Table, qty: u16) -> u16 {
+    if table.is_bits() {
+        qty.div_ceil(8)
+    } else {
+        qty.saturating_mul(2)
+    }
+}
+
 /// FC 05's value for ON.
 const COIL_ON: u16 = 0xFF00;
 /// FC 05's value for OFF.
 const COIL_OFF: u16 = 0x0000;
 
-/// A parsed request, borrowing its data from the request PDU.
+/// A checked request of FC 1–6, 15 (0x0F) or 16 (0x10), borrowing its data from the
+/// request PDU: the addresses it reads or writes, and for a write the values as they came
+/// on the wire (FC 05's value byte, 0xFF or 0x00, is one packed coil).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Request<'a> {
-    /// FC 1.
-    ReadCoils {
-        /// First address.
-        start: u16,
-        /// Number of coils, 1–2000.
-        qty: u16,
-    },
-    /// FC 2.
-    ReadDiscreteInputs {
-        /// First address.
-        start: u16,
-        /// Number of inputs, 1–2000.
-        qty: u16,
-    },
-    /// FC 3.
-    ReadHoldingRegisters {
-        /// First address.
-        start: u16,
-        /// Number of registers, 1–125.
-        qty: u16,
-    },
-    /// FC 4.
-    ReadInputRegisters {
-        /// First address.
-        start: u16,
-        /// Number of registers, 1–125.
-        qty: u16,
-    },
-    /// FC 5.
-    WriteSingleCoil {
-        /// Address.
-        address: u16,
-        /// New state (0xFF00 on, 0x0000 off on the wire).
-        on: bool,
-    },
-    /// FC 6.
-    WriteSingleRegister {
-        /// Address.
-        address: u16,
-        /// New value.
-        value: u16,
-    },
-    /// FC 15 (0x0F).
-    WriteMultipleCoils {
-        /// First address.
-        start: u16,
-        /// Number of coils, 1–1968.
-        qty: u16,
-        /// The states, packed LSB first, `qty.div_ceil(8)` bytes.
-        packed: &'a [u8],
-    },
-    /// FC 16 (0x10).
-    WriteMultipleRegisters {
-        /// First address.
-        start: u16,
-        /// The values, big-endian, 2–246 bytes.
-        values: &'a [u8],
-    },
-    /// FC 22 (0x16): the register becomes `(current & and_mask) | (or_mask & !and_mask)`.
-    #[cfg(feature = "extra-fc")]
-    MaskWriteRegister {
-        /// Address.
-        address: u16,
-        /// AND mask.
-        and_mask: u16,
-        /// OR mask.
-        or_mask: u16,
-    },
-    /// FC 23 (0x17): the write happens first, then the read.
-    #[cfg(feature = "extra-fc")]
-    ReadWriteMultipleRegisters {
-        /// First address read.
-        read_start: u16,
-        /// Number of registers read, 1–125.
-        read_qty: u16,
-        /// First address written.
-        write_start: u16,
-        /// The values written, big-endian, 2–242 bytes.
-        values: &'a [u8],
-    },
+pub struct Request<'a> {
+    /// Read by FC 1 (coils), 2 (discrete inputs), 3 (holding registers), 4 (input
+    /// registers); written by FC 5 and 15 (coils), 6 and 16 (holding registers).
+    pub table: Table,
+    /// First address.
+    pub start: u16,
+    /// Number of bits (1–2000 read, 1–1968 written) or registers (1–125 read, 1–123
+    /// written).
+    pub qty: u16,
+    /// The values written, packed LSB first (coils) or big-endian (registers); empty for
+    /// a read.
+    pub values: &'a [u8],
 }
 
 /// The big-endian word at `at`, 0 past the end (the length checks decide what that means).
@@ -197,8 +213,22 @@ pub(crate) fn word(pdu: &[u8], at: usize) -> u16 {
     }
 }
 
+/// 03 unless `ok`.
+pub(crate) fn value_check(ok: bool) -> Result<(), Exception> {
+    if ok {
+        Ok(())
+    } else {
+        Err(Exception::IllegalDataValue)
+    }
+}
+
+/// 03 unless `qty` is 1–`max`.
+pub(crate) fn quantity_check(qty: u16, max: u16) -> Result<(), Exception> {
+    value_check(qty != 0 && qty <= max)
+}
+
 /// 02 unless `start..start + qty` stays inside 0–65535.
-fn check_range(start: u16, qty: u16) -> Result<(), Exception> {
+pub(crate) fn range_check(start: u16, qty: u16) -> Result<(), Exception> {
     if u32::from(start) + u32::from(qty) > 0x1_0000 {
         Err(Exception::IllegalDataAddress)
     } else {
@@ -206,180 +236,128 @@ fn check_range(start: u16, qty: u16) -> Result<(), Exception> {
     }
 }
 
+/// The values of a write of `qty` (1–`max`) values of `table` whose byte count is at
+/// `at - 1`: the byte count must be the one the quantity needs and equal to the bytes that
+/// follow (03). FC 15 and 16, and FC 23's write.
+pub(crate) fn written_values(pdu: &[u8], at: usize, table: Table, qty: u16, max: u16) -> Result<&[u8], Exception> {
+    quantity_check(qty, max)?;
+    let bytes = byte_count(table, qty);
+    let count = pdu.get(at - 1).copied().map(u16::from);
+    value_check(count == Some(bytes) && pdu.len() == at + usize::from(bytes))?;
+    Ok(pdu.get(at..).unwrap_or(&[]))
+}
+
 impl<'a> Request<'a> {
-    /// Parses a request PDU (function code and data, no address or CRC).
+    /// Parses a request PDU (function code and data, no address or CRC) of FC 1–6, 15 or
+    /// 16; other codes are exception 01.
     pub fn parse(pdu: &'a [u8]) -> Result<Self, Exception> {
-        let code = FunctionCode::from_u8(pdu.first().copied().unwrap_or(0));
-        let (a, b) = (word(pdu, 1), word(pdu, 3));
-        match code {
-            FunctionCode::Unknown(_) => Err(Exception::IllegalFunction),
-            #[cfg(not(feature = "extra-fc"))]
-            FunctionCode::MaskWriteRegister | FunctionCode::ReadWriteMultipleRegisters => {
-                Err(Exception::IllegalFunction)
+        let (start, b) = (word(pdu, 1), word(pdu, 3));
+        let single = pdu.len() == 5;
+        let (table, qty, values) = match FunctionCode::from_u8(pdu.first().copied().unwrap_or(0)) {
+            code @ (FunctionCode::ReadCoils
+            | FunctionCode::ReadDiscreteInputs
+            | FunctionCode::ReadHoldingRegisters
+            | FunctionCode::ReadInputRegisters) => {
+                let table = read_table(code);
+                value_check(single)?;
+                quantity_check(b, max_read(table))?;
+                (table, b, &[][..])
             }
-            #[cfg(feature = "extra-fc")]
-            FunctionCode::MaskWriteRegister => match pdu.len() {
-                7 => Ok(Request::MaskWriteRegister { address: a, and_mask: b, or_mask: word(pdu, 5) }),
-                _ => Err(Exception::IllegalDataValue),
-            },
-            #[cfg(feature = "extra-fc")]
-            FunctionCode::ReadWriteMultipleRegisters => Self::parse_read_write(pdu, a, b),
-            FunctionCode::WriteMultipleCoils => Self::parse_write_multiple(pdu, a, b, MAX_WRITE_COILS, b.div_ceil(8))
-                .map(|packed| Request::WriteMultipleCoils { start: a, qty: b, packed }),
+            FunctionCode::WriteSingleCoil => {
+                value_check(single && (b == COIL_ON || b == COIL_OFF))?;
+                (Table::Coils, 1, pdu.get(3..4).unwrap_or(&[]))
+            }
+            FunctionCode::WriteSingleRegister => {
+                value_check(single)?;
+                (Table::HoldingRegisters, 1, pdu.get(3..5).unwrap_or(&[]))
+            }
+            FunctionCode::WriteMultipleCoils => {
+                (Table::Coils, b, written_values(pdu, 6, Table::Coils, b, MAX_WRITE_COILS)?)
+            }
             FunctionCode::WriteMultipleRegisters => {
-                Self::parse_write_multiple(pdu, a, b, MAX_WRITE_REGISTERS, b.saturating_mul(2))
-                    .map(|values| Request::WriteMultipleRegisters { start: a, values })
+                (Table::HoldingRegisters, b, written_values(pdu, 6, Table::HoldingRegisters, b, MAX_WRITE_REGISTERS)?)
             }
-            _ if pdu.len() != 5 => Err(Exception::IllegalDataValue),
-            FunctionCode::WriteSingleCoil => match b {
-                COIL_ON | COIL_OFF => Ok(Request::WriteSingleCoil { address: a, on: b == COIL_ON }),
-                _ => Err(Exception::IllegalDataValue),
-            },
-            FunctionCode::WriteSingleRegister => Ok(Request::WriteSingleRegister { address: a, value: b }),
-            FunctionCode::ReadCoils | FunctionCode::ReadDiscreteInputs => {
-                Self::check_read(a, b, MAX_READ_BITS)?;
-                Ok(if code == FunctionCode::ReadCoils {
-                    Request::ReadCoils { start: a, qty: b }
-                } else {
-                    Request::ReadDiscreteInputs { start: a, qty: b }
-                })
-            }
-            FunctionCode::ReadHoldingRegisters | FunctionCode::ReadInputRegisters => {
-                Self::check_read(a, b, MAX_READ_REGISTERS)?;
-                Ok(if code == FunctionCode::ReadHoldingRegisters {
-                    Request::ReadHoldingRegisters { start: a, qty: b }
-                } else {
-                    Request::ReadInputRegisters { start: a, qty: b }
-                })
-            }
-        }
+            _ => return Err(Exception::IllegalFunction),
+        };
+        range_check(start, qty)?;
+        Ok(Request { table, start, qty, values })
     }
 
-    fn check_read(start: u16, qty: u16, max: u16) -> Result<(), Exception> {
-        if qty == 0 || qty > max {
-            return Err(Exception::IllegalDataValue);
-        }
-        check_range(start, qty)
-    }
-
-    /// FC 15 / 16: quantity in range, byte count as the quantity requires and equal to
-    /// the data that follows; returns the data.
-    fn parse_write_multiple(pdu: &'a [u8], start: u16, qty: u16, max: u16, bytes: u16) -> Result<&'a [u8], Exception> {
-        let byte_count = pdu.get(5).copied();
-        if qty == 0 || qty > max || byte_count.map(u16::from) != Some(bytes) || pdu.len() != 6 + usize::from(bytes) {
-            return Err(Exception::IllegalDataValue);
-        }
-        check_range(start, qty)?;
-        Ok(pdu.get(6..).unwrap_or(&[]))
-    }
-
-    /// FC 23: read quantity 1–125, write quantity 1–121, byte count twice the write
-    /// quantity and equal to the data that follows (03); both ranges inside 0–65535 (02).
-    #[cfg(feature = "extra-fc")]
-    fn parse_read_write(pdu: &'a [u8], read_start: u16, read_qty: u16) -> Result<Self, Exception> {
-        let (write_start, write_qty) = (word(pdu, 5), word(pdu, 7));
-        let bytes = write_qty.saturating_mul(2);
-        let byte_count = pdu.get(9).copied().map(u16::from);
-        if read_qty == 0
-            || read_qty > MAX_READ_REGISTERS
-            || write_qty == 0
-            || write_qty > MAX_READ_WRITE_REGISTERS
-            || byte_count != Some(bytes)
-            || pdu.len() != 10 + usize::from(bytes)
-        {
-            return Err(Exception::IllegalDataValue);
-        }
-        check_range(read_start, read_qty)?;
-        check_range(write_start, write_qty)?;
-        Ok(Request::ReadWriteMultipleRegisters {
-            read_start,
-            read_qty,
-            write_start,
-            values: pdu.get(10..).unwrap_or(&[]),
-        })
-    }
-
-    /// The function code of this request.
-    pub fn function_code(&self) -> FunctionCode {
-        match self {
-            Request::ReadCoils { .. } => FunctionCode::ReadCoils,
-            Request::ReadDiscreteInputs { .. } => FunctionCode::ReadDiscreteInputs,
-            Request::ReadHoldingRegisters { .. } => FunctionCode::ReadHoldingRegisters,
-            Request::ReadInputRegisters { .. } => FunctionCode::ReadInputRegisters,
-            Request::WriteSingleCoil { .. } => FunctionCode::WriteSingleCoil,
-            Request::WriteSingleRegister { .. } => FunctionCode::WriteSingleRegister,
-            Request::WriteMultipleCoils { .. } => FunctionCode::WriteMultipleCoils,
-            Request::WriteMultipleRegisters { .. } => FunctionCode::WriteMultipleRegisters,
-            #[cfg(feature = "extra-fc")]
-            Request::MaskWriteRegister { .. } => FunctionCode::MaskWriteRegister,
-            #[cfg(feature = "extra-fc")]
-            Request::ReadWriteMultipleRegisters { .. } => FunctionCode::ReadWriteMultipleRegisters,
-        }
-    }
-
-    /// True for the function codes that change data (the ones a broadcast executes).
+    /// True for the requests that change data (the ones a broadcast executes).
     pub fn is_write(&self) -> bool {
-        !matches!(
-            self,
-            Request::ReadCoils { .. }
-                | Request::ReadDiscreteInputs { .. }
-                | Request::ReadHoldingRegisters { .. }
-                | Request::ReadInputRegisters { .. }
-        )
+        !self.values.is_empty()
     }
 
     /// Carries out a write request; a read does nothing here.
     pub fn write<M: DataModel + ?Sized>(&self, model: &mut M) -> Result<(), Exception> {
-        match *self {
-            Request::WriteSingleCoil { address, on } => model.write_coils(address, 1, &[on as u8]),
-            Request::WriteSingleRegister { address, value } => model.write_registers(address, &value.to_be_bytes()),
-            Request::WriteMultipleCoils { start, qty, packed } => model.write_coils(start, qty, packed),
-            Request::WriteMultipleRegisters { start, values } => model.write_registers(start, values),
-            #[cfg(feature = "extra-fc")]
-            Request::MaskWriteRegister { address, and_mask, or_mask } => {
-                let mut current = [0; 2];
-                model.read_registers(Table::HoldingRegisters, address, &mut current)?;
-                let value = (u16::from_be_bytes(current) & and_mask) | (or_mask & !and_mask);
-                model.write_registers(address, &value.to_be_bytes())
-            }
-            #[cfg(feature = "extra-fc")]
-            Request::ReadWriteMultipleRegisters { read_start, read_qty, write_start, values } => {
-                // All or nothing: the read range must exist before anything is written.
-                if !model.has_range(Table::HoldingRegisters, read_start, read_qty) {
-                    return Err(Exception::IllegalDataAddress);
-                }
-                model.write_registers(write_start, values)
-            }
-            _ => Ok(()),
+        if !self.is_write() {
+            Ok(())
+        } else if self.table.is_bits() {
+            model.write_coils(self.start, self.qty, self.values)
+        } else {
+            model.write_registers(self.start, self.values)
         }
     }
 }
 
-/// Handles the request PDU `pdu[..len]` and writes the response PDU over it, from
-/// `pdu[0]`. Returns the response length, or the exception; on an exception `pdu` holds
-/// the request unchanged (see [`encode_exception`]). `pdu` must have room for the
-/// longest response, 252 bytes (FC 03 × 125); with less, a read answers 04.
-pub fn respond<M: DataModel + ?Sized>(pdu: &mut [u8], len: usize, model: &mut M) -> Result<usize, Exception> {
-    let request = Request::parse(pdu.get(..len).ok_or(Exception::ServerDeviceFailure)?)?;
-    let (table, start, qty) = match request {
-        Request::ReadCoils { start, qty } => (Table::Coils, start, qty),
-        Request::ReadDiscreteInputs { start, qty } => (Table::DiscreteInputs, start, qty),
-        Request::ReadHoldingRegisters { start, qty } => (Table::HoldingRegisters, start, qty),
-        Request::ReadInputRegisters { start, qty } => (Table::InputRegisters, start, qty),
-        #[cfg(feature = "extra-fc")]
-        Request::ReadWriteMultipleRegisters { read_start, read_qty, .. } => {
-            request.write(model)?;
-            (Table::HoldingRegisters, read_start, read_qty)
+/// The table FC 1–4 read (`code` is one of them). Two comparisons, no lookup table.
+fn read_table(code: FunctionCode) -> Table {
+    let registers = !matches!(code, FunctionCode::ReadCoils | FunctionCode::ReadDiscreteInputs);
+    let second = matches!(code, FunctionCode::ReadDiscreteInputs | FunctionCode::ReadHoldingRegisters);
+    if registers {
+        if second {
+            Table::HoldingRegisters
+        } else {
+            Table::InputRegisters
         }
-        // FC 22's response is its request (7 bytes).
-        #[cfg(feature = "extra-fc")]
-        Request::MaskWriteRegister { .. } => return request.write(model).map(|()| 7),
-        // Every other write's response is the first five bytes of its request: an echo
-        // for FC 5 / 6, function code, start and quantity for FC 15 / 16.
-        write => return write.write(model).map(|()| 5),
-    };
-    let bytes = if table.is_bits() { usize::from(qty.div_ceil(8)) } else { 2 * usize::from(qty) };
-    let data = pdu.get_mut(2..2 + bytes).ok_or(Exception::ServerDeviceFailure)?;
+    } else if second {
+        Table::DiscreteInputs
+    } else {
+        Table::Coils
+    }
+}
+
+/// Handles the request PDU `pdu[..len]` of FC 1–6, 15 or 16 and writes the response PDU
+/// over it, from `pdu[0]`. Returns the response length, or the exception; on an exception
+/// `pdu` holds the request unchanged (see [`encode_exception`]). `pdu` must have room for
+/// the longest response, 252 bytes (FC 03 × 125); with less, a read answers 04.
+pub fn respond<M: DataModel + ?Sized>(pdu: &mut [u8], len: usize, model: &mut M) -> Result<usize, Exception> {
+    execute(pdu, len, model, true)
+}
+
+/// [`respond`], or for a broadcast (`reply` false) the same checks and writes with no
+/// read and no response (returns 0 for a read).
+pub(crate) fn execute<M: DataModel + ?Sized>(
+    pdu: &mut [u8],
+    len: usize,
+    model: &mut M,
+    reply: bool,
+) -> Result<usize, Exception> {
+    let request = Request::parse(pdu.get(..len).ok_or(Exception::ServerDeviceFailure)?)?;
+    if request.is_write() {
+        // The response of a write is the first five bytes of its request: an echo for
+        // FC 5 / 6, function code, start and quantity for FC 15 / 16.
+        return request.write(model).map(|()| 5);
+    }
+    let Request { table, start, qty, .. } = request;
+    if reply {
+        read_response(pdu, model, table, start, qty)
+    } else {
+        Ok(0)
+    }
+}
+
+/// Reads `qty` values of `table` from `start` into a read response: byte count at
+/// `pdu[1]`, data from `pdu[2]`. Returns the response length.
+pub(crate) fn read_response<M: DataModel + ?Sized>(
+    pdu: &mut [u8],
+    model: &M,
+    table: Table,
+    start: u16,
+    qty: u16,
+) -> Result<usize, Exception> {
+    let bytes = byte_count(table, qty);
+    let data = pdu.get_mut(2..2 + usize::from(bytes)).ok_or(Exception::ServerDeviceFailure)?;
     if table.is_bits() {
         model.read_bits(table, start, qty, data)?;
     } else {
@@ -388,7 +366,7 @@ pub fn respond<M: DataModel + ?Sized>(pdu: &mut [u8], len: usize, model: &mut M)
     if let Some(count) = pdu.get_mut(1) {
         *count = bytes as u8;
     }
-    Ok(2 + bytes)
+    Ok(2 + usize::from(bytes))
 }
 
 /// Writes the exception response (function code | 0x80, exception code) at `pdu[0..2]`;

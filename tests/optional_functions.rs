@@ -134,8 +134,10 @@ mod extra {
             pdu.extend(std::iter::repeat_n(0, 244));
             pdu
         };
+        // One byte longer than an ADU can carry: the PDU layer on its own.
+        let mut pdu = request.clone();
         assert_eq!(
-            avr_modbus_slave::internal::Request::parse(&request),
+            avr_modbus_slave::internal::pdu::extra::respond(&mut pdu, request.len(), &mut bank(), true),
             Err(avr_modbus_slave::Exception::IllegalDataValue)
         );
     }

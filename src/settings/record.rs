@@ -22,7 +22,7 @@
 //! [`Config::try_new`] refuses, decodes to `None`. Decoding takes well under a millisecond
 //! on the Uno (see [`LineSettings::to_config`]).
 
-use super::{parity_code, parity_from_code, stop_bits_count, stop_bits_from_count, LineSettings};
+use super::block::{parity_code, parity_from_code, stop_bits_count, stop_bits_from_count, LineSettings};
 use crate::config::Config;
 use crate::crc::Crc16;
 
