@@ -297,7 +297,7 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
 /// Declares a register map fixed when the firmware is built: a struct holding the values
 /// of exactly the classic references listed, each a single reference or a range
 /// `first..=last`, in any order. It implements [`crate::DataModel`], so
-/// [`crate::slave!`] takes it, and has `new()` (every value 0), `get`, `set`,
+/// `slave!` takes it, and has `new()` (every value 0), `get`, `set`,
 /// `contains`, `master_writes`, `set_exception_status` and `set_device_info`, as
 /// [`crate::Bank`] does.
 ///
