@@ -19,6 +19,7 @@ use crate::error::Error;
 use crate::model::DataModel;
 use crate::pdu::Exception;
 use crate::reference::{IntoReference, Reference, Table};
+use crate::storage;
 
 /// Bytes needed for `bits` coils and discrete inputs: use as `Bank<R, W, { bit_bytes(32) }>`.
 pub const fn bit_bytes(bits: usize) -> usize {
@@ -246,18 +247,11 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     }
 
     fn bit(&self, i: usize) -> bool {
-        self.bits.get(i / 8).is_some_and(|byte| byte & (1 << (i % 8)) != 0)
+        storage::bit(&self.bits, i)
     }
 
     fn set_bit(&mut self, i: usize, on: bool) {
-        let mask = 1 << (i % 8);
-        if let Some(byte) = self.bits.get_mut(i / 8) {
-            if on {
-                *byte |= mask;
-            } else {
-                *byte &= !mask;
-            }
-        }
+        storage::set_bit(&mut self.bits, i, on);
     }
 
     /// Storage index of `start` when `start..start + qty` all exist (in one run).
@@ -379,21 +373,14 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
 
     fn read_bits(&self, table: Table, start: u16, qty: u16, out: &mut [u8]) -> Result<(), Exception> {
         let first = self.locate(table, start, qty).ok_or(Exception::IllegalDataAddress)?;
-        out.fill(0);
-        for k in 0..usize::from(qty) {
-            if let (true, Some(byte)) = (self.bit(first + k), out.get_mut(k / 8)) {
-                *byte |= 1 << (k % 8);
-            }
-        }
+        storage::read_bits(&self.bits, first, qty, out);
         Ok(())
     }
 
     fn read_registers(&self, table: Table, start: u16, out: &mut [u8]) -> Result<(), Exception> {
         let qty = u16::try_from(out.len() / 2).map_err(|_| Exception::IllegalDataValue)?;
         let first = self.locate(table, start, qty).ok_or(Exception::IllegalDataAddress)?;
-        for (pair, value) in out.chunks_exact_mut(2).zip(self.registers.get(first..).unwrap_or(&[])) {
-            pair.copy_from_slice(&value.to_be_bytes());
-        }
+        storage::read_words(&self.registers, first, out);
         Ok(())
     }
 
@@ -402,10 +389,7 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         if self.is_protected(Table::Coils, start, qty) {
             return Err(Exception::IllegalDataAddress);
         }
-        for k in 0..usize::from(qty) {
-            let byte = packed.get(k / 8).copied().unwrap_or(0);
-            self.set_bit(first + k, byte & (1 << (k % 8)) != 0);
-        }
+        storage::write_bits(&mut self.bits, first, qty, packed);
         self.master_writes = self.master_writes.wrapping_add(1);
         Ok(())
     }
@@ -416,11 +400,7 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         if self.is_protected(Table::HoldingRegisters, start, qty) {
             return Err(Exception::IllegalDataAddress);
         }
-        for (slot, pair) in self.registers.get_mut(first..).unwrap_or(&mut []).iter_mut().zip(values.chunks_exact(2)) {
-            if let [hi, lo] = *pair {
-                *slot = u16::from_be_bytes([hi, lo]);
-            }
-        }
+        storage::write_words(&mut self.registers, first, values);
         self.master_writes = self.master_writes.wrapping_add(1);
         Ok(())
     }

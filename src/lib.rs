@@ -19,6 +19,7 @@ mod pdu;
 mod reference;
 #[cfg(feature = "eeprom-settings")]
 mod settings;
+mod storage;
 mod timing;
 
 #[cfg(target_arch = "avr")]

@@ -12,6 +12,7 @@
 use crate::error::Error;
 use crate::pdu::Exception;
 use crate::reference::{Reference, Table};
+use crate::storage;
 
 /// One declared range, as the lookup needs it.
 #[doc(hidden)]
@@ -173,26 +174,15 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
         }
     }
 
-    fn bit(&self, i: usize) -> bool {
-        self.bits.get(i / 8).is_some_and(|byte| byte & (1 << (i % 8)) != 0)
-    }
-
-    fn set_bit(&mut self, i: usize, on: bool) {
-        let mask = 1 << (i % 8);
-        if let Some(byte) = self.bits.get_mut(i / 8) {
-            if on {
-                *byte |= mask;
-            } else {
-                *byte &= !mask;
-            }
-        }
-    }
-
     /// The value at storage index `at` of `table`'s kind.
     #[inline(always)]
     pub fn get(&self, table: Table, at: Option<usize>) -> Result<u16, Error> {
         let i = at.ok_or(Error::NotFound)?;
-        Ok(if table.is_bits() { u16::from(self.bit(i)) } else { self.words.get(i).copied().unwrap_or(0) })
+        Ok(if table.is_bits() {
+            u16::from(storage::bit(&self.bits, i))
+        } else {
+            self.words.get(i).copied().unwrap_or(0)
+        })
     }
 
     /// Sets the value at storage index `at` of `table`'s kind.
@@ -200,7 +190,7 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
     pub fn set(&mut self, table: Table, at: Option<usize>, value: u16) -> Result<(), Error> {
         let i = at.ok_or(Error::NotFound)?;
         if table.is_bits() {
-            self.set_bit(i, value != 0);
+            storage::set_bit(&mut self.bits, i, value != 0);
         } else if let Some(slot) = self.words.get_mut(i) {
             *slot = value;
         }
@@ -209,44 +199,26 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
 
     /// FC 1 / 2: `qty` bits from storage index `at`, packed LSB first.
     pub fn read_bits(&self, at: Option<usize>, qty: u16, out: &mut [u8]) -> Result<(), Exception> {
-        let first = at.ok_or(Exception::IllegalDataAddress)?;
-        out.fill(0);
-        for k in 0..usize::from(qty) {
-            if let (true, Some(byte)) = (self.bit(first + k), out.get_mut(k / 8)) {
-                *byte |= 1 << (k % 8);
-            }
-        }
+        storage::read_bits(&self.bits, at.ok_or(Exception::IllegalDataAddress)?, qty, out);
         Ok(())
     }
 
     /// FC 3 / 4: `out.len() / 2` registers from storage index `at`, big-endian.
     pub fn read_words(&self, at: Option<usize>, out: &mut [u8]) -> Result<(), Exception> {
-        let first = at.ok_or(Exception::IllegalDataAddress)?;
-        for (pair, value) in out.chunks_exact_mut(2).zip(self.words.get(first..).unwrap_or(&[])) {
-            pair.copy_from_slice(&value.to_be_bytes());
-        }
+        storage::read_words(&self.words, at.ok_or(Exception::IllegalDataAddress)?, out);
         Ok(())
     }
 
     /// FC 5 / 15: `qty` coils from storage index `at`, packed LSB first.
     pub fn write_bits(&mut self, at: Option<usize>, qty: u16, packed: &[u8]) -> Result<(), Exception> {
-        let first = at.ok_or(Exception::IllegalDataAddress)?;
-        for k in 0..usize::from(qty) {
-            let byte = packed.get(k / 8).copied().unwrap_or(0);
-            self.set_bit(first + k, byte & (1 << (k % 8)) != 0);
-        }
+        storage::write_bits(&mut self.bits, at.ok_or(Exception::IllegalDataAddress)?, qty, packed);
         self.master_writes = self.master_writes.wrapping_add(1);
         Ok(())
     }
 
     /// FC 6 / 16: registers from storage index `at`, big-endian.
     pub fn write_words(&mut self, at: Option<usize>, values: &[u8]) -> Result<(), Exception> {
-        let first = at.ok_or(Exception::IllegalDataAddress)?;
-        for (slot, pair) in self.words.get_mut(first..).unwrap_or(&mut []).iter_mut().zip(values.chunks_exact(2)) {
-            if let [hi, lo] = *pair {
-                *slot = u16::from_be_bytes([hi, lo]);
-            }
-        }
+        storage::write_words(&mut self.words, at.ok_or(Exception::IllegalDataAddress)?, values);
         self.master_writes = self.master_writes.wrapping_add(1);
         Ok(())
     }
