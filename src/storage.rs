@@ -3,11 +3,13 @@
 //! first, and the copies between them and the PDU, Application Protocol v1.1b3 §6.1–6.12.
 
 /// Bit `i` of the packed bits.
+#[inline(always)]
 pub(crate) fn bit(bits: &[u8], i: usize) -> bool {
     bits.get(i / 8).is_some_and(|byte| byte & (1 << (i % 8)) != 0)
 }
 
 /// Sets bit `i` of the packed bits.
+#[inline(always)]
 pub(crate) fn set_bit(bits: &mut [u8], i: usize, on: bool) {
     let mask = 1 << (i % 8);
     if let Some(byte) = bits.get_mut(i / 8) {
@@ -21,6 +23,7 @@ pub(crate) fn set_bit(bits: &mut [u8], i: usize, on: bool) {
 
 /// FC 1 / 2's data: `qty` bits from index `first`, packed LSB first into `out`, the unused
 /// high bits of the last byte zero.
+#[inline(always)]
 pub(crate) fn read_bits(bits: &[u8], first: usize, qty: u16, out: &mut [u8]) {
     out.fill(0);
     for k in 0..usize::from(qty) {
@@ -31,6 +34,7 @@ pub(crate) fn read_bits(bits: &[u8], first: usize, qty: u16, out: &mut [u8]) {
 }
 
 /// FC 5 / 15: `qty` bits from index `first`, from `packed` LSB first.
+#[inline(always)]
 pub(crate) fn write_bits(bits: &mut [u8], first: usize, qty: u16, packed: &[u8]) {
     for k in 0..usize::from(qty) {
         let byte = packed.get(k / 8).copied().unwrap_or(0);
@@ -39,6 +43,7 @@ pub(crate) fn write_bits(bits: &mut [u8], first: usize, qty: u16, packed: &[u8])
 }
 
 /// FC 3 / 4's data: `out.len() / 2` registers from index `first`, big-endian.
+#[inline(always)]
 pub(crate) fn read_words(words: &[u16], first: usize, out: &mut [u8]) {
     for (pair, value) in out.chunks_exact_mut(2).zip(words.get(first..).unwrap_or(&[])) {
         pair.copy_from_slice(&value.to_be_bytes());
@@ -46,6 +51,7 @@ pub(crate) fn read_words(words: &[u16], first: usize, out: &mut [u8]) {
 }
 
 /// FC 6 / 16: registers from index `first`, from `values` big-endian.
+#[inline(always)]
 pub(crate) fn write_words(words: &mut [u16], first: usize, values: &[u8]) {
     for (slot, pair) in words.get_mut(first..).unwrap_or(&mut []).iter_mut().zip(values.chunks_exact(2)) {
         if let [hi, lo] = *pair {
