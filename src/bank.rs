@@ -17,6 +17,8 @@
 
 use crate::error::Error;
 use crate::model::DataModel;
+#[cfg(feature = "device-id")]
+use crate::pdu::device_id::Identification;
 use crate::pdu::Exception;
 use crate::reference::{IntoReference, Reference, Table};
 use crate::storage;
@@ -95,6 +97,8 @@ pub struct Bank<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, co
     exception_status: u8,
     #[cfg(feature = "diagnostics")]
     device_info: &'static [u8],
+    #[cfg(feature = "device-id")]
+    identification: Option<&'static Identification>,
 }
 
 impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize> Default
@@ -126,6 +130,8 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
             exception_status: 0,
             #[cfg(feature = "diagnostics")]
             device_info: &[],
+            #[cfg(feature = "device-id")]
+            identification: None,
         }
     }
 
@@ -336,6 +342,13 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         self.device_info = info;
     }
 
+    /// Sets the objects FC 43 / MEI 14 (Read Device Identification) reports: see
+    /// [`crate::identification!`].
+    #[cfg(feature = "device-id")]
+    pub fn set_identification(&mut self, identification: &'static Identification) {
+        self.identification = Some(identification);
+    }
+
     /// Contiguous runs in use (at most `RUNS`).
     pub fn runs(&self) -> usize {
         self.run_count
@@ -369,6 +382,11 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     #[cfg(feature = "diagnostics")]
     fn device_info(&self) -> &[u8] {
         self.device_info
+    }
+
+    #[cfg(feature = "device-id")]
+    fn identification(&self) -> Option<&Identification> {
+        self.identification
     }
 
     fn read_bits(&self, table: Table, start: u16, qty: u16, out: &mut [u8]) -> Result<(), Exception> {

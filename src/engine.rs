@@ -246,6 +246,10 @@ impl Engine {
             FunctionCode::MaskWriteRegister | FunctionCode::ReadWriteMultipleRegisters => {
                 extra::respond(pdu, pdu_len, model, unicast)
             }
+            #[cfg(feature = "device-id")]
+            FunctionCode::EncapsulatedInterface => {
+                crate::pdu::device_id::respond(pdu, pdu_len, model.identification(), unicast)
+            }
             _ => execute(pdu, pdu_len, model, unicast),
         };
         result.map(Answer::Reply)

@@ -32,6 +32,7 @@ pub use config::{Config, Parity, SlaveId, StopBits};
 pub use engine::Counters;
 pub use error::Error;
 pub use model::DataModel;
+pub use pdu::device_id::Identification;
 pub use pdu::Exception;
 pub use reference::{IntoReference, Reference, Table};
 #[cfg(feature = "eeprom-settings")]
@@ -50,6 +51,10 @@ pub mod internal {
     /// The compile-time register map's parts, for [`crate::register_map!`].
     pub mod map {
         pub use crate::map::{Layout, Span, Values};
+    }
+    /// FC 43 / MEI 14: what [`crate::identification!`] expands to.
+    pub mod device_id {
+        pub use crate::pdu::device_id::*;
     }
     /// The PDU engine.
     pub mod pdu {

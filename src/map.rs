@@ -10,6 +10,7 @@
 //! as across one range.
 
 use crate::error::Error;
+use crate::pdu::device_id::Identification;
 use crate::pdu::Exception;
 use crate::reference::{Reference, Table};
 use crate::storage;
@@ -152,6 +153,8 @@ pub struct Values<const WORDS: usize, const BIT_BYTES: usize> {
     exception_status: u8,
     #[cfg(feature = "diagnostics")]
     device_info: &'static [u8],
+    #[cfg(feature = "device-id")]
+    identification: Option<&'static Identification>,
 }
 
 impl<const WORDS: usize, const BIT_BYTES: usize> Default for Values<WORDS, BIT_BYTES> {
@@ -171,6 +174,8 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
             exception_status: 0,
             #[cfg(feature = "diagnostics")]
             device_info: &[],
+            #[cfg(feature = "device-id")]
+            identification: None,
         }
     }
 
@@ -263,6 +268,24 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
             self.device_info = info;
         }
         let _ = info;
+    }
+
+    /// FC 43's objects (none without feature `device-id`).
+    #[inline(always)]
+    pub fn identification(&self) -> Option<&'static Identification> {
+        #[cfg(feature = "device-id")]
+        return self.identification;
+        #[cfg(not(feature = "device-id"))]
+        None
+    }
+
+    /// Sets FC 43's objects (nothing without feature `device-id`).
+    pub fn set_identification(&mut self, identification: &'static Identification) {
+        #[cfg(feature = "device-id")]
+        {
+            self.identification = Some(identification);
+        }
+        let _ = identification;
     }
 }
 
@@ -378,6 +401,14 @@ macro_rules! register_map {
             $vis fn set_device_info(&mut self, info: &'static [u8]) {
                 self.0.set_device_info(info);
             }
+
+            /// Sets the objects FC 43 / MEI 14 (Read Device Identification) reports, declared
+            /// with `identification!` (feature `device-id`; without it there is no FC 43
+            /// and nothing is kept).
+            #[allow(dead_code)]
+            $vis fn set_identification(&mut self, identification: &'static $crate::Identification) {
+                self.0.set_identification(identification);
+            }
         }
 
         impl $crate::DataModel for $name {
@@ -423,6 +454,10 @@ macro_rules! register_map {
 
             fn device_info(&self) -> &[u8] {
                 self.0.device_info()
+            }
+
+            fn identification(&self) -> ::core::option::Option<&$crate::Identification> {
+                self.0.identification()
             }
         }
     };

@@ -9,6 +9,7 @@
 #[cfg(feature = "eeprom-settings")]
 use crate::config::Config;
 use crate::error::Error;
+use crate::pdu::device_id::Identification;
 use crate::pdu::Exception;
 use crate::reference::{Reference, Table};
 
@@ -63,6 +64,12 @@ pub trait DataModel {
     /// run indicator (at most 249 bytes are sent).
     fn device_info(&self) -> &[u8] {
         &[]
+    }
+
+    /// The objects FC 43 / MEI 14 (Read Device Identification) reports (feature
+    /// `device-id`); none: the slave answers exception 01.
+    fn identification(&self) -> Option<&Identification> {
+        None
     }
 
     /// Line settings the master wrote, ready to switch to (feature `eeprom-settings`, see

@@ -17,6 +17,7 @@
 use crate::model::DataModel;
 use crate::reference::Table;
 
+pub mod device_id;
 #[cfg(feature = "extra-fc")]
 pub mod extra;
 
@@ -68,6 +69,9 @@ pub enum FunctionCode {
     MaskWriteRegister,
     /// 0x17 Read/Write Multiple Registers, §6.17 (feature `extra-fc`).
     ReadWriteMultipleRegisters,
+    /// 0x2B Encapsulated Interface Transport, §6.19: MEI type 14, Read Device
+    /// Identification, §6.21 (feature `device-id`).
+    EncapsulatedInterface,
     /// Any other code: answered with exception 01.
     Unknown(u8),
 }
@@ -90,6 +94,7 @@ impl FunctionCode {
             0x11 => FunctionCode::ReportServerId,
             0x16 => FunctionCode::MaskWriteRegister,
             0x17 => FunctionCode::ReadWriteMultipleRegisters,
+            0x2B => FunctionCode::EncapsulatedInterface,
             other => FunctionCode::Unknown(other),
         }
     }
@@ -111,6 +116,7 @@ impl FunctionCode {
             FunctionCode::ReportServerId => 0x11,
             FunctionCode::MaskWriteRegister => 0x16,
             FunctionCode::ReadWriteMultipleRegisters => 0x17,
+            FunctionCode::EncapsulatedInterface => 0x2B,
             FunctionCode::Unknown(other) => other,
         }
     }

@@ -217,6 +217,10 @@ impl<M: DataModel> DataModel for Configurable<M> {
         self.model.device_info()
     }
 
+    fn identification(&self) -> Option<&crate::Identification> {
+        self.model.identification()
+    }
+
     fn take_new_settings(&mut self) -> Option<Config> {
         let config = self.ready.take()?;
         self.pending = None;
