@@ -212,9 +212,8 @@ impl Engine {
     }
 
     /// Like [`Engine::process`] but leaves the CRC to the sender: returns the length of
-    /// address and PDU, and [`Engine::reply`] holds just those. The AVR layer folds each
-    /// byte into a [`Crc16`] as it goes out and sends the two CRC bytes last, so a
-    /// 255-byte reply costs no CRC time before it starts.
+    /// address and PDU, and [`Engine::reply`] holds just those, for a sender that computes
+    /// the CRC itself as the bytes go out.
     pub fn prepare<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
         match core::mem::replace(&mut self.pending, Pending::None) {
             Pending::None => 0,
@@ -325,6 +324,13 @@ impl Engine {
     /// The reply built by [`Engine::process`], valid until [`Engine::on_reply_sent`].
     pub fn reply(&self) -> &[u8] {
         self.framer.buffer().get(..self.reply_len).unwrap_or(&[])
+    }
+
+    /// Byte `i` of the reply built by [`Engine::process`], for the sender.
+    #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
+    #[inline(always)]
+    pub(crate) fn reply_byte(&self, i: u8) -> u8 {
+        self.framer.buffer().get(usize::from(i)).copied().unwrap_or(0)
     }
 
     /// The reply's last byte left the USART: listen again.
