@@ -1,6 +1,26 @@
 //! The value storage both register maps share (the build-time `register_map!` and the
-//! run-time `Bank`): registers as `u16`, coils and discrete inputs packed 8 to a byte, LSB
+//! run-time `Bank`): registers as two bytes, coils and discrete inputs packed 8 to a byte, LSB
 //! first, and the copies between them and the PDU, Application Protocol v1.1b3 §6.1–6.12.
+//!
+//! A register is kept as it travels, big-endian ([`Word`]): FC 3, 4, 6 and 16 copy bytes,
+//! and only the application's `get` and `set` convert.
+
+/// A register's value, big-endian (high byte first), as on the wire.
+pub(crate) type Word = [u8; 2];
+
+/// The value of a register kept as a [`Word`], 0 past the end.
+#[inline(always)]
+pub(crate) fn word(words: &[Word], i: usize) -> u16 {
+    words.get(i).map_or(0, |&w| u16::from_be_bytes(w))
+}
+
+/// Sets the register `i` kept as a [`Word`].
+#[inline(always)]
+pub(crate) fn set_word(words: &mut [Word], i: usize, value: u16) {
+    if let Some(slot) = words.get_mut(i) {
+        *slot = value.to_be_bytes();
+    }
+}
 
 /// Bit `i` of the packed bits.
 #[inline(always)]
@@ -44,18 +64,16 @@ pub(crate) fn write_bits(bits: &mut [u8], first: usize, qty: u16, packed: &[u8])
 
 /// FC 3 / 4's data: `out.len() / 2` registers from index `first`, big-endian.
 #[inline(always)]
-pub(crate) fn read_words(words: &[u16], first: usize, out: &mut [u8]) {
+pub(crate) fn read_words(words: &[Word], first: usize, out: &mut [u8]) {
     for (pair, value) in out.chunks_exact_mut(2).zip(words.get(first..).unwrap_or(&[])) {
-        pair.copy_from_slice(&value.to_be_bytes());
+        pair.copy_from_slice(value);
     }
 }
 
 /// FC 6 / 16: registers from index `first`, from `values` big-endian.
 #[inline(always)]
-pub(crate) fn write_words(words: &mut [u16], first: usize, values: &[u8]) {
+pub(crate) fn write_words(words: &mut [Word], first: usize, values: &[u8]) {
     for (slot, pair) in words.get_mut(first..).unwrap_or(&mut []).iter_mut().zip(values.chunks_exact(2)) {
-        if let [hi, lo] = *pair {
-            *slot = u16::from_be_bytes([hi, lo]);
-        }
+        slot.copy_from_slice(pair);
     }
 }
