@@ -215,18 +215,16 @@ impl Engine {
     /// address and PDU, and [`Engine::reply`] holds just those, for a sender that computes
     /// the CRC itself as the bytes go out.
     pub fn prepare<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
-        match core::mem::replace(&mut self.pending, Pending::None) {
-            Pending::None => 0,
-            Pending::Broadcast(len) => {
-                self.execute_silently(len, model);
-                0
-            }
+        let (len, unicast) = match core::mem::replace(&mut self.pending, Pending::None) {
+            Pending::None => return 0,
             Pending::Silent(len) => {
                 self.stay_silent(len);
-                0
+                return 0;
             }
-            Pending::Unicast(len) => self.answer(len, model),
-        }
+            Pending::Broadcast(len) => (len, false),
+            Pending::Unicast(len) => (len, true),
+        };
+        self.answer(len, model, unicast)
     }
 
     /// The one dispatch on the function code: FC 7, 8, 11 (0x0B) and 17 (0x11) go to the
@@ -263,11 +261,24 @@ impl Engine {
         }
     }
 
-    /// A request to this slave: handled, counted, and its reply (address and PDU) left in
-    /// the buffer; returns the reply's length.
-    fn answer<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M) -> usize {
-        let result = self.handle(len, model, true);
+    /// A request to this slave (`unicast`) or a broadcast: handled and counted. A request
+    /// to this slave leaves its reply (address and PDU) in the buffer; returns the reply's
+    /// length.
+    ///
+    /// A broadcast: writes are executed, nothing is answered (returns 0, the buffer is
+    /// released). Reads and diagnostics are only checked, and counted as the same request
+    /// sent to this slave would be: an event when valid (FC 11 (0x0B) excepted), an
+    /// exception when not. Nothing is acted on: a broadcast FC 8 neither clears the
+    /// counters nor enters listen-only mode.
+    ///
+    /// One call of [`Engine::handle`] for both, so that it is inlined here.
+    fn answer<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M, unicast: bool) -> usize {
+        let result = self.handle(len, model, unicast);
         self.count(&result);
+        if !unicast {
+            self.framer.release();
+            return 0;
+        }
         let reply_pdu = match result {
             Ok(Answer::Reply(n) | Answer::Restart(n)) => n,
             // Classified as silent by `on_end_deadline`, so never met here; were it met,
@@ -285,16 +296,6 @@ impl Engine {
             self.restart();
         }
         self.reply_len
-    }
-
-    /// A broadcast: writes are executed, nothing is answered. Reads and diagnostics are
-    /// only checked, and counted as the same request sent to this slave would be: an event
-    /// when valid (FC 11 (0x0B) excepted), an exception when not. Nothing is acted on: a
-    /// broadcast FC 8 neither clears the counters nor enters listen-only mode.
-    fn execute_silently<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M) {
-        let result = self.handle(len, model, false);
-        self.count(&result);
-        self.framer.release();
     }
 
     /// A frame that gets no reply. FC 8 sub-function 04 enters listen-only mode; in it,
