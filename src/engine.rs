@@ -375,15 +375,19 @@ impl Engine {
 }
 
 impl Counters {
-    /// Counts a dropped frame in the counter for its error. Each counter adds whether the
+    /// Counts a dropped frame in the counter for its error. Each counter is bumped if the
     /// error is one of its own: comparisons, where a `match` choosing the counter would be
     /// a table of counter addresses, copied to RAM on AVR.
     fn count_dropped(&mut self, e: FrameError) {
-        let add = |counter: &mut u16, mine: bool| *counter = counter.wrapping_add(u16::from(mine));
-        add(&mut self.crc_errors, e == FrameError::BadCrc);
-        add(&mut self.uart_errors, e == FrameError::Uart);
-        add(&mut self.overruns, matches!(e, FrameError::Overrun | FrameError::TooLong));
-        add(&mut self.malformed, matches!(e, FrameError::TooShort | FrameError::Gap));
+        let bump_if = |counter: &mut u16, mine: bool| {
+            if mine {
+                bump(counter);
+            }
+        };
+        bump_if(&mut self.crc_errors, e == FrameError::BadCrc);
+        bump_if(&mut self.uart_errors, e == FrameError::Uart);
+        bump_if(&mut self.overruns, matches!(e, FrameError::Overrun | FrameError::TooLong));
+        bump_if(&mut self.malformed, matches!(e, FrameError::TooShort | FrameError::Gap));
     }
 
     /// All zero.
