@@ -178,11 +178,7 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
     #[inline(always)]
     pub fn get(&self, table: Table, at: Option<usize>) -> Result<u16, Error> {
         let i = at.ok_or(Error::NotFound)?;
-        Ok(if table.is_bits() {
-            u16::from(storage::bit(&self.bits, i))
-        } else {
-            storage::word(&self.words, i)
-        })
+        Ok(if table.is_bits() { u16::from(storage::bit(&self.bits, i)) } else { storage::word(&self.words, i) })
     }
 
     /// Sets the value at storage index `at` of `table`'s kind.
