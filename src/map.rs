@@ -3,7 +3,7 @@
 //!
 //! The ranges are checked while the firmware compiles (a bad reference, an empty range or
 //! two ranges that overlap fail the build) and cost no RAM: only the values do, registers
-//! as `u16` and coils and discrete inputs packed 8 to a byte. A lookup is a chain of
+//! as two bytes each and coils and discrete inputs packed 8 to a byte. A lookup is a chain of
 //! compares against constants, one per declared range; by a constant reference
 //! (`SLAVE.set(30001, x)`) it folds to an index. Ranges of one table that touch
 //! (40001–40004 and 40005–40008) are stored side by side, so the master reads across them
@@ -145,7 +145,7 @@ impl Span {
 #[doc(hidden)]
 #[derive(Clone, Debug)]
 pub struct Values<const WORDS: usize, const BIT_BYTES: usize> {
-    words: [u16; WORDS],
+    words: [storage::Word; WORDS],
     bits: [u8; BIT_BYTES],
     master_writes: u16,
     #[cfg(feature = "diagnostics")]
@@ -164,7 +164,7 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
     /// Every value 0.
     pub const fn new() -> Self {
         Values {
-            words: [0; WORDS],
+            words: [[0; 2]; WORDS],
             bits: [0; BIT_BYTES],
             master_writes: 0,
             #[cfg(feature = "diagnostics")]
@@ -178,11 +178,7 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
     #[inline(always)]
     pub fn get(&self, table: Table, at: Option<usize>) -> Result<u16, Error> {
         let i = at.ok_or(Error::NotFound)?;
-        Ok(if table.is_bits() {
-            u16::from(storage::bit(&self.bits, i))
-        } else {
-            self.words.get(i).copied().unwrap_or(0)
-        })
+        Ok(if table.is_bits() { u16::from(storage::bit(&self.bits, i)) } else { storage::word(&self.words, i) })
     }
 
     /// Sets the value at storage index `at` of `table`'s kind.
@@ -191,8 +187,8 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
         let i = at.ok_or(Error::NotFound)?;
         if table.is_bits() {
             storage::set_bit(&mut self.bits, i, value != 0);
-        } else if let Some(slot) = self.words.get_mut(i) {
-            *slot = value;
+        } else {
+            storage::set_word(&mut self.words, i, value);
         }
         Ok(())
     }

@@ -227,9 +227,10 @@ pub(crate) fn quantity_check(qty: u16, max: u16) -> Result<(), Exception> {
     value_check(qty != 0 && qty <= max)
 }
 
-/// 02 unless `start..start + qty` stays inside 0–65535.
+/// 02 unless `start..start + qty` (`qty` ≥ 1) stays inside 0–65535: the last address,
+/// `start + qty - 1`, must not pass 65535 (16-bit arithmetic: `!start` is `65535 - start`).
 pub(crate) fn range_check(start: u16, qty: u16) -> Result<(), Exception> {
-    if u32::from(start) + u32::from(qty) > 0x1_0000 {
+    if qty.wrapping_sub(1) > !start {
         Err(Exception::IllegalDataAddress)
     } else {
         Ok(())

@@ -15,7 +15,6 @@ use super::reg::{self, claim};
 use super::timer::{Expired, FrameTimer};
 use super::usart::Usart;
 use crate::config::Config;
-use crate::crc::Crc16;
 use crate::engine::{Counters, EndOfFrame, Engine};
 use crate::error::Error;
 use crate::model::DataModel;
@@ -29,9 +28,9 @@ pub(crate) struct Running<M, DE, LED> {
     timer: FrameTimer,
     engine: Engine,
     model: M,
-    tx_next: usize,
-    tx_len: usize,
-    tx_crc: Crc16,
+    /// Index of the reply's next byte, and the reply's length (at most 255 bytes).
+    tx_next: u8,
+    tx_len: u8,
     driver_enable: DE,
     led: LED,
 }
@@ -52,7 +51,6 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
             model,
             tx_next: 0,
             tx_len: 0,
-            tx_crc: Crc16::new(),
             driver_enable,
             led,
         }
@@ -78,7 +76,8 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
     }
 
     /// Timer0 compare B: T3.5 of silence. A frame for this slave is answered from here:
-    /// the address goes out first, then the request is processed while it is on the wire.
+    /// the address goes out first, then the request is processed and the reply's CRC
+    /// appended while it is on the wire.
     #[inline(always)]
     fn on_timer_compare_b(&mut self) {
         if self.timer.on_compare_b() == Expired::NotYet {
@@ -91,41 +90,30 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
             self.timer.restart();
             return;
         }
-        match self.engine.on_end_deadline() {
-            EndOfFrame::Reply => {
-                let _ = self.driver_enable.set_high();
-                let _ = self.led.set_high();
-                let id = self.engine.id().get();
-                self.usart.write(id);
-                self.tx_crc = Crc16::new().update(id);
-                self.tx_len = self.engine.prepare(&mut self.model);
-                self.tx_next = 1;
-                self.usart.start_feeding();
-            }
-            EndOfFrame::Broadcast | EndOfFrame::Silent => {
-                self.engine.process(&mut self.model);
-            }
-            EndOfFrame::Nothing | EndOfFrame::Dropped(_) | EndOfFrame::OtherSlave => {}
+        let end = self.engine.on_end_deadline();
+        if end == EndOfFrame::Reply {
+            let _ = self.driver_enable.set_high();
+            let _ = self.led.set_high();
+            self.usart.write(self.engine.id().get());
+            self.tx_next = 1;
+        }
+        // Executes what `on_end_deadline` accepted (nothing for the other ends) and, for a
+        // reply, appends its CRC; the rest of the reply follows the address from the
+        // data-register-empty interrupt.
+        // The longest reply is 255 bytes (FC 3 or 4 with 125 registers).
+        self.tx_len = self.engine.process(&mut self.model) as u8;
+        if self.tx_len != 0 {
+            self.usart.start_feeding();
         }
     }
 
-    /// USART0 data register empty: the next character of the reply, folded into the CRC,
-    /// then the CRC's low and high bytes.
+    /// USART0 data register empty: the next character of the reply (CRC included).
     #[inline(always)]
     fn on_usart_udre(&mut self) {
-        let crc = self.tx_crc.to_wire();
-        let (byte, last) = match self.tx_next.checked_sub(self.tx_len) {
-            None => {
-                let byte = self.engine.reply().get(self.tx_next).copied().unwrap_or(0);
-                self.tx_crc = self.tx_crc.update(byte);
-                (byte, false)
-            }
-            Some(0) => (crc[0], false),
-            Some(_) => (crc[1], true),
-        };
-        self.usart.write(byte);
-        self.tx_next += 1;
-        if last {
+        let next = self.tx_next;
+        self.usart.write(self.engine.reply_byte(next));
+        self.tx_next = next.wrapping_add(1);
+        if self.tx_next == self.tx_len {
             self.usart.last_written();
         }
     }
@@ -210,15 +198,15 @@ impl<M, DE, LED> Slave<M, DE, LED> {
         }
     }
 
-    /// Runs `f` on the running slave from one of the handlers that Timer0 and the receiver
-    /// raise once per character or per turn, without [`Slave::access`]'s check, which keeps
-    /// them short.
+    /// Runs `f` on the running slave from one of its interrupt handlers, without
+    /// [`Slave::access`]'s check, which keeps them short.
     ///
     /// # Safety
-    /// Only from the slave's receive or Timer0 interrupt handlers (interrupts disabled, and
-    /// they stay so), so no other access overlaps this one: the application's run with
-    /// interrupts disabled, and the handlers don't nest. The slave is there: only `start`
-    /// enables those interrupts, after writing it.
+    /// Only from the slave's interrupt handlers (interrupts disabled, and they stay so), so
+    /// no other access overlaps this one: the application's run with interrupts disabled,
+    /// and the handlers don't nest. The slave is there: only `start` enables the receive
+    /// and Timer0 interrupts, after writing it, and only the slave's handlers enable the
+    /// transmit ones.
     #[inline(always)]
     unsafe fn access_in_handler<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED>) -> R) -> R {
         // SAFETY: as promised by the caller, nothing else reaches the slave meanwhile, and
@@ -304,8 +292,8 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
     #[doc(hidden)]
     #[inline(always)]
     pub unsafe fn on_usart_udre(&self) {
-        // SAFETY: interrupts are disabled (the caller's promise).
-        unsafe { self.access(Running::on_usart_udre) };
+        // SAFETY: a USART interrupt handler (the caller's promise).
+        unsafe { self.access_in_handler(Running::on_usart_udre) };
     }
 
     /// See [`Slave::on_usart_rx`].
@@ -316,7 +304,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
     #[inline(always)]
     pub unsafe fn on_usart_tx(&self) {
         // SAFETY: as above.
-        unsafe { self.access(Running::on_usart_tx) };
+        unsafe { self.access_in_handler(Running::on_usart_tx) };
     }
 
     /// See [`Slave::on_usart_rx`].
