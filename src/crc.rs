@@ -40,6 +40,62 @@ impl Crc16 {
         Crc16(next)
     }
 
+    /// [`Crc16::update`] for an interrupt handler: on the AVR the step of
+    /// [`Crc16::fold_avr`] in four registers of the compiler's choice (the data byte's
+    /// register is reused once folded in, and the low byte's once `s` is formed), which
+    /// keeps the handler from saving more registers on every entry.
+    #[inline(always)]
+    #[cfg_attr(target_arch = "avr", allow(unsafe_code))]
+    pub fn step(self, byte: u8) -> Self {
+        #[cfg(target_arch = "avr")]
+        {
+            let [mut lo, mut hi] = self.0.to_le_bytes();
+            // SAFETY: register arithmetic only: no memory, no stack.
+            unsafe {
+                core::arch::asm!(
+                    "eor {lo}, {p}", // l = low byte ^ data byte; p is free from here
+                    "mov {p}, {lo}",
+                    "swap {p}",
+                    "eor {p}, {lo}",
+                    "mov {s}, {p}",
+                    "lsr {s}",
+                    "lsr {s}",
+                    "eor {p}, {s}",
+                    "mov {s}, {p}",
+                    "lsr {s}",
+                    "eor {p}, {s}",
+                    "andi {p}, 1",
+                    // s = l ^ (l << 1), bit 8 in carry; l is not needed after this.
+                    "mov {s}, {lo}",
+                    "lsl {s}",
+                    "eor {s}, {lo}",
+                    "clr {lo}",
+                    "ror {s}",
+                    "ror {lo}",
+                    "ror {s}",
+                    "ror {lo}",
+                    "eor {hi}, {lo}",
+                    "eor {hi}, {p}",
+                    "neg {p}",
+                    "andi {p}, 0xC0",
+                    "eor {s}, {p}",
+                    "mov {lo}, {hi}",
+                    "mov {hi}, {s}",
+                    p = inout(reg_upper) byte => _,
+                    s = out(reg) _,
+                    lo = inout(reg) lo,
+                    hi = inout(reg) hi,
+                    options(pure, nomem, nostack),
+                );
+            }
+            Crc16(u16::from_le_bytes([lo, hi]))
+        }
+        #[cfg(not(target_arch = "avr"))]
+        {
+            self.update(byte)
+        }
+    }
+
     /// Folds a slice of bytes into the CRC, continuing from this state (the receiver checks
     /// a stored frame with it; bytes before the buffer can be folded in first). On the AVR
     /// a loop written out in assembly, 32 cycles a byte ([`Crc16::fold_avr`]); elsewhere
@@ -123,6 +179,25 @@ impl Crc16 {
         Crc16(u16::from_le_bytes([lo, hi]))
     }
 
+    /// A register at zero, for the tail of a message whose head comes later: the receiver
+    /// folds the bytes past its buffer in from here while they arrive, and
+    /// [`Crc16::join`] puts the head in front once it has been folded.
+    pub const fn tail() -> Self {
+        Crc16(0)
+    }
+
+    /// The CRC of the head this CRC was folded over followed by the `tail_len` bytes that
+    /// `tail` (from [`Crc16::tail`]) was folded over. The byte step is linear in the
+    /// register (xors and shifts only), so the head's register after `tail_len` zero bytes,
+    /// xored with the tail's register, is what folding the tail after the head gives.
+    pub fn join(self, tail: Crc16, tail_len: u16) -> Self {
+        let mut head = self;
+        for _ in 0..tail_len {
+            head = head.update(0);
+        }
+        Crc16(head.0 ^ tail.0)
+    }
+
     /// The CRC value.
     pub const fn value(self) -> u16 {
         self.0
@@ -195,6 +270,16 @@ mod tests {
         assert!(Crc16::new().update_slice(&frame).is_residue_ok());
         frame[7] ^= 1;
         assert!(!Crc16::new().update_slice(&frame).is_residue_ok());
+    }
+
+    #[test]
+    fn a_head_joined_to_a_tail_folded_from_zero_is_the_crc_of_both() {
+        let data: Vec<u8> = (0..300u16).map(|i| (i * 37 + 11) as u8).collect();
+        for split in [0, 1, 7, 41, 200, 255, 299, 300] {
+            let (head, tail) = data.split_at(split);
+            let joined = Crc16::new().update_slice(head).join(Crc16::tail().update_slice(tail), tail.len() as u16);
+            assert_eq!(joined.value(), reference(&data), "split at {split}");
+        }
     }
 
     #[test]
