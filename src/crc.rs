@@ -40,55 +40,57 @@ impl Crc16 {
         Crc16(next)
     }
 
-    /// [`Crc16::update`] for an interrupt handler: on the AVR the step of
-    /// [`Crc16::fold_avr`] in four registers of the compiler's choice (the data byte's
-    /// register is reused once folded in, and the low byte's once `s` is formed), which
-    /// keeps the handler from saving more registers on every entry.
+    /// [`Crc16::update`] for the receive interrupt: on the AVR the step of
+    /// [`Crc16::fold_avr`] in four registers (the data byte's is reused once folded in,
+    /// the low byte's once `s` is formed), r24–r27, the ones the handler's other paths use
+    /// already, so that it saves no more of them on every entry; the CRC travels in r27:r26
+    /// as one `u16`, which loads and stores with no shuffling.
     #[inline(always)]
     #[cfg_attr(target_arch = "avr", allow(unsafe_code))]
     pub fn step(self, byte: u8) -> Self {
         #[cfg(target_arch = "avr")]
         {
-            let [mut lo, mut hi] = self.0.to_le_bytes();
+            let mut crc = self.0;
+            // r24: the data byte, then p; r25: s; r26: the low byte, l, then (s << 6) as u8;
+            // r27: the high byte.
             // SAFETY: register arithmetic only: no memory, no stack.
             unsafe {
                 core::arch::asm!(
-                    "eor {lo}, {p}", // l = low byte ^ data byte; p is free from here
-                    "mov {p}, {lo}",
-                    "swap {p}",
-                    "eor {p}, {lo}",
-                    "mov {s}, {p}",
-                    "lsr {s}",
-                    "lsr {s}",
-                    "eor {p}, {s}",
-                    "mov {s}, {p}",
-                    "lsr {s}",
-                    "eor {p}, {s}",
-                    "andi {p}, 1",
+                    "eor r26, r24", // l = low byte ^ data byte
+                    "mov r24, r26",
+                    "swap r24",
+                    "eor r24, r26",
+                    "mov r25, r24",
+                    "lsr r25",
+                    "lsr r25",
+                    "eor r24, r25",
+                    "mov r25, r24",
+                    "lsr r25",
+                    "eor r24, r25",
+                    "andi r24, 1",
                     // s = l ^ (l << 1), bit 8 in carry; l is not needed after this.
-                    "mov {s}, {lo}",
-                    "lsl {s}",
-                    "eor {s}, {lo}",
-                    "clr {lo}",
-                    "ror {s}",
-                    "ror {lo}",
-                    "ror {s}",
-                    "ror {lo}",
-                    "eor {hi}, {lo}",
-                    "eor {hi}, {p}",
-                    "neg {p}",
-                    "andi {p}, 0xC0",
-                    "eor {s}, {p}",
-                    "mov {lo}, {hi}",
-                    "mov {hi}, {s}",
-                    p = inout(reg_upper) byte => _,
-                    s = out(reg) _,
-                    lo = inout(reg) lo,
-                    hi = inout(reg) hi,
+                    "mov r25, r26",
+                    "lsl r25",
+                    "eor r25, r26",
+                    "clr r26",
+                    "ror r25",
+                    "ror r26",
+                    "ror r25",
+                    "ror r26",
+                    "eor r27, r26",
+                    "eor r27, r24",
+                    "neg r24",
+                    "andi r24, 0xC0",
+                    "eor r25, r24",
+                    "mov r26, r27",
+                    "mov r27, r25",
+                    inout("r24") byte => _, // p once the byte is folded in
+                    out("r25") _,           // s
+                    inout("X") crc,         // r27:r26
                     options(pure, nomem, nostack),
                 );
             }
-            Crc16(u16::from_le_bytes([lo, hi]))
+            Crc16(crc)
         }
         #[cfg(not(target_arch = "avr"))]
         {
@@ -193,7 +195,7 @@ impl Crc16 {
     pub fn join(self, tail: Crc16, tail_len: u16) -> Self {
         let mut head = self;
         for _ in 0..tail_len {
-            head = head.update(0);
+            head = head.step(0);
         }
         Crc16(head.0 ^ tail.0)
     }

@@ -112,23 +112,22 @@ impl<const N: usize> Framer<N> {
         }
     }
 
-    /// True when the buffer holds `N` bytes of the frame in progress (`len` is `N`
-    /// modulo 256).
-    #[inline(always)]
-    fn is_full(&self) -> bool {
-        self.len == N as u8
-    }
-
     /// A character arrived. Inside a frame it is only stored: this runs in the receive
     /// interrupt, once per character.
     #[inline(always)]
     pub fn on_byte(&mut self, byte: u8) {
         if self.state == State::Receiving {
-            if self.is_full() {
-                self.past_buffer(byte);
-            } else if let Some(slot) = self.buf.get_mut(usize::from(self.len)) {
-                *slot = byte;
-                self.len = self.len.wrapping_add(1);
+            // One comparison either way: with 256 bytes every `len` is an index and 0 means
+            // full; with fewer, the bounds check is the test for a full buffer.
+            let len = self.len;
+            let at = usize::from(len);
+            let slot = if N == MAX_FRAME && at == 0 { None } else { self.buf.get_mut(at) };
+            match slot {
+                Some(slot) => {
+                    *slot = byte;
+                    self.len = len.wrapping_add(1);
+                }
+                None => self.past_buffer(byte),
             }
             return;
         }
