@@ -7,9 +7,9 @@
 
 use crate::config::SlaveId;
 use crate::crc::Crc16;
-use crate::framer::{FrameError, Framer, UartError};
+use crate::framer::{FrameError, Framer, UartError, MAX_FRAME};
 use crate::model::DataModel;
-use crate::pdu::{encode_exception, execute, extra, Exception, FunctionCode};
+use crate::pdu::{encode_exception, execute, extra, oversized, Exception, FunctionCode};
 
 #[cfg(feature = "diagnostics")]
 use crate::diagnostics;
@@ -85,10 +85,11 @@ pub enum EndOfFrame {
     Silent,
 }
 
-/// A Modbus RTU slave's protocol state: the frame buffer, the address, the counters.
+/// A Modbus RTU slave's protocol state: the frame buffer (of `N` bytes, see
+/// [`DataModel::FRAME`]), the address, the counters.
 #[derive(Clone, Debug)]
-pub struct Engine {
-    framer: Framer,
+pub struct Engine<const N: usize = MAX_FRAME> {
+    framer: Framer<N>,
     id: SlaveId,
     counters: Counters,
     pending: Pending,
@@ -104,9 +105,17 @@ enum Pending {
     Silent(usize),
 }
 
-impl Engine {
+impl<const N: usize> Engine<N> {
+    /// FC 8 echoes up to 252 bytes of data, FC 17 and 23 reply with up to 255 bytes: with
+    /// them the buffer holds the longest frame.
+    const CAPACITY: () = assert!(
+        N == MAX_FRAME || !cfg!(any(feature = "diagnostics", feature = "extra-fc")),
+        "features `diagnostics` and `extra-fc` need a 256-byte frame buffer"
+    );
+
     /// A slave with address `id`, just after power-up (waiting for T3.5 of silence).
     pub const fn new(id: SlaveId) -> Self {
+        let () = Self::CAPACITY;
         Engine {
             framer: Framer::new(),
             id,
@@ -250,6 +259,8 @@ impl Engine {
             FunctionCode::MaskWriteRegister | FunctionCode::ReadWriteMultipleRegisters => {
                 extra::respond(pdu, pdu_len, model, unicast)
             }
+            // Longer than the buffer: only its first bytes are there.
+            _ if N < MAX_FRAME && pdu_len > pdu.len() => Err(oversized::exception(pdu, pdu_len, model)),
             _ => execute(pdu, pdu_len, model, unicast),
         };
         result.map(Answer::Reply)

@@ -17,16 +17,18 @@ use super::usart::Usart;
 use crate::config::Config;
 use crate::engine::{Counters, EndOfFrame, Engine};
 use crate::error::Error;
+use crate::framer::MAX_FRAME;
 use crate::model::DataModel;
 use crate::reference::IntoReference;
 
-/// The running slave: its peripherals, protocol state, the application's data model `M`,
-/// the RS-485 driver-enable pin `DE` and the communication LED `LED`. It lives in a
-/// [`Slave`] and is reached only with interrupts disabled.
-pub(crate) struct Running<M, DE, LED> {
+/// The running slave: its peripherals, protocol state with a frame buffer of `N` bytes,
+/// the application's data model `M`, the RS-485 driver-enable pin `DE` and the
+/// communication LED `LED`. It lives in a [`Slave`] and is reached only with interrupts
+/// disabled.
+pub(crate) struct Running<M, DE, LED, const N: usize> {
     usart: Usart,
     timer: FrameTimer,
-    engine: Engine,
+    engine: Engine<N>,
     model: M,
     /// Index of the reply's next byte, and the reply's length (at most 255 bytes).
     tx_next: u8,
@@ -35,10 +37,11 @@ pub(crate) struct Running<M, DE, LED> {
     led: LED,
 }
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE, LED, N> {
     /// Configures USART0 and Timer0 for `config` and starts the power-up wait (T3.5 of
     /// silence before the first frame).
     fn new(config: Config, model: M, mut driver_enable: DE, mut led: LED) -> Self {
+        const { assert!(N >= M::FRAME, "the slave's frame buffer is smaller than its data model needs") };
         let _ = driver_enable.set_low();
         let _ = led.set_low();
         let mut timer = FrameTimer::new(config.timer_plan());
@@ -156,10 +159,11 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
 /// Every access from the application runs with interrupts disabled for a few
 /// microseconds; a flag refuses re-entry (a [`Slave::with`] inside another gets `None`).
 /// The slave starts all-zero, so it lives in `.bss` and costs no flash for an
-/// initializer.
-pub struct Slave<M, DE = NoPin, LED = NoPin> {
+/// initializer. `N` is its frame buffer's size: [`crate::slave!`] gives it the model's
+/// [`DataModel::FRAME`]; 256, the default, fits every model.
+pub struct Slave<M, DE = NoPin, LED = NoPin, const N: usize = MAX_FRAME> {
     state: UnsafeCell<u8>,
-    running: UnsafeCell<MaybeUninit<Running<M, DE, LED>>>,
+    running: UnsafeCell<MaybeUninit<Running<M, DE, LED, N>>>,
 }
 
 const EMPTY: u8 = 0;
@@ -170,9 +174,9 @@ const IN_USE: u8 = 2;
 // disabled (`reg::free`, or inside the slave's interrupt handlers), so no two accesses
 // overlap. What it holds moves in from `start`'s caller and is used from interrupts, hence
 // the `Send` bounds.
-unsafe impl<M: Send, DE: Send, LED: Send> Sync for Slave<M, DE, LED> {}
+unsafe impl<M: Send, DE: Send, LED: Send, const N: usize> Sync for Slave<M, DE, LED, N> {}
 
-impl<M, DE, LED> Slave<M, DE, LED> {
+impl<M, DE, LED, const N: usize> Slave<M, DE, LED, N> {
     /// A slave not yet started: what [`crate::slave!`] declares.
     #[doc(hidden)]
     pub const fn new() -> Self {
@@ -184,7 +188,7 @@ impl<M, DE, LED> Slave<M, DE, LED> {
     /// # Safety
     /// Interrupts must be disabled for the whole call.
     #[inline(always)]
-    unsafe fn access<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED>) -> R) -> Option<R> {
+    unsafe fn access<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N>) -> R) -> Option<R> {
         // SAFETY: no other access can run (the caller's promise); READY means the slave
         // was written by `start`, and IN_USE keeps a nested call from aliasing it.
         unsafe {
@@ -208,20 +212,20 @@ impl<M, DE, LED> Slave<M, DE, LED> {
     /// and Timer0 interrupts, after writing it, and only the slave's handlers enable the
     /// transmit ones.
     #[inline(always)]
-    unsafe fn access_in_handler<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED>) -> R) -> R {
+    unsafe fn access_in_handler<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N>) -> R) -> R {
         // SAFETY: as promised by the caller, nothing else reaches the slave meanwhile, and
         // it was written.
         unsafe { f((*self.running.get()).assume_init_mut()) }
     }
 
     /// Runs `f` on the running slave with interrupts disabled.
-    fn locked<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED>) -> R) -> Option<R> {
+    fn locked<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N>) -> R) -> Option<R> {
         // SAFETY: interrupts are disabled for the whole access.
         reg::free(|| unsafe { self.access(f) })
     }
 }
 
-impl<M: DataModel> Slave<M> {
+impl<M: DataModel, const N: usize> Slave<M, NoPin, NoPin, N> {
     /// Starts the slave on Arduino pins 0 (RX) and 1 (TX): takes `USART0` and `TC0` from
     /// the application's `Peripherals` (arduino-hal's or `avr-device`'s, any version),
     /// configures them for `config`, and enables interrupts. From here on the slave
@@ -236,7 +240,7 @@ impl<M: DataModel> Slave<M> {
     }
 }
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Slave<M, DE, LED, N> {
     /// [`Slave::start`] with an RS-485 driver-enable pin (high from just before the first
     /// character of a reply until its last one has left the wire) and a communication LED
     /// (lit while the slave answers a frame addressed to it): any `embedded-hal` output
@@ -342,7 +346,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
     }
 }
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Slave<M, DE, LED, N> {
     /// Reads a coil, input or register by its classic reference (see [`crate::Bank::get`]).
     pub fn get(&self, reference: impl IntoReference) -> Result<u16, Error> {
         // The reference is worked out before interrupts go off: shorter critical section.
@@ -365,7 +369,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
 }
 
 #[cfg(feature = "eeprom-settings")]
-impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<crate::settings::Configurable<M>, DE, LED> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Slave<crate::settings::Configurable<M>, DE, LED, N> {
     /// The main loop's part of a settings change (feature `eeprom-settings`): call it
     /// from the main loop as often as it comes round. Returns how many EEPROM bytes it
     /// wrote when it stored new settings at `address`, else `None`.
