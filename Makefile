@@ -69,6 +69,7 @@ host-test: setup firmware fixtures
 		--test sim_configurable --test sim_settings_reset --test sim_silent --test sim_diagnostics
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings --doc
 	$(CARGO) test -p avr-modbus-slave --features ufmt --test ufmt
+	$(CARGO) test -p avr-modbus-slave --features device-id --test device_id --test map
 
 test: lint firmware host-test interop
 

@@ -2,7 +2,7 @@
 //! the application adds the addresses it uses, in any order, and gets and sets them.
 //!
 //! # Layout and RAM
-//! Values are stored in address order, registers as `u16` (2 bytes each) and coils and
+//! Values are stored in address order, registers big-endian (2 bytes each) and coils and
 //! discrete inputs packed 8 to a byte. Addresses are described by *runs*: maximal ranges of
 //! consecutive addresses of one table, 7 bytes each on AVR (table, first and last address,
 //! offset of the first value). Adding an address next to a run extends it and joins it to
@@ -84,7 +84,7 @@ impl Protected {
 pub struct Bank<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize = 0> {
     runs: [Run; RUNS],
     run_count: usize,
-    registers: [u16; REGS],
+    registers: [storage::Word; REGS],
     register_count: usize,
     bits: [u8; BIT_BYTES],
     bit_count: usize,
@@ -117,7 +117,7 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         Bank {
             runs: [Run::EMPTY; RUNS],
             run_count: 0,
-            registers: [0; REGS],
+            registers: [[0; 2]; REGS],
             register_count: 0,
             bits: [0; BIT_BYTES],
             bit_count: 0,
@@ -240,13 +240,13 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
             self.bit_count += n;
         } else {
             for i in (position..self.register_count).rev() {
-                let v = self.registers.get(i).copied().unwrap_or(0);
+                let v = self.registers.get(i).copied().unwrap_or_default();
                 if let Some(slot) = self.registers.get_mut(i + n) {
                     *slot = v;
                 }
             }
             for slot in self.registers.iter_mut().skip(position).take(n) {
-                *slot = 0;
+                *slot = [0; 2];
             }
             self.register_count += n;
         }
@@ -278,7 +278,7 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     pub fn get(&self, reference: impl IntoReference) -> Result<u16, Error> {
         let Reference { table, address } = reference.into_reference()?;
         let i = self.locate(table, address, 1).ok_or(Error::NotFound)?;
-        Ok(if table.is_bits() { u16::from(self.bit(i)) } else { self.registers.get(i).copied().unwrap_or(0) })
+        Ok(if table.is_bits() { u16::from(self.bit(i)) } else { storage::word(&self.registers, i) })
     }
 
     /// Sets the value: a register's word, or for a coil or discrete input on when non-zero.
@@ -287,8 +287,8 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         let i = self.locate(table, address, 1).ok_or(Error::NotFound)?;
         if table.is_bits() {
             self.set_bit(i, value != 0);
-        } else if let Some(slot) = self.registers.get_mut(i) {
-            *slot = value;
+        } else {
+            storage::set_word(&mut self.registers, i, value);
         }
         Ok(())
     }

@@ -7,9 +7,9 @@
 
 use crate::config::SlaveId;
 use crate::crc::Crc16;
-use crate::framer::{FrameError, Framer, UartError};
+use crate::framer::{FrameError, Framer, UartError, MAX_FRAME};
 use crate::model::DataModel;
-use crate::pdu::{encode_exception, execute, extra, Exception, FunctionCode};
+use crate::pdu::{encode_exception, execute, extra, oversized, Exception, FunctionCode};
 
 #[cfg(feature = "diagnostics")]
 use crate::diagnostics;
@@ -57,6 +57,9 @@ pub struct Counters {
     pub events: u16,
 }
 
+/// One more in `counter`. Not inlined: a call (8 bytes) where an inlined increment of a
+/// counter at a fixed address takes 18.
+#[inline(never)]
 fn bump(counter: &mut u16) {
     *counter = counter.wrapping_add(1);
 }
@@ -82,10 +85,11 @@ pub enum EndOfFrame {
     Silent,
 }
 
-/// A Modbus RTU slave's protocol state: the frame buffer, the address, the counters.
+/// A Modbus RTU slave's protocol state: the frame buffer (of `N` bytes, see
+/// [`DataModel::FRAME`]), the address, the counters.
 #[derive(Clone, Debug)]
-pub struct Engine {
-    framer: Framer,
+pub struct Engine<const N: usize = MAX_FRAME> {
+    framer: Framer<N>,
     id: SlaveId,
     counters: Counters,
     pending: Pending,
@@ -101,9 +105,17 @@ enum Pending {
     Silent(usize),
 }
 
-impl Engine {
+impl<const N: usize> Engine<N> {
+    /// FC 8 echoes up to 252 bytes of data, FC 17, 23 and 43 reply with up to 255 bytes: with
+    /// them the buffer holds the longest frame.
+    const CAPACITY: () = assert!(
+        N == MAX_FRAME || !cfg!(any(feature = "diagnostics", feature = "extra-fc", feature = "device-id")),
+        "features `diagnostics`, `extra-fc` and `device-id` need a 256-byte frame buffer"
+    );
+
     /// A slave with address `id`, just after power-up (waiting for T3.5 of silence).
     pub const fn new(id: SlaveId) -> Self {
+        let () = Self::CAPACITY;
         Engine {
             framer: Framer::new(),
             id,
@@ -197,6 +209,10 @@ impl Engine {
     /// Executes the frame that [`Engine::on_end_deadline`] accepted and writes the reply
     /// (address, PDU, CRC) over it. Returns the reply's length; 0 when nothing is to be sent
     /// (a broadcast, listen-only mode), and then the buffer is released at once.
+    ///
+    /// Not inlined: the T3.5 interrupt that calls it then saves only the registers a call
+    /// may change, and its first reply byte leaves that much sooner.
+    #[inline(never)]
     pub fn process<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
         let body = self.prepare(model);
         if body == 0 {
@@ -212,22 +228,19 @@ impl Engine {
     }
 
     /// Like [`Engine::process`] but leaves the CRC to the sender: returns the length of
-    /// address and PDU, and [`Engine::reply`] holds just those. The AVR layer folds each
-    /// byte into a [`Crc16`] as it goes out and sends the two CRC bytes last, so a
-    /// 255-byte reply costs no CRC time before it starts.
+    /// address and PDU, and [`Engine::reply`] holds just those, for a sender that computes
+    /// the CRC itself as the bytes go out.
     pub fn prepare<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
-        match core::mem::replace(&mut self.pending, Pending::None) {
-            Pending::None => 0,
-            Pending::Broadcast(len) => {
-                self.execute_silently(len, model);
-                0
-            }
+        let (len, unicast) = match core::mem::replace(&mut self.pending, Pending::None) {
+            Pending::None => return 0,
             Pending::Silent(len) => {
                 self.stay_silent(len);
-                0
+                return 0;
             }
-            Pending::Unicast(len) => self.answer(len, model),
-        }
+            Pending::Broadcast(len) => (len, false),
+            Pending::Unicast(len) => (len, true),
+        };
+        self.answer(len, model, unicast)
     }
 
     /// The one dispatch on the function code: FC 7, 8, 11 (0x0B) and 17 (0x11) go to the
@@ -250,6 +263,8 @@ impl Engine {
             FunctionCode::EncapsulatedInterface => {
                 crate::pdu::device_id::respond(pdu, pdu_len, model.identification(), unicast)
             }
+            // Longer than the buffer: only its first bytes are there.
+            _ if N < MAX_FRAME && pdu_len > pdu.len() => Err(oversized::exception(pdu, pdu_len, model)),
             _ => execute(pdu, pdu_len, model, unicast),
         };
         result.map(Answer::Reply)
@@ -268,11 +283,24 @@ impl Engine {
         }
     }
 
-    /// A request to this slave: handled, counted, and its reply (address and PDU) left in
-    /// the buffer; returns the reply's length.
-    fn answer<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M) -> usize {
-        let result = self.handle(len, model, true);
+    /// A request to this slave (`unicast`) or a broadcast: handled and counted. A request
+    /// to this slave leaves its reply (address and PDU) in the buffer; returns the reply's
+    /// length.
+    ///
+    /// A broadcast: writes are executed, nothing is answered (returns 0, the buffer is
+    /// released). Reads and diagnostics are only checked, and counted as the same request
+    /// sent to this slave would be: an event when valid (FC 11 (0x0B) excepted), an
+    /// exception when not. Nothing is acted on: a broadcast FC 8 neither clears the
+    /// counters nor enters listen-only mode.
+    ///
+    /// One call of [`Engine::handle`] for both, so that it is inlined here.
+    fn answer<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M, unicast: bool) -> usize {
+        let result = self.handle(len, model, unicast);
         self.count(&result);
+        if !unicast {
+            self.framer.release();
+            return 0;
+        }
         let reply_pdu = match result {
             Ok(Answer::Reply(n) | Answer::Restart(n)) => n,
             // Classified as silent by `on_end_deadline`, so never met here; were it met,
@@ -290,16 +318,6 @@ impl Engine {
             self.restart();
         }
         self.reply_len
-    }
-
-    /// A broadcast: writes are executed, nothing is answered. Reads and diagnostics are
-    /// only checked, and counted as the same request sent to this slave would be: an event
-    /// when valid (FC 11 (0x0B) excepted), an exception when not. Nothing is acted on: a
-    /// broadcast FC 8 neither clears the counters nor enters listen-only mode.
-    fn execute_silently<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M) {
-        let result = self.handle(len, model, false);
-        self.count(&result);
-        self.framer.release();
     }
 
     /// A frame that gets no reply. FC 8 sub-function 04 enters listen-only mode; in it,
@@ -329,6 +347,13 @@ impl Engine {
     /// The reply built by [`Engine::process`], valid until [`Engine::on_reply_sent`].
     pub fn reply(&self) -> &[u8] {
         self.framer.buffer().get(..self.reply_len).unwrap_or(&[])
+    }
+
+    /// Byte `i` of the reply built by [`Engine::process`], for the sender.
+    #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
+    #[inline(always)]
+    pub(crate) fn reply_byte(&self, i: u8) -> u8 {
+        self.framer.buffer().get(usize::from(i)).copied().unwrap_or(0)
     }
 
     /// The reply's last byte left the USART: listen again.
@@ -369,15 +394,19 @@ impl Engine {
 }
 
 impl Counters {
-    /// Counts a dropped frame in the counter for its error. Each counter adds whether the
+    /// Counts a dropped frame in the counter for its error. Each counter is bumped if the
     /// error is one of its own: comparisons, where a `match` choosing the counter would be
     /// a table of counter addresses, copied to RAM on AVR.
     fn count_dropped(&mut self, e: FrameError) {
-        let add = |counter: &mut u16, mine: bool| *counter = counter.wrapping_add(u16::from(mine));
-        add(&mut self.crc_errors, e == FrameError::BadCrc);
-        add(&mut self.uart_errors, e == FrameError::Uart);
-        add(&mut self.overruns, matches!(e, FrameError::Overrun | FrameError::TooLong));
-        add(&mut self.malformed, matches!(e, FrameError::TooShort | FrameError::Gap));
+        let bump_if = |counter: &mut u16, mine: bool| {
+            if mine {
+                bump(counter);
+            }
+        };
+        bump_if(&mut self.crc_errors, e == FrameError::BadCrc);
+        bump_if(&mut self.uart_errors, e == FrameError::Uart);
+        bump_if(&mut self.overruns, matches!(e, FrameError::Overrun | FrameError::TooLong));
+        bump_if(&mut self.malformed, matches!(e, FrameError::TooShort | FrameError::Gap));
     }
 
     /// All zero.

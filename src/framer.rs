@@ -4,10 +4,15 @@
 //! A pure state machine fed with what the USART and Timer0 report: a character, a
 //! damaged character, the gap deadline (a character after it had a gap longer than T1.5),
 //! the end deadline (T3.5 of silence). The caller restarts its timer on every character.
-//! Bytes land in one 256-byte buffer and nothing more happens per byte, which keeps the
-//! receive interrupt short; the CRC is checked over the stored frame once it has ended,
-//! at the gap deadline (which passes before T3.5), or at T3.5 if no gap deadline was
-//! reported.
+//! Bytes land in one buffer of `N` bytes (256 unless the data model needs fewer, see
+//! [`crate::DataModel::FRAME`]) and nothing more happens per byte, which keeps the receive
+//! interrupt short; the CRC is checked over the stored frame once it has ended, at the gap
+//! deadline (which passes before T3.5), or at T3.5 if no gap deadline was reported.
+//!
+//! A frame longer than the buffer (up to the 256 bytes the spec allows) is still received
+//! whole: the bytes past the buffer are counted and folded into a CRC of their own as they
+//! arrive, which the check joins to the stored bytes' CRC ([`Crc16::join`]). The engine
+//! then answers it from its first bytes as a 256-byte buffer would.
 
 use crate::crc::Crc16;
 
@@ -16,6 +21,9 @@ pub const MAX_FRAME: usize = 256;
 const _: () = assert!(MAX_FRAME == 256, "the framer counts stored bytes in a byte, modulo 256");
 /// Shortest frame the framer hands on: address, function code, CRC.
 pub const MIN_FRAME: usize = 4;
+/// Smallest frame buffer: the longest fixed-size request and reply (FC 1–6: address,
+/// 5-byte PDU, CRC), which also holds every header the engine reads.
+pub const MIN_CAPACITY: usize = 8;
 
 /// Why a frame was dropped in silence (never answered with an exception).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -64,29 +72,44 @@ enum State {
     Busy,
 }
 
-/// The receiver of RTU frames; holds the one frame buffer.
+/// The receiver of RTU frames; holds the one frame buffer, of `N` bytes (8 to 256).
 #[derive(Clone, Debug)]
-pub struct Framer {
-    buf: [u8; MAX_FRAME],
+pub struct Framer<const N: usize = MAX_FRAME> {
+    buf: [u8; N],
     /// Bytes stored, modulo 256: inside a frame at least one byte is stored, so 0 there
     /// means all 256 ([`Framer::stored`]). One byte, so the receive interrupt stays short.
     len: u8,
+    /// Bytes of the frame past the buffer (only when `N` < 256), 0 outside such a frame.
+    past: u8,
+    /// Their CRC, folded from [`Crc16::tail`].
+    tail: Crc16,
     crc_ok: bool,
     state: State,
     error: FrameError,
 }
 
-impl Default for Framer {
+impl<const N: usize> Default for Framer<N> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl Framer {
+impl<const N: usize> Framer<N> {
+    const CAPACITY: () = assert!(N >= MIN_CAPACITY && N <= MAX_FRAME, "a frame buffer holds 8 to 256 bytes");
+
     /// A framer just after power-up: it waits for T3.5 of silence (the caller starts its
     /// timer at start-up) before it accepts a frame.
     pub const fn new() -> Self {
-        Framer { buf: [0; MAX_FRAME], len: 0, crc_ok: false, state: State::Initial, error: FrameError::TooShort }
+        let () = Self::CAPACITY;
+        Framer {
+            buf: [0; N],
+            len: 0,
+            past: 0,
+            tail: Crc16::tail(),
+            crc_ok: false,
+            state: State::Initial,
+            error: FrameError::TooShort,
+        }
     }
 
     /// A character arrived. Inside a frame it is only stored: this runs in the receive
@@ -94,17 +117,25 @@ impl Framer {
     #[inline(always)]
     pub fn on_byte(&mut self, byte: u8) {
         if self.state == State::Receiving {
-            if self.len == 0 {
-                self.break_frame(FrameError::TooLong);
-            } else {
-                self.buf[usize::from(self.len)] = byte;
-                self.len = self.len.wrapping_add(1);
+            // One comparison either way: with 256 bytes every `len` is an index and 0 means
+            // full; with fewer, the bounds check is the test for a full buffer.
+            let len = self.len;
+            let at = usize::from(len);
+            let slot = if N == MAX_FRAME && at == 0 { None } else { self.buf.get_mut(at) };
+            match slot {
+                Some(slot) => {
+                    *slot = byte;
+                    self.len = len.wrapping_add(1);
+                }
+                None => self.past_buffer(byte),
             }
             return;
         }
         match self.state {
             State::Idle => {
-                self.buf[0] = byte;
+                if let Some(first) = self.buf.first_mut() {
+                    *first = byte;
+                }
                 self.len = 1;
                 self.state = State::Receiving;
             }
@@ -113,12 +144,35 @@ impl Framer {
         }
     }
 
-    /// Bytes stored in the frame so far (inside a frame: 1 to 256).
+    /// A character of a frame that fills the buffer: folded into the tail's CRC and
+    /// counted, up to 256 bytes in all; one more makes the frame too long.
+    #[inline(always)]
+    fn past_buffer(&mut self, byte: u8) {
+        if N == MAX_FRAME || usize::from(self.past) == MAX_FRAME - N {
+            self.break_frame(FrameError::TooLong);
+        } else {
+            self.tail = if self.past == 0 { Crc16::tail() } else { self.tail }.step(byte);
+            self.past += 1;
+        }
+    }
+
+    /// Bytes stored in the frame so far (inside a frame: 1 to `N`).
     fn stored(&self) -> usize {
         match self.len {
             0 => MAX_FRAME,
             len => usize::from(len),
         }
+    }
+
+    /// Bytes in the frame so far, stored or past the buffer (inside a frame: 1 to 256).
+    fn received(&self) -> usize {
+        self.stored() + usize::from(self.past)
+    }
+
+    /// Silence: the next character starts a frame.
+    fn listen(&mut self) {
+        self.state = State::Idle;
+        self.past = 0;
     }
 
     fn break_frame(&mut self, error: FrameError) {
@@ -147,50 +201,59 @@ impl Framer {
         }
     }
 
-    /// Whether the stored frame ends with its correct CRC.
+    /// Whether the frame, stored and past the buffer, ends with its correct CRC.
     fn crc_checks(&self) -> bool {
         let frame = self.buf.get(..self.stored()).unwrap_or(&self.buf);
-        Crc16::new().update_slice(frame).is_residue_ok()
+        let crc = Crc16::new().update_slice(frame);
+        if N < MAX_FRAME && self.past != 0 {
+            crc.join(self.tail, u16::from(self.past)).is_residue_ok()
+        } else {
+            crc.is_residue_ok()
+        }
     }
 
     /// T3.5 of silence passed since the last character (compare B). Returns the complete
     /// frame's length (with CRC) when one just ended with a good CRC, or why it was
     /// dropped; `None` when no frame was in progress.
     ///
-    /// After `Some(Ok(_))` the buffer holds the frame and the framer ignores the line
-    /// until [`Framer::release`].
+    /// After `Some(Ok(_))` the buffer holds the frame, or its first `N` bytes when it is
+    /// longer, and the framer ignores the line until [`Framer::release`].
     pub fn on_end_deadline(&mut self) -> Option<Result<usize, FrameError>> {
         let result = match self.state {
             State::Receiving | State::Waiting if self.stored() < MIN_FRAME => Err(FrameError::TooShort),
             // No gap deadline was reported (host tests, `Engine::handle_frame`): check now.
             State::Receiving if !self.crc_checks() => Err(FrameError::BadCrc),
             State::Waiting if !self.crc_ok => Err(FrameError::BadCrc),
-            State::Receiving | State::Waiting => Ok(self.stored()),
+            State::Receiving | State::Waiting => Ok(self.received()),
             State::Broken => Err(self.error),
             State::Initial => {
-                self.state = State::Idle;
+                self.listen();
                 return None;
             }
             State::Idle | State::Busy => return None,
         };
-        self.state = if result.is_ok() { State::Busy } else { State::Idle };
+        if result.is_ok() {
+            self.state = State::Busy;
+        } else {
+            self.listen();
+        }
         Some(result)
     }
 
     /// The frame (or reply) buffer.
-    pub fn buffer(&self) -> &[u8; MAX_FRAME] {
+    pub fn buffer(&self) -> &[u8; N] {
         &self.buf
     }
 
     /// The frame (or reply) buffer, to write a reply in place.
-    pub fn buffer_mut(&mut self) -> &mut [u8; MAX_FRAME] {
+    pub fn buffer_mut(&mut self) -> &mut [u8; N] {
         &mut self.buf
     }
 
     /// The reply (if any) is sent: listen for the next frame.
     pub fn release(&mut self) {
         if self.state == State::Busy {
-            self.state = State::Idle;
+            self.listen();
         }
     }
 

@@ -3,7 +3,7 @@
 //!
 //! The ranges are checked while the firmware compiles (a bad reference, an empty range or
 //! two ranges that overlap fail the build) and cost no RAM: only the values do, registers
-//! as `u16` and coils and discrete inputs packed 8 to a byte. A lookup is a chain of
+//! as two bytes each and coils and discrete inputs packed 8 to a byte. A lookup is a chain of
 //! compares against constants, one per declared range; by a constant reference
 //! (`SLAVE.set(30001, x)`) it folds to an index. Ranges of one table that touch
 //! (40001–40004 and 40005–40008) are stored side by side, so the master reads across them
@@ -11,7 +11,7 @@
 
 use crate::error::Error;
 use crate::pdu::device_id::Identification;
-use crate::pdu::Exception;
+use crate::pdu::{Exception, MAX_READ_BITS, MAX_READ_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS};
 use crate::reference::{Reference, Table};
 use crate::storage;
 
@@ -46,6 +46,22 @@ const fn decode(range: (u32, u32)) -> (Table, u16, u16) {
 /// and then address order.
 const fn sorts_before(a: (Table, u16), b: (Table, u16)) -> bool {
     (a.0 as u8) < (b.0 as u8) || ((a.0 as u8) == (b.0 as u8) && a.1 < b.1)
+}
+
+const fn min(a: u32, b: u32) -> u32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+const fn max(a: u32, b: u32) -> u32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
 }
 
 /// The register map's layout, worked out while the firmware compiles.
@@ -93,6 +109,50 @@ impl Layout {
             i += 1;
         }
         n
+    }
+
+    /// The longest run of addresses of `table` a request can cover: ranges that touch
+    /// count as one.
+    const fn longest_run(ranges: &[(u32, u32)], table: Table) -> u32 {
+        let mut longest = 0;
+        let mut i = 0;
+        while i < ranges.len() {
+            let span = Self::span(ranges, ranges[i].0);
+            if span.table as u8 == table as u8 {
+                let run = (span.reach - span.start) as u32 + 1;
+                if run > longest {
+                    longest = run;
+                }
+            }
+            i += 1;
+        }
+        longest
+    }
+
+    /// The frame buffer the map needs ([`crate::DataModel::FRAME`]): the longest request
+    /// or reply of a request it accepts, address and CRC included. FC 1 and 2 reply with
+    /// the longest run of bits, FC 3 and 4 with the longest run of registers (up to 2000
+    /// bits and 125 registers); FC 15 and 16 write the longest run of coils and holding
+    /// registers (up to 1968 and 123); FC 1–6 requests and FC 5 and 6 replies take 8 bytes.
+    /// 256 with features `diagnostics`, `extra-fc` and `device-id`, whose requests echo,
+    /// read and write more, or whose replies run to 253 bytes.
+    pub const fn frame(ranges: &[(u32, u32)]) -> usize {
+        if cfg!(any(feature = "diagnostics", feature = "extra-fc", feature = "device-id")) {
+            return crate::framer::MAX_FRAME;
+        }
+        let (coils, inputs) =
+            (Self::longest_run(ranges, Table::Coils), Self::longest_run(ranges, Table::DiscreteInputs));
+        let (input_registers, holding) =
+            (Self::longest_run(ranges, Table::InputRegisters), Self::longest_run(ranges, Table::HoldingRegisters));
+        // Address, function code, byte count, data, CRC.
+        let bits_read = min(max(coils, inputs), MAX_READ_BITS as u32);
+        let registers_read = min(max(input_registers, holding), MAX_READ_REGISTERS as u32);
+        let read = max(5 + bits_read.div_ceil(8), 5 + 2 * registers_read);
+        // Address, function code, start, quantity, byte count, data, CRC.
+        let coils_written = min(coils, MAX_WRITE_COILS as u32);
+        let registers_written = min(holding, MAX_WRITE_REGISTERS as u32);
+        let written = max(9 + coils_written.div_ceil(8), 9 + 2 * registers_written);
+        max(crate::framer::MIN_CAPACITY as u32, max(read, written)) as usize
     }
 
     /// The span of the range of `ranges` that starts at classic reference `first`.
@@ -146,7 +206,7 @@ impl Span {
 #[doc(hidden)]
 #[derive(Clone, Debug)]
 pub struct Values<const WORDS: usize, const BIT_BYTES: usize> {
-    words: [u16; WORDS],
+    words: [storage::Word; WORDS],
     bits: [u8; BIT_BYTES],
     master_writes: u16,
     #[cfg(feature = "diagnostics")]
@@ -167,7 +227,7 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
     /// Every value 0.
     pub const fn new() -> Self {
         Values {
-            words: [0; WORDS],
+            words: [[0; 2]; WORDS],
             bits: [0; BIT_BYTES],
             master_writes: 0,
             #[cfg(feature = "diagnostics")]
@@ -183,11 +243,7 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
     #[inline(always)]
     pub fn get(&self, table: Table, at: Option<usize>) -> Result<u16, Error> {
         let i = at.ok_or(Error::NotFound)?;
-        Ok(if table.is_bits() {
-            u16::from(storage::bit(&self.bits, i))
-        } else {
-            self.words.get(i).copied().unwrap_or(0)
-        })
+        Ok(if table.is_bits() { u16::from(storage::bit(&self.bits, i)) } else { storage::word(&self.words, i) })
     }
 
     /// Sets the value at storage index `at` of `table`'s kind.
@@ -196,8 +252,8 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
         let i = at.ok_or(Error::NotFound)?;
         if table.is_bits() {
             storage::set_bit(&mut self.bits, i, value != 0);
-        } else if let Some(slot) = self.words.get_mut(i) {
-            *slot = value;
+        } else {
+            storage::set_word(&mut self.words, i, value);
         }
         Ok(())
     }
@@ -310,6 +366,7 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
 /// map.set(40001, 1500).unwrap();
 /// assert_eq!(map.get(40001), Ok(1500));
 /// assert_eq!(map.get(40017), Err(avr_modbus_slave::Error::NotFound));
+/// # #[cfg(not(feature = "diagnostics"))] // which keeps FC 7 and 17 data beside the values
 /// assert_eq!(core::mem::size_of::<Registers>(), 2 * 24 + 4 + 2);
 /// ```
 ///
@@ -412,6 +469,8 @@ macro_rules! register_map {
         }
 
         impl $crate::DataModel for $name {
+            const FRAME: usize = $crate::internal::map::Layout::frame(&[$($crate::__range!($first $(..= $last)?)),+]);
+
             fn read_bits(&self, table: $crate::Table, start: u16, qty: u16, out: &mut [u8]) -> ::core::result::Result<(), $crate::Exception> {
                 self.0.read_bits(Self::locate(table, start, qty), qty, out)
             }

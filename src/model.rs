@@ -15,6 +15,14 @@ use crate::reference::{Reference, Table};
 
 /// The application's data as the master sees it.
 pub trait DataModel {
+    /// Bytes of the frame buffer the slave needs for this model: the longest request it
+    /// accepts and the longest reply it sends, address and CRC included (8 to 256). Longer
+    /// requests are still answered as the spec says (the engine keeps their first bytes;
+    /// a longer request or reply can only belong to one the model refuses). 256, the
+    /// longest RTU frame, unless the model knows better: [`crate::register_map!`] works it
+    /// out from its ranges. Features `diagnostics` and `extra-fc` need 256.
+    const FRAME: usize = crate::framer::MAX_FRAME;
+
     /// Reads `qty` (≥ 1) bits of `table` (coils or discrete inputs) from `start` into
     /// `out`, packed LSB first, the unused high bits of the last byte zero.
     /// `out.len()` is `qty.div_ceil(8)`.

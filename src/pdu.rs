@@ -20,6 +20,7 @@ use crate::reference::Table;
 pub mod device_id;
 #[cfg(feature = "extra-fc")]
 pub mod extra;
+pub(crate) mod oversized;
 
 /// Without feature `extra-fc`: FC 22 and 23 answer exception 01.
 #[cfg(not(feature = "extra-fc"))]
@@ -233,9 +234,10 @@ pub(crate) fn quantity_check(qty: u16, max: u16) -> Result<(), Exception> {
     value_check(qty != 0 && qty <= max)
 }
 
-/// 02 unless `start..start + qty` stays inside 0–65535.
+/// 02 unless `start..start + qty` (`qty` ≥ 1) stays inside 0–65535: the last address,
+/// `start + qty - 1`, must not pass 65535 (16-bit arithmetic: `!start` is `65535 - start`).
 pub(crate) fn range_check(start: u16, qty: u16) -> Result<(), Exception> {
-    if u32::from(start) + u32::from(qty) > 0x1_0000 {
+    if qty.wrapping_sub(1) > !start {
         Err(Exception::IllegalDataAddress)
     } else {
         Ok(())
@@ -326,7 +328,8 @@ fn read_table(code: FunctionCode) -> Table {
 /// Handles the request PDU `pdu[..len]` of FC 1–6, 15 or 16 and writes the response PDU
 /// over it, from `pdu[0]`. Returns the response length, or the exception; on an exception
 /// `pdu` holds the request unchanged (see [`encode_exception`]). `pdu` must have room for
-/// the longest response, 252 bytes (FC 03 × 125); with less, a read answers 04.
+/// the longest response, 252 bytes (FC 03 × 125); with less, a read whose response does not
+/// fit answers 02 when an address is missing, else 04.
 pub fn respond<M: DataModel + ?Sized>(pdu: &mut [u8], len: usize, model: &mut M) -> Result<usize, Exception> {
     execute(pdu, len, model, true)
 }
@@ -363,7 +366,8 @@ pub(crate) fn read_response<M: DataModel + ?Sized>(
     qty: u16,
 ) -> Result<usize, Exception> {
     let bytes = byte_count(table, qty);
-    let data = pdu.get_mut(2..2 + usize::from(bytes)).ok_or(Exception::ServerDeviceFailure)?;
+    let data =
+        pdu.get_mut(2..2 + usize::from(bytes)).ok_or_else(|| oversized::range_exception(model, table, start, qty))?;
     if table.is_bits() {
         model.read_bits(table, start, qty, data)?;
     } else {

@@ -1,6 +1,26 @@
 //! The value storage both register maps share (the build-time `register_map!` and the
-//! run-time `Bank`): registers as `u16`, coils and discrete inputs packed 8 to a byte, LSB
+//! run-time `Bank`): registers as two bytes, coils and discrete inputs packed 8 to a byte, LSB
 //! first, and the copies between them and the PDU, Application Protocol v1.1b3 §6.1–6.12.
+//!
+//! A register is kept as it travels, big-endian ([`Word`]): FC 3, 4, 6 and 16 copy bytes,
+//! and only the application's `get` and `set` convert.
+
+/// A register's value, big-endian (high byte first), as on the wire.
+pub(crate) type Word = [u8; 2];
+
+/// The value of a register kept as a [`Word`], 0 past the end.
+#[inline(always)]
+pub(crate) fn word(words: &[Word], i: usize) -> u16 {
+    words.get(i).map_or(0, |&w| u16::from_be_bytes(w))
+}
+
+/// Sets the register `i` kept as a [`Word`].
+#[inline(always)]
+pub(crate) fn set_word(words: &mut [Word], i: usize, value: u16) {
+    if let Some(slot) = words.get_mut(i) {
+        *slot = value.to_be_bytes();
+    }
+}
 
 /// Bit `i` of the packed bits.
 #[inline(always)]
@@ -21,41 +41,82 @@ pub(crate) fn set_bit(bits: &mut [u8], i: usize, on: bool) {
     }
 }
 
+/// A position in packed bits: the byte, and the bit's mask in it. Stepping on shifts the
+/// mask (the AVR has no barrel shifter, so `1 << (i % 8)` would be a loop per bit).
+#[derive(Clone, Copy)]
+struct BitCursor {
+    byte: usize,
+    mask: u8,
+}
+
+impl BitCursor {
+    #[inline(always)]
+    fn at(i: usize) -> Self {
+        BitCursor { byte: i / 8, mask: 1 << (i % 8) }
+    }
+
+    #[inline(always)]
+    fn get(self, bits: &[u8]) -> bool {
+        bits.get(self.byte).is_some_and(|byte| byte & self.mask != 0)
+    }
+
+    #[inline(always)]
+    fn set(self, bits: &mut [u8], on: bool) {
+        if let Some(byte) = bits.get_mut(self.byte) {
+            if on {
+                *byte |= self.mask;
+            } else {
+                *byte &= !self.mask;
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn step(&mut self) {
+        self.mask = self.mask.rotate_left(1);
+        if self.mask == 1 {
+            self.byte += 1;
+        }
+    }
+}
+
+/// Copies `qty` bits from `from` in `src` to `to` in `dst`: one copy in flash for reads
+/// and writes.
+#[inline(never)]
+fn copy_bits(src: &[u8], mut from: BitCursor, dst: &mut [u8], mut to: BitCursor, qty: u16) {
+    for _ in 0..qty {
+        to.set(dst, from.get(src));
+        from.step();
+        to.step();
+    }
+}
+
 /// FC 1 / 2's data: `qty` bits from index `first`, packed LSB first into `out`, the unused
 /// high bits of the last byte zero.
 #[inline(always)]
 pub(crate) fn read_bits(bits: &[u8], first: usize, qty: u16, out: &mut [u8]) {
     out.fill(0);
-    for k in 0..usize::from(qty) {
-        if let (true, Some(byte)) = (bit(bits, first + k), out.get_mut(k / 8)) {
-            *byte |= 1 << (k % 8);
-        }
-    }
+    copy_bits(bits, BitCursor::at(first), out, BitCursor::at(0), qty);
 }
 
 /// FC 5 / 15: `qty` bits from index `first`, from `packed` LSB first.
 #[inline(always)]
 pub(crate) fn write_bits(bits: &mut [u8], first: usize, qty: u16, packed: &[u8]) {
-    for k in 0..usize::from(qty) {
-        let byte = packed.get(k / 8).copied().unwrap_or(0);
-        set_bit(bits, first + k, byte & (1 << (k % 8)) != 0);
-    }
+    copy_bits(packed, BitCursor::at(0), bits, BitCursor::at(first), qty);
 }
 
 /// FC 3 / 4's data: `out.len() / 2` registers from index `first`, big-endian.
 #[inline(always)]
-pub(crate) fn read_words(words: &[u16], first: usize, out: &mut [u8]) {
+pub(crate) fn read_words(words: &[Word], first: usize, out: &mut [u8]) {
     for (pair, value) in out.chunks_exact_mut(2).zip(words.get(first..).unwrap_or(&[])) {
-        pair.copy_from_slice(&value.to_be_bytes());
+        pair.copy_from_slice(value);
     }
 }
 
 /// FC 6 / 16: registers from index `first`, from `values` big-endian.
 #[inline(always)]
-pub(crate) fn write_words(words: &mut [u16], first: usize, values: &[u8]) {
+pub(crate) fn write_words(words: &mut [Word], first: usize, values: &[u8]) {
     for (slot, pair) in words.get_mut(first..).unwrap_or(&mut []).iter_mut().zip(values.chunks_exact(2)) {
-        if let [hi, lo] = *pair {
-            *slot = u16::from_be_bytes([hi, lo]);
-        }
+        slot.copy_from_slice(pair);
     }
 }

@@ -321,7 +321,7 @@ fn a_frame_for_another_slave_releases_the_buffer_at_once() {
 
 #[test]
 fn framer_hands_out_a_good_frame_with_its_length_and_bytes() {
-    let mut framer = Framer::new();
+    let mut framer: Framer = Framer::new();
     assert_eq!(framer.on_end_deadline(), None);
     let request = read_request();
     for &byte in &request {
@@ -336,7 +336,7 @@ fn framer_hands_out_a_good_frame_with_its_length_and_bytes() {
 
 #[test]
 fn framer_accepts_exactly_256_bytes() {
-    let mut framer = Framer::new();
+    let mut framer: Framer = Framer::new();
     framer.on_end_deadline();
     let mut frame = vec![0x2Bu8; 254];
     frame[0] = ID;
@@ -350,7 +350,7 @@ fn framer_accepts_exactly_256_bytes() {
 
 #[test]
 fn framer_refuses_257_bytes_even_with_a_correct_crc() {
-    let mut framer = Framer::new();
+    let mut framer: Framer = Framer::new();
     framer.on_end_deadline();
     let mut frame = vec![0x2Bu8; 255];
     frame[0] = ID;
@@ -399,7 +399,7 @@ fn a_bad_crc_is_found_at_t35_when_no_gap_deadline_came() {
 
 #[test]
 fn a_second_gap_deadline_keeps_the_crc_found_at_the_first() {
-    let mut framer = Framer::new();
+    let mut framer: Framer = Framer::new();
     framer.on_end_deadline();
     for &byte in &read_request() {
         framer.on_byte(byte);
@@ -411,7 +411,7 @@ fn a_second_gap_deadline_keeps_the_crc_found_at_the_first() {
 
 #[test]
 fn framer_accepts_exactly_256_bytes_checked_at_the_gap_deadline() {
-    let mut framer = Framer::new();
+    let mut framer: Framer = Framer::new();
     framer.on_end_deadline();
     let mut frame = vec![0x2Bu8; 254];
     frame[0] = ID;
@@ -426,7 +426,7 @@ fn framer_accepts_exactly_256_bytes_checked_at_the_gap_deadline() {
 
 #[test]
 fn a_256_byte_frame_with_a_bad_crc_is_dropped_for_its_crc() {
-    let mut framer = Framer::new();
+    let mut framer: Framer = Framer::new();
     framer.on_end_deadline();
     let mut frame = with_crc(&[0x2Bu8; 254]);
     frame[255] ^= 0x10;

@@ -69,10 +69,13 @@ fn spec_map() -> SpecMap {
 }
 
 /// `values` bytes of values plus what every map holds beside them: the write count and, with
-/// `diagnostics`, the exception status and the device-information bytes; padded to the
+/// `diagnostics`, the exception status and the device-information bytes, and with
+/// `device-id` the identification; padded to the
 /// alignment of `M`.
 fn footprint<M>(values: usize) -> usize {
-    let beside = 2 + if cfg!(feature = "diagnostics") { 1 + core::mem::size_of::<&[u8]>() } else { 0 };
+    let beside = 2
+        + if cfg!(feature = "diagnostics") { 1 + core::mem::size_of::<&[u8]>() } else { 0 }
+        + if cfg!(feature = "device-id") { core::mem::size_of::<&avr_modbus_slave::Identification>() } else { 0 };
     (values + beside).next_multiple_of(core::mem::align_of::<M>())
 }
 

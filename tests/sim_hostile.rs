@@ -225,6 +225,46 @@ fn write_running_past_40010_draws_exception_02_and_writes_nothing() {
     assert_eq!(read_counters(&mut rtu), before.plus(exception).plus(ANSWERED.times(2)));
 }
 
+/// FC 16 from 40001 for `qty` registers with byte count `count` and as many data bytes.
+fn long_write(qty: u16, count: u8) -> Vec<u8> {
+    let mut frame = vec![ID, 0x10, 0x00, 0x00];
+    frame.extend(qty.to_be_bytes());
+    frame.push(count);
+    frame.extend((0..count).map(|i| i.wrapping_mul(7)));
+    with_crc(&frame)
+}
+
+/// uno_slave's frame buffer holds 29 bytes (FC 16 × 10, FC 04 × 12): a longer request is
+/// received whole, its CRC checked over every byte, and answered from its first bytes as
+/// a 256-byte buffer would answer it.
+#[test]
+fn write_of_100_registers_longer_than_the_buffer_draws_exception_02_and_writes_nothing() {
+    let mut rtu = uno_slave();
+    let before = read_counters(&mut rtu);
+    let write = long_write(100, 200);
+    assert_eq!(write.len(), 209);
+    assert_eq!(rtu.ask(&write), with_crc(&[ID, 0x90, 0x02]), "exception 02, illegal data address");
+    assert_eq!(rtu.ask(&read_holding()), registers_reply(ID, 0x03, &RESET_VALUES), "40001-40010 unchanged");
+    let exception = Counters { exceptions: 1, ..ANSWERED };
+    assert_eq!(read_counters(&mut rtu), before.plus(exception).plus(ANSWERED.times(2)));
+}
+
+#[test]
+fn write_longer_than_the_buffer_with_a_byte_count_unlike_its_quantity_draws_exception_03() {
+    let mut rtu = uno_slave();
+    let write = long_write(100, 199);
+    assert_eq!(rtu.ask(&write), with_crc(&[ID, 0x90, 0x03]), "exception 03, illegal data value");
+}
+
+#[test]
+fn write_longer_than_the_buffer_with_a_bad_byte_past_it_is_a_crc_error() {
+    let mut rtu = uno_slave();
+    let mut write = long_write(100, 200);
+    write[150] ^= 0x04;
+    let chars = clean(&rtu, &write);
+    dropped_and_counted(&mut rtu, "bad byte past the buffer", &chars, Counters { frames: 1, crc_errors: 1, ..NOTHING });
+}
+
 // ---------------------------------------------------------------------------------------
 // CRC
 

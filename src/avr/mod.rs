@@ -75,7 +75,7 @@ macro_rules! slave {
         $crate::slave!($name: $model, $crate::NoPin, $crate::NoPin);
     };
     ($name:ident : $model:ty, $de:ty, $led:ty) => {
-        static $name: $crate::Slave<$model, $de, $led> = $crate::Slave::new();
+        static $name: $crate::Slave<$model, $de, $led, { <$model as $crate::DataModel>::FRAME }> = $crate::Slave::new();
 
         #[doc(hidden)]
         #[allow(non_snake_case)]

@@ -15,31 +15,33 @@ use super::reg::{self, claim};
 use super::timer::{Expired, FrameTimer};
 use super::usart::Usart;
 use crate::config::Config;
-use crate::crc::Crc16;
 use crate::engine::{Counters, EndOfFrame, Engine};
 use crate::error::Error;
+use crate::framer::MAX_FRAME;
 use crate::model::DataModel;
 use crate::reference::IntoReference;
 
-/// The running slave: its peripherals, protocol state, the application's data model `M`,
-/// the RS-485 driver-enable pin `DE` and the communication LED `LED`. It lives in a
-/// [`Slave`] and is reached only with interrupts disabled.
-pub(crate) struct Running<M, DE, LED> {
+/// The running slave: its peripherals, protocol state with a frame buffer of `N` bytes,
+/// the application's data model `M`, the RS-485 driver-enable pin `DE` and the
+/// communication LED `LED`. It lives in a [`Slave`] and is reached only with interrupts
+/// disabled.
+pub(crate) struct Running<M, DE, LED, const N: usize> {
     usart: Usart,
     timer: FrameTimer,
-    engine: Engine,
+    engine: Engine<N>,
     model: M,
-    tx_next: usize,
-    tx_len: usize,
-    tx_crc: Crc16,
+    /// Index of the reply's next byte, and the reply's length (at most 255 bytes).
+    tx_next: u8,
+    tx_len: u8,
     driver_enable: DE,
     led: LED,
 }
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE, LED, N> {
     /// Configures USART0 and Timer0 for `config` and starts the power-up wait (T3.5 of
     /// silence before the first frame).
     fn new(config: Config, model: M, mut driver_enable: DE, mut led: LED) -> Self {
+        const { assert!(N >= M::FRAME, "the slave's frame buffer is smaller than its data model needs") };
         let _ = driver_enable.set_low();
         let _ = led.set_low();
         let mut timer = FrameTimer::new(config.timer_plan());
@@ -52,7 +54,6 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
             model,
             tx_next: 0,
             tx_len: 0,
-            tx_crc: Crc16::new(),
             driver_enable,
             led,
         }
@@ -78,7 +79,8 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
     }
 
     /// Timer0 compare B: T3.5 of silence. A frame for this slave is answered from here:
-    /// the address goes out first, then the request is processed while it is on the wire.
+    /// the address goes out first, then the request is processed and the reply's CRC
+    /// appended while it is on the wire.
     #[inline(always)]
     fn on_timer_compare_b(&mut self) {
         if self.timer.on_compare_b() == Expired::NotYet {
@@ -91,41 +93,30 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
             self.timer.restart();
             return;
         }
-        match self.engine.on_end_deadline() {
-            EndOfFrame::Reply => {
-                let _ = self.driver_enable.set_high();
-                let _ = self.led.set_high();
-                let id = self.engine.id().get();
-                self.usart.write(id);
-                self.tx_crc = Crc16::new().update(id);
-                self.tx_len = self.engine.prepare(&mut self.model);
-                self.tx_next = 1;
-                self.usart.start_feeding();
-            }
-            EndOfFrame::Broadcast | EndOfFrame::Silent => {
-                self.engine.process(&mut self.model);
-            }
-            EndOfFrame::Nothing | EndOfFrame::Dropped(_) | EndOfFrame::OtherSlave => {}
+        let end = self.engine.on_end_deadline();
+        if end == EndOfFrame::Reply {
+            let _ = self.driver_enable.set_high();
+            let _ = self.led.set_high();
+            self.usart.write(self.engine.id().get());
+            self.tx_next = 1;
+        }
+        // Executes what `on_end_deadline` accepted (nothing for the other ends) and, for a
+        // reply, appends its CRC; the rest of the reply follows the address from the
+        // data-register-empty interrupt.
+        // The longest reply is 255 bytes (FC 3 or 4 with 125 registers).
+        self.tx_len = self.engine.process(&mut self.model) as u8;
+        if self.tx_len != 0 {
+            self.usart.start_feeding();
         }
     }
 
-    /// USART0 data register empty: the next character of the reply, folded into the CRC,
-    /// then the CRC's low and high bytes.
+    /// USART0 data register empty: the next character of the reply (CRC included).
     #[inline(always)]
     fn on_usart_udre(&mut self) {
-        let crc = self.tx_crc.to_wire();
-        let (byte, last) = match self.tx_next.checked_sub(self.tx_len) {
-            None => {
-                let byte = self.engine.reply().get(self.tx_next).copied().unwrap_or(0);
-                self.tx_crc = self.tx_crc.update(byte);
-                (byte, false)
-            }
-            Some(0) => (crc[0], false),
-            Some(_) => (crc[1], true),
-        };
-        self.usart.write(byte);
-        self.tx_next += 1;
-        if last {
+        let next = self.tx_next;
+        self.usart.write(self.engine.reply_byte(next));
+        self.tx_next = next.wrapping_add(1);
+        if self.tx_next == self.tx_len {
             self.usart.last_written();
         }
     }
@@ -168,10 +159,11 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Running<M, DE, LED> {
 /// Every access from the application runs with interrupts disabled for a few
 /// microseconds; a flag refuses re-entry (a [`Slave::with`] inside another gets `None`).
 /// The slave starts all-zero, so it lives in `.bss` and costs no flash for an
-/// initializer.
-pub struct Slave<M, DE = NoPin, LED = NoPin> {
+/// initializer. `N` is its frame buffer's size: [`crate::slave!`] gives it the model's
+/// [`DataModel::FRAME`]; 256, the default, fits every model.
+pub struct Slave<M, DE = NoPin, LED = NoPin, const N: usize = MAX_FRAME> {
     state: UnsafeCell<u8>,
-    running: UnsafeCell<MaybeUninit<Running<M, DE, LED>>>,
+    running: UnsafeCell<MaybeUninit<Running<M, DE, LED, N>>>,
 }
 
 const EMPTY: u8 = 0;
@@ -182,9 +174,9 @@ const IN_USE: u8 = 2;
 // disabled (`reg::free`, or inside the slave's interrupt handlers), so no two accesses
 // overlap. What it holds moves in from `start`'s caller and is used from interrupts, hence
 // the `Send` bounds.
-unsafe impl<M: Send, DE: Send, LED: Send> Sync for Slave<M, DE, LED> {}
+unsafe impl<M: Send, DE: Send, LED: Send, const N: usize> Sync for Slave<M, DE, LED, N> {}
 
-impl<M, DE, LED> Slave<M, DE, LED> {
+impl<M, DE, LED, const N: usize> Slave<M, DE, LED, N> {
     /// A slave not yet started: what [`crate::slave!`] declares.
     #[doc(hidden)]
     pub const fn new() -> Self {
@@ -196,7 +188,7 @@ impl<M, DE, LED> Slave<M, DE, LED> {
     /// # Safety
     /// Interrupts must be disabled for the whole call.
     #[inline(always)]
-    unsafe fn access<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED>) -> R) -> Option<R> {
+    unsafe fn access<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N>) -> R) -> Option<R> {
         // SAFETY: no other access can run (the caller's promise); READY means the slave
         // was written by `start`, and IN_USE keeps a nested call from aliasing it.
         unsafe {
@@ -210,30 +202,30 @@ impl<M, DE, LED> Slave<M, DE, LED> {
         }
     }
 
-    /// Runs `f` on the running slave from one of the handlers that Timer0 and the receiver
-    /// raise once per character or per turn, without [`Slave::access`]'s check, which keeps
-    /// them short.
+    /// Runs `f` on the running slave from one of its interrupt handlers, without
+    /// [`Slave::access`]'s check, which keeps them short.
     ///
     /// # Safety
-    /// Only from the slave's receive or Timer0 interrupt handlers (interrupts disabled, and
-    /// they stay so), so no other access overlaps this one: the application's run with
-    /// interrupts disabled, and the handlers don't nest. The slave is there: only `start`
-    /// enables those interrupts, after writing it.
+    /// Only from the slave's interrupt handlers (interrupts disabled, and they stay so), so
+    /// no other access overlaps this one: the application's run with interrupts disabled,
+    /// and the handlers don't nest. The slave is there: only `start` enables the receive
+    /// and Timer0 interrupts, after writing it, and only the slave's handlers enable the
+    /// transmit ones.
     #[inline(always)]
-    unsafe fn access_in_handler<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED>) -> R) -> R {
+    unsafe fn access_in_handler<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N>) -> R) -> R {
         // SAFETY: as promised by the caller, nothing else reaches the slave meanwhile, and
         // it was written.
         unsafe { f((*self.running.get()).assume_init_mut()) }
     }
 
     /// Runs `f` on the running slave with interrupts disabled.
-    fn locked<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED>) -> R) -> Option<R> {
+    fn locked<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N>) -> R) -> Option<R> {
         // SAFETY: interrupts are disabled for the whole access.
         reg::free(|| unsafe { self.access(f) })
     }
 }
 
-impl<M: DataModel> Slave<M> {
+impl<M: DataModel, const N: usize> Slave<M, NoPin, NoPin, N> {
     /// Starts the slave on Arduino pins 0 (RX) and 1 (TX): takes `USART0` and `TC0` from
     /// the application's `Peripherals` (arduino-hal's or `avr-device`'s, any version),
     /// configures them for `config`, and enables interrupts. From here on the slave
@@ -248,7 +240,7 @@ impl<M: DataModel> Slave<M> {
     }
 }
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Slave<M, DE, LED, N> {
     /// [`Slave::start`] with an RS-485 driver-enable pin (high from just before the first
     /// character of a reply until its last one has left the wire) and a communication LED
     /// (lit while the slave answers a frame addressed to it): any `embedded-hal` output
@@ -304,8 +296,8 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
     #[doc(hidden)]
     #[inline(always)]
     pub unsafe fn on_usart_udre(&self) {
-        // SAFETY: interrupts are disabled (the caller's promise).
-        unsafe { self.access(Running::on_usart_udre) };
+        // SAFETY: a USART interrupt handler (the caller's promise).
+        unsafe { self.access_in_handler(Running::on_usart_udre) };
     }
 
     /// See [`Slave::on_usart_rx`].
@@ -316,7 +308,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
     #[inline(always)]
     pub unsafe fn on_usart_tx(&self) {
         // SAFETY: as above.
-        unsafe { self.access(Running::on_usart_tx) };
+        unsafe { self.access_in_handler(Running::on_usart_tx) };
     }
 
     /// See [`Slave::on_usart_rx`].
@@ -354,7 +346,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
     }
 }
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Slave<M, DE, LED, N> {
     /// Reads a coil, input or register by its classic reference (see [`crate::Bank::get`]).
     pub fn get(&self, reference: impl IntoReference) -> Result<u16, Error> {
         // The reference is worked out before interrupts go off: shorter critical section.
@@ -377,7 +369,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<M, DE, LED> {
 }
 
 #[cfg(feature = "eeprom-settings")]
-impl<M: DataModel, DE: OutputPin, LED: OutputPin> Slave<crate::settings::Configurable<M>, DE, LED> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Slave<crate::settings::Configurable<M>, DE, LED, N> {
     /// The main loop's part of a settings change (feature `eeprom-settings`): call it
     /// from the main loop as often as it comes round. Returns how many EEPROM bytes it
     /// wrote when it stored new settings at `address`, else `None`.
