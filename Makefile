@@ -49,13 +49,13 @@ OPTIONAL := diagnostics,extra-fc,write-protect
 
 clippy: setup
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
-	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL) -- -D warnings
+	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL),device-id -- -D warnings
 	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples,$(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 
 docs: setup
-	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings,ufmt
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings,ufmt,device-id
 	RUSTDOCFLAGS="-D warnings -C target-cpu=atmega328p" $(CARGO) doc --no-deps -p avr-modbus-slave --release \
 		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings,ufmt
 

@@ -311,6 +311,7 @@ macro_rules! identification {
     ($(#[$attr:meta])* $vis:vis static $name:ident = { $($field:ident: $value:expr),* $(,)? };) => {
         $(#[$attr])*
         $vis static $name: $crate::Identification = {
+            #[allow(clippy::needless_update)] // when every object is given
             const OBJECTS: $crate::internal::device_id::Objects =
                 $crate::internal::device_id::Objects { $($field: $value,)* ..$crate::internal::device_id::Objects::NONE };
             #[cfg_attr(target_arch = "avr", link_section = ".progmem.data")]
