@@ -4,8 +4,7 @@
 
 mod common;
 
-use avr_modbus_slave::internal::EndOfFrame;
-use common::{ask, exception_reply, exchange, slave, with_crc};
+use common::{exception_reply, exchange};
 
 avr_modbus_slave::register_map! {
     struct Registers { 40001..=40004 }
@@ -20,33 +19,6 @@ avr_modbus_slave::identification! {
     };
 }
 
-avr_modbus_slave::identification! {
-    /// Basic and regular objects, ProductName (04) left out.
-    static REGULAR = {
-        vendor_name: "Acme",
-        product_code: "AC-16",
-        major_minor_revision: "1.2",
-        vendor_url: "https://acme.example",
-        model_name: "Sixteen",
-        user_application_name: "pump station",
-    };
-}
-
-/// Seven objects of 60 bytes: 434 bytes of objects, more than one reply holds.
-const SIXTY: &str = "abcdefghijklmnopqrstuvwxyzabcdefghijklmnopqrstuvwxyzabcdefgh";
-
-avr_modbus_slave::identification! {
-    static LONG = {
-        vendor_name: SIXTY,
-        product_code: SIXTY,
-        major_minor_revision: SIXTY,
-        vendor_url: SIXTY,
-        product_name: SIXTY,
-        model_name: SIXTY,
-        user_application_name: SIXTY,
-    };
-}
-
 fn map(identification: &'static avr_modbus_slave::Identification) -> Registers {
     let mut map = Registers::new();
     map.set_identification(identification);
@@ -58,21 +30,50 @@ fn request(code: u8, object: u8) -> [u8; 4] {
     [0x2B, 0x0E, code, object]
 }
 
-/// The reply ADU to slave [`common::ID`]: the PDU header, then each object as id, length,
-/// value.
-fn reply(code: u8, conformity: u8, more: u8, next: u8, objects: &[(u8, &str)]) -> Vec<u8> {
-    let mut pdu = vec![common::ID, 0x2B, 0x0E, code, conformity, more, next, objects.len() as u8];
-    for (id, value) in objects {
-        pdu.push(*id);
-        pdu.push(value.len() as u8);
-        pdu.extend_from_slice(value.as_bytes());
-    }
-    with_crc(&pdu)
-}
-
 #[cfg(feature = "device-id")]
 mod answered {
     use super::*;
+    use avr_modbus_slave::internal::EndOfFrame;
+    use common::{ask, slave, with_crc};
+
+    avr_modbus_slave::identification! {
+        /// Basic and regular objects, ProductName (04) left out.
+        static REGULAR = {
+            vendor_name: "Acme",
+            product_code: "AC-16",
+            major_minor_revision: "1.2",
+            vendor_url: "https://acme.example",
+            model_name: "Sixteen",
+            user_application_name: "pump station",
+        };
+    }
+
+    /// Seven objects of 60 bytes: 434 bytes of objects, more than one reply holds.
+    const SIXTY: &str = "abcdefghijklmnopqrstuvwxyzabcdefghijklmnopqrstuvwxyzabcdefgh";
+
+    avr_modbus_slave::identification! {
+        static LONG = {
+            vendor_name: SIXTY,
+            product_code: SIXTY,
+            major_minor_revision: SIXTY,
+            vendor_url: SIXTY,
+            product_name: SIXTY,
+            model_name: SIXTY,
+            user_application_name: SIXTY,
+        };
+    }
+
+    /// The reply ADU to slave [`common::ID`]: the PDU header, then each object as id, length,
+    /// value.
+    fn reply(code: u8, conformity: u8, more: u8, next: u8, objects: &[(u8, &str)]) -> Vec<u8> {
+        let mut pdu = vec![common::ID, 0x2B, 0x0E, code, conformity, more, next, objects.len() as u8];
+        for (id, value) in objects {
+            pdu.push(*id);
+            pdu.push(value.len() as u8);
+            pdu.extend_from_slice(value.as_bytes());
+        }
+        with_crc(&pdu)
+    }
 
     #[test]
     fn the_basic_stream_is_the_specs_example() {
