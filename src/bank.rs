@@ -16,7 +16,7 @@
 //! reference is an error that changes nothing.
 
 use crate::error::Error;
-use crate::model::DataModel;
+use crate::model::{Access, DataModel};
 #[cfg(feature = "device-id")]
 use crate::pdu::device_id::Identification;
 use crate::pdu::Exception;
@@ -387,6 +387,29 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     #[cfg(feature = "device-id")]
     fn identification(&self) -> Option<&Identification> {
         self.identification
+    }
+
+    fn transfer(
+        &mut self,
+        access: Access,
+        table: Table,
+        start: u16,
+        qty: u16,
+        data: &mut [u8],
+    ) -> Result<(), Exception> {
+        let first = self.locate(table, start, qty).ok_or(Exception::IllegalDataAddress)?;
+        if access == Access::Write {
+            if self.is_protected(table, start, qty) {
+                return Err(Exception::IllegalDataAddress);
+            }
+            self.master_writes = self.master_writes.wrapping_add(1);
+        }
+        if table.is_bits() {
+            storage::transfer_bits(&mut self.bits, first, qty, data, access);
+        } else {
+            storage::transfer_words(&mut self.registers, first, data, access);
+        }
+        Ok(())
     }
 
     fn read_bits(&self, table: Table, start: u16, qty: u16, out: &mut [u8]) -> Result<(), Exception> {

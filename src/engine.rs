@@ -9,7 +9,7 @@ use crate::config::SlaveId;
 use crate::crc::Crc16;
 use crate::framer::{FrameError, Framer, UartError, MAX_FRAME};
 use crate::model::DataModel;
-use crate::pdu::{encode_exception, execute, extra, oversized, Exception, FunctionCode};
+use crate::pdu::{encode_exception, execute, extra, Exception, FunctionCode};
 
 #[cfg(feature = "diagnostics")]
 use crate::diagnostics;
@@ -263,8 +263,6 @@ impl<const N: usize> Engine<N> {
             FunctionCode::EncapsulatedInterface => {
                 crate::pdu::device_id::respond(pdu, pdu_len, model.identification(), unicast)
             }
-            // Longer than the buffer: only its first bytes are there.
-            _ if N < MAX_FRAME && pdu_len > pdu.len() => Err(oversized::exception(pdu, pdu_len, model)),
             _ => execute(pdu, pdu_len, model, unicast),
         };
         result.map(Answer::Reply)

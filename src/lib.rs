@@ -45,6 +45,7 @@ pub mod internal {
     pub use crate::crc::{crc16, Crc16};
     pub use crate::engine::{EndOfFrame, Engine};
     pub use crate::framer::{FrameError, Framer, UartError, MAX_FRAME, MIN_FRAME};
+    pub use crate::model::Access;
     pub use crate::pdu::{encode_exception, respond, FunctionCode, Request};
     pub use crate::timing::{BaudDivisor, CharTimes, Deadline, TimerPlan, Uptime};
 

@@ -10,6 +10,7 @@
 //! as across one range.
 
 use crate::error::Error;
+use crate::model::Access;
 use crate::pdu::device_id::Identification;
 use crate::pdu::{Exception, MAX_READ_BITS, MAX_READ_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS};
 use crate::reference::{Reference, Table};
@@ -258,6 +259,29 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
         Ok(())
     }
 
+    /// FC 1–6, 15 and 16: `qty` values of `table`'s kind from storage index `at` moved
+    /// between the map and `data` (see [`crate::DataModel::transfer`]); a write counts as a
+    /// master write.
+    pub fn transfer(
+        &mut self,
+        access: Access,
+        table: Table,
+        at: Option<usize>,
+        qty: u16,
+        data: &mut [u8],
+    ) -> Result<(), Exception> {
+        let i = at.ok_or(Exception::IllegalDataAddress)?;
+        if table.is_bits() {
+            storage::transfer_bits(&mut self.bits, i, qty, data, access);
+        } else {
+            storage::transfer_words(&mut self.words, i, data, access);
+        }
+        if access == Access::Write {
+            self.master_writes = self.master_writes.wrapping_add(1);
+        }
+        Ok(())
+    }
+
     /// FC 1 / 2: `qty` bits from storage index `at`, packed LSB first.
     pub fn read_bits(&self, at: Option<usize>, qty: u16, out: &mut [u8]) -> Result<(), Exception> {
         storage::read_bits(&self.bits, at.ok_or(Exception::IllegalDataAddress)?, qty, out);
@@ -477,6 +501,17 @@ macro_rules! register_map {
 
             fn read_registers(&self, table: $crate::Table, start: u16, out: &mut [u8]) -> ::core::result::Result<(), $crate::Exception> {
                 self.0.read_words(Self::locate(table, start, (out.len() / 2) as u16), out)
+            }
+
+            fn transfer(
+                &mut self,
+                access: $crate::internal::Access,
+                table: $crate::Table,
+                start: u16,
+                qty: u16,
+                data: &mut [u8],
+            ) -> ::core::result::Result<(), $crate::Exception> {
+                self.0.transfer(access, table, Self::locate(table, start, qty), qty, data)
             }
 
             fn has_range(&self, table: $crate::Table, start: u16, qty: u16) -> bool {

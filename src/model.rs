@@ -13,6 +13,15 @@ use crate::pdu::device_id::Identification;
 use crate::pdu::Exception;
 use crate::reference::{Reference, Table};
 
+/// Which way a request moves values between the PDU and a [`DataModel`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Access {
+    /// FC 1–4: from the model into the reply.
+    Read,
+    /// FC 5, 6, 15 (0x0F) and 16 (0x10): from the request into the model.
+    Write,
+}
+
 /// The application's data as the master sees it.
 pub trait DataModel {
     /// Bytes of the frame buffer the slave needs for this model: the longest request it
@@ -43,6 +52,30 @@ pub trait DataModel {
     /// Writes `values.len() / 2` (≥ 1) holding registers from `start`, big-endian; all of
     /// them or none.
     fn write_registers(&mut self, start: u16, values: &[u8]) -> Result<(), Exception>;
+
+    /// What the engine calls for FC 1–6, 15 (0x0F) and 16 (0x10): moves `qty` (≥ 1) values of
+    /// `table` from `start` between the model and `data`, the PDU's data field (packed bits
+    /// or big-endian registers, as the methods above take them; for FC 5 the one byte 0xFF
+    /// or 0x00). The default calls the method above that does the job; a model keeping its
+    /// values in one place does it with one lookup and one copy ([`crate::register_map!`]
+    /// and [`crate::Bank`] do), so that the firmware holds one path for the four instead of
+    /// four.
+    #[doc(hidden)]
+    fn transfer(
+        &mut self,
+        access: Access,
+        table: Table,
+        start: u16,
+        qty: u16,
+        data: &mut [u8],
+    ) -> Result<(), Exception> {
+        match (access, table.is_bits()) {
+            (Access::Read, true) => self.read_bits(table, start, qty, data),
+            (Access::Read, false) => self.read_registers(table, start, data),
+            (Access::Write, true) => self.write_coils(start, qty, data),
+            (Access::Write, false) => self.write_registers(start, data),
+        }
+    }
 
     /// The value at `reference`, for the application (see [`crate::Bank::get`]); a model
     /// that doesn't offer it answers [`Error::NotFound`].

@@ -14,7 +14,7 @@
 //! on AVR the compiler would turn such a `match` into a lookup table, and constant tables
 //! are copied to RAM at start-up.
 
-use crate::model::DataModel;
+use crate::model::{Access, DataModel};
 use crate::reference::Table;
 
 pub mod device_id;
@@ -194,11 +194,10 @@ const COIL_ON: u16 = 0xFF00;
 /// FC 05's value for OFF.
 const COIL_OFF: u16 = 0x0000;
 
-/// A checked request of FC 1–6, 15 (0x0F) or 16 (0x10), borrowing its data from the
-/// request PDU: the addresses it reads or writes, and for a write the values as they came
-/// on the wire (FC 05's value byte, 0xFF or 0x00, is one packed coil).
+/// A checked request of FC 1–6, 15 (0x0F) or 16 (0x10): the addresses it reads or writes,
+/// and where its data lies in the PDU.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Request<'a> {
+pub struct Request {
     /// Read by FC 1 (coils), 2 (discrete inputs), 3 (holding registers), 4 (input
     /// registers); written by FC 5 and 15 (coils), 6 and 16 (holding registers).
     pub table: Table,
@@ -207,9 +206,12 @@ pub struct Request<'a> {
     /// Number of bits (1–2000 read, 1–1968 written) or registers (1–125 read, 1–123
     /// written).
     pub qty: u16,
-    /// The values written, packed LSB first (coils) or big-endian (registers); empty for
-    /// a read.
-    pub values: &'a [u8],
+    /// Read or write.
+    pub access: Access,
+    /// Where the data field starts in the PDU: a write's values as they came on the wire
+    /// (FC 05's value byte, 0xFF or 0x00, is one packed coil), or where a read's response
+    /// puts them, after the byte count.
+    pub data_at: usize,
 }
 
 /// The big-endian word at `at`, 0 past the end (the length checks decide what that means).
@@ -244,24 +246,31 @@ pub(crate) fn range_check(start: u16, qty: u16) -> Result<(), Exception> {
     }
 }
 
-/// The values of a write of `qty` (1–`max`) values of `table` whose byte count is at
-/// `at - 1`: the byte count must be the one the quantity needs and equal to the bytes that
-/// follow (03). FC 15 and 16, and FC 23's write.
-pub(crate) fn written_values(pdu: &[u8], at: usize, table: Table, qty: u16, max: u16) -> Result<&[u8], Exception> {
+/// Checks a write of `qty` (1–`max`) values of `table` whose byte count is at `at - 1` in
+/// a PDU of `len` bytes: the byte count must be the one the quantity needs and equal to
+/// the bytes that follow (03). FC 15 and 16, and FC 23's write.
+pub(crate) fn written_values_check(
+    pdu: &[u8],
+    len: usize,
+    at: usize,
+    table: Table,
+    qty: u16,
+    max: u16,
+) -> Result<(), Exception> {
     quantity_check(qty, max)?;
     let bytes = byte_count(table, qty);
     let count = pdu.get(at - 1).copied().map(u16::from);
-    value_check(count == Some(bytes) && pdu.len() == at + usize::from(bytes))?;
-    Ok(pdu.get(at..).unwrap_or(&[]))
+    value_check(count == Some(bytes) && len == at + usize::from(bytes))
 }
 
-impl<'a> Request<'a> {
+impl Request {
     /// Parses a request PDU (function code and data, no address or CRC) of FC 1–6, 15 or
-    /// 16; other codes are exception 01.
-    pub fn parse(pdu: &'a [u8]) -> Result<Self, Exception> {
+    /// 16 of `len` bytes, of which `pdu` holds at least the first 7 (the header; a request
+    /// longer than the frame buffer is checked from it); other codes are exception 01.
+    pub fn parse(pdu: &[u8], len: usize) -> Result<Self, Exception> {
         let (start, b) = (word(pdu, 1), word(pdu, 3));
-        let single = pdu.len() == 5;
-        let (table, qty, values) = match FunctionCode::from_u8(pdu.first().copied().unwrap_or(0)) {
+        let single = len == 5;
+        let (table, qty, access, data_at) = match FunctionCode::from_u8(pdu.first().copied().unwrap_or(0)) {
             code @ (FunctionCode::ReadCoils
             | FunctionCode::ReadDiscreteInputs
             | FunctionCode::ReadHoldingRegisters
@@ -269,42 +278,38 @@ impl<'a> Request<'a> {
                 let table = read_table(code);
                 value_check(single)?;
                 quantity_check(b, max_read(table))?;
-                (table, b, &[][..])
+                (table, b, Access::Read, 2)
             }
             FunctionCode::WriteSingleCoil => {
                 value_check(single && (b == COIL_ON || b == COIL_OFF))?;
-                (Table::Coils, 1, pdu.get(3..4).unwrap_or(&[]))
+                (Table::Coils, 1, Access::Write, 3)
             }
             FunctionCode::WriteSingleRegister => {
                 value_check(single)?;
-                (Table::HoldingRegisters, 1, pdu.get(3..5).unwrap_or(&[]))
+                (Table::HoldingRegisters, 1, Access::Write, 3)
             }
             FunctionCode::WriteMultipleCoils => {
-                (Table::Coils, b, written_values(pdu, 6, Table::Coils, b, MAX_WRITE_COILS)?)
+                written_values_check(pdu, len, 6, Table::Coils, b, MAX_WRITE_COILS)?;
+                (Table::Coils, b, Access::Write, 6)
             }
             FunctionCode::WriteMultipleRegisters => {
-                (Table::HoldingRegisters, b, written_values(pdu, 6, Table::HoldingRegisters, b, MAX_WRITE_REGISTERS)?)
+                written_values_check(pdu, len, 6, Table::HoldingRegisters, b, MAX_WRITE_REGISTERS)?;
+                (Table::HoldingRegisters, b, Access::Write, 6)
             }
             _ => return Err(Exception::IllegalFunction),
         };
         range_check(start, qty)?;
-        Ok(Request { table, start, qty, values })
+        Ok(Request { table, start, qty, access, data_at })
     }
 
     /// True for the requests that change data (the ones a broadcast executes).
     pub fn is_write(&self) -> bool {
-        !self.values.is_empty()
+        self.access == Access::Write
     }
 
-    /// Carries out a write request; a read does nothing here.
-    pub fn write<M: DataModel + ?Sized>(&self, model: &mut M) -> Result<(), Exception> {
-        if !self.is_write() {
-            Ok(())
-        } else if self.table.is_bits() {
-            model.write_coils(self.start, self.qty, self.values)
-        } else {
-            model.write_registers(self.start, self.values)
-        }
+    /// Bytes of the data field: packed bits, or two per register.
+    pub fn data_len(&self) -> usize {
+        usize::from(byte_count(self.table, self.qty))
     }
 }
 
@@ -335,48 +340,52 @@ pub fn respond<M: DataModel + ?Sized>(pdu: &mut [u8], len: usize, model: &mut M)
 }
 
 /// [`respond`], or for a broadcast (`reply` false) the same checks and writes with no
-/// read and no response (returns 0 for a read).
+/// read and no response (returns 0 for a read). `pdu` may hold only the first bytes of a
+/// request of `len` bytes (at least 7): one longer than the buffer gets the exception a
+/// whole one would.
 pub(crate) fn execute<M: DataModel + ?Sized>(
     pdu: &mut [u8],
     len: usize,
     model: &mut M,
     reply: bool,
 ) -> Result<usize, Exception> {
-    let request = Request::parse(pdu.get(..len).ok_or(Exception::ServerDeviceFailure)?)?;
+    let request = Request::parse(pdu, len)?;
+    if !reply && !request.is_write() {
+        return Ok(0);
+    }
+    let Request { table, start, qty, access, data_at } = request;
+    let bytes = request.data_len();
+    let data =
+        pdu.get_mut(data_at..data_at + bytes).ok_or_else(|| oversized::range_exception(model, table, start, qty))?;
+    model.transfer(access, table, start, qty, data)?;
     if request.is_write() {
         // The response of a write is the first five bytes of its request: an echo for
         // FC 5 / 6, function code, start and quantity for FC 15 / 16.
-        return request.write(model).map(|()| 5);
-    }
-    let Request { table, start, qty, .. } = request;
-    if reply {
-        read_response(pdu, model, table, start, qty)
-    } else {
-        Ok(0)
-    }
-}
-
-/// Reads `qty` values of `table` from `start` into a read response: byte count at
-/// `pdu[1]`, data from `pdu[2]`. Returns the response length.
-pub(crate) fn read_response<M: DataModel + ?Sized>(
-    pdu: &mut [u8],
-    model: &M,
-    table: Table,
-    start: u16,
-    qty: u16,
-) -> Result<usize, Exception> {
-    let bytes = byte_count(table, qty);
-    let data =
-        pdu.get_mut(2..2 + usize::from(bytes)).ok_or_else(|| oversized::range_exception(model, table, start, qty))?;
-    if table.is_bits() {
-        model.read_bits(table, start, qty, data)?;
-    } else {
-        model.read_registers(table, start, data)?;
+        return Ok(5);
     }
     if let Some(count) = pdu.get_mut(1) {
         *count = bytes as u8;
     }
-    Ok(2 + usize::from(bytes))
+    Ok(2 + bytes)
+}
+
+/// Reads `qty` values of `table` from `start` into a read response: byte count at
+/// `pdu[1]`, data from `pdu[2]`. Returns the response length.
+#[cfg(feature = "extra-fc")]
+pub(crate) fn read_response<M: DataModel + ?Sized>(
+    pdu: &mut [u8],
+    model: &mut M,
+    table: Table,
+    start: u16,
+    qty: u16,
+) -> Result<usize, Exception> {
+    let bytes = usize::from(byte_count(table, qty));
+    let data = pdu.get_mut(2..2 + bytes).ok_or_else(|| oversized::range_exception(model, table, start, qty))?;
+    model.transfer(Access::Read, table, start, qty, data)?;
+    if let Some(count) = pdu.get_mut(1) {
+        *count = bytes as u8;
+    }
+    Ok(2 + bytes)
 }
 
 /// Writes the exception response (function code | 0x80, exception code) at `pdu[0..2]`;

@@ -5,6 +5,8 @@
 //! A register is kept as it travels, big-endian ([`Word`]): FC 3, 4, 6 and 16 copy bytes,
 //! and only the application's `get` and `set` convert.
 
+use crate::model::Access;
+
 /// A register's value, big-endian (high byte first), as on the wire.
 pub(crate) type Word = [u8; 2];
 
@@ -118,5 +120,27 @@ pub(crate) fn read_words(words: &[Word], first: usize, out: &mut [u8]) {
 pub(crate) fn write_words(words: &mut [Word], first: usize, values: &[u8]) {
     for (slot, pair) in words.get_mut(first..).unwrap_or(&mut []).iter_mut().zip(values.chunks_exact(2)) {
         slot.copy_from_slice(pair);
+    }
+}
+
+/// FC 1, 2, 5 and 15: `qty` bits between the packed `bits` (from index `first`) and `data`
+/// (packed from its bit 0). A read fills `data`, the unused high bits of its last byte zero.
+#[inline(always)]
+pub(crate) fn transfer_bits(bits: &mut [u8], first: usize, qty: u16, data: &mut [u8], access: Access) {
+    match access {
+        Access::Read => read_bits(bits, first, qty, data),
+        Access::Write => write_bits(bits, first, qty, data),
+    }
+}
+
+/// FC 3, 4, 6 and 16: the registers of `data` (big-endian pairs) between `words` (from
+/// index `first`) and `data`.
+#[inline(always)]
+pub(crate) fn transfer_words(words: &mut [Word], first: usize, data: &mut [u8], access: Access) {
+    for (slot, pair) in words.get_mut(first..).unwrap_or(&mut []).iter_mut().zip(data.chunks_exact_mut(2)) {
+        match access {
+            Access::Read => pair.copy_from_slice(slot),
+            Access::Write => slot.copy_from_slice(pair),
+        }
     }
 }

@@ -4,7 +4,7 @@
 
 mod common;
 
-use avr_modbus_slave::internal::{pdu, Request};
+use avr_modbus_slave::internal::{pdu, Access, Request};
 use avr_modbus_slave::{Exception, Reference, Table};
 use common::{
     exception_reply, exchange, full_bank, read_pdu, slave, snapshot, spec_bank, to_slave, with_crc, write_multiple_pdu,
@@ -260,7 +260,7 @@ fn fc16_quantity_124_pdu_is_illegal_data_value() {
     // 124 registers need a 254-byte PDU, one more than an ADU can carry: parse it alone.
     let pdu = write_multiple_pdu(0x10, 0, 124, &registers(124));
     assert_eq!(pdu.len(), 254);
-    assert_eq!(Request::parse(&pdu), Err(Exception::IllegalDataValue));
+    assert_eq!(Request::parse(&pdu, pdu.len()), Err(Exception::IllegalDataValue));
 }
 
 #[test]
@@ -789,10 +789,11 @@ fn start_plus_quantity_of_exactly_65536_is_answered() {
 
 #[test]
 fn request_parse_applies_the_65536_limit() {
-    assert_eq!(Request::parse(&read_pdu(0x03, 0xFFFF, 2)), Err(Exception::IllegalDataAddress));
+    assert_eq!(Request::parse(&read_pdu(0x03, 0xFFFF, 2), 5), Err(Exception::IllegalDataAddress));
     assert_eq!(
-        Request::parse(&read_pdu(0x03, 0xFFFF, 1)),
-        Ok(Request { table: Table::HoldingRegisters, start: 0xFFFF, qty: 1, values: &[] })
+        Request::parse(&read_pdu(0x03, 0xFFFF, 1), 5),
+        Ok(Request { table: Table::HoldingRegisters, start: 0xFFFF, qty: 1, access: Access::Read, data_at: 2 })
     );
-    assert_eq!(Request::parse(&write_multiple_pdu(0x0F, 0xFFF9, 8, &[0xFF])), Err(Exception::IllegalDataAddress));
+    let pdu = write_multiple_pdu(0x0F, 0xFFF9, 8, &[0xFF]);
+    assert_eq!(Request::parse(&pdu, pdu.len()), Err(Exception::IllegalDataAddress));
 }

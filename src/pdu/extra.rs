@@ -2,7 +2,7 @@
 //! Modbus Application Protocol v1.1b3 §6.16 and §6.17 (feature `extra-fc`).
 
 use super::{
-    range_check, read_response, value_check, word, written_values, Exception, FunctionCode, MAX_READ_REGISTERS,
+    range_check, read_response, value_check, word, written_values_check, Exception, FunctionCode, MAX_READ_REGISTERS,
     MAX_READ_WRITE_REGISTERS,
 };
 use crate::model::DataModel;
@@ -35,7 +35,8 @@ pub fn respond<M: DataModel + ?Sized>(
     let (write_start, write_qty) = (word(request, 5), word(request, 7));
     // Every 03 comes before any 02.
     super::quantity_check(b, MAX_READ_REGISTERS)?;
-    let values = written_values(request, 10, Table::HoldingRegisters, write_qty, MAX_READ_WRITE_REGISTERS)?;
+    written_values_check(request, len, 10, Table::HoldingRegisters, write_qty, MAX_READ_WRITE_REGISTERS)?;
+    let values = request.get(10..).unwrap_or(&[]);
     range_check(start, b)?;
     range_check(write_start, write_qty)?;
     if !model.has_range(Table::HoldingRegisters, start, b) {
