@@ -100,17 +100,17 @@ impl Crc16 {
 
     /// Folds a slice of bytes into the CRC, continuing from this state (the receiver checks
     /// a stored frame with it; bytes before the buffer can be folded in first). On the AVR
-    /// a loop written out in assembly, 32 cycles a byte ([`Crc16::fold_avr`]); elsewhere
+    /// a loop written out in assembly, 33 cycles a byte ([`Crc16::fold_avr`]); elsewhere
     /// [`Crc16::update`] byte after byte. One copy in flash, whoever calls it.
     #[inline(never)]
     pub fn update_slice(self, bytes: &[u8]) -> Self {
         #[cfg(target_arch = "avr")]
         {
-            let mut crc = self;
-            for chunk in bytes.chunks(256) {
-                crc = crc.fold_avr(chunk);
+            if bytes.is_empty() {
+                self
+            } else {
+                self.fold_avr(bytes)
             }
-            crc
         }
         #[cfg(not(target_arch = "avr"))]
         {
@@ -118,67 +118,65 @@ impl Crc16 {
         }
     }
 
-    /// [`Crc16::update`]'s step over up to 256 bytes (`bytes` is not empty): with `l` the
+    /// [`Crc16::update`]'s step over the bytes (`bytes` is not empty): with `l` the
     /// low byte after the data byte is folded in, `s = l ^ (l << 1)` (9 bits) and `p` the
     /// parity of `l`, the new low byte is the old high byte ^ `(s << 6) as u8` ^ `p`, the
     /// new high byte `s >> 2` ^ (`p` · 0xC0). Branch-free: every byte takes the same time.
     #[cfg(target_arch = "avr")]
     #[allow(unsafe_code)]
     fn fold_avr(self, bytes: &[u8]) -> Self {
-        let [mut lo, mut hi] = self.0.to_le_bytes();
-        // 256 bytes count as 0: `dec` then `brne` runs the loop 256 times.
-        let count = bytes.len() as u8;
-        // SAFETY: reads `bytes.len()` bytes from `bytes` (1 to 256, so the loop count is
-        // right) and touches only the registers named; no stack, no memory written.
+        let mut crc = self.0;
+        // SAFETY: reads `bytes.len()` bytes from `bytes` (at least 1, and the count is
+        // 16-bit like the length) and touches only the registers named; no stack, no memory written. The
+        // registers are ones a call may change, so the caller saves none for it.
         unsafe {
             core::arch::asm!(
                 "2:",
-                "ld {byte}, Z+",
-                "eor {lo}, {byte}", // l = low byte ^ data byte
+                "ld r18, Z+",
+                "eor r24, r18", // l = low byte ^ data byte
                 // p = parity of l: fold nibbles, then pairs, then bits into bit 0.
-                "mov {p}, {lo}",
-                "swap {p}",
-                "eor {p}, {lo}",
-                "mov {s}, {p}",
-                "lsr {s}",
-                "lsr {s}",
-                "eor {p}, {s}",
-                "mov {s}, {p}",
-                "lsr {s}",
-                "eor {p}, {s}",
-                "andi {p}, 1",
+                "mov r19, r24",
+                "swap r19",
+                "eor r19, r24",
+                "mov r20, r19",
+                "lsr r20",
+                "lsr r20",
+                "eor r19, r20",
+                "mov r20, r19",
+                "lsr r20",
+                "eor r19, r20",
+                "andi r19, 1",
                 // s = l ^ (l << 1), its bit 8 (= bit 7 of l) in carry (eor and clr keep it).
-                "mov {s}, {lo}",
-                "lsl {s}",
-                "eor {s}, {lo}",
-                "clr {six}",
-                // s >> 2 in s, (s << 6) as u8 in six: bits 0 and 1 rotated across.
-                "ror {s}",
-                "ror {six}",
-                "ror {s}",
-                "ror {six}",
-                // New low byte: old high ^ six ^ p; new high byte: s ^ (p ? 0xC0 : 0).
-                "eor {hi}, {six}",
-                "eor {hi}, {p}",
-                "neg {p}",
-                "andi {p}, 0xC0",
-                "eor {s}, {p}",
-                "mov {lo}, {hi}",
-                "mov {hi}, {s}",
-                "dec {count}",
+                "mov r20, r24",
+                "lsl r20",
+                "eor r20, r24",
+                "clr r21",
+                // s >> 2 in r20, (s << 6) as u8 in r21: bits 0 and 1 rotated across.
+                "ror r20",
+                "ror r21",
+                "ror r20",
+                "ror r21",
+                // New low byte: old high ^ r21 ^ p; new high byte: s ^ (p ? 0xC0 : 0).
+                "eor r25, r21",
+                "eor r25, r19",
+                "neg r19",
+                "andi r19, 0xC0",
+                "eor r20, r19",
+                "mov r24, r25",
+                "mov r25, r20",
+                "sbiw r26, 1",
                 "brne 2b",
-                byte = out(reg) _,
-                p = out(reg_upper) _,
-                s = out(reg) _,
-                six = out(reg) _,
-                lo = inout(reg) lo,
-                hi = inout(reg) hi,
-                count = inout(reg) count => _,
+                out("r18") _, // the data byte
+                out("r19") _, // p
+                out("r20") _, // s
+                out("r21") _, // (s << 6) as u8
+                inout("r25r24") crc, // the CRC, low byte in r24
+                inout("X") bytes.len() => _, // bytes left
                 inout("Z") bytes.as_ptr() => _,
                 options(nostack, readonly),
             );
         }
-        Crc16(u16::from_le_bytes([lo, hi]))
+        Crc16(crc)
     }
 
     /// A register at zero, for the tail of a message whose head comes later: the receiver

@@ -25,6 +25,9 @@ use crate::engine::{Answer, Counters};
 use crate::model::DataModel;
 use crate::pdu::{word, Exception, FunctionCode};
 
+/// The feature is on: the engine sends FC 7, 8, 11 and 17 here.
+pub(crate) const ENABLED: bool = true;
+
 /// FC 8, for the slice patterns below.
 const DIAGNOSTICS: u8 = FunctionCode::Diagnostics.value();
 

@@ -252,11 +252,14 @@ impl<const N: usize> Engine<N> {
         // The PDU sits between the address and the CRC.
         let pdu_len = len.saturating_sub(3);
         let (_, pdu) = self.framer.buffer_mut().split_at_mut(1);
-        let result = match FunctionCode::from_u8(pdu.first().copied().unwrap_or(0)) {
-            code if code.is_diagnostic() => {
+        // Without their features, the optional codes fall through to `execute`, which
+        // answers 01 for every code it doesn't know: no comparison is left for them.
+        let code = FunctionCode::from_u8(pdu.first().copied().unwrap_or(0));
+        let result = match code {
+            _ if diagnostics::ENABLED && code.is_diagnostic() => {
                 return diagnostics::respond(pdu, pdu_len, model, &self.counters, self.id.get())
             }
-            FunctionCode::MaskWriteRegister | FunctionCode::ReadWriteMultipleRegisters => {
+            FunctionCode::MaskWriteRegister | FunctionCode::ReadWriteMultipleRegisters if extra::ENABLED => {
                 extra::respond(pdu, pdu_len, model, unicast)
             }
             #[cfg(feature = "device-id")]
@@ -274,7 +277,8 @@ impl<const N: usize> Engine<N> {
         match result {
             Err(_) => bump(&mut self.counters.exceptions),
             Ok(_) => {
-                if self.framer.buffer().get(1).copied() != Some(FunctionCode::GetCommEventCounter.value()) {
+                let code = self.framer.buffer().get(1).copied();
+                if !diagnostics::ENABLED || code != Some(FunctionCode::GetCommEventCounter.value()) {
                     bump(&mut self.counters.events);
                 }
             }
@@ -432,6 +436,8 @@ mod diagnostics {
     use super::{Answer, Counters};
     use crate::model::DataModel;
     use crate::pdu::Exception;
+
+    pub(crate) const ENABLED: bool = false;
 
     pub(crate) fn respond<M: DataModel + ?Sized>(
         _pdu: &mut [u8],

@@ -28,6 +28,8 @@ pub(crate) mod extra {
     use super::Exception;
     use crate::model::DataModel;
 
+    pub(crate) const ENABLED: bool = false;
+
     pub(crate) fn respond<M: DataModel + ?Sized>(
         _pdu: &mut [u8],
         _len: usize,

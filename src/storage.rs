@@ -82,10 +82,11 @@ impl BitCursor {
     }
 }
 
-/// Copies `qty` bits from `from` in `src` to `to` in `dst`: one copy in flash for reads
-/// and writes.
+/// Copies `qty` bits from index `from` in `src` to index `to` in `dst`: one copy in flash
+/// for reads and writes, the masks worked out in it once.
 #[inline(never)]
-fn copy_bits(src: &[u8], mut from: BitCursor, dst: &mut [u8], mut to: BitCursor, qty: u16) {
+fn copy_bits(src: &[u8], from: usize, dst: &mut [u8], to: usize, qty: u16) {
+    let (mut from, mut to) = (BitCursor::at(from), BitCursor::at(to));
     for _ in 0..qty {
         to.set(dst, from.get(src));
         from.step();
@@ -98,13 +99,13 @@ fn copy_bits(src: &[u8], mut from: BitCursor, dst: &mut [u8], mut to: BitCursor,
 #[inline(always)]
 pub(crate) fn read_bits(bits: &[u8], first: usize, qty: u16, out: &mut [u8]) {
     out.fill(0);
-    copy_bits(bits, BitCursor::at(first), out, BitCursor::at(0), qty);
+    copy_bits(bits, first, out, 0, qty);
 }
 
 /// FC 5 / 15: `qty` bits from index `first`, from `packed` LSB first.
 #[inline(always)]
 pub(crate) fn write_bits(bits: &mut [u8], first: usize, qty: u16, packed: &[u8]) {
-    copy_bits(packed, BitCursor::at(0), bits, BitCursor::at(first), qty);
+    copy_bits(packed, 0, bits, first, qty);
 }
 
 /// FC 3 / 4's data: `out.len() / 2` registers from index `first`, big-endian.

@@ -8,6 +8,9 @@ use super::{
 use crate::model::DataModel;
 use crate::reference::Table;
 
+/// The feature is on: the engine sends FC 22 and 23 here.
+pub(crate) const ENABLED: bool = true;
+
 /// Handles FC 22 or 23 in `pdu[..len]` and writes the response PDU over it, like
 /// [`super::respond`]; for a broadcast (`reply` false) FC 23 writes and skips its read.
 ///
