@@ -57,13 +57,6 @@ pub struct Counters {
     pub events: u16,
 }
 
-/// One more in `counter`. Not inlined: a call (8 bytes) where an inlined increment of a
-/// counter at a fixed address takes 18.
-#[inline(never)]
-fn bump(counter: &mut u16) {
-    *counter = counter.wrapping_add(1);
-}
-
 /// What the end of a frame (T3.5) led to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum EndOfFrame {
@@ -91,18 +84,49 @@ pub enum EndOfFrame {
 pub struct Engine<const N: usize = MAX_FRAME> {
     framer: Framer<N>,
     id: SlaveId,
-    counters: Counters,
-    pending: Pending,
+    /// The counters, in the order of [`Counters`]'s fields (see [`Count`]).
+    counts: [u16; COUNTS],
+    /// What [`Engine::on_end_deadline`] decided for the frame not yet processed
+    /// ([`EndOfFrame::Nothing`] when there is none), and its length.
+    pending: EndOfFrame,
+    pending_len: usize,
     reply_len: usize,
     listen_only: bool,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Pending {
-    None,
-    Unicast(usize),
-    Broadcast(usize),
-    Silent(usize),
+/// A counter's place in [`Engine::counts`]: the order of [`Counters`]'s fields.
+#[derive(Clone, Copy)]
+enum Count {
+    Frames,
+    CrcErrors,
+    UartErrors,
+    Overruns,
+    Malformed,
+    Messages,
+    Exceptions,
+    Replies,
+    Broadcasts,
+    NoResponse,
+    Events,
+}
+
+/// How many counters there are.
+const COUNTS: usize = Count::Events as usize + 1;
+
+impl FrameError {
+    /// The counter a frame dropped for this error goes to: comparisons, where a `match`
+    /// choosing the counter would be a table, copied to RAM on AVR.
+    fn count(self) -> Count {
+        if self == FrameError::BadCrc {
+            Count::CrcErrors
+        } else if self == FrameError::Uart {
+            Count::UartErrors
+        } else if matches!(self, FrameError::Overrun | FrameError::TooLong) {
+            Count::Overruns
+        } else {
+            Count::Malformed
+        }
+    }
 }
 
 impl<const N: usize> Engine<N> {
@@ -119,8 +143,9 @@ impl<const N: usize> Engine<N> {
         Engine {
             framer: Framer::new(),
             id,
-            counters: Counters::new(),
-            pending: Pending::None,
+            counts: [0; COUNTS],
+            pending: EndOfFrame::Nothing,
+            pending_len: 0,
             reply_len: 0,
             listen_only: false,
         }
@@ -138,7 +163,30 @@ impl<const N: usize> Engine<N> {
 
     /// The counters.
     pub fn counters(&self) -> Counters {
-        self.counters
+        let [frames, crc_errors, uart_errors, overruns, malformed, messages, exceptions, replies, broadcasts, no_response, events] =
+            self.counts;
+        Counters {
+            frames,
+            crc_errors,
+            uart_errors,
+            overruns,
+            malformed,
+            messages,
+            exceptions,
+            replies,
+            broadcasts,
+            no_response,
+            events,
+        }
+    }
+
+    /// One more in `counter`, wrapping. Not inlined: a call where an inlined increment of
+    /// a counter at a fixed address takes twice the flash.
+    #[inline(never)]
+    fn bump(&mut self, counter: Count) {
+        if let Some(count) = self.counts.get_mut(counter as usize) {
+            *count = count.wrapping_add(1);
+        }
     }
 
     /// A character arrived.
@@ -159,40 +207,42 @@ impl<const N: usize> Engine<N> {
 
     /// T3.5 of silence passed: checks the frame's CRC and address and counts.
     pub fn on_end_deadline(&mut self) -> EndOfFrame {
-        let len = match self.framer.on_end_deadline() {
-            None => return EndOfFrame::Nothing,
-            Some(Err(e)) => {
-                bump(&mut self.counters.frames);
-                self.counters.count_dropped(e);
+        let Some(result) = self.framer.on_end_deadline() else {
+            return EndOfFrame::Nothing;
+        };
+        self.bump(Count::Frames);
+        let len = match result {
+            Ok(len) => len,
+            Err(e) => {
+                self.bump(e.count());
                 return EndOfFrame::Dropped(e);
             }
-            Some(Ok(len)) => len,
         };
-        bump(&mut self.counters.frames);
         let address = self.framer.buffer()[0];
-        if address != self.id.get() && address != SlaveId::BROADCAST {
+        let broadcast = address == SlaveId::BROADCAST;
+        if !broadcast && address != self.id.get() {
             self.framer.release();
             return EndOfFrame::OtherSlave;
         }
-        bump(&mut self.counters.messages);
-        let broadcast = address == SlaveId::BROADCAST;
+        self.bump(Count::Messages);
         if broadcast {
-            bump(&mut self.counters.broadcasts);
+            self.bump(Count::Broadcasts);
         }
         // Whether anything will be sent is decided here, before the first byte could
         // leave: the AVR layer starts the reply with the address as soon as this returns.
-        if self.listen_only || (!broadcast && self.enters_listen_only(len)) {
-            bump(&mut self.counters.no_response);
-            self.pending = Pending::Silent(len);
+        let end = if self.is_silent(broadcast, len) {
             EndOfFrame::Silent
         } else if broadcast {
-            bump(&mut self.counters.no_response);
-            self.pending = Pending::Broadcast(len);
             EndOfFrame::Broadcast
         } else {
-            self.pending = Pending::Unicast(len);
             EndOfFrame::Reply
+        };
+        if end != EndOfFrame::Reply {
+            self.bump(Count::NoResponse);
         }
+        self.pending = end;
+        self.pending_len = len;
+        end
     }
 
     /// The request PDU of the frame of `len` bytes (with address and CRC) in the buffer.
@@ -200,10 +250,11 @@ impl<const N: usize> Engine<N> {
         self.framer.buffer().get(1..len.saturating_sub(2).max(1)).unwrap_or(&[])
     }
 
-    /// True for FC 8 sub-function 04 with data 0000: the one request that is executed
-    /// but never answered.
-    fn enters_listen_only(&self, len: usize) -> bool {
-        diagnostics::forces_listen_only(self.request(len))
+    /// True for a frame that gets no reply at all: every frame in listen-only mode, and
+    /// FC 8 sub-function 04 with data 0000, which enters it (only with feature
+    /// `diagnostics`; without it the slave is never listen-only).
+    fn is_silent(&self, broadcast: bool, len: usize) -> bool {
+        diagnostics::ENABLED && (self.listen_only || (!broadcast && diagnostics::forces_listen_only(self.request(len))))
     }
 
     /// Executes the frame that [`Engine::on_end_deadline`] accepted and writes the reply
@@ -231,16 +282,16 @@ impl<const N: usize> Engine<N> {
     /// address and PDU, and [`Engine::reply`] holds just those, for a sender that computes
     /// the CRC itself as the bytes go out.
     pub fn prepare<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
-        let (len, unicast) = match core::mem::replace(&mut self.pending, Pending::None) {
-            Pending::None => return 0,
-            Pending::Silent(len) => {
+        let len = self.pending_len;
+        match core::mem::replace(&mut self.pending, EndOfFrame::Nothing) {
+            EndOfFrame::Reply => self.answer(len, model, true),
+            EndOfFrame::Broadcast => self.answer(len, model, false),
+            EndOfFrame::Silent => {
                 self.stay_silent(len);
-                return 0;
+                0
             }
-            Pending::Broadcast(len) => (len, false),
-            Pending::Unicast(len) => (len, true),
-        };
-        self.answer(len, model, unicast)
+            _ => 0,
+        }
     }
 
     /// The one dispatch on the function code: FC 7, 8, 11 (0x0B) and 17 (0x11) go to the
@@ -251,13 +302,14 @@ impl<const N: usize> Engine<N> {
     fn handle<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M, unicast: bool) -> Result<Answer, Exception> {
         // The PDU sits between the address and the CRC.
         let pdu_len = len.saturating_sub(3);
+        let counters = if diagnostics::ENABLED { self.counters() } else { Counters::new() };
         let (_, pdu) = self.framer.buffer_mut().split_at_mut(1);
         // Without their features, the optional codes fall through to `execute`, which
         // answers 01 for every code it doesn't know: no comparison is left for them.
         let code = FunctionCode::from_u8(pdu.first().copied().unwrap_or(0));
         let result = match code {
             _ if diagnostics::ENABLED && code.is_diagnostic() => {
-                return diagnostics::respond(pdu, pdu_len, model, &self.counters, self.id.get())
+                return diagnostics::respond(pdu, pdu_len, model, &counters, self.id.get())
             }
             FunctionCode::MaskWriteRegister | FunctionCode::ReadWriteMultipleRegisters if extra::ENABLED => {
                 extra::respond(pdu, pdu_len, model, unicast)
@@ -275,11 +327,11 @@ impl<const N: usize> Engine<N> {
     /// reads the event counter).
     fn count(&mut self, result: &Result<Answer, Exception>) {
         match result {
-            Err(_) => bump(&mut self.counters.exceptions),
+            Err(_) => self.bump(Count::Exceptions),
             Ok(_) => {
                 let code = self.framer.buffer().get(1).copied();
                 if !diagnostics::ENABLED || code != Some(FunctionCode::GetCommEventCounter.value()) {
-                    bump(&mut self.counters.events);
+                    self.bump(Count::Events);
                 }
             }
         }
@@ -315,7 +367,7 @@ impl<const N: usize> Engine<N> {
         };
         // The longest reply PDU is 252 bytes, so address, PDU and CRC always fit.
         self.reply_len = 1 + reply_pdu;
-        bump(&mut self.counters.replies);
+        self.bump(Count::Replies);
         if let Ok(Answer::Restart(_)) = result {
             self.restart();
         }
@@ -337,7 +389,7 @@ impl<const N: usize> Engine<N> {
 
     /// FC 8 sub-function 01 or 0A: the counters cleared, listen-only mode left.
     fn restart(&mut self) {
-        self.counters = Counters::new();
+        self.counts = [0; COUNTS];
         self.listen_only = false;
     }
 
@@ -361,7 +413,7 @@ impl<const N: usize> Engine<N> {
     /// The reply's last byte left the USART: listen again.
     pub fn on_reply_sent(&mut self) {
         // A frame accepted but never processed is abandoned with the buffer.
-        self.pending = Pending::None;
+        self.pending = EndOfFrame::Nothing;
         self.reply_len = 0;
         self.framer.release();
     }
@@ -388,29 +440,12 @@ impl<const N: usize> Engine<N> {
     /// execute (also ends the power-up wait).
     fn complete<M: DataModel + ?Sized>(&mut self, model: &mut M) -> EndOfFrame {
         let end = self.on_end_deadline();
-        if matches!(end, EndOfFrame::Reply | EndOfFrame::Broadcast | EndOfFrame::Silent) {
-            self.process(model);
-        }
+        self.process(model);
         end
     }
 }
 
 impl Counters {
-    /// Counts a dropped frame in the counter for its error. Each counter is bumped if the
-    /// error is one of its own: comparisons, where a `match` choosing the counter would be
-    /// a table of counter addresses, copied to RAM on AVR.
-    fn count_dropped(&mut self, e: FrameError) {
-        let bump_if = |counter: &mut u16, mine: bool| {
-            if mine {
-                bump(counter);
-            }
-        };
-        bump_if(&mut self.crc_errors, e == FrameError::BadCrc);
-        bump_if(&mut self.uart_errors, e == FrameError::Uart);
-        bump_if(&mut self.overruns, matches!(e, FrameError::Overrun | FrameError::TooLong));
-        bump_if(&mut self.malformed, matches!(e, FrameError::TooShort | FrameError::Gap));
-    }
-
     /// All zero.
     pub const fn new() -> Self {
         Counters {

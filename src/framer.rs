@@ -63,8 +63,8 @@ enum State {
     Initial,
     /// Silence reigns: the next character starts a frame.
     Idle,
-    /// The gap deadline passed and the CRC was checked (`Framer::crc_ok`): one more
-    /// character breaks the frame.
+    /// The gap deadline passed and the frame was checked (`Framer::error`): one more
+    /// character breaks it.
     Waiting,
     /// The frame is broken (why: `Framer::error`); the rest is ignored until T3.5.
     Broken,
@@ -81,11 +81,12 @@ pub struct Framer<const N: usize = MAX_FRAME> {
     len: u8,
     /// Bytes of the frame past the buffer (only when `N` < 256), 0 outside such a frame.
     past: u8,
-    /// Their CRC, folded from [`Crc16::tail`].
+    /// Their CRC, folded from [`Crc16::tail`] (which [`Framer::listen`] sets).
     tail: Crc16,
-    crc_ok: bool,
     state: State,
-    error: FrameError,
+    /// Why the frame is dropped (`Broken`), or the verdict of the checks at the gap
+    /// deadline (`Waiting`: `None` for a good frame).
+    error: Option<FrameError>,
 }
 
 impl<const N: usize> Default for Framer<N> {
@@ -101,15 +102,7 @@ impl<const N: usize> Framer<N> {
     /// timer at start-up) before it accepts a frame.
     pub const fn new() -> Self {
         let () = Self::CAPACITY;
-        Framer {
-            buf: [0; N],
-            len: 0,
-            past: 0,
-            tail: Crc16::tail(),
-            crc_ok: false,
-            state: State::Initial,
-            error: FrameError::TooShort,
-        }
+        Framer { buf: [0; N], len: 0, past: 0, tail: Crc16::tail(), state: State::Initial, error: None }
     }
 
     /// A character arrived. Inside a frame it is only stored: this runs in the receive
@@ -151,7 +144,7 @@ impl<const N: usize> Framer<N> {
         if N == MAX_FRAME || usize::from(self.past) == MAX_FRAME - N {
             self.break_frame(FrameError::TooLong);
         } else {
-            self.tail = if self.past == 0 { Crc16::tail() } else { self.tail }.step(byte);
+            self.tail = self.tail.step(byte);
             self.past += 1;
         }
     }
@@ -173,11 +166,12 @@ impl<const N: usize> Framer<N> {
     fn listen(&mut self) {
         self.state = State::Idle;
         self.past = 0;
+        self.tail = Crc16::tail();
     }
 
     fn break_frame(&mut self, error: FrameError) {
         self.state = State::Broken;
-        self.error = error;
+        self.error = Some(error);
     }
 
     /// A character arrived damaged: the frame it belongs to is dropped.
@@ -193,10 +187,17 @@ impl<const N: usize> Framer<N> {
     }
 
     /// The gap deadline passed since the last character (compare A): the frame has ended
-    /// unless a character breaks it, so its CRC is checked now, well before T3.5.
+    /// unless a character breaks it, so its length and CRC are checked now, well before
+    /// T3.5.
     pub fn on_gap_deadline(&mut self) {
         if self.state == State::Receiving {
-            self.crc_ok = self.crc_checks();
+            self.error = if self.stored() < MIN_FRAME {
+                Some(FrameError::TooShort)
+            } else if !self.crc_checks() {
+                Some(FrameError::BadCrc)
+            } else {
+                None
+            };
             self.state = State::Waiting;
         }
     }
@@ -222,23 +223,24 @@ impl<const N: usize> Framer<N> {
         // T3.5 comes after the gap deadline: if that was not reported (host tests,
         // `Engine::handle_frame`), it passes now. On the AVR it always was.
         self.on_gap_deadline();
-        let result = match self.state {
-            State::Waiting if self.stored() < MIN_FRAME => Err(FrameError::TooShort),
-            State::Waiting if !self.crc_ok => Err(FrameError::BadCrc),
-            State::Waiting => Ok(self.received()),
-            State::Broken => Err(self.error),
+        match self.state {
+            State::Waiting | State::Broken => {}
             State::Initial => {
                 self.listen();
                 return None;
             }
             State::Receiving | State::Idle | State::Busy => return None,
-        };
-        if result.is_ok() {
-            self.state = State::Busy;
-        } else {
-            self.listen();
         }
-        Some(result)
+        Some(match self.error {
+            None => {
+                self.state = State::Busy;
+                Ok(self.received())
+            }
+            Some(error) => {
+                self.listen();
+                Err(error)
+            }
+        })
     }
 
     /// The frame (or reply) buffer.
