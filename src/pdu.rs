@@ -270,35 +270,34 @@ impl Request {
     /// 16 of `len` bytes, of which `pdu` holds at least the first 7 (the header; a request
     /// longer than the frame buffer is checked from it); other codes are exception 01.
     pub fn parse(pdu: &[u8], len: usize) -> Result<Self, Exception> {
+        let code = pdu.first().copied().unwrap_or(0);
         let (start, b) = (word(pdu, 1), word(pdu, 3));
-        let single = len == 5;
-        let (table, qty, access, data_at) = match FunctionCode::from_u8(pdu.first().copied().unwrap_or(0)) {
-            code @ (FunctionCode::ReadCoils
-            | FunctionCode::ReadDiscreteInputs
-            | FunctionCode::ReadHoldingRegisters
-            | FunctionCode::ReadInputRegisters) => {
-                let table = read_table(code);
-                value_check(single)?;
+        // FC 15 (0x0F) and 16 (0x10) write what FC 5 and 6 write, many values at once: the
+        // checks below work on the code of the single write and the kind of request.
+        let multiple = code.wrapping_sub(FunctionCode::WriteMultipleCoils.value()) < 2;
+        let single = if multiple { code - 10 } else { code };
+        if single.wrapping_sub(FunctionCode::ReadCoils.value()) > 5 {
+            return Err(Exception::IllegalFunction);
+        }
+        let coil = single == FunctionCode::WriteSingleCoil.value();
+        let access = if single >= FunctionCode::WriteSingleCoil.value() { Access::Write } else { Access::Read };
+        let table = match access {
+            Access::Read => read_table(single),
+            Access::Write if coil => Table::Coils,
+            Access::Write => Table::HoldingRegisters,
+        };
+        let (qty, data_at) = if multiple {
+            written_values_check(pdu, len, 6, table, b, max_write(table))?;
+            (b, 6)
+        } else {
+            value_check(len == 5)?;
+            if access == Access::Read {
                 quantity_check(b, max_read(table))?;
-                (table, b, Access::Read, 2)
+                (b, 2)
+            } else {
+                value_check(!coil || b == COIL_ON || b == COIL_OFF)?;
+                (1, 3)
             }
-            FunctionCode::WriteSingleCoil => {
-                value_check(single && (b == COIL_ON || b == COIL_OFF))?;
-                (Table::Coils, 1, Access::Write, 3)
-            }
-            FunctionCode::WriteSingleRegister => {
-                value_check(single)?;
-                (Table::HoldingRegisters, 1, Access::Write, 3)
-            }
-            FunctionCode::WriteMultipleCoils => {
-                written_values_check(pdu, len, 6, Table::Coils, b, MAX_WRITE_COILS)?;
-                (Table::Coils, b, Access::Write, 6)
-            }
-            FunctionCode::WriteMultipleRegisters => {
-                written_values_check(pdu, len, 6, Table::HoldingRegisters, b, MAX_WRITE_REGISTERS)?;
-                (Table::HoldingRegisters, b, Access::Write, 6)
-            }
-            _ => return Err(Exception::IllegalFunction),
         };
         range_check(start, qty)?;
         Ok(Request { table, start, qty, access, data_at })
@@ -315,11 +314,12 @@ impl Request {
     }
 }
 
-/// The table FC 1–4 read (`code` is one of them). Two comparisons, no lookup table.
-fn read_table(code: FunctionCode) -> Table {
-    let registers = !matches!(code, FunctionCode::ReadCoils | FunctionCode::ReadDiscreteInputs);
-    let second = matches!(code, FunctionCode::ReadDiscreteInputs | FunctionCode::ReadHoldingRegisters);
-    if registers {
+/// The table FC 1–4 read (`code` is one of them): bit 1 of the code tells the second of
+/// each pair (discrete inputs, holding registers), codes past 2 read registers. Bit tests,
+/// no lookup table.
+fn read_table(code: u8) -> Table {
+    let second = code & 0b10 != 0;
+    if code > FunctionCode::ReadDiscreteInputs.value() {
         if second {
             Table::HoldingRegisters
         } else {
