@@ -22,8 +22,11 @@ help:
 setup:
 	@.ci/setup
 
+# The examples that keep the clock (feature millis) are a build of their own, so that the
+# others carry no clock.
 firmware: setup
 	$(CARGO) uno --examples --features examples
+	$(CARGO) uno --example uno_slave --example dip_switch --features examples,millis
 	$(CARGO) uno --example configurable --features examples,eeprom-settings,$(OPTIONAL)
 	@.ci/sizes $(FIRMWARE)
 	@.ci/no-panic $(FIRMWARE)
@@ -52,12 +55,12 @@ clippy: setup
 	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL),device-id -- -D warnings
 	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples -- -D warnings
-	$(CARGO) uno-clippy --examples --features examples,$(OPTIONAL),eeprom-settings,ufmt -- -D warnings
+	$(CARGO) uno-clippy --examples --features examples,millis,$(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 
 docs: setup
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings,ufmt,device-id
 	RUSTDOCFLAGS="-D warnings -C target-cpu=atmega328p" $(CARGO) doc --no-deps -p avr-modbus-slave --release \
-		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings,ufmt
+		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings,ufmt,millis
 
 lint: fmt-check clippy docs
 

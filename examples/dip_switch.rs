@@ -6,6 +6,9 @@
  * 3-way DIP switch from pins 10, 11, 12 to GND (closed = 1; pin 10 is the low bit).
  * Change the switches with the Uno powered off, or press reset afterwards.
  *
+ * Built with feature `millis`: nothing here reads the clock, but it runs, so that
+ * `tests/sim_clock.rs` checks `millis()` at every preset's rate.
+ *
  * | 12 11 10 | preset        |   | 12 11 10 | preset        |
  * |----------|---------------|---|----------|---------------|
  * | 0  0  0  | 19200 8E1     |   | 1  0  0  | 115200 8N1    |

@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 #![cfg_attr(not(test), no_std)]
 #![cfg_attr(target_arch = "avr", feature(asm_experimental_arch))]
+#![cfg_attr(all(target_arch = "avr", feature = "millis"), feature(abi_avr_interrupt))]
 #![deny(missing_docs)]
 
 #[cfg(target_arch = "avr")]
@@ -26,7 +27,10 @@ mod timing;
 #[doc(hidden)]
 pub use avr::__private;
 #[cfg(target_arch = "avr")]
-pub use avr::{board, millis, NoPin, Slave};
+#[cfg(all(target_arch = "avr", feature = "millis"))]
+pub use avr::millis;
+#[cfg(target_arch = "avr")]
+pub use avr::{board, NoPin, Slave};
 pub use bank::{bit_bytes, Bank};
 pub use config::{Config, Parity, SlaveId, StopBits};
 pub use engine::Counters;

@@ -22,7 +22,7 @@ const TURN: u64 = 256 * TIMER0_DIVISOR as u64;
 /// Cycles in a millisecond.
 const MS: u64 = F_CPU / 1000;
 
-/// Where the overflow interrupt keeps its clock: `avr::timer::CLOCK` (an `Uptime`), or its
+/// Where the overflow interrupt keeps its clock: `avr::clock::CLOCK` (an `Uptime`; feature `millis`), or its
 /// two fields when the optimiser split the static (`CLOCK.0` = the milliseconds, `.1` the
 /// fraction).
 struct ClockInRam {
@@ -38,11 +38,11 @@ impl ClockInRam {
                 .find(|s| s.name.ends_with(suffix) && s.name.contains("avr_modbus_slave"))
                 .map(|s| (s.addr as u16, s.size))
         };
-        if let Some((addr, size)) = find("5timer5CLOCK") {
+        if let Some((addr, size)) = find("5clock5CLOCK") {
             assert_eq!(size, 5, "CLOCK is an Uptime (5 bytes)");
             return ClockInRam { millis: addr, fract: addr + 4 };
         }
-        match (find("5timer5CLOCK.0"), find("5timer5CLOCK.1")) {
+        match (find("5clock5CLOCK.0"), find("5clock5CLOCK.1")) {
             (Some((millis, 4)), Some((fract, 1))) => ClockInRam { millis, fract },
             other => panic!("no Timer0 clock in {}: {other:?}", uno.path().display()),
         }

@@ -9,6 +9,15 @@
 #![allow(unsafe_code)]
 
 mod adc;
+#[cfg(feature = "millis")]
+mod clock;
+#[cfg(not(feature = "millis"))]
+mod clock {
+    //! Without feature `millis`: no clock, and Timer0's overflow interrupt stays off.
+
+    /// TIMSK0's overflow interrupt enable, not set.
+    pub(crate) const OVERFLOW_INTERRUPT: u8 = 0;
+}
 mod eeprom;
 mod pins;
 mod reg;
@@ -28,24 +37,19 @@ pub mod board {
     pub use super::pins::{halt, Pin, Pins};
 }
 
-/// Milliseconds since the slave started, wrapping after 49.7 days: Arduino's `millis()`,
-/// kept by Timer0, which the slave owns and runs freely at clk/64 (an overflow interrupt
-/// every 1.024 ms). Never ahead of true time and less than a millisecond behind it, with no
-/// drift beyond the crystal's; 0 before [`Slave::start`]. Compare times with
-/// `wrapping_sub`, as on Arduino: `millis().wrapping_sub(since) >= 500`.
+/// Milliseconds since the slave started, wrapping after 49.7 days: Arduino's `millis()`
+/// (feature `millis`), kept by Timer0, which the slave owns and runs freely at clk/64 (an
+/// overflow interrupt every 1.024 ms). Never ahead of true time and less than a millisecond
+/// behind it, with no drift beyond the crystal's; 0 before [`Slave::start`]. Compare times
+/// with `wrapping_sub`, as on Arduino: `millis().wrapping_sub(since) >= 500`.
+#[cfg(feature = "millis")]
 pub fn millis() -> u32 {
-    timer::millis()
+    clock::millis()
 }
 
 /// For the handlers that [`crate::slave!`] binds.
 #[doc(hidden)]
 pub mod __private {
-    /// Timer0 overflow: the millisecond clock.
-    #[inline(always)]
-    pub fn timer0_overflow() {
-        super::timer::on_overflow();
-    }
-
     /// USART0 receive complete, before anything else: when the character arrived.
     ///
     /// # Safety
@@ -56,9 +60,10 @@ pub mod __private {
     }
 }
 
-/// Declares the slave `NAME` for a data model type and binds the six interrupts it needs:
+/// Declares the slave `NAME` for a data model type and binds the five interrupts it needs:
 /// USART0 RX complete, data register empty and TX complete, Timer0 compare A and B (the
-/// silences) and overflow (the clock of [`crate::millis`]).
+/// silences). With feature `millis` the crate binds Timer0's overflow too, the clock of
+/// `millis()`.
 ///
 /// ```ignore
 /// avr_modbus_slave::slave!(SLAVE: Registers);                  // no pins
@@ -67,8 +72,8 @@ pub mod __private {
 ///
 /// The handlers use the `avr-interrupt` calling convention: the firmware crate needs
 /// `#![feature(abi_avr_interrupt)]`, as every AVR interrupt handler does. Nothing else in
-/// the firmware may handle these six interrupts (no `default_serial!` on USART0, nothing
-/// on TC0).
+/// the firmware may handle these interrupts, nor Timer0's overflow (no `default_serial!` on
+/// USART0, nothing on TC0).
 #[macro_export]
 macro_rules! slave {
     ($name:ident : $model:ty) => {
@@ -92,12 +97,6 @@ macro_rules! slave {
             unsafe extern "avr-interrupt" fn TIMER0_COMPB() {
                 // SAFETY: as above.
                 unsafe { super::$name.on_timer_compare_b() }
-            }
-
-            /// TIMER0_OVF: the millisecond clock.
-            #[export_name = "__vector_16"]
-            unsafe extern "avr-interrupt" fn TIMER0_OVF() {
-                $crate::__private::timer0_overflow();
             }
 
             /// USART_RX: a character arrived.

@@ -1,29 +1,28 @@
-//! Timer0, ATmega328P datasheet §15 (8-bit Timer/Counter0): the application's millisecond
-//! clock and the RTU silence detector at once. It runs freely in normal mode at clk/64 from
-//! the slave's start and is never stopped or written again; the overflow interrupt keeps
-//! [`millis`], and each received character sets compare A (the gap deadline) and compare B
-//! (T3.5) relative to the counter's current value, the compare interrupts counting the
-//! whole turns still to wait (`src/timing.rs` has the arithmetic). The compare interrupts
-//! stay enabled: with no deadline set, their matches (one each per turn) find nothing to
-//! do.
+//! Timer0, ATmega328P datasheet §15 (8-bit Timer/Counter0): the RTU silence detector, and
+//! with feature `millis` the application's millisecond clock too (`super::clock`). It runs
+//! freely in normal mode at clk/64 from the slave's start and is never stopped or written
+//! again; each received character sets compare A (the gap deadline) and compare B (T3.5)
+//! relative to the counter's current value, the compare interrupts counting the whole turns
+//! still to wait (`src/timing.rs` has the arithmetic). The compare interrupts stay enabled:
+//! with no deadline set, their matches (one each per turn) find nothing to do.
 //!
-//! Timer0 is one peripheral, so its state lives here in two statics, like its registers:
-//! the clock, and the deadlines. They are only touched with interrupts disabled.
+//! Timer0 is one peripheral, so its state lives in statics, like its registers: the
+//! deadlines here, the clock in `super::clock`. They are only touched with interrupts
+//! disabled.
 
 use core::cell::UnsafeCell;
 
-use super::reg::{self, OCR0A, OCR0B, TCCR0A, TCCR0B, TCNT0, TIFR0, TIMSK0};
-use crate::timing::{Deadline, TimerPlan, Uptime, TIMER0_CLOCK_SELECT};
+use super::reg::{OCR0A, OCR0B, TCCR0A, TCCR0B, TCNT0, TIFR0, TIMSK0};
+use crate::timing::{Deadline, TimerPlan, TIMER0_CLOCK_SELECT};
 
-const TOIE0: u8 = 1 << 0;
 const OCIE0A: u8 = 1 << 1;
 const OCIE0B: u8 = 1 << 2;
-const TOV0: u8 = 1 << 0;
+pub(crate) const TOV0: u8 = 1 << 0;
 const OCF0A: u8 = 1 << 1;
 const OCF0B: u8 = 1 << 2;
 
 /// A value only touched with interrupts disabled.
-struct Exclusive<T>(UnsafeCell<T>);
+pub(crate) struct Exclusive<T>(pub(crate) UnsafeCell<T>);
 
 // SAFETY: one core, and the value is only reached through `Exclusive::with`, whose callers
 // have interrupts disabled, so no two accesses overlap.
@@ -35,20 +34,11 @@ impl<T> Exclusive<T> {
     /// # Safety
     /// Interrupts must be disabled, and `f` must not reach the same value.
     #[inline(always)]
-    unsafe fn with<R>(&self, f: impl FnOnce(&mut T) -> R) -> R {
+    pub(crate) unsafe fn with<R>(&self, f: impl FnOnce(&mut T) -> R) -> R {
         // SAFETY: with interrupts disabled nothing else holds a reference to the value.
         f(unsafe { &mut *self.0.get() })
     }
 }
-
-/// What the overflow interrupt keeps: the milliseconds. `repr(C)`: the simulator tests read
-/// it from RAM.
-#[repr(C)]
-struct Clock {
-    uptime: Uptime,
-}
-
-static CLOCK: Exclusive<Clock> = Exclusive(UnsafeCell::new(Clock { uptime: Uptime::ZERO }));
 
 /// The silence deadlines: the plan of the configuration (compare offsets and whole turns),
 /// how many matches of each compare value the compare interrupts have let pass since the
@@ -76,27 +66,6 @@ static DEADLINES: Exclusive<Deadlines> = Exclusive(UnsafeCell::new(Deadlines {
     end_matches: PASSED,
     stale: 0,
 }));
-
-/// Milliseconds since the slave started: Timer0's ticks counted so far divided by 250,
-/// rounded down, so never ahead of true time and less than a millisecond behind it (0
-/// before the start). Interrupts are off for a few cycles while it reads.
-pub(crate) fn millis() -> u32 {
-    let (uptime, tcnt, overflow) = reg::free(|| {
-        // TCNT0 first: an overflow flag set after it is recognised by the 255 read.
-        let tcnt = TCNT0.read();
-        let overflow = TIFR0.read() & TOV0 != 0;
-        // SAFETY: interrupts are disabled.
-        (unsafe { CLOCK.with(|c| c.uptime) }, tcnt, overflow)
-    });
-    uptime.millis_at(tcnt, overflow)
-}
-
-/// Timer0 overflowed (every 1.024 ms): the clock moves on.
-#[inline(always)]
-pub(crate) fn on_overflow() {
-    // SAFETY: called from the overflow interrupt handler, with interrupts disabled.
-    unsafe { CLOCK.with(|c| c.uptime = c.uptime.after_overflow()) }
-}
 
 /// A character arrived: sets both deadlines from now, first thing in the receive
 /// interrupt, so that they count from as close to RXC0 as can be
@@ -168,8 +137,8 @@ pub(crate) enum Expired {
 pub(crate) struct FrameTimer(());
 
 impl FrameTimer {
-    /// Starts Timer0 from zero (the clock of [`millis`]) with its three interrupts on and no
-    /// deadline set, for `plan`. The slave owns Timer0: it took the application's `TC0`.
+    /// Starts Timer0 from zero with its compare interrupts on (and the overflow interrupt,
+    /// the clock of `millis()`, with feature `millis`) and no deadline set, for `plan`. The slave owns Timer0: it took the application's `TC0`.
     /// Call with interrupts disabled.
     pub(crate) fn new(plan: TimerPlan) -> Self {
         // Stopped, normal mode, no output compare pins, interrupts off, counter and flags
@@ -179,11 +148,9 @@ impl FrameTimer {
         TIMSK0.write(0);
         TCNT0.write(0);
         TIFR0.write(TOV0 | OCF0A | OCF0B);
-        // SAFETY: the slave starts with interrupts disabled.
-        unsafe { CLOCK.with(|c| c.uptime = Uptime::ZERO) };
         let mut timer = FrameTimer(());
         timer.plan(plan);
-        TIMSK0.write(TOIE0 | OCIE0A | OCIE0B);
+        TIMSK0.write(super::clock::OVERFLOW_INTERRUPT | OCIE0A | OCIE0B);
         TCCR0B.write(TIMER0_CLOCK_SELECT);
         timer
     }
