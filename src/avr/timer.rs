@@ -55,15 +55,15 @@ struct Deadlines {
     stale: u8,
 }
 
-const NO_DEADLINE: Deadline = Deadline { low: 1, turns: 0 };
-
 /// A match count past any deadline's turns: the deadline has passed.
 const PASSED: u8 = u8::MAX;
 
+/// All zero until [`FrameTimer::new`] writes the plan and parks the deadlines, before any
+/// of Timer0's interrupts is enabled: in `.bss`, with no initial value kept in flash.
 static DEADLINES: Exclusive<Deadlines> = Exclusive(UnsafeCell::new(Deadlines {
-    gap_matches: PASSED,
-    plan: TimerPlan { gap: NO_DEADLINE, end: NO_DEADLINE },
-    end_matches: PASSED,
+    gap_matches: 0,
+    plan: TimerPlan { gap: Deadline { low: 0, turns: 0 }, end: Deadline { low: 0, turns: 0 } },
+    end_matches: 0,
     stale: 0,
 }));
 
