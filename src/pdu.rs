@@ -182,12 +182,13 @@ pub const fn max_write(table: Table) -> u16 {
 }
 
 /// The bytes `qty` values of `table` take in a request or response: packed bits, or two
-/// bytes per register.
+/// bytes per register. For a quantity already checked against [`max_read`] or
+/// [`max_write`] (at most 2000): larger ones wrap.
 pub const fn byte_count(table: Table, qty: u16) -> u16 {
     if table.is_bits() {
         qty.div_ceil(8)
     } else {
-        qty.saturating_mul(2)
+        qty.wrapping_mul(2)
     }
 }
 
@@ -213,7 +214,10 @@ pub struct Request {
     /// Where the data field starts in the PDU: a write's values as they came on the wire
     /// (FC 05's value byte, 0xFF or 0x00, is one packed coil), or where a read's response
     /// puts them, after the byte count.
-    pub data_at: usize,
+    pub data_at: u8,
+    /// Bytes of the data field: the quantity's bits packed, or two per register (at most
+    /// 250).
+    pub data_len: u8,
 }
 
 /// The big-endian word at `at`, 0 past the end (the length checks decide what that means).
@@ -251,6 +255,7 @@ pub(crate) fn range_check(start: u16, qty: u16) -> Result<(), Exception> {
 /// Checks a write of `qty` (1–`max`) values of `table` whose byte count is at `at - 1` in
 /// a PDU of `len` bytes: the byte count must be the one the quantity needs and equal to
 /// the bytes that follow (03). FC 15 and 16, and FC 23's write.
+#[cfg(feature = "extra-fc")]
 pub(crate) fn written_values_check(
     pdu: &[u8],
     len: usize,
@@ -269,48 +274,44 @@ impl Request {
     /// Parses a request PDU (function code and data, no address or CRC) of FC 1–6, 15 or
     /// 16 of `len` bytes, of which `pdu` holds at least the first 7 (the header; a request
     /// longer than the frame buffer is checked from it); other codes are exception 01.
+    ///
+    /// FC 15 (0x0F) and 16 (0x10) write what FC 5 and 6 write, many values at once: the
+    /// checks work on the code of the single write and the kind of request, one path for
+    /// all eight codes (the order of the 03 checks among themselves makes no difference).
     pub fn parse(pdu: &[u8], len: usize) -> Result<Self, Exception> {
         let code = pdu.first().copied().unwrap_or(0);
         let (start, b) = (word(pdu, 1), word(pdu, 3));
-        // FC 15 (0x0F) and 16 (0x10) write what FC 5 and 6 write, many values at once: the
-        // checks below work on the code of the single write and the kind of request.
         let multiple = code.wrapping_sub(FunctionCode::WriteMultipleCoils.value()) < 2;
         let single = if multiple { code - 10 } else { code };
         if single.wrapping_sub(FunctionCode::ReadCoils.value()) > 5 {
             return Err(Exception::IllegalFunction);
         }
         let coil = single == FunctionCode::WriteSingleCoil.value();
-        let access = if single >= FunctionCode::WriteSingleCoil.value() { Access::Write } else { Access::Read };
-        let table = match access {
-            Access::Read => read_table(single),
-            Access::Write if coil => Table::Coils,
-            Access::Write => Table::HoldingRegisters,
-        };
-        let (qty, data_at) = if multiple {
-            written_values_check(pdu, len, 6, table, b, max_write(table))?;
-            (b, 6)
+        let (access, table, max) = if single < FunctionCode::WriteSingleCoil.value() {
+            let table = read_table(single);
+            (Access::Read, table, max_read(table))
         } else {
-            value_check(len == 5)?;
-            if access == Access::Read {
-                quantity_check(b, max_read(table))?;
-                (b, 2)
-            } else {
-                value_check(!coil || b == COIL_ON || b == COIL_OFF)?;
-                (1, 3)
-            }
+            let table = if coil { Table::Coils } else { Table::HoldingRegisters };
+            (Access::Write, table, max_write(table))
         };
+        // FC 5 and 6 write one value, given where the others give the quantity.
+        let (qty, data_at) = match access {
+            Access::Write if !multiple => (1, 3),
+            _ => (b, if multiple { 6 } else { 2 }),
+        };
+        quantity_check(qty, max)?;
+        // At most 250: 2000 bits, 125 registers.
+        let data_len = byte_count(table, qty) as u8;
+        let length_ok =
+            if multiple { pdu.get(5) == Some(&data_len) && len == 6 + usize::from(data_len) } else { len == 5 };
+        value_check(length_ok && (!coil || multiple || b == COIL_ON || b == COIL_OFF))?;
         range_check(start, qty)?;
-        Ok(Request { table, start, qty, access, data_at })
+        Ok(Request { table, start, qty, access, data_at, data_len })
     }
 
     /// True for the requests that change data (the ones a broadcast executes).
     pub fn is_write(&self) -> bool {
         self.access == Access::Write
-    }
-
-    /// Bytes of the data field: packed bits, or two per register.
-    pub fn data_len(&self) -> usize {
-        usize::from(byte_count(self.table, self.qty))
     }
 }
 
@@ -355,10 +356,9 @@ pub(crate) fn execute<M: DataModel + ?Sized>(
     if !reply && !request.is_write() {
         return Ok(0);
     }
-    let Request { table, start, qty, access, data_at } = request;
-    let bytes = request.data_len();
-    let data =
-        pdu.get_mut(data_at..data_at + bytes).ok_or_else(|| oversized::range_exception(model, table, start, qty))?;
+    let Request { table, start, qty, access, data_at, data_len } = request;
+    let (at, bytes) = (usize::from(data_at), usize::from(data_len));
+    let data = pdu.get_mut(at..at + bytes).ok_or_else(|| oversized::range_exception(model, table, start, qty))?;
     model.transfer(access, table, start, qty, data)?;
     if request.is_write() {
         // The response of a write is the first five bytes of its request: an echo for
@@ -366,7 +366,7 @@ pub(crate) fn execute<M: DataModel + ?Sized>(
         return Ok(5);
     }
     if let Some(count) = pdu.get_mut(1) {
-        *count = bytes as u8;
+        *count = data_len;
     }
     Ok(2 + bytes)
 }

@@ -792,7 +792,14 @@ fn request_parse_applies_the_65536_limit() {
     assert_eq!(Request::parse(&read_pdu(0x03, 0xFFFF, 2), 5), Err(Exception::IllegalDataAddress));
     assert_eq!(
         Request::parse(&read_pdu(0x03, 0xFFFF, 1), 5),
-        Ok(Request { table: Table::HoldingRegisters, start: 0xFFFF, qty: 1, access: Access::Read, data_at: 2 })
+        Ok(Request {
+            table: Table::HoldingRegisters,
+            start: 0xFFFF,
+            qty: 1,
+            access: Access::Read,
+            data_at: 2,
+            data_len: 2
+        })
     );
     let pdu = write_multiple_pdu(0x0F, 0xFFF9, 8, &[0xFF]);
     assert_eq!(Request::parse(&pdu, pdu.len()), Err(Exception::IllegalDataAddress));
