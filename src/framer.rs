@@ -162,7 +162,9 @@ impl<const N: usize> Framer<N> {
         self.stored() + usize::from(self.past)
     }
 
-    /// Silence: the next character starts a frame.
+    /// Silence: the next character starts a frame. Not inlined: several paths of the
+    /// interrupts end here.
+    #[inline(never)]
     fn listen(&mut self) {
         self.state = State::Idle;
         self.past = 0;
@@ -254,6 +256,7 @@ impl<const N: usize> Framer<N> {
     }
 
     /// The reply (if any) is sent: listen for the next frame.
+    #[inline(never)]
     pub fn release(&mut self) {
         if self.state == State::Busy {
             self.listen();
