@@ -86,12 +86,23 @@ pub struct Engine<const N: usize = MAX_FRAME> {
     id: SlaveId,
     /// The counters, in the order of [`Counters`]'s fields (see [`Count`]).
     counts: [u16; COUNTS],
-    /// What [`Engine::on_end_deadline`] decided for the frame not yet processed
-    /// ([`EndOfFrame::Nothing`] when there is none), and its length.
-    pending: EndOfFrame,
+    /// What [`Engine::on_end_deadline`] decided for the frame not yet processed, and its
+    /// length.
+    pending: Pending,
     pending_len: usize,
     reply_len: usize,
     listen_only: bool,
+}
+
+/// A frame [`Engine::on_end_deadline`] accepted and [`Engine::process`] has yet to
+/// handle: the ends of [`EndOfFrame`] that lead to processing. `None`, 0, is what a
+/// slave at rest holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Pending {
+    None,
+    Reply,
+    Broadcast,
+    Silent,
 }
 
 /// A counter's place in [`Engine::counts`]: the order of [`Counters`]'s fields.
@@ -144,7 +155,7 @@ impl<const N: usize> Engine<N> {
             framer: Framer::new(),
             id,
             counts: [0; COUNTS],
-            pending: EndOfFrame::Nothing,
+            pending: Pending::None,
             pending_len: 0,
             reply_len: 0,
             listen_only: false,
@@ -230,17 +241,17 @@ impl<const N: usize> Engine<N> {
         }
         // Whether anything will be sent is decided here, before the first byte could
         // leave: the AVR layer starts the reply with the address as soon as this returns.
-        let end = if self.is_silent(broadcast, len) {
-            EndOfFrame::Silent
+        let (pending, end) = if self.is_silent(broadcast, len) {
+            (Pending::Silent, EndOfFrame::Silent)
         } else if broadcast {
-            EndOfFrame::Broadcast
+            (Pending::Broadcast, EndOfFrame::Broadcast)
         } else {
-            EndOfFrame::Reply
+            (Pending::Reply, EndOfFrame::Reply)
         };
-        if end != EndOfFrame::Reply {
+        if pending != Pending::Reply {
             self.bump(Count::NoResponse);
         }
-        self.pending = end;
+        self.pending = pending;
         self.pending_len = len;
         end
     }
@@ -283,14 +294,14 @@ impl<const N: usize> Engine<N> {
     /// the CRC itself as the bytes go out.
     pub fn prepare<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
         let len = self.pending_len;
-        match core::mem::replace(&mut self.pending, EndOfFrame::Nothing) {
-            EndOfFrame::Reply => self.answer(len, model, true),
-            EndOfFrame::Broadcast => self.answer(len, model, false),
-            EndOfFrame::Silent => {
+        match core::mem::replace(&mut self.pending, Pending::None) {
+            Pending::Reply => self.answer(len, model, true),
+            Pending::Broadcast => self.answer(len, model, false),
+            Pending::Silent => {
                 self.stay_silent(len);
                 0
             }
-            _ => 0,
+            Pending::None => 0,
         }
     }
 
@@ -413,7 +424,7 @@ impl<const N: usize> Engine<N> {
     /// The reply's last byte left the USART: listen again.
     pub fn on_reply_sent(&mut self) {
         // A frame accepted but never processed is abandoned with the buffer.
-        self.pending = EndOfFrame::Nothing;
+        self.pending = Pending::None;
         self.reply_len = 0;
         self.framer.release();
     }
