@@ -422,11 +422,12 @@ impl<const N: usize> Engine<N> {
     }
 
     /// The reply's last byte left the USART: listen again.
+    #[inline(always)]
     pub fn on_reply_sent(&mut self) {
         // A frame accepted but never processed is abandoned with the buffer.
         self.pending = Pending::None;
         self.reply_len = 0;
-        self.framer.release();
+        self.framer.release_here();
     }
 
     /// Handles one whole frame as if it had arrived with correct timing: T3.5 of silence,

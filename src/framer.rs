@@ -166,6 +166,12 @@ impl<const N: usize> Framer<N> {
     /// interrupts end here.
     #[inline(never)]
     fn listen(&mut self) {
+        self.idle();
+    }
+
+    /// [`Framer::listen`]'s stores, written where they run.
+    #[inline(always)]
+    fn idle(&mut self) {
         self.state = State::Idle;
         self.past = 0;
         self.tail = Crc16::tail();
@@ -260,6 +266,15 @@ impl<const N: usize> Framer<N> {
     pub fn release(&mut self) {
         if self.state == State::Busy {
             self.listen();
+        }
+    }
+
+    /// [`Framer::release`] written where it runs: for the transmit-complete interrupt,
+    /// which then calls nothing and saves only the registers it uses.
+    #[inline(always)]
+    pub(crate) fn release_here(&mut self) {
+        if self.state == State::Busy {
+            self.idle();
         }
     }
 

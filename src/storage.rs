@@ -139,9 +139,10 @@ pub(crate) fn transfer_bits(bits: &mut [u8], first: usize, qty: u16, data: &mut 
 #[inline(always)]
 pub(crate) fn transfer_words(words: &mut [Word], first: usize, data: &mut [u8], access: Access) {
     for (slot, pair) in words.get_mut(first..).unwrap_or(&mut []).iter_mut().zip(data.chunks_exact_mut(2)) {
-        match access {
-            Access::Read => pair.copy_from_slice(slot),
-            Access::Write => slot.copy_from_slice(pair),
-        }
+        let (from, to): (&[u8], &mut [u8]) = match access {
+            Access::Read => (slot, pair),
+            Access::Write => (pair, slot),
+        };
+        to.copy_from_slice(from);
     }
 }
