@@ -151,9 +151,11 @@ impl<const N: usize> Framer<N> {
 
     /// Bytes stored in the frame so far (inside a frame: 1 to `N`).
     fn stored(&self) -> usize {
-        match self.len {
-            0 => MAX_FRAME,
-            len => usize::from(len),
+        // Only a 256-byte buffer fills up to a count of 0.
+        if N == MAX_FRAME && self.len == 0 {
+            MAX_FRAME
+        } else {
+            usize::from(self.len)
         }
     }
 
