@@ -200,8 +200,13 @@ impl Pins {
 /// answers half its map.
 pub fn halt(error: Error) -> ! {
     let _ = error;
-    Pin::new(PINB, 5).into_output().set_high();
-    reg::free(|| loop {
-        core::hint::spin_loop();
+    // Pin 13 is PB5: an output (DDRB), driven high (PORTB).
+    reg::free(|| {
+        let led = Pin::new(PINB, 5);
+        led.register(1).modify(|bits| bits | led.mask);
+        led.register(2).modify(|bits| bits | led.mask);
+        loop {
+            core::hint::spin_loop();
+        }
     })
 }
