@@ -196,7 +196,7 @@ impl<const N: usize> Framer<N> {
         }
     }
 
-    /// The gap deadline passed since the last character (compare A): the frame has ended
+    /// The gap deadline passed since the last character: the frame has ended
     /// unless a character breaks it, so its length and CRC are checked now, well before
     /// T3.5.
     pub fn on_gap_deadline(&mut self) {
@@ -223,7 +223,7 @@ impl<const N: usize> Framer<N> {
         }
     }
 
-    /// T3.5 of silence passed since the last character (compare B). Returns the complete
+    /// T3.5 of silence passed since the last character. Returns the complete
     /// frame's length (with CRC) when one just ended with a good CRC, or why it was
     /// dropped; `None` when no frame was in progress.
     ///

@@ -225,19 +225,87 @@ impl Deadline {
 
 /// Timer0 settings for the frame detector: a deadline for the inter-character gap
 /// ([`CharTimes::gap_deadline_ns`]) and one for the end of frame (T3.5), both counted from
-/// the end of the last received character.
+/// the end of the last received character, on one compare unit.
+///
+/// The receive interrupt sets the compare value for the gap deadline (TCNT0 as read +
+/// `gap.low`). When the gap deadline passes, the compare interrupt moves the compare value
+/// on by [`TimerPlan::to_end`], to the value T3.5 would have had (TCNT0 as read +
+/// `end.low`), and counts on: T3.5 passes at the compare match [`TimerPlan::end_match`]
+/// since the character, at the very tick edge [`Deadline::edges`] gives for `end`. One
+/// compare interrupt serves both silences.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TimerPlan {
-    /// Compare A: a character reported after this had a gap longer than T1.5.
+    /// A character reported after this had a gap longer than T1.5.
     pub gap: Deadline,
-    /// Compare B: T3.5 of silence, the frame is complete.
+    /// T3.5 of silence, the frame is complete.
     pub end: Deadline,
+}
+
+/// What a match of the compare value means, for a count of the matches before it since the
+/// character ([`TimerPlan::on_match`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Passed {
+    /// Neither deadline: a turn to let pass, or a match after T3.5 (none is set).
+    Nothing,
+    /// The gap deadline: move the compare value on by [`TimerPlan::to_end`], and count on
+    /// from [`TimerPlan::count_after_gap`].
+    Gap,
+    /// T3.5: no deadline is set until the next character.
+    End,
 }
 
 impl TimerPlan {
     /// The two deadlines for `times` at `clock_hz`.
     pub const fn new(times: CharTimes, clock_hz: u32) -> Self {
         TimerPlan { gap: Deadline::new(times.gap_deadline_ns(), clock_hz), end: Deadline::new(times.t35_ns, clock_hz) }
+    }
+
+    /// How far the compare value moves at the gap deadline, modulo 256: from the gap
+    /// deadline's value to T3.5's.
+    pub const fn to_end(self) -> u8 {
+        self.end.low.wrapping_sub(self.gap.low)
+    }
+
+    /// The number of the compare match since the character (the first is 0) at which T3.5
+    /// passes. T3.5's value matches once a turn from the character on; the first of its
+    /// matches the compare unit sees comes in the turn of the gap deadline if it lies after
+    /// the gap deadline's value there, else a turn later.
+    pub const fn end_match(self) -> u8 {
+        if self.end.low > self.gap.low {
+            self.end.turns + 1
+        } else {
+            self.end.turns
+        }
+    }
+
+    /// The count of matches after the gap deadline's, when the compare interrupt that
+    /// moved the compare value read TCNT0 `elapsed` ticks past the gap deadline's value,
+    /// before it wrote the new one: T3.5's value has already gone by in this turn when
+    /// TCNT0 is past it (the interrupt came that late), and that match is counted as seen.
+    /// A read of T3.5's value itself must wait for the next tick edge before it writes
+    /// (the match would come, or not, as the write falls): `elapsed` is then one more.
+    pub const fn count_after_gap(self, elapsed: u8) -> u8 {
+        let to_end = self.to_end();
+        if to_end != 0 && elapsed > to_end {
+            self.gap.turns + 2
+        } else {
+            self.gap.turns + 1
+        }
+    }
+
+    /// The compare value matched, `matches` counted before this one since the character:
+    /// what passed, and the count to keep (past [`TimerPlan::end_match`] once T3.5 has
+    /// passed, where it stays until the next character).
+    pub const fn on_match(self, matches: u8) -> (Passed, u8) {
+        if matches == self.gap.turns {
+            (Passed::Gap, matches)
+        } else if matches == self.end_match() {
+            (Passed::End, u8::MAX)
+        } else if matches < self.end_match() {
+            (Passed::Nothing, matches + 1)
+        } else {
+            (Passed::Nothing, matches)
+        }
     }
 }
 

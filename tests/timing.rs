@@ -9,7 +9,7 @@
 //! `ACCURACY_CYCLES` and a tick for a deadline one edge later because its compare value
 //! would have been the count read.
 
-use avr_modbus_slave::internal::timing::{Deadline, CLOCK_HZ, RX_LATENCY_CYCLES, TIMER0_DIVISOR};
+use avr_modbus_slave::internal::timing::{Deadline, Passed, TimerPlan, CLOCK_HZ, RX_LATENCY_CYCLES, TIMER0_DIVISOR};
 use avr_modbus_slave::{Config, Parity, StopBits};
 
 /// The documented accuracy: a deadline passes less than 130 cycles (8.1 µs) after the
@@ -147,4 +147,74 @@ fn rates_reported_late_before_are_within_the_accuracy() {
     ] {
         check_config(baud, parity, stop_bits).expect("accepted");
     }
+}
+
+/// Tick edges from the receive interrupt's read of TCNT0 (`t0`) to the compare matches at
+/// which the one compare unit reports the gap deadline and T3.5, when the interrupt that
+/// moves the compare value at the gap deadline reads TCNT0 `late` edges after the match:
+/// the arithmetic of `TimerPlan` played against a counter, as `avr::timer` runs it.
+fn one_compare_edges(plan: TimerPlan, t0: u8, late: u32) -> (u32, u32) {
+    let tcnt = |edge: u32| t0.wrapping_add(edge as u8);
+    // A match of `value` is the edge that takes TCNT0 from `value` to `value + 1`.
+    let next_match = |value: u8, after: u32| (after + 1..).find(|&e| tcnt(e) == value.wrapping_add(1)).unwrap();
+    let mut value = t0.wrapping_add(plan.gap.low);
+    let (mut matches, mut edge, mut gap) = (0, 0, None);
+    loop {
+        edge = next_match(value, edge);
+        let (passed, count) = plan.on_match(matches);
+        matches = count;
+        match passed {
+            Passed::Nothing => {}
+            Passed::Gap => {
+                gap = Some(edge);
+                // The interrupt reads TCNT0 `late` edges on; if that is T3.5's value, it
+                // waits for the next edge before it writes.
+                let mut write = edge + late;
+                let mut elapsed = tcnt(write).wrapping_sub(value);
+                if plan.to_end() != 0 && elapsed == plan.to_end() {
+                    write += 1;
+                    elapsed = elapsed.wrapping_add(1);
+                }
+                value = value.wrapping_add(plan.to_end());
+                matches = plan.count_after_gap(elapsed);
+                // Matches of the new value come after the write: an edge to it that came
+                // before is not seen.
+                edge = write;
+            }
+            Passed::End => return (gap.expect("the gap deadline passes first"), edge),
+        }
+    }
+}
+
+#[test]
+fn one_compare_unit_reports_both_deadlines_at_their_edges_however_late_the_move() {
+    let (mut configs, mut waits, mut seen_late) = (0, 0, 0);
+    for baud in (Config::MIN_BAUD..=Config::MAX_BAUD).step_by(100) {
+        for (parity, stop_bits) in FORMATS {
+            let Ok(config) = Config::try_new(1, baud, parity, stop_bits) else { continue };
+            let plan = config.timer_plan();
+            configs += 1;
+            for t0 in [0, 1, 127, 254, 255] {
+                // Up to 16 edges late (1024 cycles): the longest interrupt or critical section.
+                for late in 0..=16 {
+                    let (gap, end) = one_compare_edges(plan, t0, late);
+                    assert_eq!(
+                        gap,
+                        plan.gap.edges(),
+                        "{baud} {parity:?} {stop_bits:?} t0 {t0} late {late}: gap deadline"
+                    );
+                    assert_eq!(end, plan.end.edges(), "{baud} {parity:?} {stop_bits:?} t0 {t0} late {late}: T3.5");
+                    let to_end = u32::from(plan.to_end());
+                    waits += u32::from(to_end != 0 && late + 1 == to_end);
+                    seen_late += u32::from(to_end != 0 && late + 1 > to_end);
+                }
+            }
+        }
+    }
+    eprintln!(
+        "{configs} configurations: the move waited for an edge {waits} times, found T3.5's value gone by \
+         {seen_late} times"
+    );
+    // Both corner cases of the move are exercised.
+    assert!(waits > 0 && seen_late > 0);
 }

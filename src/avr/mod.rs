@@ -60,8 +60,8 @@ pub mod __private {
     }
 }
 
-/// Declares the slave `NAME` for a data model type and binds the five interrupts it needs:
-/// USART0 RX complete, data register empty and TX complete, Timer0 compare A and B (the
+/// Declares the slave `NAME` for a data model type and binds the four interrupts it needs:
+/// USART0 RX complete, data register empty and TX complete, and Timer0 compare B (the
 /// silences). With feature `millis` the crate binds Timer0's overflow too, the clock of
 /// `millis()`.
 ///
@@ -85,18 +85,11 @@ macro_rules! slave {
         #[doc(hidden)]
         #[allow(non_snake_case)]
         mod __avr_modbus_slave_interrupts {
-            /// TIMER0_COMPA: the inter-character gap deadline.
-            #[export_name = "__vector_14"]
-            unsafe extern "avr-interrupt" fn TIMER0_COMPA() {
-                // SAFETY: an interrupt handler, which runs with interrupts disabled.
-                unsafe { super::$name.on_timer_compare_a() }
-            }
-
-            /// TIMER0_COMPB: T3.5.
+            /// TIMER0_COMPB: the gap deadline, then T3.5.
             #[export_name = "__vector_15"]
             unsafe extern "avr-interrupt" fn TIMER0_COMPB() {
-                // SAFETY: as above.
-                unsafe { super::$name.on_timer_compare_b() }
+                // SAFETY: an interrupt handler, which runs with interrupts disabled.
+                unsafe { super::$name.on_timer_compare() }
             }
 
             /// USART_RX: a character arrived.

@@ -12,7 +12,7 @@ use embedded_hal::digital::OutputPin;
 
 use super::pins::NoPin;
 use super::reg::{self, claim};
-use super::timer::{Expired, FrameTimer};
+use super::timer::{FrameTimer, Passed};
 use super::usart::Usart;
 use crate::config::Config;
 use crate::engine::{Counters, EndOfFrame, Engine};
@@ -70,21 +70,18 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE,
         }
     }
 
-    /// Timer0 compare A: the inter-character gap deadline.
+    /// Timer0 compare B: the inter-character gap deadline, or T3.5 of silence. A frame
+    /// for this slave is answered from here: the address goes out first, then the request
+    /// is processed and the reply's CRC appended while it is on the wire.
     #[inline(always)]
-    fn on_timer_compare_a(&mut self) {
-        if self.timer.on_compare_a() == Expired::Now {
-            self.engine.on_gap_deadline();
-        }
-    }
-
-    /// Timer0 compare B: T3.5 of silence. A frame for this slave is answered from here:
-    /// the address goes out first, then the request is processed and the reply's CRC
-    /// appended while it is on the wire.
-    #[inline(always)]
-    fn on_timer_compare_b(&mut self) {
-        if self.timer.on_compare_b() == Expired::NotYet {
-            return;
+    fn on_timer_compare(&mut self) {
+        match self.timer.on_compare() {
+            Passed::Nothing => return,
+            Passed::Gap => {
+                self.engine.on_gap_deadline();
+                return;
+            }
+            Passed::End => {}
         }
         // A character that arrived while interrupts were held off (this interrupt outranks
         // the receive one) was on the wire before T3.5 expired: the silence starts over,
@@ -317,20 +314,9 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Slave<M, DE, L
     /// As for [`Slave::on_usart_rx`].
     #[doc(hidden)]
     #[inline(always)]
-    pub unsafe fn on_timer_compare_a(&self) {
-        // SAFETY: a Timer0 interrupt handler (the caller's promise).
-        unsafe { self.access_in_handler(Running::on_timer_compare_a) };
-    }
-
-    /// See [`Slave::on_usart_rx`].
-    ///
-    /// # Safety
-    /// As for [`Slave::on_usart_rx`].
-    #[doc(hidden)]
-    #[inline(always)]
-    pub unsafe fn on_timer_compare_b(&self) {
-        // SAFETY: a Timer0 interrupt handler (the caller's promise).
-        unsafe { self.access_in_handler(Running::on_timer_compare_b) };
+    pub unsafe fn on_timer_compare(&self) {
+        // SAFETY: the Timer0 compare interrupt handler (the caller's promise).
+        unsafe { self.access_in_handler(Running::on_timer_compare) };
     }
 
     /// Runs `f` on the data model with interrupts disabled: `None` before

@@ -1,10 +1,12 @@
 //! Timer0, ATmega328P datasheet §15 (8-bit Timer/Counter0): the RTU silence detector, and
 //! with feature `millis` the application's millisecond clock too (`super::clock`). It runs
 //! freely in normal mode at clk/64 from the slave's start and is never stopped or written
-//! again; each received character sets compare A (the gap deadline) and compare B (T3.5)
-//! relative to the counter's current value, the compare interrupts counting the whole turns
-//! still to wait (`src/timing.rs` has the arithmetic). The compare interrupts stay enabled:
-//! with no deadline set, their matches (one each per turn) find nothing to do.
+//! again. Each received character sets compare B to the gap deadline relative to the
+//! counter's current value; when that passes, the compare interrupt moves compare B on to
+//! T3.5, counting the whole turns still to wait (`src/timing.rs` has the arithmetic,
+//! [`TimerPlan`]). One compare unit and one interrupt serve both silences; compare A is not
+//! used. The compare interrupt stays enabled: with no deadline set, its match (once a turn)
+//! finds nothing to do.
 //!
 //! Timer0 is one peripheral, so its state lives in statics, like its registers: the
 //! deadlines here, the clock in `super::clock`. They are only touched with interrupts
@@ -12,10 +14,10 @@
 
 use core::cell::UnsafeCell;
 
-use super::reg::{OCR0A, OCR0B, TCCR0A, TCCR0B, TCNT0, TIFR0, TIMSK0};
+use super::reg::{OCR0B, TCCR0A, TCCR0B, TCNT0, TIFR0, TIMSK0};
+pub(crate) use crate::timing::Passed;
 use crate::timing::{Deadline, TimerPlan, TIMER0_CLOCK_SELECT};
 
-const OCIE0A: u8 = 1 << 1;
 const OCIE0B: u8 = 1 << 2;
 pub(crate) const TOV0: u8 = 1 << 0;
 const OCF0A: u8 = 1 << 1;
@@ -41,34 +43,26 @@ impl<T> Exclusive<T> {
 }
 
 /// The silence deadlines: the plan of the configuration (compare offsets and whole turns),
-/// how many matches of each compare value the compare interrupts have let pass since the
-/// last character, and the compare flags found already set when the deadlines were set
-/// (stale: their interrupts are not a match of the new values). The receive interrupt only
-/// reads TCNT0 and TIFR0, writes the compare registers, and zeroes the two counts.
-/// `repr(C)`: the counts apart, so that each is zeroed from the zero register instead of a
-/// pair loaded for a 16-bit store.
-#[repr(C)]
+/// how many matches of compare B the compare interrupt has seen since the last character
+/// ([`TimerPlan::on_match`]), and the compare flags found already set when the deadline
+/// was set (stale: their interrupt is not a match of the new value). The receive interrupt
+/// only reads TCNT0 and TIFR0, writes the compare register, and zeroes the count.
 struct Deadlines {
-    gap_matches: u8,
+    matches: u8,
     plan: TimerPlan,
-    end_matches: u8,
     stale: u8,
 }
-
-/// A match count past any deadline's turns: the deadline has passed.
-const PASSED: u8 = u8::MAX;
 
 /// All zero until [`FrameTimer::new`] writes the plan and parks the deadlines, before any
 /// of Timer0's interrupts is enabled: in `.bss`, with no initial value kept in flash.
 static DEADLINES: Exclusive<Deadlines> = Exclusive(UnsafeCell::new(Deadlines {
-    gap_matches: 0,
+    matches: 0,
     plan: TimerPlan { gap: Deadline { low: 0, turns: 0 }, end: Deadline { low: 0, turns: 0 } },
-    end_matches: 0,
     stale: 0,
 }));
 
-/// A character arrived: sets both deadlines from now, first thing in the receive
-/// interrupt, so that they count from as close to RXC0 as can be
+/// A character arrived: the gap deadline (and after it T3.5) counts from now, first thing
+/// in the receive interrupt, so that it counts from as close to RXC0 as can be
 /// (`timing::RX_LATENCY_CYCLES`). Only from the receive interrupt handler.
 #[inline(always)]
 pub(crate) fn on_receive() {
@@ -77,69 +71,77 @@ pub(crate) fn on_receive() {
 }
 
 impl Deadlines {
-    /// Both deadlines count from now: one read of TCNT0, no wait for a tick edge (see
-    /// [`Deadline`] for the accuracy that follows). Interrupts must be disabled.
+    /// The gap deadline (and after it T3.5) counts from now: one read of TCNT0, no wait for
+    /// a tick edge (see [`Deadline`] for the accuracy that follows). Interrupts must be
+    /// disabled.
     ///
-    /// The compare interrupts stay enabled, so a compare flag already set once the compare
-    /// registers are written is a match of the old values during this interrupt, pending:
-    /// no match of the new values can come so soon (`low` is at least 1, two tick edges
-    /// away). Such a flag is noted, and its interrupt let pass. (Clearing it through TIFR0
-    /// would do on the ATmega328P, but under simavr 1.6 the simulated clock then loses
-    /// turns (`tests/sim_clock.rs` saw it: the write also clears a pending overflow). And
-    /// masking a compare interrupt between deadlines made simavr late by a turn: a flag
-    /// that rose while masked, noted here, brought no interrupt once unmasked there, though
-    /// it does on the silicon. Hence no masking, and a compare interrupt each per turn.)
+    /// The compare interrupt stays enabled, so a compare flag already set once the compare
+    /// register is written is a match of the old value during this interrupt, pending: no
+    /// match of the new value can come so soon (`low` is at least 1, two tick edges away).
+    /// Such a flag is noted, and its interrupt let pass. (Clearing it through TIFR0 would
+    /// do on the ATmega328P, but under simavr 1.6 the simulated clock then loses turns
+    /// (`tests/sim_clock.rs` saw it: the write also clears a pending overflow). And masking
+    /// the compare interrupt between deadlines made simavr late by a turn: a flag that rose
+    /// while masked, noted here, brought no interrupt once unmasked there, though it does
+    /// on the silicon. Hence no masking, and a compare interrupt each turn.)
     #[inline(always)]
     fn set(&mut self) {
         let tcnt = TCNT0.read();
-        OCR0A.write(tcnt.wrapping_add(self.plan.gap.low));
-        OCR0B.write(tcnt.wrapping_add(self.plan.end.low));
+        OCR0B.write(tcnt.wrapping_add(self.plan.gap.low));
         self.stale = TIFR0.read();
-        self.gap_matches = 0;
-        self.end_matches = 0;
+        self.matches = 0;
     }
 
-    /// No deadline until the next character: the compare interrupts, which keep coming
-    /// once a turn, find nothing to do.
+    /// No deadline until the next character: the compare interrupt, which keeps coming
+    /// once a turn, finds nothing to do.
     fn park(&mut self) {
-        self.gap_matches = PASSED;
-        self.end_matches = PASSED;
+        self.matches = u8::MAX;
     }
 
-    /// A compare interrupt whose flag `flag` was noted stale: lets it pass, once.
+    /// The gap deadline passed: compare B moves on to T3.5's value, and the count to the
+    /// matches seen of it ([`TimerPlan::count_after_gap`]). TCNT0 is read before the write;
+    /// when it reads T3.5's value itself, the write waits for the next tick edge (at most
+    /// a tick, 64 cycles), so that whether the match comes does not hang on the moment of
+    /// the write.
     #[inline(always)]
-    fn was_stale(&mut self, flag: u8) -> bool {
-        if self.stale & flag == 0 {
+    fn move_to_end(&mut self) {
+        let gap_value = OCR0B.read();
+        let to_end = self.plan.to_end();
+        let read = TCNT0.read();
+        let mut elapsed = read.wrapping_sub(gap_value);
+        if to_end != 0 && elapsed == to_end {
+            while TCNT0.read() == read {}
+            elapsed = elapsed.wrapping_add(1);
+        }
+        OCR0B.write(gap_value.wrapping_add(to_end));
+        self.matches = self.plan.count_after_gap(elapsed);
+    }
+
+    /// A compare interrupt whose flag was noted stale: lets it pass, once.
+    #[inline(always)]
+    fn was_stale(&mut self) -> bool {
+        if self.stale & OCF0B == 0 {
             return false;
         }
-        self.stale &= !flag;
+        self.stale &= !OCF0B;
         true
     }
 }
 
-/// Sets both deadlines from now, outside the receive interrupt.
+/// Sets the deadlines from now, outside the receive interrupt.
 #[inline(never)]
 fn set_now() {
     // SAFETY: only called by `FrameTimer::restart`, with interrupts disabled.
     unsafe { DEADLINES.with(Deadlines::set) }
 }
 
-/// Which deadline a compare interrupt reported.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Expired {
-    /// Not now: an earlier match of the same compare value, or one with no deadline set.
-    NotYet,
-    /// The deadline passed.
-    Now,
-}
-
 /// The slave's hold on Timer0's deadlines (the plan lives with them, above).
 pub(crate) struct FrameTimer(());
 
 impl FrameTimer {
-    /// Starts Timer0 from zero with its compare interrupts on (and the overflow interrupt,
-    /// the clock of `millis()`, with feature `millis`) and no deadline set, for `plan`. The slave owns Timer0: it took the application's `TC0`.
-    /// Call with interrupts disabled.
+    /// Starts Timer0 from zero with its compare B interrupt on (and the overflow interrupt,
+    /// the clock of `millis()`, with feature `millis`) and no deadline set, for `plan`. The
+    /// slave owns Timer0: it took the application's `TC0`. Call with interrupts disabled.
     pub(crate) fn new(plan: TimerPlan) -> Self {
         // Stopped, normal mode, no output compare pins, interrupts off, counter and flags
         // cleared: from here on nothing writes TCCR0x or TCNT0 again.
@@ -150,7 +152,7 @@ impl FrameTimer {
         TIFR0.write(TOV0 | OCF0A | OCF0B);
         let mut timer = FrameTimer(());
         timer.plan(plan);
-        TIMSK0.write(super::clock::OVERFLOW_INTERRUPT | OCIE0A | OCIE0B);
+        TIMSK0.write(super::clock::OVERFLOW_INTERRUPT | OCIE0B);
         TCCR0B.write(TIMER0_CLOCK_SELECT);
         timer
     }
@@ -172,52 +174,31 @@ impl FrameTimer {
         self.plan(plan);
     }
 
-    /// Both deadlines count from now: at start-up, and when T3.5 finds a character not yet
+    /// The deadlines count from now: at start-up, and when T3.5 finds a character not yet
     /// taken (the receive interrupt sets them itself, [`on_receive`]). Interrupts must be
     /// disabled.
     pub(crate) fn restart(&mut self) {
         set_now();
     }
 
-    /// Compare A fired: has the gap deadline passed (its last match)?
+    /// Compare B fired: which deadline passed, if one did. At the gap deadline the compare
+    /// value moves on to T3.5's; after T3.5 no deadline is set until the next character, and
+    /// the timer runs on.
     #[inline(always)]
-    pub(crate) fn on_compare_a(&mut self) -> Expired {
+    pub(crate) fn on_compare(&mut self) -> Passed {
         // SAFETY: called from the compare interrupt handler, with interrupts disabled.
         unsafe {
-            DEADLINES.with(|d| if d.was_stale(OCF0A) { Expired::NotYet } else { count(&mut d.gap_matches, d.plan.gap) })
-        }
-    }
-
-    /// Compare B fired: has T3.5 passed (its last match)? Then neither deadline is set until
-    /// the next character; the timer runs on.
-    #[inline(always)]
-    pub(crate) fn on_compare_b(&mut self) -> Expired {
-        // SAFETY: as above.
-        unsafe {
             DEADLINES.with(|d| {
-                if d.was_stale(OCF0B) {
-                    return Expired::NotYet;
+                if d.was_stale() {
+                    return Passed::Nothing;
                 }
-                let expired = count(&mut d.end_matches, d.plan.end);
-                if expired == Expired::Now {
-                    d.park();
+                let (passed, matches) = d.plan.on_match(d.matches);
+                d.matches = matches;
+                if passed == Passed::Gap {
+                    d.move_to_end();
                 }
-                expired
+                passed
             })
         }
     }
-}
-
-/// One more match of `deadline`'s compare value, `matches` the ones before: the last one
-/// (then [`PASSED`]), or one more turn to let pass, or one after the deadline passed.
-#[inline(always)]
-fn count(matches: &mut u8, deadline: Deadline) -> Expired {
-    if *matches == deadline.turns {
-        *matches = PASSED;
-        return Expired::Now;
-    }
-    if *matches < deadline.turns {
-        *matches += 1;
-    }
-    Expired::NotYet
 }

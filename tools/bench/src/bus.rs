@@ -11,10 +11,9 @@ use crate::modbus::Request;
 pub const RAMEND: u16 = 0x08FF;
 
 /// The slave's interrupts, in table order: (vector, name).
-pub const VECTORS: [(u8, &str); 5] = [
+pub const VECTORS: [(u8, &str); 4] = [
     (vector::USART_RX, "USART_RX"),
-    (vector::TIMER0_COMPA, "TIMER0_COMPA (T1.5)"),
-    (vector::TIMER0_COMPB, "TIMER0_COMPB (T3.5)"),
+    (vector::TIMER0_COMPB, "TIMER0_COMPB (T1.5, T3.5)"),
     (vector::USART_UDRE, "USART_UDRE"),
     (vector::USART_TX, "USART_TX"),
 ];
@@ -68,7 +67,7 @@ pub struct Bus {
     /// Earliest start of the next request's first start bit.
     idle_from: u64,
     /// Interrupt cycles per entry of [`VECTORS`] since boot.
-    pub isr: [IsrTotal; 5],
+    pub isr: [IsrTotal; VECTORS.len()],
 }
 
 impl Bus {
@@ -99,7 +98,7 @@ impl Bus {
             t15,
             baud: cfg.baud(),
             idle_from,
-            isr: [IsrTotal::default(); 5],
+            isr: [IsrTotal::default(); VECTORS.len()],
         })
     }
 

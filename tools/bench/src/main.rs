@@ -242,7 +242,7 @@ struct Profile {
     /// Bytes of register and bit values in the example's data model.
     values: u64,
     stack: u16,
-    isr: [IsrTotal; 5],
+    isr: [IsrTotal; VECTORS.len()],
     /// (request label, T3.5 interrupt cycles) per workload request.
     t35: Vec<(String, u64)>,
     /// Workload requests answered right, of those sent.
@@ -263,7 +263,7 @@ fn profile(root: &Path, fw: &Firmware, log: &mut Log) -> Result<Profile> {
     let (flash, ram) = avr_size(&elf)?;
     let requests = workload(fw);
     let mut stack = 0;
-    let mut isr = [IsrTotal::default(); 5];
+    let mut isr = [IsrTotal::default(); VECTORS.len()];
     let mut t35 = Vec::new();
     // Two passes with complementary patterns: a stack byte that happens to equal the
     // pattern cannot hide the high-water mark in both.
