@@ -5,7 +5,7 @@ use super::{
     range_check, read_response, value_check, word, written_values_check, Exception, FunctionCode, MAX_READ_REGISTERS,
     MAX_READ_WRITE_REGISTERS,
 };
-use crate::model::DataModel;
+use crate::model::{Access, DataModel};
 use crate::reference::Table;
 
 /// The feature is on: the engine sends FC 22 and 23 here.
@@ -30,22 +30,23 @@ pub fn respond<M: DataModel + ?Sized>(
     if request.first().copied() == Some(FunctionCode::MaskWriteRegister.value()) {
         value_check(len == 7)?;
         let (and_mask, or_mask) = (b, word(request, 5));
-        let mut current = [0; 2];
-        model.read_registers(Table::HoldingRegisters, start, &mut current)?;
-        let value = (u16::from_be_bytes(current) & and_mask) | (or_mask & !and_mask);
-        return model.write_registers(start, &value.to_be_bytes()).map(|()| 7);
+        let mut value = [0; 2];
+        model.transfer(Access::Read, Table::HoldingRegisters, start, 1, &mut value)?;
+        let value = (u16::from_be_bytes(value) & and_mask) | (or_mask & !and_mask);
+        model.transfer(Access::Write, Table::HoldingRegisters, start, 1, &mut value.to_be_bytes())?;
+        return Ok(7);
     }
     let (write_start, write_qty) = (word(request, 5), word(request, 7));
     // Every 03 comes before any 02.
     super::quantity_check(b, MAX_READ_REGISTERS)?;
     written_values_check(request, len, 10, Table::HoldingRegisters, write_qty, MAX_READ_WRITE_REGISTERS)?;
-    let values = request.get(10..).unwrap_or(&[]);
     range_check(start, b)?;
     range_check(write_start, write_qty)?;
     if !model.has_range(Table::HoldingRegisters, start, b) {
         return Err(Exception::IllegalDataAddress);
     }
-    model.write_registers(write_start, values)?;
+    let values = pdu.get_mut(10..len).unwrap_or(&mut []);
+    model.transfer(Access::Write, Table::HoldingRegisters, write_start, write_qty, values)?;
     if reply {
         read_response(pdu, model, Table::HoldingRegisters, start, b)
     } else {
