@@ -138,11 +138,11 @@ pub(crate) fn transfer_bits(bits: &mut [u8], first: usize, qty: u16, data: &mut 
 /// index `first`) and `data`.
 #[inline(always)]
 pub(crate) fn transfer_words(words: &mut [Word], first: usize, data: &mut [u8], access: Access) {
-    for (slot, pair) in words.get_mut(first..).unwrap_or(&mut []).iter_mut().zip(data.chunks_exact_mut(2)) {
-        let (from, to): (&[u8], &mut [u8]) = match access {
-            Access::Read => (slot, pair),
-            Access::Write => (pair, slot),
-        };
-        to.copy_from_slice(from);
+    let pairs = words.get_mut(first..).unwrap_or(&mut []).iter_mut().zip(data.chunks_exact_mut(2));
+    // One loop each way: a reply of 125 registers is copied while its first byte is on the
+    // wire, and a choice per register would lengthen the silence after it.
+    match access {
+        Access::Read => pairs.for_each(|(slot, pair)| pair.copy_from_slice(slot)),
+        Access::Write => pairs.for_each(|(slot, pair)| slot.copy_from_slice(pair)),
     }
 }
