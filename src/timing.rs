@@ -232,7 +232,7 @@ impl Deadline {
 /// on by [`TimerPlan::to_end`], to the value T3.5 would have had (TCNT0 as read +
 /// `end.low`), and counts on: T3.5 passes at the compare match [`TimerPlan::end_match`]
 /// since the character, at the very tick edge [`Deadline::edges`] gives for `end`. One
-/// compare interrupt serves both silences.
+/// compare interrupt serves both silences; it works with the plan's [`Schedule`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TimerPlan {
     /// A character reported after this had a gap longer than T1.5.
@@ -242,13 +242,13 @@ pub struct TimerPlan {
 }
 
 /// What a match of the compare value means, for a count of the matches before it since the
-/// character ([`TimerPlan::on_match`]).
+/// character ([`Schedule::on_match`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Passed {
     /// Neither deadline: a turn to let pass, or a match after T3.5 (none is set).
     Nothing,
     /// The gap deadline: move the compare value on by [`TimerPlan::to_end`], and count on
-    /// from [`TimerPlan::count_after_gap`].
+    /// from [`Schedule::count_after_gap`].
     Gap,
     /// T3.5: no deadline is set until the next character.
     End,
@@ -278,6 +278,34 @@ impl TimerPlan {
         }
     }
 
+    /// What the compare interrupt works with, worked out once for the configuration.
+    pub const fn schedule(self) -> Schedule {
+        Schedule {
+            gap_low: self.gap.low,
+            gap_turns: self.gap.turns,
+            to_end: self.to_end(),
+            end_match: self.end_match(),
+        }
+    }
+}
+
+/// A [`TimerPlan`] as the receive and compare interrupts use it ([`TimerPlan::schedule`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Schedule {
+    /// Added to TCNT0 as read: the gap deadline's compare value ([`Deadline::low`]).
+    pub gap_low: u8,
+    /// The gap deadline's whole turns ([`Deadline::turns`]).
+    pub gap_turns: u8,
+    /// [`TimerPlan::to_end`].
+    pub to_end: u8,
+    /// [`TimerPlan::end_match`].
+    pub end_match: u8,
+}
+
+impl Schedule {
+    /// No deadline: what the compare interrupt works with before the slave starts.
+    pub const NONE: Schedule = Schedule { gap_low: 0, gap_turns: 0, to_end: 0, end_match: 0 };
+
     /// The count of matches after the gap deadline's, when the compare interrupt that
     /// moved the compare value read TCNT0 `elapsed` ticks past the gap deadline's value,
     /// before it wrote the new one: T3.5's value has already gone by in this turn when
@@ -285,23 +313,22 @@ impl TimerPlan {
     /// A read of T3.5's value itself must wait for the next tick edge before it writes
     /// (the match would come, or not, as the write falls): `elapsed` is then one more.
     pub const fn count_after_gap(self, elapsed: u8) -> u8 {
-        let to_end = self.to_end();
-        if to_end != 0 && elapsed > to_end {
-            self.gap.turns + 2
+        if self.to_end != 0 && elapsed > self.to_end {
+            self.gap_turns + 2
         } else {
-            self.gap.turns + 1
+            self.gap_turns + 1
         }
     }
 
     /// The compare value matched, `matches` counted before this one since the character:
-    /// what passed, and the count to keep (past [`TimerPlan::end_match`] once T3.5 has
+    /// what passed, and the count to keep (past [`Schedule::end_match`] once T3.5 has
     /// passed, where it stays until the next character).
     pub const fn on_match(self, matches: u8) -> (Passed, u8) {
-        if matches == self.gap.turns {
+        if matches == self.gap_turns {
             (Passed::Gap, matches)
-        } else if matches == self.end_match() {
+        } else if matches == self.end_match {
             (Passed::End, u8::MAX)
-        } else if matches < self.end_match() {
+        } else if matches < self.end_match {
             (Passed::Nothing, matches + 1)
         } else {
             (Passed::Nothing, matches)

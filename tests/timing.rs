@@ -154,6 +154,7 @@ fn rates_reported_late_before_are_within_the_accuracy() {
 /// moves the compare value at the gap deadline reads TCNT0 `late` edges after the match:
 /// the arithmetic of `TimerPlan` played against a counter, as `avr::timer` runs it.
 fn one_compare_edges(plan: TimerPlan, t0: u8, late: u32) -> (u32, u32) {
+    let schedule = plan.schedule();
     let tcnt = |edge: u32| t0.wrapping_add(edge as u8);
     // A match of `value` is the edge that takes TCNT0 from `value` to `value + 1`.
     let next_match = |value: u8, after: u32| (after + 1..).find(|&e| tcnt(e) == value.wrapping_add(1)).unwrap();
@@ -161,7 +162,7 @@ fn one_compare_edges(plan: TimerPlan, t0: u8, late: u32) -> (u32, u32) {
     let (mut matches, mut edge, mut gap) = (0, 0, None);
     loop {
         edge = next_match(value, edge);
-        let (passed, count) = plan.on_match(matches);
+        let (passed, count) = schedule.on_match(matches);
         matches = count;
         match passed {
             Passed::Nothing => {}
@@ -176,7 +177,7 @@ fn one_compare_edges(plan: TimerPlan, t0: u8, late: u32) -> (u32, u32) {
                     elapsed = elapsed.wrapping_add(1);
                 }
                 value = value.wrapping_add(plan.to_end());
-                matches = plan.count_after_gap(elapsed);
+                matches = schedule.count_after_gap(elapsed);
                 // Matches of the new value come after the write: an edge to it that came
                 // before is not seen.
                 edge = write;

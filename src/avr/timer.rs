@@ -16,7 +16,7 @@ use core::cell::UnsafeCell;
 
 use super::reg::{OCR0B, TCCR0A, TCCR0B, TCNT0, TIFR0, TIMSK0};
 pub(crate) use crate::timing::Passed;
-use crate::timing::{Deadline, TimerPlan, TIMER0_CLOCK_SELECT};
+use crate::timing::{Schedule, TimerPlan, TIMER0_CLOCK_SELECT};
 
 const OCIE0B: u8 = 1 << 2;
 pub(crate) const TOV0: u8 = 1 << 0;
@@ -44,22 +44,19 @@ impl<T> Exclusive<T> {
 
 /// The silence deadlines: the plan of the configuration (compare offsets and whole turns),
 /// how many matches of compare B the compare interrupt has seen since the last character
-/// ([`TimerPlan::on_match`]), and the compare flags found already set when the deadline
+/// ([`Schedule::on_match`]), and the compare flags found already set when the deadline
 /// was set (stale: their interrupt is not a match of the new value). The receive interrupt
 /// only reads TCNT0 and TIFR0, writes the compare register, and zeroes the count.
 struct Deadlines {
     matches: u8,
-    plan: TimerPlan,
+    plan: Schedule,
     stale: u8,
 }
 
 /// All zero until [`FrameTimer::new`] writes the plan and parks the deadlines, before any
 /// of Timer0's interrupts is enabled: in `.bss`, with no initial value kept in flash.
-static DEADLINES: Exclusive<Deadlines> = Exclusive(UnsafeCell::new(Deadlines {
-    matches: 0,
-    plan: TimerPlan { gap: Deadline { low: 0, turns: 0 }, end: Deadline { low: 0, turns: 0 } },
-    stale: 0,
-}));
+static DEADLINES: Exclusive<Deadlines> =
+    Exclusive(UnsafeCell::new(Deadlines { matches: 0, plan: Schedule::NONE, stale: 0 }));
 
 /// A character arrived: the gap deadline (and after it T3.5) counts from now, first thing
 /// in the receive interrupt, so that it counts from as close to RXC0 as can be
@@ -72,7 +69,7 @@ pub(crate) fn on_receive() {
 
 impl Deadlines {
     /// The gap deadline (and after it T3.5) counts from now: one read of TCNT0, no wait for
-    /// a tick edge (see [`Deadline`] for the accuracy that follows). Interrupts must be
+    /// a tick edge (see `timing::Deadline` for the accuracy that follows). Interrupts must be
     /// disabled.
     ///
     /// The compare interrupt stays enabled, so a compare flag already set once the compare
@@ -87,7 +84,7 @@ impl Deadlines {
     #[inline(always)]
     fn set(&mut self) {
         let tcnt = TCNT0.read();
-        OCR0B.write(tcnt.wrapping_add(self.plan.gap.low));
+        OCR0B.write(tcnt.wrapping_add(self.plan.gap_low));
         self.stale = TIFR0.read();
         self.matches = 0;
     }
@@ -99,14 +96,14 @@ impl Deadlines {
     }
 
     /// The gap deadline passed: compare B moves on to T3.5's value, and the count to the
-    /// matches seen of it ([`TimerPlan::count_after_gap`]). TCNT0 is read before the write;
+    /// matches seen of it ([`Schedule::count_after_gap`]). TCNT0 is read before the write;
     /// when it reads T3.5's value itself, the write waits for the next tick edge (at most
     /// a tick, 64 cycles), so that whether the match comes does not hang on the moment of
     /// the write.
     #[inline(always)]
     fn move_to_end(&mut self) {
         let gap_value = OCR0B.read();
-        let to_end = self.plan.to_end();
+        let to_end = self.plan.to_end;
         let read = TCNT0.read();
         let mut elapsed = read.wrapping_sub(gap_value);
         if to_end != 0 && elapsed == to_end {
@@ -161,7 +158,7 @@ impl FrameTimer {
         // SAFETY: called with interrupts disabled (by `new`, and by `configure`'s callers).
         unsafe {
             DEADLINES.with(|d| {
-                d.plan = plan;
+                d.plan = plan.schedule();
                 d.park();
             })
         }
