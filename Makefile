@@ -27,6 +27,7 @@ setup:
 firmware: setup
 	$(CARGO) uno --examples --features examples
 	$(CARGO) uno --example uno_slave --example dip_switch --features examples,millis
+	$(CARGO) uno --example ascii --features examples,ascii
 	$(CARGO) uno --example configurable --features examples,eeprom-settings,$(OPTIONAL)
 	@.ci/sizes $(FIRMWARE)
 	@.ci/no-panic $(FIRMWARE)
@@ -53,14 +54,15 @@ OPTIONAL := diagnostics,extra-fc,write-protect
 clippy: setup
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL),device-id -- -D warnings
+	$(CARGO) clippy -p avr-modbus-slave --all-targets --features ascii -- -D warnings
 	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples -- -D warnings
-	$(CARGO) uno-clippy --examples --features examples,millis,$(OPTIONAL),eeprom-settings,ufmt -- -D warnings
+	$(CARGO) uno-clippy --examples --features examples,millis,ascii,$(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 
 docs: setup
-	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings,ufmt,device-id
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings,ufmt,device-id,ascii
 	RUSTDOCFLAGS="-D warnings -C target-cpu=atmega328p" $(CARGO) doc --no-deps -p avr-modbus-slave --release \
-		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings,ufmt,millis
+		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings,ufmt,millis,ascii
 
 lint: fmt-check clippy docs
 
@@ -73,6 +75,8 @@ host-test: setup firmware fixtures
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings --doc
 	$(CARGO) test -p avr-modbus-slave --features ufmt --test ufmt
 	$(CARGO) test -p avr-modbus-slave --features device-id --test device_id --test map
+	$(CARGO) test -p avr-modbus-slave --features ascii --test ascii --test sim_ascii --test framer --test adu --test random_frames
+	$(CARGO) test -p avr-modbus-slave --features ascii --doc
 
 test: lint firmware host-test interop
 

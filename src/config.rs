@@ -31,6 +31,22 @@ impl SlaveId {
     }
 }
 
+/// How frames travel on the line, Modbus over Serial Line v1.02 §2.5 (feature `ascii`;
+/// without it every frame is RTU). The discriminants are the codes the settings block
+/// (feature `eeprom-settings`) takes.
+#[cfg(feature = "ascii")]
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// RTU, §2.5.1: binary bytes with a CRC, 8 data bits, frames delimited by silence.
+    Rtu = 0,
+    /// ASCII, §2.5.2: hex characters from `:` to CR LF with an LRC, 7 data bits (the
+    /// spec's default character format is 7E1).
+    Ascii = 1,
+    /// ASCII with 8 data bits, as some devices have it.
+    Ascii8 = 2,
+}
+
 /// Parity of each character.
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -64,6 +80,13 @@ pub struct Config {
     stop_bits: StopBits,
     divisor: BaudDivisor,
     timer_plan: TimerPlan,
+    /// RTU or ASCII (feature `ascii`).
+    #[cfg(feature = "ascii")]
+    mode: Mode,
+    /// ASCII's inter-character timeout in milliseconds (0: none), and in Timer0 turns
+    /// (1.024 ms each), as the compare interrupt counts it.
+    #[cfg(feature = "ascii")]
+    char_timeout: (u16, u16),
 }
 
 impl Config {
@@ -115,8 +138,83 @@ impl Config {
             Some(divisor) => divisor,
             None => return Err(Error::BaudError),
         };
-        let timer_plan = TimerPlan::new(CharTimes::new(baud, bits_per_char(parity, stop_bits)), CLOCK_HZ);
-        Ok(Config { slave_id, baud, parity, stop_bits, divisor, timer_plan })
+        let timer_plan = TimerPlan::new(CharTimes::new(baud, bits_per_char(8, parity, stop_bits)), CLOCK_HZ);
+        Ok(Config {
+            slave_id,
+            baud,
+            parity,
+            stop_bits,
+            divisor,
+            timer_plan,
+            #[cfg(feature = "ascii")]
+            mode: Mode::Rtu,
+            #[cfg(feature = "ascii")]
+            char_timeout: timeout_turns(Self::ASCII_CHAR_TIMEOUT_MS),
+        })
+    }
+
+    /// ASCII's inter-character timeout unless [`Config::with_char_timeout`] says otherwise:
+    /// 1 s, the spec's example (§2.5.2.1).
+    #[cfg(feature = "ascii")]
+    pub const ASCII_CHAR_TIMEOUT_MS: u16 = 1000;
+
+    /// An ASCII configuration for a constant (feature `ascii`): 7 data bits, the spec's
+    /// default character format with even parity and one stop bit (7E1); 7O1 and 7N2 are
+    /// the other formats it names. Invalid values stop the build, as with
+    /// [`Config::new`]; [`Config::with_mode`] turns a run-time configuration into an ASCII one.
+    ///
+    /// ```
+    /// use avr_modbus_slave::{Config, Mode, Parity, StopBits};
+    /// const CONFIG: Config = Config::ascii(1, 9600, Parity::Even, StopBits::One);
+    /// assert_eq!((CONFIG.mode(), CONFIG.bits_per_char()), (Mode::Ascii, 10));
+    /// ```
+    #[cfg(feature = "ascii")]
+    pub const fn ascii(slave_id: u8, baud: u32, parity: Parity, stop_bits: StopBits) -> Self {
+        Self::new(slave_id, baud, parity, stop_bits).with_mode(Mode::Ascii)
+    }
+
+    /// The same line in another transmission mode (feature `ascii`): RTU, ASCII with 7 data
+    /// bits, or ASCII with 8.
+    #[cfg(feature = "ascii")]
+    pub const fn with_mode(self, mode: Mode) -> Self {
+        Config { mode, ..self }
+    }
+
+    /// The same configuration with another ASCII inter-character timeout, in milliseconds
+    /// (feature `ascii`): a frame inside which the line stays silent that long is dropped
+    /// and counted as malformed. 0 waits for ever. Timed to a millisecond or so: Timer0
+    /// turns of 1.024 ms, counted from the last character.
+    #[cfg(feature = "ascii")]
+    pub const fn with_char_timeout(self, milliseconds: u16) -> Self {
+        Config { char_timeout: timeout_turns(milliseconds), ..self }
+    }
+
+    /// RTU or ASCII (feature `ascii`).
+    #[cfg(feature = "ascii")]
+    pub const fn mode(&self) -> Mode {
+        self.mode
+    }
+
+    /// ASCII's inter-character timeout in milliseconds, 0 for none (feature `ascii`).
+    #[cfg(feature = "ascii")]
+    pub const fn char_timeout_ms(&self) -> u16 {
+        self.char_timeout.0
+    }
+
+    /// ASCII's inter-character timeout in Timer0 turns of 1.024 ms, 0 for none.
+    #[cfg(feature = "ascii")]
+    #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
+    pub(crate) const fn char_timeout_turns(&self) -> u16 {
+        self.char_timeout.1
+    }
+
+    /// Data bits of each character: 8, or 7 in ASCII mode.
+    pub const fn data_bits(&self) -> u32 {
+        #[cfg(feature = "ascii")]
+        if matches!(self.mode, Mode::Ascii) {
+            return 7;
+        }
+        8
     }
 
     /// The same line settings for another slave address.
@@ -154,9 +252,10 @@ impl Config {
         self.timer_plan
     }
 
-    /// Bits on the wire per character: start, 8 data, parity if any, stop bits.
+    /// Bits on the wire per character: start, data bits (8, or 7 for ASCII), parity if
+    /// any, stop bits.
     pub const fn bits_per_char(&self) -> u32 {
-        bits_per_char(self.parity, self.stop_bits)
+        bits_per_char(self.data_bits(), self.parity, self.stop_bits)
     }
 
     /// Character time and the T1.5 / T3.5 silences for this configuration.
@@ -165,7 +264,15 @@ impl Config {
     }
 }
 
-const fn bits_per_char(parity: Parity, stop_bits: StopBits) -> u32 {
+/// Timer0 turns (1.024 ms each) for an ASCII timeout of `milliseconds`, rounded up: the
+/// pair kept in [`Config`].
+#[cfg(feature = "ascii")]
+const fn timeout_turns(milliseconds: u16) -> (u16, u16) {
+    let turns = (milliseconds as u32 * 1000).div_ceil(1024);
+    (milliseconds, turns as u16)
+}
+
+const fn bits_per_char(data_bits: u32, parity: Parity, stop_bits: StopBits) -> u32 {
     let parity = match parity {
         Parity::None => 0,
         Parity::Even | Parity::Odd => 1,
@@ -174,7 +281,7 @@ const fn bits_per_char(parity: Parity, stop_bits: StopBits) -> u32 {
         StopBits::One => 1,
         StopBits::Two => 2,
     };
-    1 + 8 + parity + stop
+    1 + data_bits + parity + stop
 }
 
 /// The line settings as a firmware prints them: `Config { slave_id: 1, baud: 19200, .. }`.

@@ -206,6 +206,27 @@ impl<const N: usize> Engine<N> {
         self.framer.on_byte(byte);
     }
 
+    /// An ASCII character arrived (feature `ascii`, in ASCII mode). Returns true when a
+    /// frame's outcome is due: call [`Engine::on_end_deadline`] then, and process what it
+    /// accepted as after T3.5 (at the LF that ends a frame, and at a `:` that drops the
+    /// frame in progress).
+    #[cfg(feature = "ascii")]
+    pub fn on_char(&mut self, c: u8) -> bool {
+        self.framer.on_char(c)
+    }
+
+    /// Switches between RTU and ASCII framing (feature `ascii`), from the next frame on.
+    #[cfg(feature = "ascii")]
+    pub fn set_ascii(&mut self, on: bool) {
+        self.framer.set_ascii(on);
+    }
+
+    /// True in ASCII mode (feature `ascii`).
+    #[cfg(feature = "ascii")]
+    pub fn is_ascii(&self) -> bool {
+        self.framer.is_ascii()
+    }
+
     /// A damaged character arrived.
     pub fn on_error(&mut self, error: UartError) {
         self.framer.on_error(error);
@@ -269,7 +290,8 @@ impl<const N: usize> Engine<N> {
     }
 
     /// Executes the frame that [`Engine::on_end_deadline`] accepted and writes the reply
-    /// (address, PDU, CRC) over it. Returns the reply's length; 0 when nothing is to be sent
+    /// (address, PDU, CRC; in ASCII mode address, PDU, LRC, which the sender writes out in
+    /// hex) over it. Returns the reply's length; 0 when nothing is to be sent
     /// (a broadcast, listen-only mode), and then the buffer is released at once.
     ///
     /// Not inlined: the T3.5 interrupt that calls it then saves only the registers a call
@@ -279,6 +301,17 @@ impl<const N: usize> Engine<N> {
         let body = self.prepare(model);
         if body == 0 {
             return 0;
+        }
+        #[cfg(feature = "ascii")]
+        if self.framer.is_ascii() {
+            // An ASCII reply ends with its LRC; the sender writes it out in hex.
+            let buf = self.framer.buffer_mut();
+            let lrc = crate::framer::ascii::lrc(buf.get(..body).unwrap_or(&[]));
+            if let Some(slot) = buf.get_mut(body) {
+                *slot = lrc;
+            }
+            self.reply_len = body + 1;
+            return self.reply_len;
         }
         let buf = self.framer.buffer_mut();
         let crc = Crc16::new().update_slice(buf.get(..body).unwrap_or(&[])).to_wire();
@@ -431,7 +464,8 @@ impl<const N: usize> Engine<N> {
     }
 
     /// Handles one whole frame as if it had arrived with correct timing: T3.5 of silence,
-    /// the frame's bytes, T3.5 of silence. The ADU layer in one call, for tests and for
+    /// the frame's bytes, T3.5 of silence (in ASCII mode the frame's characters, each frame
+    /// in them handled at its end). The ADU layer in one call, for tests and for
     /// links that deliver frames ready-made. Afterwards [`Engine::reply`] holds the reply,
     /// if the result is [`EndOfFrame::Reply`].
     ///
@@ -442,6 +476,18 @@ impl<const N: usize> Engine<N> {
     pub fn handle_frame<M: DataModel + ?Sized>(&mut self, frame: &[u8], model: &mut M) -> EndOfFrame {
         self.complete(model);
         self.on_reply_sent();
+        #[cfg(feature = "ascii")]
+        if self.is_ascii() {
+            // ASCII frames end by themselves, at their LF: each one is handled there.
+            let mut end = EndOfFrame::Nothing;
+            for &c in frame {
+                if self.on_char(c) {
+                    self.on_reply_sent();
+                    end = self.complete(model);
+                }
+            }
+            return end;
+        }
         for &byte in frame {
             self.on_byte(byte);
         }

@@ -16,6 +16,9 @@
 
 use crate::crc::Crc16;
 
+#[cfg(feature = "ascii")]
+pub mod ascii;
+
 /// Largest RTU frame: address, PDU of up to 253 bytes, CRC.
 pub const MAX_FRAME: usize = 256;
 const _: () = assert!(MAX_FRAME == 256, "the framer counts stored bytes in a byte, modulo 256");
@@ -40,6 +43,10 @@ pub enum FrameError {
     Uart,
     /// The USART lost a character (data overrun).
     Overrun,
+    /// ASCII framing (feature `ascii`): a character that is not a hex digit, an odd number
+    /// of hex digits, or anything but LF after CR.
+    #[cfg(feature = "ascii")]
+    Encoding,
 }
 
 /// What the USART reported about a damaged character.
@@ -87,6 +94,9 @@ pub struct Framer<const N: usize = MAX_FRAME> {
     /// Why the frame is dropped (`Broken`), or the verdict of the checks at the gap
     /// deadline (`Waiting`: `None` for a good frame).
     error: Option<FrameError>,
+    /// ASCII framing's own state (feature `ascii`), off for RTU.
+    #[cfg(feature = "ascii")]
+    ascii: ascii::Ascii,
 }
 
 impl<const N: usize> Default for Framer<N> {
@@ -102,7 +112,16 @@ impl<const N: usize> Framer<N> {
     /// timer at start-up) before it accepts a frame.
     pub const fn new() -> Self {
         let () = Self::CAPACITY;
-        Framer { buf: [0; N], len: 0, past: 0, tail: Crc16::tail(), state: State::Initial, error: None }
+        Framer {
+            buf: [0; N],
+            len: 0,
+            past: 0,
+            tail: Crc16::tail(),
+            state: State::Initial,
+            error: None,
+            #[cfg(feature = "ascii")]
+            ascii: ascii::Ascii::OFF,
+        }
     }
 
     /// A character arrived. Inside a frame it is only stored: this runs in the receive
@@ -186,6 +205,11 @@ impl<const N: usize> Framer<N> {
 
     /// A character arrived damaged: the frame it belongs to is dropped.
     pub fn on_error(&mut self, error: UartError) {
+        // In ASCII, damage outside a frame is noise: frames start at `:`.
+        #[cfg(feature = "ascii")]
+        if self.ascii.on && self.state == State::Idle {
+            return;
+        }
         let reason = match error {
             UartError::Parity | UartError::Framing => FrameError::Uart,
             UartError::Overrun => FrameError::Overrun,
@@ -200,6 +224,10 @@ impl<const N: usize> Framer<N> {
     /// unless a character breaks it, so its length and CRC are checked now, well before
     /// T3.5.
     pub fn on_gap_deadline(&mut self) {
+        #[cfg(feature = "ascii")]
+        if self.ascii.on {
+            return self.ascii_timeout();
+        }
         if self.state == State::Receiving {
             self.error = if self.stored() < MIN_FRAME {
                 Some(FrameError::TooShort)
@@ -230,6 +258,10 @@ impl<const N: usize> Framer<N> {
     /// After `Some(Ok(_))` the buffer holds the frame, or its first `N` bytes when it is
     /// longer, and the framer ignores the line until [`Framer::release`].
     pub fn on_end_deadline(&mut self) -> Option<Result<usize, FrameError>> {
+        #[cfg(feature = "ascii")]
+        if self.ascii.on {
+            return self.ascii_end();
+        }
         // T3.5 comes after the gap deadline: if that was not reported (host tests,
         // `Engine::handle_frame`), it passes now. On the AVR it always was.
         self.on_gap_deadline();

@@ -32,6 +32,8 @@ pub use avr::millis;
 #[cfg(target_arch = "avr")]
 pub use avr::{board, NoPin, Slave};
 pub use bank::{bit_bytes, Bank};
+#[cfg(feature = "ascii")]
+pub use config::Mode;
 pub use config::{Config, Parity, SlaveId, StopBits};
 pub use engine::Counters;
 pub use error::Error;
@@ -68,6 +70,11 @@ pub mod internal {
     /// Character times and the USART and Timer0 arithmetic.
     pub mod timing {
         pub use crate::timing::*;
+    }
+    /// ASCII framing: LRC, hex, the reply's characters.
+    #[cfg(feature = "ascii")]
+    pub mod ascii {
+        pub use crate::framer::ascii::*;
     }
     /// FC 7, 8, 11 and 17.
     #[cfg(feature = "diagnostics")]

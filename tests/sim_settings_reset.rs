@@ -34,7 +34,7 @@ const OLDER: Settings = Settings { id: 3, line: B9600_8N2 };
 /// The settings the slave starts with.
 const OLD: Settings = Settings { id: 5, line: Line::B19200_8N2 };
 /// The settings the master writes.
-const NEW: Settings = Settings { id: 9, line: Line { baud: 115_200, parity: Parity::Odd, stop_bits: 1 } };
+const NEW: Settings = Settings { id: 9, line: Line { baud: 115_200, parity: Parity::Odd, stop_bits: 1, data_bits: 8 } };
 
 /// Simulated cycles between two looks at the board: far fewer than one EEPROM byte takes
 /// the firmware (a read of the old value, the write sequence), so every byte is seen

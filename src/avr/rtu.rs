@@ -30,16 +30,23 @@ pub(crate) struct Running<M, DE, LED, const N: usize> {
     timer: FrameTimer,
     engine: Engine<N>,
     model: M,
-    /// Index of the reply's next byte, and the reply's length (at most 255 bytes).
-    tx_next: u8,
-    tx_len: u8,
+    /// Index of the reply's next byte, and the reply's length (at most 255 bytes; in
+    /// ASCII framing, characters: at most 513).
+    tx_next: TxIndex,
+    tx_len: TxIndex,
     driver_enable: DE,
     led: LED,
 }
 
+/// A position in the reply as it goes out: bytes, or with feature `ascii` characters.
+#[cfg(not(feature = "ascii"))]
+type TxIndex = u8;
+#[cfg(feature = "ascii")]
+type TxIndex = u16;
+
 impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE, LED, N> {
     /// Configures USART0 and Timer0 for `config` and starts the power-up wait (T3.5 of
-    /// silence before the first frame).
+    /// silence before the first frame; none in ASCII framing).
     fn new(config: Config, model: M, mut driver_enable: DE, mut led: LED) -> Self {
         const { assert!(N >= M::FRAME, "the slave's frame buffer is smaller than its data model needs") };
         let _ = driver_enable.set_low();
@@ -47,16 +54,11 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE,
         let mut timer = FrameTimer::new(config.timer_plan());
         let usart = Usart::new(&config);
         timer.restart();
-        Running {
-            usart,
-            timer,
-            engine: Engine::new(config.slave_id()),
-            model,
-            tx_next: 0,
-            tx_len: 0,
-            driver_enable,
-            led,
-        }
+        #[allow(unused_mut)]
+        let mut engine = Engine::new(config.slave_id());
+        #[cfg(feature = "ascii")]
+        set_mode(&mut engine, &mut timer, &config);
+        Running { usart, timer, engine, model, tx_next: 0, tx_len: 0, driver_enable, led }
     }
 
     /// USART0 RX complete: one character (or a damaged one) arrived. The interrupt handler
@@ -64,6 +66,18 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE,
     /// count from as close to the stop bit as can be.
     #[inline(always)]
     fn on_usart_rx(&mut self) {
+        #[cfg(feature = "ascii")]
+        if self.engine.is_ascii() {
+            match self.usart.read() {
+                Ok(c) => {
+                    if self.engine.on_char(c) {
+                        self.timer.end_now();
+                    }
+                }
+                Err(e) => self.engine.on_error(e),
+            }
+            return;
+        }
         match self.usart.read() {
             Ok(byte) => self.engine.on_byte(byte),
             Err(e) => self.engine.on_error(e),
@@ -73,20 +87,27 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE,
     /// Timer0 compare B: the inter-character gap deadline, or T3.5 of silence. A frame
     /// for this slave is answered from here: the address goes out first, then the request
     /// is processed and the reply's CRC appended while it is on the wire.
+    ///
+    /// In ASCII framing (feature `ascii`) the interrupt brings a frame's end out of the
+    /// receive interrupt, and the inter-character timeout ends a frame in progress; the
+    /// reply starts with `:` and goes out in hex.
     #[inline(always)]
     fn on_timer_compare(&mut self) {
         match self.timer.on_compare() {
             Passed::Nothing => return,
             Passed::Gap => {
                 self.engine.on_gap_deadline();
-                return;
+                // ASCII: the timeout dropped the frame in progress, reported below.
+                if !self.is_ascii() {
+                    return;
+                }
             }
             Passed::End => {}
         }
         // A character that arrived while interrupts were held off (this interrupt outranks
         // the receive one) was on the wire before T3.5 expired: the silence starts over,
         // and the receive interrupt, pending, takes the character right after this one.
-        if self.usart.has_data() {
+        if !self.is_ascii() && self.usart.has_data() {
             self.timer.restart();
             return;
         }
@@ -94,24 +115,64 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE,
         if end == EndOfFrame::Reply {
             let _ = self.driver_enable.set_high();
             let _ = self.led.set_high();
-            self.usart.write(self.engine.id().get());
+            self.usart.write(self.first_char());
             self.tx_next = 1;
         }
         // Executes what `on_end_deadline` accepted (nothing for the other ends) and, for a
         // reply, appends its CRC; the rest of the reply follows the address from the
         // data-register-empty interrupt.
         // The longest reply is 255 bytes (FC 3 or 4 with 125 registers).
-        self.tx_len = self.engine.process(&mut self.model) as u8;
+        let bytes = self.engine.process(&mut self.model);
+        self.tx_len = self.reply_chars(bytes);
         if self.tx_len != 0 {
             self.usart.start_feeding();
         }
+    }
+
+    /// True in ASCII framing (feature `ascii`); without the feature, never.
+    #[inline(always)]
+    fn is_ascii(&self) -> bool {
+        #[cfg(feature = "ascii")]
+        return self.engine.is_ascii();
+        #[cfg(not(feature = "ascii"))]
+        false
+    }
+
+    /// The reply's first character: the address, or in ASCII framing `:`.
+    #[inline(always)]
+    fn first_char(&self) -> u8 {
+        #[cfg(feature = "ascii")]
+        if self.is_ascii() {
+            return crate::framer::ascii::COLON;
+        }
+        self.engine.id().get()
+    }
+
+    /// Characters on the wire for a reply of `bytes` bytes: as many, or in ASCII framing
+    /// its frame's (`:`, two hex digits a byte, CR LF; at most 513).
+    #[inline(always)]
+    fn reply_chars(&self, bytes: usize) -> TxIndex {
+        #[cfg(feature = "ascii")]
+        if self.is_ascii() && bytes != 0 {
+            return crate::framer::ascii::encoded_len(bytes) as TxIndex;
+        }
+        bytes as TxIndex
     }
 
     /// USART0 data register empty: the next character of the reply (CRC included).
     #[inline(always)]
     fn on_usart_udre(&mut self) {
         let next = self.tx_next;
-        self.usart.write(self.engine.reply_byte(next));
+        #[cfg(feature = "ascii")]
+        if self.is_ascii() {
+            self.usart.write(crate::framer::ascii::encoded_char(self.engine.reply(), usize::from(next)));
+            self.tx_next = next + 1;
+            if self.tx_next == self.tx_len {
+                self.usart.last_written();
+            }
+            return;
+        }
+        self.usart.write(self.engine.reply_byte(next as u8));
         self.tx_next = next.wrapping_add(1);
         if self.tx_next == self.tx_len {
             self.usart.last_written();
@@ -129,8 +190,9 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE,
         self.apply_new_settings();
     }
 
-    /// Switches USART0, Timer0 and the slave id to settings the master wrote, if they are
-    /// ready (see [`Slave::poll_settings`]); called when nothing of a reply is left to send.
+    /// Switches USART0, Timer0 and the slave id (and with feature `ascii` the framing) to
+    /// settings the master wrote, if they are ready (see [`Slave::poll_settings`]); called
+    /// when nothing of a reply is left to send.
     #[cfg(feature = "eeprom-settings")]
     #[inline(always)]
     fn apply_new_settings(&mut self) {
@@ -138,8 +200,18 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE,
             self.usart.configure(&config);
             self.timer.configure(config.timer_plan());
             self.engine.set_id(config.slave_id());
+            #[cfg(feature = "ascii")]
+            set_mode(&mut self.engine, &mut self.timer, &config);
         }
     }
+}
+
+/// The engine and Timer0 in the framing `config` asks for (feature `ascii`).
+#[cfg(feature = "ascii")]
+fn set_mode<const N: usize>(engine: &mut Engine<N>, timer: &mut FrameTimer, config: &Config) {
+    let ascii = config.mode() != crate::config::Mode::Rtu;
+    engine.set_ascii(ascii);
+    timer.set_ascii(ascii, config.char_timeout_turns());
 }
 
 /// The Modbus RTU slave: declare it with [`crate::slave!`], start it with the

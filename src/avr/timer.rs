@@ -51,12 +51,35 @@ struct Deadlines {
     matches: u8,
     plan: Schedule,
     stale: u8,
+    /// ASCII framing (feature `ascii`), whose own events the compare interrupt reports.
+    #[cfg(feature = "ascii")]
+    ascii: AsciiTimer,
+}
+
+/// The compare interrupt's part in ASCII framing: it comes once a turn (1.024 ms) and counts
+/// the turns since the last character against the inter-character timeout, and it brings
+/// the end of a frame (or of one a `:` dropped) out of the receive interrupt at once.
+#[cfg(feature = "ascii")]
+#[derive(Clone, Copy)]
+struct AsciiTimer {
+    on: bool,
+    /// The timeout in turns, 0 for none.
+    timeout: u16,
+    /// Turns since the last character (up to the timeout).
+    idle: u16,
+    /// A frame's outcome is due: reported at the next compare interrupt.
+    end_due: bool,
 }
 
 /// All zero until [`FrameTimer::new`] writes the plan and parks the deadlines, before any
 /// of Timer0's interrupts is enabled: in `.bss`, with no initial value kept in flash.
-static DEADLINES: Exclusive<Deadlines> =
-    Exclusive(UnsafeCell::new(Deadlines { matches: 0, plan: Schedule::NONE, stale: 0 }));
+static DEADLINES: Exclusive<Deadlines> = Exclusive(UnsafeCell::new(Deadlines {
+    matches: 0,
+    plan: Schedule::NONE,
+    stale: 0,
+    #[cfg(feature = "ascii")]
+    ascii: AsciiTimer { on: false, timeout: 0, idle: 0, end_due: false },
+}));
 
 /// A character arrived: the gap deadline (and after it T3.5) counts from now, first thing
 /// in the receive interrupt, so that it counts from as close to RXC0 as can be
@@ -83,6 +106,11 @@ impl Deadlines {
     /// on the silicon. Hence no masking, and a compare interrupt each turn.)
     #[inline(always)]
     fn set(&mut self) {
+        #[cfg(feature = "ascii")]
+        if self.ascii.on {
+            self.ascii.idle = 0;
+            return;
+        }
         let tcnt = TCNT0.read();
         OCR0B.write(tcnt.wrapping_add(self.plan.gap_low));
         self.stale = TIFR0.read();
@@ -122,6 +150,25 @@ impl Deadlines {
         }
         self.stale &= !OCF0B;
         true
+    }
+}
+
+#[cfg(feature = "ascii")]
+impl AsciiTimer {
+    /// A compare interrupt (once a turn, or brought forward by [`FrameTimer::end_now`]).
+    #[inline(always)]
+    fn on_compare(&mut self) -> Passed {
+        if self.end_due {
+            self.end_due = false;
+            return Passed::End;
+        }
+        if self.timeout != 0 && self.idle < self.timeout {
+            self.idle += 1;
+            if self.idle == self.timeout {
+                return Passed::Gap;
+            }
+        }
+        Passed::Nothing
     }
 }
 
@@ -178,14 +225,37 @@ impl FrameTimer {
         set_now();
     }
 
+    /// ASCII framing (feature `ascii`) with an inter-character timeout of `timeout` turns
+    /// (0: none), or RTU. Interrupts must be disabled.
+    #[cfg(feature = "ascii")]
+    pub(crate) fn set_ascii(&mut self, on: bool, timeout: u16) {
+        // SAFETY: called with interrupts disabled (the slave's start and its settings switch).
+        unsafe { DEADLINES.with(|d| d.ascii = AsciiTimer { on, timeout, idle: 0, end_due: false }) }
+    }
+
+    /// ASCII: a frame's outcome is due (its LF came, or a `:` dropped it): the compare
+    /// interrupt reports [`Passed::End`] within two ticks. Only from the receive interrupt.
+    #[cfg(feature = "ascii")]
+    #[inline(always)]
+    pub(crate) fn end_now(&mut self) {
+        OCR0B.write(TCNT0.read().wrapping_add(2));
+        // SAFETY: called from the receive interrupt handler, with interrupts disabled.
+        unsafe { DEADLINES.with(|d| d.ascii.end_due = true) }
+    }
+
     /// Compare B fired: which deadline passed, if one did. At the gap deadline the compare
     /// value moves on to T3.5's; after T3.5 no deadline is set until the next character, and
-    /// the timer runs on.
+    /// the timer runs on. In ASCII framing: the end of a frame when one is due, the
+    /// inter-character timeout as [`Passed::Gap`].
     #[inline(always)]
     pub(crate) fn on_compare(&mut self) -> Passed {
         // SAFETY: called from the compare interrupt handler, with interrupts disabled.
         unsafe {
             DEADLINES.with(|d| {
+                #[cfg(feature = "ascii")]
+                if d.ascii.on {
+                    return d.ascii.on_compare();
+                }
                 if d.was_stale() {
                     return Passed::Nothing;
                 }

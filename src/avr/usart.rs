@@ -1,4 +1,5 @@
-//! USART0 in asynchronous mode, 8 data bits, ATmega328P datasheet §20 (registers §20.11).
+//! USART0 in asynchronous mode, 8 data bits (or 7 for ASCII framing, feature `ascii`),
+//! ATmega328P datasheet §20 (registers §20.11).
 
 use core::arch::asm;
 
@@ -71,8 +72,13 @@ impl Usart {
             StopBits::One => 0,
             StopBits::Two => 1,
         };
-        // Asynchronous, parity, stop bits, 8 data bits (UCSZ01:0 = 11).
-        let ucsr0c = (parity << 4) | (stop << 3) | 0b110;
+        // Asynchronous, parity, stop bits, 8 data bits (UCSZ01:0 = 11); with feature
+        // `ascii` 7 for ASCII framing (UCSZ01:0 = 10).
+        #[cfg(not(feature = "ascii"))]
+        let size = 0b110;
+        #[cfg(feature = "ascii")]
+        let size = if config.data_bits() == 7 { 0b100 } else { 0b110 };
+        let ucsr0c = (parity << 4) | (stop << 3) | size;
         let [ubrr_high, ubrr_low] = divisor.ubrr.to_be_bytes();
         UCSR0B.write(0);
         UCSR0C.write(ucsr0c);

@@ -22,7 +22,7 @@ pub const SLOT_LEN: usize = 11;
 pub const BLOCK: u16 = 100;
 
 /// 9600 bps, 8N2.
-pub const B9600_8N2: Line = Line { baud: 9600, parity: Parity::None, stop_bits: 2 };
+pub const B9600_8N2: Line = Line { baud: 9600, parity: Parity::None, stop_bits: 2, data_bits: 8 };
 
 fn parity_code(parity: Parity) -> u8 {
     match parity {

@@ -337,6 +337,8 @@ impl Model {
             FrameError::Uart => &mut self.counts.uart_errors,
             FrameError::Overrun | FrameError::TooLong => &mut self.counts.overruns,
             FrameError::TooShort | FrameError::Gap => &mut self.counts.malformed,
+            #[cfg(feature = "ascii")]
+            FrameError::Encoding => &mut self.counts.malformed,
         });
     }
 

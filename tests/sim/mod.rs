@@ -96,29 +96,33 @@ pub struct Line {
     pub parity: Parity,
     /// Stop bits.
     pub stop_bits: u8,
+    /// Data bits: 8, or 7 for ASCII.
+    pub data_bits: u8,
 }
 
 impl Line {
     /// 1200 bps, 8E1.
-    pub const B1200_8E1: Line = Line { baud: 1200, parity: Parity::Even, stop_bits: 1 };
+    pub const B1200_8E1: Line = Line { baud: 1200, parity: Parity::Even, stop_bits: 1, data_bits: 8 };
     /// 9600 bps, 8E1.
-    pub const B9600_8E1: Line = Line { baud: 9600, parity: Parity::Even, stop_bits: 1 };
+    pub const B9600_8E1: Line = Line { baud: 9600, parity: Parity::Even, stop_bits: 1, data_bits: 8 };
     /// 9600 bps, 8N1.
-    pub const B9600_8N1: Line = Line { baud: 9600, parity: Parity::None, stop_bits: 1 };
+    pub const B9600_8N1: Line = Line { baud: 9600, parity: Parity::None, stop_bits: 1, data_bits: 8 };
     /// 19200 bps, 8E1: the spec's default.
-    pub const B19200_8E1: Line = Line { baud: 19200, parity: Parity::Even, stop_bits: 1 };
+    pub const B19200_8E1: Line = Line { baud: 19200, parity: Parity::Even, stop_bits: 1, data_bits: 8 };
     /// 19200 bps, 8N2.
-    pub const B19200_8N2: Line = Line { baud: 19200, parity: Parity::None, stop_bits: 2 };
+    pub const B19200_8N2: Line = Line { baud: 19200, parity: Parity::None, stop_bits: 2, data_bits: 8 };
     /// 19200 bps, 8O1.
-    pub const B19200_8O1: Line = Line { baud: 19200, parity: Parity::Odd, stop_bits: 1 };
+    pub const B19200_8O1: Line = Line { baud: 19200, parity: Parity::Odd, stop_bits: 1, data_bits: 8 };
     /// 115200 bps, 8N1 (fixed T1.5/T3.5).
-    pub const B115200_8N1: Line = Line { baud: 115200, parity: Parity::None, stop_bits: 1 };
+    pub const B115200_8N1: Line = Line { baud: 115200, parity: Parity::None, stop_bits: 1, data_bits: 8 };
+    /// 9600 bps, 7E1: ASCII's default character format.
+    pub const B9600_7E1: Line = Line { baud: 9600, parity: Parity::Even, stop_bits: 1, data_bits: 7 };
     /// 115200 bps, 8E1 (fixed T1.5/T3.5).
-    pub const B115200_8E1: Line = Line { baud: 115200, parity: Parity::Even, stop_bits: 1 };
+    pub const B115200_8E1: Line = Line { baud: 115200, parity: Parity::Even, stop_bits: 1, data_bits: 8 };
 
-    /// Bits per character: start, 8 data, parity, stop.
+    /// Bits per character: start, data, parity, stop.
     pub fn char_bits(&self) -> u64 {
-        1 + 8 + u64::from(self.parity != Parity::None) + u64::from(self.stop_bits)
+        1 + u64::from(self.data_bits) + u64::from(self.parity != Parity::None) + u64::from(self.stop_bits)
     }
 
     /// `tenths` tenths of a nominal character time, in cycles, rounded up.
@@ -151,7 +155,7 @@ impl Line {
             Parity::Even => 'E',
             Parity::Odd => 'O',
         };
-        format!("{} 8{}{}", self.baud, parity, self.stop_bits)
+        format!("{} {}{}{}", self.baud, self.data_bits, parity, self.stop_bits)
     }
 }
 
