@@ -4,8 +4,10 @@
 Every function code the slave supports (01 02 03 04 05 06 15 16), exceptions 01, 02 and 03,
 a broadcast write read back afterwards, then N back-to-back reads with the answer rate.
 
-    pymodbus_check.py PORT [--board uno_slave|dip_switch] [--baud 19200] [--parity E]
+    pymodbus_check.py PORT [--board uno_slave|dip_switch|ascii] [--baud 19200] [--parity E]
                       [--stop 1] [--control FIFO] [--preset N] [--reads 1000]
+
+--board ascii talks Modbus ASCII (pymodbus's ASCII framer, 7 data bits) to examples/ascii.rs.
 
 --control is the virtual Uno's command FIFO: the uno_slave checks close a switch and turn a
 potentiometer through it. Prints one line per step; exits 1 if any step went wrong.
@@ -23,6 +25,11 @@ import time
 
 from pymodbus.client import ModbusSerialClient
 from pymodbus.pdu import ExceptionResponse
+
+try:
+    from pymodbus.framer.ascii_framer import ModbusAsciiFramer
+except ImportError:  # pymodbus >= 3.7
+    from pymodbus.framer import FramerAscii as ModbusAsciiFramer
 
 try:
     from pymodbus.mei_message import ReadDeviceInformationRequest
@@ -108,6 +115,27 @@ def dip_switch(client, args):
     common_exceptions_and_broadcast(client, holding=10)
 
 
+def ascii_board(client, args):
+    """The ASCII example (examples/ascii.rs), 9600 7E1: every function code, as RTU."""
+    if args.control:
+        control(args.control, "pin 6 0")
+        control(args.control, "adc A0 2500")
+    step("FC01 read coils 00001-00004", values(client.read_coils(0, 4, slave=1), "bits", 4), [0] * 4)
+    step("FC02 read discrete inputs 10001-10004 (switch on pin 6 closed)",
+         values(client.read_discrete_inputs(0, 4, slave=1), "bits", 4), [1, 0, 0, 0])
+    regs = values(client.read_input_registers(0, 2, slave=1), "registers", 2)
+    step("FC04 read input register 30001 (A0 at 2.5 V)", regs[:1] if isinstance(regs, list) else regs, [511])
+    step("FC05 write coil 00002 on", exception_or_ok(client.write_coil(1, True, slave=1)), "ok")
+    step("FC15 write coils 00003-00004 = 1 0", exception_or_ok(client.write_coils(2, [True, False], slave=1)), "ok")
+    step("FC01 read back coils 00001-00004", values(client.read_coils(0, 4, slave=1), "bits", 4), [0, 1, 1, 0])
+    step("FC06 write register 40001 = 1234", exception_or_ok(client.write_register(0, 1234, slave=1)), "ok")
+    step("FC16 write registers 40002-40004 = 11 22 33",
+         exception_or_ok(client.write_registers(1, [11, 22, 33], slave=1)), "ok")
+    step("FC03 read back 40001-40004", values(client.read_holding_registers(0, 4, slave=1), "registers", 4),
+         [1234, 11, 22, 33])
+    common_exceptions_and_broadcast(client, holding=8)
+
+
 def exception_or_ok(response):
     """`ok` for a normal answer to a write, else what came instead."""
     if response is None or isinstance(response, Exception):
@@ -152,7 +180,7 @@ def back_to_back(client, reads):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("port")
-    parser.add_argument("--board", default="uno_slave", choices=["uno_slave", "dip_switch"])
+    parser.add_argument("--board", default="uno_slave", choices=["uno_slave", "dip_switch", "ascii"])
     parser.add_argument("--baud", type=int, default=19200)
     parser.add_argument("--parity", default="E", choices=["N", "E", "O"])
     parser.add_argument("--stop", type=int, default=1, choices=[1, 2])
@@ -161,14 +189,21 @@ def main():
     parser.add_argument("--reads", type=int, default=0)
     args = parser.parse_args()
 
+    # Modbus ASCII: pymodbus's ASCII framer and the spec's 7 data bits (a Linux pty passes
+    # the characters and keeps the baud rate, but shows 8 data bits and no parity).
+    ascii = args.board == "ascii"
+    framing = {"framer": ModbusAsciiFramer} if ascii else {}
+    bytesize = 7 if ascii else 8
     client = ModbusSerialClient(args.port, baudrate=args.baud, parity=args.parity, stopbits=args.stop,
-                                bytesize=8, timeout=1, retries=0, broadcast_enable=True, strict=False)
+                                bytesize=bytesize, timeout=1, retries=0, broadcast_enable=True, strict=False,
+                                **framing)
     if not client.connect():
         print(f"FAIL cannot open {args.port}")
         return 1
-    print(f"pymodbus: {args.port} at {args.baud} 8{args.parity}{args.stop}, slave 1", flush=True)
+    print(f"pymodbus: {args.port} at {args.baud} {bytesize}{args.parity}{args.stop}, slave 1"
+          f"{', ASCII' if ascii else ''}", flush=True)
     try:
-        {"uno_slave": uno_slave, "dip_switch": dip_switch}[args.board](client, args)
+        {"uno_slave": uno_slave, "dip_switch": dip_switch, "ascii": ascii_board}[args.board](client, args)
         if args.reads:
             back_to_back(client, args.reads)
     finally:

@@ -4,7 +4,10 @@
 //!
 //! A Linux pty keeps the baud rate, CSTOPB, PARODD and CMSPAR a master sets, but forces CS8 and
 //! clears PARENB (`pty_set_termios` in drivers/tty/pty.c). So wrong baud rates, stop bits and odd
-//! or mark/space parity are caught, while "none" and "even" parity look the same.
+//! or mark/space parity are caught, while "none" and "even" parity look the same, and so do 7
+//! and 8 data bits: a Modbus ASCII master's 7E1 reaches the pty as 8 data bits with PARENB
+//! cleared, the same ten bits a character as 8N1. Bytes pass unchanged (ASCII characters have
+//! bit 7 clear).
 
 use std::fmt;
 
@@ -122,7 +125,9 @@ pub fn receive_error(master: &Settings, firmware: &SerialConfig) -> Option<LineE
     let fw = Settings::of_firmware(firmware);
     let baud_ok = master.baud > 0
         && ((firmware.baud() - f64::from(master.baud)) / f64::from(master.baud)).abs() <= BAUD_TOLERANCE;
-    if !baud_ok || master.data_bits != fw.data_bits || master.stop_bits != fw.stop_bits {
+    // A pty forces CS8: 8 data bits from the master may have been 7.
+    let data_bits_ok = master.data_bits == fw.data_bits || (master.data_bits == 8 && fw.data_bits == 7);
+    if !baud_ok || !data_bits_ok || master.stop_bits != fw.stop_bits {
         Some(LineError::Framing)
     } else if !(master.parity == fw.parity
         || master.parity == Parity::NoneOrEven && matches!(fw.parity, Parity::None | Parity::Even))
@@ -233,6 +238,21 @@ mod tests {
         let slow = Settings::from_cflag(cflag(libc::B9600, ControlFlags::PARENB));
         assert_eq!(receive_error(&slow, &fw), Some(LineError::Framing));
         let two_stop = Settings::from_cflag(cflag(libc::B19200, ControlFlags::PARENB | ControlFlags::CSTOPB));
+        assert_eq!(receive_error(&two_stop, &fw), Some(LineError::Framing));
+    }
+
+    #[test]
+    fn a_seven_bit_firmware_takes_what_a_pty_shows_of_a_7e1_master() {
+        // UCSZ01:0 = 10: 7 data bits, even parity (ASCII's 7E1 at 9600).
+        let fw = SerialConfig::from_registers(0, 0x18, 0b100 | (2 << 4), 103, 0);
+        assert_eq!(Settings::of_firmware(&fw).to_string(), "9600 7E1");
+        // The pty shows 8 data bits and no PARENB whatever the master set.
+        let master = Settings::from_cflag(cflag(libc::B9600, ControlFlags::empty()));
+        assert_eq!(receive_error(&master, &fw), None);
+        // Ten bits a character either way.
+        assert_eq!((master.char_cycles(), fw.char_bits()), (10 * 16_000_000 / 9600, 10));
+        // A master with two stop bits or at another rate is still caught.
+        let two_stop = Settings::from_cflag(cflag(libc::B9600, ControlFlags::CSTOPB));
         assert_eq!(receive_error(&two_stop, &fw), Some(LineError::Framing));
     }
 

@@ -295,6 +295,16 @@ fn pymodbus_runs_every_function_code_exceptions_broadcast_and_1000_reads() {
     pymodbus(&uno, "--reads 1000", Duration::from_secs(120));
 }
 
+/// Modbus ASCII (examples/ascii.rs, 9600 7E1) through pymodbus's ASCII framer with 7 data
+/// bits: a Linux pty passes the characters and keeps the baud rate, but forces 8 data bits
+/// and drops PARENB, so the virtual Uno takes the master's 8N1-looking line as 7E1.
+#[test]
+fn pymodbus_ascii_runs_every_function_code_exceptions_broadcast_and_1000_reads() {
+    let _one = serialise();
+    let uno = VirtualUno::start(&firmware("ascii"), &[]);
+    pymodbus(&uno, "--board ascii --baud 9600 --parity E --reads 1000", Duration::from_secs(120));
+}
+
 /// dip_switch preset 5 (pins 10 and 12 closed): 9600 8N1.
 #[test]
 fn pymodbus_and_libmodbus_at_9600_8n1() {
