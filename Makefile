@@ -28,7 +28,7 @@ firmware: setup
 	$(CARGO) uno --examples --features examples
 	$(CARGO) uno --example uno_slave --example dip_switch --features examples,millis
 	$(CARGO) uno --example ascii --features examples,ascii
-	$(CARGO) uno --example configurable --features examples,eeprom-settings,$(OPTIONAL)
+	$(CARGO) uno --example configurable --features examples,eeprom-settings,ascii,$(OPTIONAL)
 	@.ci/sizes $(FIRMWARE)
 	@.ci/no-panic $(FIRMWARE)
 
@@ -72,6 +72,7 @@ host-test: setup firmware fixtures
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL) --lib --test optional_functions --test exceptions --test adu --test framer --test bank --test map --test random_frames
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings --test settings --test settings_slots --test random_frames \
 		--test sim_configurable --test sim_settings_reset --test sim_silent --test sim_diagnostics
+	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings,ascii --test settings_ascii
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings --doc
 	$(CARGO) test -p avr-modbus-slave --features ufmt --test ufmt
 	$(CARGO) test -p avr-modbus-slave --features device-id --test device_id --test map

@@ -1,6 +1,7 @@
 /*!
  * Line settings the master can change, kept in EEPROM: the master writes the slave id,
- * baud rate, parity and stop bits to holding registers 40101–40104; the slave answers that
+ * baud rate, parity, stop bits and the transmission mode (RTU or ASCII, feature `ascii`)
+ * to holding registers 40101–40105; the slave answers that
  * write at the old settings and switches once the reply has left the wire and the main
  * loop (`SLAVE.poll_settings`) has computed the new USART and Timer0 settings, under 4 ms
  * after the request (3.7 ms measured at 115200). The main loop then stores them in EEPROM (≈3.4 ms per changed byte), where
@@ -35,9 +36,12 @@
  * | 40102       | 101     | baud rate / 100: 12–10000 (96 = 9600, 1152 = 115200) |
  * | 40103       | 102     | parity: 0 none, 1 odd, 2 even                        |
  * | 40104       | 103     | stop bits: 1 or 2                                    |
+ * | 40105       | 104     | mode: 0 RTU, 1 ASCII (7 data bits), 2 ASCII with 8   |
  *
- * A write to 40101–40104 that the slave can't run (id 0 or over 247, a rate the 16 MHz
- * USART can't make within 2.5 %, another code) gets exception 03 and changes nothing.
+ * A write to 40101–40105 that the slave can't run (id 0 or over 247, a rate the 16 MHz
+ * USART can't make within 2.5 %, another code) gets exception 03 and changes nothing. In
+ * ASCII the line keeps its rate, parity and stop bits (19200 7E1 after writing 1 to 40105
+ * at the default), and a frame inside which it stays silent for 1 s is dropped.
  * Also answers FC 7, 8, 11, 17 (feature `diagnostics`) and FC 22, 23 (`extra-fc`).
  */
 #![no_std]

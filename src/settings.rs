@@ -12,6 +12,7 @@
 //!   | 1      | baud/100  | 12–10000 (115200 bps = 1152)                   |
 //!   | 2      | parity    | 0 none, 1 odd, 2 even                          |
 //!   | 3      | stop bits | 1 or 2                                         |
+//!   | 4      | mode      | 0 RTU, 1 ASCII (7 data bits), 2 ASCII with 8 (feature `ascii`) |
 //!
 //!   A write builds a candidate from the settings with the written registers replaced (so
 //!   FC 06 on one register changes just that setting) and checks it as
@@ -39,6 +40,8 @@ mod configurable;
 mod record;
 mod slots;
 
+#[cfg(feature = "ascii")]
+pub use block::{mode_from_code, MODE};
 pub use block::{
     parity_code, parity_from_code, stop_bits_count, stop_bits_from_count, LineSettings, BAUD_100, BLOCK_LEN, PARITY,
     SLAVE_ID, STOP_BITS,

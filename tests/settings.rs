@@ -3,7 +3,7 @@
 //! block a master reads and writes with FC 03, 06
 //! and 16, with exception 03 for settings the slave can't run.
 
-#![cfg(feature = "eeprom-settings")]
+#![cfg(all(feature = "eeprom-settings", not(feature = "ascii")))]
 
 mod common;
 

@@ -14,6 +14,7 @@ use configurable::{
     assert_usart_runs, legacy_record, record, slots, write_block, Board, B9600_8N2, BLOCK, JUMPER, SLOTS_AT, SLOT_LEN,
 };
 use sim::{read_request, us_to_cycles, with_crc, Exchange, Line, ID};
+use uno_sim::Parity;
 
 /// Every character of the reply lasted `char_cycles` (those of `line`), with no gap over
 /// T1.5 between two of them (the write is checked between the address byte and the rest).
@@ -259,4 +260,54 @@ fn settings_written_with_the_jumper_on_are_stored() {
     let mut board = board.reset(Line::B19200_8O1);
     assert_usart_runs(&board.uno, Line::B19200_8O1);
     assert_eq!(board.read(3, 0x04, 0, 1), Some(vec![1]), "30001: EEPROM");
+}
+
+/// `bytes` (address and PDU) as a Modbus ASCII frame (Serial Line v1.02 §2.5.2): `:`,
+/// upper-case hex pairs with the LRC (the two's complement of the 8-bit sum), CR LF.
+fn ascii_frame(bytes: &[u8]) -> Vec<u8> {
+    let sum: u32 = bytes.iter().map(|&b| u32::from(b)).sum();
+    let lrc = ((256 - sum % 256) % 256) as u8;
+    let mut text = String::from(":");
+    for b in bytes.iter().copied().chain([lrc]) {
+        text.push_str(&format!("{b:02X}"));
+    }
+    text.push_str("\r\n");
+    text.into_bytes()
+}
+
+/// 19200 bps 7E1: the default line in ASCII.
+const B19200_7E1: Line = Line { data_bits: 7, ..Line::B19200_8E1 };
+
+#[test]
+fn writing_1_to_40105_switches_to_ascii_on_the_same_line_and_a_reset_keeps_it() {
+    let mut board = Board::boot(Line::B19200_8E1, |_| {});
+    let write = with_crc(&[
+        ID,   // slave address
+        0x06, // function: write single register
+        0x00, // address hi
+        0x68, // address lo: 40105, the mode
+        0x00, // value hi
+        0x01, // value lo: ASCII
+    ]);
+    // Answered in RTU: the switch comes once the reply has left the wire.
+    assert_eq!(board.ask(&write), write);
+    board.settle(B19200_7E1);
+    let cfg = board.uno.serial_config().expect("USART0 enabled");
+    assert!(cfg.matches(19_200, 7, Parity::Even, 1), "{cfg:?}");
+    let read_block = ascii_frame(&[ID, 0x03, 0x00, 0x64, 0x00, 0x05]);
+    let block_reply = ascii_frame(&[ID, 0x03, 0x0A, 0, ID, 0, 192, 0, 2, 0, 1, 0, 1]);
+    assert_eq!(board.ask(&read_block), block_reply);
+    // An RTU frame is no longer understood.
+    assert!(board.ask(&read_request(ID, 0x03, BLOCK, 5)).is_empty());
+    // The record keeps the mode in the high nibble of its stop-bits byte.
+    assert_eq!(board.slots()[SLOT_LEN + 8], 0x11, "{:02X?}", board.slots());
+
+    let mut board = board.reset(B19200_7E1);
+    assert_eq!(board.ask(&read_block), block_reply, "ASCII after the reset");
+    // Back to RTU with a write in ASCII.
+    let back = ascii_frame(&[ID, 0x06, 0x00, 0x68, 0x00, 0x00]);
+    assert_eq!(board.ask(&back), back);
+    board.settle(Line::B19200_8E1);
+    assert_usart_runs(&board.uno, Line::B19200_8E1);
+    assert_eq!(board.read(ID, 0x03, BLOCK, 5), Some(vec![1, 192, 2, 1, 0]));
 }

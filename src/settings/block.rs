@@ -1,13 +1,20 @@
 //! The settings block, Modbus over Serial Line v1.02 §2.5.1 (baud rate, parity, stop
-//! bits) and §2.2 (slave address): four holding registers, their codes, and the check of
-//! what a master writes into them ([`LineSettings::from_registers`]).
+//! bits), §2.2 (slave address) and, with feature `ascii`, §2.5 (transmission mode): four
+//! holding registers (five with `ascii`), their codes, and the check of what a master
+//! writes into them ([`LineSettings::from_registers`]).
 
+#[cfg(feature = "ascii")]
+use crate::config::Mode;
 use crate::config::{Config, Parity, SlaveId, StopBits};
 use crate::pdu::Exception;
 use crate::timing::{BaudDivisor, CLOCK_HZ};
 
-/// Registers in the settings block.
+/// Registers in the settings block: four, and the transmission mode with feature `ascii`.
+#[cfg(not(feature = "ascii"))]
 pub const BLOCK_LEN: u16 = 4;
+/// Registers in the settings block: four, and the transmission mode with feature `ascii`.
+#[cfg(feature = "ascii")]
+pub const BLOCK_LEN: u16 = 5;
 
 /// Offset of the slave id in the settings block.
 pub const SLAVE_ID: u16 = 0;
@@ -17,6 +24,21 @@ pub const BAUD_100: u16 = 1;
 pub const PARITY: u16 = 2;
 /// Offset of the stop bits in the settings block.
 pub const STOP_BITS: u16 = 3;
+/// Offset of the transmission mode in the settings block (feature `ascii`).
+#[cfg(feature = "ascii")]
+pub const MODE: u16 = 4;
+
+/// The transmission mode of a code (feature `ascii`): 0 RTU, 1 ASCII with 7 data bits,
+/// 2 ASCII with 8 (the discriminants of [`Mode`]); `None` for another code.
+#[cfg(feature = "ascii")]
+pub const fn mode_from_code(code: u16) -> Option<Mode> {
+    match code {
+        0 => Some(Mode::Rtu),
+        1 => Some(Mode::Ascii),
+        2 => Some(Mode::Ascii8),
+        _ => None,
+    }
+}
 
 /// The code of a parity in the settings block and the record: 0 none, 1 odd, 2 even
 /// (the discriminants of [`Parity`], so that no code table is needed).
@@ -66,6 +88,9 @@ pub struct LineSettings {
     pub parity: Parity,
     /// Stop bits.
     pub stop_bits: StopBits,
+    /// RTU or ASCII (feature `ascii`).
+    #[cfg(feature = "ascii")]
+    pub mode: Mode,
 }
 
 impl LineSettings {
@@ -76,24 +101,31 @@ impl LineSettings {
             baud: config.baud(),
             parity: config.parity(),
             stop_bits: config.stop_bits(),
+            #[cfg(feature = "ascii")]
+            mode: config.mode(),
         }
     }
 
-    /// The settings block's four registers.
+    /// The settings block's registers.
     pub fn to_registers(&self) -> [u16; BLOCK_LEN as usize] {
         [
             u16::from(self.slave_id),
             u16::try_from(self.baud / 100).unwrap_or(u16::MAX),
             u16::from(parity_code(self.parity)),
             u16::from(stop_bits_count(self.stop_bits)),
+            #[cfg(feature = "ascii")]
+            (self.mode as u16),
         ]
     }
 
-    /// The settings four block registers describe. `base` is what they were read from: a
+    /// The settings the block's registers describe. `base` is what they were read from: a
     /// baud register still reading `base`'s value keeps `base`'s exact rate. Exception 03
     /// when the registers describe settings the slave can't run.
     pub fn from_registers(base: &LineSettings, registers: [u16; BLOCK_LEN as usize]) -> Result<Self, Exception> {
+        #[cfg(not(feature = "ascii"))]
         let [id, baud_100, parity, stop] = registers;
+        #[cfg(feature = "ascii")]
+        let [id, baud_100, parity, stop, mode] = registers;
         let baud = u32::from(baud_100) * 100;
         // `baud_100 == base.baud / 100`, without a division.
         let baud = if (baud..baud + 100).contains(&base.baud) { base.baud } else { baud };
@@ -102,6 +134,8 @@ impl LineSettings {
             baud,
             parity: parity_from_code(parity).ok_or(Exception::IllegalDataValue)?,
             stop_bits: stop_bits_from_count(stop).ok_or(Exception::IllegalDataValue)?,
+            #[cfg(feature = "ascii")]
+            mode: mode_from_code(mode).ok_or(Exception::IllegalDataValue)?,
         };
         if settings.is_runnable() {
             Ok(settings)
@@ -123,7 +157,10 @@ impl LineSettings {
 
     /// The configuration, `None` when [`Config::try_new`] refuses it.
     pub fn to_config(&self) -> Option<Config> {
-        Config::try_new(self.slave_id, self.baud, self.parity, self.stop_bits).ok()
+        let config = Config::try_new(self.slave_id, self.baud, self.parity, self.stop_bits).ok();
+        #[cfg(feature = "ascii")]
+        let config = config.map(|c| c.with_mode(self.mode));
+        config
     }
 }
 

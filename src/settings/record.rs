@@ -12,7 +12,7 @@
 //! | 2    | slave id                                    |
 //! | 3–6  | baud rate, `u32` little-endian              |
 //! | 7    | parity code (0 none, 1 odd, 2 even)         |
-//! | 8    | stop bits (1 or 2)                          |
+//! | 8    | stop bits (1 or 2), and with feature `ascii` the transmission mode code in the high nibble (0 RTU: the byte RTU firmware writes) |
 //! | 9–10 | CRC-16/MODBUS of bytes 0–8, low byte first  |
 //!
 //! Format 1, [`LEGACY_LEN`] bytes: [`LEGACY_MAGIC`], then bytes 2–8 above (no sequence
@@ -48,20 +48,33 @@ pub struct Record {
     pub config: Config,
 }
 
-/// The slave id, baud rate, parity and stop bits as stored: 7 bytes.
+/// The slave id, baud rate, parity and stop bits (and the mode, feature `ascii`) as
+/// stored: 7 bytes.
 fn encode_settings(config: &Config) -> [u8; 7] {
     let [b0, b1, b2, b3] = config.baud().to_le_bytes();
-    [config.slave_id().get(), b0, b1, b2, b3, parity_code(config.parity()), stop_bits_count(config.stop_bits())]
+    #[allow(unused_mut)]
+    let mut stop = stop_bits_count(config.stop_bits());
+    #[cfg(feature = "ascii")]
+    {
+        stop |= (config.mode() as u8) << 4;
+    }
+    [config.slave_id().get(), b0, b1, b2, b3, parity_code(config.parity()), stop]
 }
 
 /// The configuration of 7 stored bytes, `None` when [`Config::try_new`] refuses it.
 fn decode_settings(bytes: [u8; 7]) -> Option<Config> {
     let [id, b0, b1, b2, b3, parity, stop] = bytes;
+    // Without feature `ascii` a mode in the high nibble makes an unknown stop count: a
+    // record this firmware can't run.
+    #[cfg(feature = "ascii")]
+    let (stop, mode) = (stop & 0x0F, super::block::mode_from_code(u16::from(stop >> 4))?);
     LineSettings {
         slave_id: id,
         baud: u32::from_le_bytes([b0, b1, b2, b3]),
         parity: parity_from_code(u16::from(parity))?,
         stop_bits: stop_bits_from_count(u16::from(stop))?,
+        #[cfg(feature = "ascii")]
+        mode,
     }
     .to_config()
 }

@@ -570,8 +570,9 @@ fn feature_costs(root: &Path) -> Vec<FeatureCost> {
     let configurable = avr_size(&firmware_path(root, "configurable")).ok();
     out.push(FeatureCost {
         feature: "eeprom-settings".into(),
-        how: "`configurable` in all (`make firmware`: with eeprom-settings, diagnostics, extra-fc, write-protect)"
-            .into(),
+        how:
+            "`configurable` in all (`make firmware`: with eeprom-settings, diagnostics, extra-fc, write-protect, ascii)"
+                .into(),
         measured: configurable.map(|(f, r)| (f as i64, r as i64)),
         claim: readme_claim(root, "eeprom-settings", true),
         total: true,
