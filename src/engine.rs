@@ -450,8 +450,8 @@ impl<const N: usize> Engine<N> {
     /// Byte `i` of the reply built by [`Engine::process`], for the sender.
     #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
     #[inline(always)]
-    pub(crate) fn reply_byte(&self, i: u8) -> u8 {
-        self.framer.buffer().get(usize::from(i)).copied().unwrap_or(0)
+    pub(crate) fn reply_byte(&self, i: usize) -> u8 {
+        self.framer.buffer().get(i).copied().unwrap_or(0)
     }
 
     /// The reply's last byte left the USART: listen again.

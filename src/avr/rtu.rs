@@ -172,7 +172,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE,
             }
             return;
         }
-        self.usart.write(self.engine.reply_byte(next as u8));
+        self.usart.write(self.engine.reply_byte(usize::from(next)));
         self.tx_next = next.wrapping_add(1);
         if self.tx_next == self.tx_len {
             self.usart.last_written();
