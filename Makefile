@@ -28,7 +28,7 @@ firmware: setup
 	$(CARGO) uno --examples --features examples
 	$(CARGO) uno --example uno_slave --example dip_switch --features examples,millis
 	$(CARGO) uno --example ascii --features examples,ascii
-	$(CARGO) uno --example configurable --features examples,eeprom-settings,ascii,$(OPTIONAL)
+	$(CARGO) uno --example configurable --features examples,eeprom-settings,ascii,device-id,$(OPTIONAL)
 	@.ci/sizes $(FIRMWARE)
 	@.ci/no-panic $(FIRMWARE)
 
@@ -57,7 +57,7 @@ clippy: setup
 	$(CARGO) clippy -p avr-modbus-slave --all-targets --features ascii -- -D warnings
 	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples -- -D warnings
-	$(CARGO) uno-clippy --examples --features examples,millis,ascii,$(OPTIONAL),eeprom-settings,ufmt -- -D warnings
+	$(CARGO) uno-clippy --examples --features examples,millis,ascii,device-id,$(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 
 docs: setup
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings,ufmt,device-id,ascii
@@ -75,7 +75,7 @@ host-test: setup firmware fixtures
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings,ascii --test settings_ascii
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings --doc
 	$(CARGO) test -p avr-modbus-slave --features ufmt --test ufmt
-	$(CARGO) test -p avr-modbus-slave --features device-id --test device_id --test map
+	$(CARGO) test -p avr-modbus-slave --features device-id --test device_id --test map --test sim_device_id
 	$(CARGO) test -p avr-modbus-slave --features ascii --test ascii --test sim_ascii --test framer --test adu --test random_frames
 	$(CARGO) test -p avr-modbus-slave --features ascii --doc
 

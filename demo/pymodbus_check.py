@@ -4,10 +4,12 @@
 Every function code the slave supports (01 02 03 04 05 06 15 16), exceptions 01, 02 and 03,
 a broadcast write read back afterwards, then N back-to-back reads with the answer rate.
 
-    pymodbus_check.py PORT [--board uno_slave|dip_switch|ascii] [--baud 19200] [--parity E]
-                      [--stop 1] [--control FIFO] [--preset N] [--reads 1000]
+    pymodbus_check.py PORT [--board uno_slave|dip_switch|ascii|configurable] [--baud 19200]
+                      [--parity E] [--stop 1] [--control FIFO] [--preset N] [--reads 1000]
 
 --board ascii talks Modbus ASCII (pymodbus's ASCII framer, 7 data bits) to examples/ascii.rs.
+--board configurable reads examples/configurable.rs's settings block and its device
+identification (FC 43 / MEI 14, every read device id code, exceptions 02 and 03).
 
 --control is the virtual Uno's command FIFO: the uno_slave checks close a switch and turn a
 potentiometer through it. Prints one line per step; exits 1 if any step went wrong.
@@ -20,6 +22,7 @@ virtual Uno set parity N instead (README, "Python masters").
 """
 
 import argparse
+import os
 import sys
 import time
 
@@ -136,6 +139,65 @@ def ascii_board(client, args):
     common_exceptions_and_broadcast(client, holding=8)
 
 
+# What examples/configurable.rs identifies itself as (its header's table); 0x02 is the crate's
+# version, read from Cargo.toml.
+CONFIGURABLE_OBJECTS = {
+    0x00: b"avr-modbus-slave",
+    0x01: b"configurable",
+    0x04: b"Uno Modbus slave with stored settings",
+    0x05: b"Arduino Uno (ATmega328P)",
+}
+
+
+def crate_version():
+    """The package version in Cargo.toml beside this script's folder."""
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "Cargo.toml")
+    with open(path, encoding="utf-8") as cargo:
+        for line in cargo:
+            if line.startswith("version"):
+                return line.split('"')[1].encode()
+    raise SystemExit("no version in Cargo.toml")
+
+
+def read_device_id(client, code, object_id=0x00):
+    """FC 43 / MEI 14 with read device id `code` from `object_id`: pymodbus's response."""
+    request = ReadDeviceInformationRequest(read_code=code, object_id=object_id)
+    request.unit_id = request.slave_id = 1  # the name changed after pymodbus 3.0
+    return client.execute(request)
+
+
+def identification(response):
+    """Conformity level, more follows and the objects of a device identification response."""
+    if response is None or isinstance(response, Exception):
+        return f"no answer ({response})"
+    if response.isError():
+        return exception(response)
+    return {"conformity": response.conformity, "more follows": response.more_follows,
+            "objects": dict(response.information)}
+
+
+def configurable(client, args):
+    """examples/configurable.rs at its default (19200 8E1, slave 1): the settings block and
+    Read Device Identification, every code."""
+    step("FC03 read 40101-40105 (slave id, baud/100, parity, stop bits, mode)",
+         values(client.read_holding_registers(100, 5, slave=1), "registers", 5), [1, 192, 2, 1, 0])
+    objects = dict(sorted({**CONFIGURABLE_OBJECTS, 0x02: crate_version()}.items()))
+    basic = {k: v for k, v in objects.items() if k <= 0x02}
+    step("FC43/14 code 01: basic stream", identification(read_device_id(client, 0x01)),
+         {"conformity": 0x82, "more follows": 0, "objects": basic})
+    step("FC43/14 code 02: regular stream", identification(read_device_id(client, 0x02)),
+         {"conformity": 0x82, "more follows": 0, "objects": objects})
+    step("FC43/14 code 03: extended stream, answered at the regular level",
+         identification(read_device_id(client, 0x03)),
+         {"conformity": 0x82, "more follows": 0, "objects": objects})
+    for object_id, value in objects.items():
+        step(f"FC43/14 code 04: object {object_id:02X}", identification(read_device_id(client, 0x04, object_id)),
+             {"conformity": 0x82, "more follows": 0, "objects": {object_id: value}})
+    step("FC43/14 code 04: object 03 (VendorUrl, not given)", identification(read_device_id(client, 0x04, 0x03)),
+         "exception 02")
+    step("FC43/14 code 05 (no such code)", identification(read_device_id(client, 0x05)), "exception 03")
+
+
 def exception_or_ok(response):
     """`ok` for a normal answer to a write, else what came instead."""
     if response is None or isinstance(response, Exception):
@@ -180,7 +242,7 @@ def back_to_back(client, reads):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("port")
-    parser.add_argument("--board", default="uno_slave", choices=["uno_slave", "dip_switch", "ascii"])
+    parser.add_argument("--board", default="uno_slave", choices=["uno_slave", "dip_switch", "ascii", "configurable"])
     parser.add_argument("--baud", type=int, default=19200)
     parser.add_argument("--parity", default="E", choices=["N", "E", "O"])
     parser.add_argument("--stop", type=int, default=1, choices=[1, 2])
@@ -203,7 +265,8 @@ def main():
     print(f"pymodbus: {args.port} at {args.baud} {bytesize}{args.parity}{args.stop}, slave 1"
           f"{', ASCII' if ascii else ''}", flush=True)
     try:
-        {"uno_slave": uno_slave, "dip_switch": dip_switch, "ascii": ascii_board}[args.board](client, args)
+        boards = {"uno_slave": uno_slave, "dip_switch": dip_switch, "ascii": ascii_board, "configurable": configurable}
+        boards[args.board](client, args)
         if args.reads:
             back_to_back(client, args.reads)
     finally:

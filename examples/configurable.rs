@@ -42,7 +42,16 @@
  * USART can't make within 2.5 %, another code) gets exception 03 and changes nothing. In
  * ASCII the line keeps its rate, parity and stop bits (19200 7E1 after writing 1 to 40105
  * at the default), and a frame inside which it stays silent for 1 s is dropped.
- * Also answers FC 7, 8, 11, 17 (feature `diagnostics`) and FC 22, 23 (`extra-fc`).
+ * Also answers FC 7, 8, 11, 17 (feature `diagnostics`), FC 22, 23 (`extra-fc`) and FC 43 /
+ * MEI 14, Read Device Identification (`device-id`), with these objects, kept in flash:
+ *
+ * | id   | object             | value                                  |
+ * |------|--------------------|----------------------------------------|
+ * | 0x00 | VendorName         | avr-modbus-slave                       |
+ * | 0x01 | ProductCode        | configurable                           |
+ * | 0x02 | MajorMinorRevision | the crate's version (0.1.0)            |
+ * | 0x04 | ProductName        | Uno Modbus slave with stored settings  |
+ * | 0x05 | ModelName          | Arduino Uno (ATmega328P)               |
  */
 #![no_std]
 #![no_main]
@@ -65,6 +74,17 @@ const SETTINGS_BLOCK: u32 = 40101;
 const FROM_DEFAULT: u16 = 0;
 const FROM_EEPROM: u16 = 1;
 const FROM_JUMPER: u16 = 2;
+
+avr_modbus_slave::identification! {
+    /// What FC 43 / MEI 14 tells a master: the objects in the table above.
+    static IDENTITY = {
+        vendor_name: "avr-modbus-slave",
+        product_code: "configurable",
+        major_minor_revision: env!("CARGO_PKG_VERSION"),
+        product_name: "Uno Modbus slave with stored settings",
+        model_name: "Arduino Uno (ATmega328P)",
+    };
+}
 
 avr_modbus_slave::register_map! {
     /// The table above, without the settings block (`Configurable` adds it).
@@ -93,6 +113,7 @@ fn start(dp: avr_device::atmega328p::Peripherals) -> Result<Eeprom, Error> {
     let mut bank = Map::new();
     bank.set(30001, source)?;
     bank.set_device_info(b"avr-modbus-slave configurable");
+    bank.set_identification(&IDENTITY);
     let model = Configurable::new(bank, SETTINGS_BLOCK, config)?;
     let driver_enable = pins.d10.into_output();
     let led = pins.d13.into_output();

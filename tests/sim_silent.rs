@@ -315,7 +315,8 @@ fn every_request_while_listen_only_is_silent() {
     rtu.send(&force_listen_only());
     let mut requests = every_function_code(ID);
     // Requests that would be answered with an exception stay silent too.
-    requests.push(("FC 43 (exception 01)", with_crc(&[ID, 0x2B, 0x0E, 0x01, 0x00])));
+    requests.push(("FC 43/14 read device identification", with_crc(&[ID, 0x2B, 0x0E, 0x01, 0x00])));
+    requests.push(("FC 43/13 (exception 01)", with_crc(&[ID, 0x2B, 0x0D, 0x01, 0x00])));
     requests.push(("FC 03 of 40005 (exception 02)", read_request(ID, 0x03, 4, 1)));
     requests.push(("FC 03 quantity 0 (exception 03)", read_request(ID, 0x03, 0, 0)));
     requests.push(("FC 08/02 (exception 01)", diagnostic(ID, 0x02)));

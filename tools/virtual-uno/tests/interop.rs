@@ -305,6 +305,16 @@ fn pymodbus_ascii_runs_every_function_code_exceptions_broadcast_and_1000_reads()
     pymodbus(&uno, "--board ascii --baud 9600 --parity E --reads 1000", Duration::from_secs(120));
 }
 
+/// FC 43 / MEI 14 Read Device Identification (examples/configurable.rs, feature
+/// `device-id`) through pymodbus's `ReadDeviceInformationRequest`: codes 01 to 04, each
+/// object, exceptions 02 and 03; then 100 reads.
+#[test]
+fn pymodbus_reads_the_device_identification_of_configurable() {
+    let _one = serialise();
+    let uno = VirtualUno::start(&firmware("configurable"), &[]);
+    pymodbus(&uno, "--board configurable --reads 100", Duration::from_secs(60));
+}
+
 /// dip_switch preset 5 (pins 10 and 12 closed): 9600 8N1.
 #[test]
 fn pymodbus_and_libmodbus_at_9600_8n1() {
