@@ -101,7 +101,7 @@ bench: setup firmware bench-features
 # minimal built with each optional feature, as `firmware` builds it, into its own target
 # directory (firmware's ELF files stay as they are): make bench compares their sizes.
 BENCH_FEATURES_DIR := target/bench-features
-BENCH_FEATURES := extra-fc diagnostics write-protect device-id millis
+BENCH_FEATURES := extra-fc diagnostics write-protect device-id millis ascii
 bench-features: setup
 	@mkdir -p $(BENCH_FEATURES_DIR)
 	@for f in "" $(BENCH_FEATURES); do \

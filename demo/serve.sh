@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # `make serve EXAMPLE=uno_slave`: keeps an example running on the virtual Uno for QModMaster or
-# any other Modbus RTU master, and says which settings to enter. Type commands to change the
+# any other Modbus RTU (or, for a 7-bit firmware such as `ascii`, ASCII) master, and says which
+# settings to enter. Type commands to change the
 # inputs (`pin 6 0`, `adc A0 2500`, `pins`); Ctrl-C stops.
 #
 #   demo/serve.sh [EXAMPLE] [virtual-uno options, e.g. --pin 10=0 for dip_switch]
@@ -29,6 +30,21 @@ settings() {
     *) python_parity=${format:1:1} python_note="pymodbus: with strict=False, once per virtual Uno; minimalmodbus: always"
        strict=", strict=False" ;;
   esac
+  # 7 data bits: Modbus ASCII (Modbus RTU needs 8).
+  if [ "${format:0:1}" = 7 ]; then
+    cat <<TEXT
+
+  Connect a Modbus ASCII master to $port (the pty printed above), slave id 1, $baud $format:
+    pymodbus:   from pymodbus.framer.ascii_framer import ModbusAsciiFramer  (pymodbus 3.0)
+                ModbusSerialClient("$port", framer=ModbusAsciiFramer, baudrate=$baud, bytesize=7,
+                                   parity="${format:1:1}", stopbits=${format:2:1}, timeout=1, strict=False), then slave=1 on each call
+    QModMaster and mbpoll speak RTU and TCP only (libmodbus has no ASCII): they can't reach it.
+  A pty passes on the characters and the baud rate, not the data bits or parity.
+  Type here: pin 6 0 | pin 6 z | adc A0 2500 | pins    Ctrl-C stops.
+
+TEXT
+    return
+  fi
   cat <<TEXT
 
   Connect a Modbus RTU master to $port (the pty printed above), slave id 1:
