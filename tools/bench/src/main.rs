@@ -571,7 +571,7 @@ fn feature_costs(root: &Path) -> Vec<FeatureCost> {
     out.push(FeatureCost {
         feature: "eeprom-settings".into(),
         how:
-            "`configurable` in all (`make firmware`: with eeprom-settings, diagnostics, extra-fc, write-protect, ascii)"
+            "`configurable` in all (`make firmware`: with eeprom-settings, diagnostics, extra-fc, write-protect, ascii, device-id)"
                 .into(),
         measured: configurable.map(|(f, r)| (f as i64, r as i64)),
         claim: readme_claim(root, "eeprom-settings", true),
