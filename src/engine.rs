@@ -125,20 +125,25 @@ enum Count {
 const COUNTS: usize = Count::Events as usize + 1;
 
 impl FrameError {
-    /// The counter a frame dropped for this error goes to: comparisons, where a `match`
-    /// choosing the counter would be a table, copied to RAM on AVR.
-    fn count(self) -> Count {
-        if self == FrameError::BadCrc {
-            Count::CrcErrors
-        } else if self == FrameError::Uart {
-            Count::UartErrors
-        } else if matches!(self, FrameError::Overrun | FrameError::TooLong) {
-            Count::Overruns
-        } else {
-            Count::Malformed
+    /// The place in [`Engine::counts`] of the counter a frame dropped for this error goes
+    /// to: half the value (see [`FrameError`]); ASCII's encoding errors are malformed frames.
+    const fn count(self) -> u8 {
+        #[cfg(feature = "ascii")]
+        if matches!(self, FrameError::Encoding) {
+            return Count::Malformed as u8;
         }
+        self as u8 >> 1
     }
 }
+
+const _: () = {
+    use FrameError::*;
+    assert!(BadCrc.count() == Count::CrcErrors as u8 && Uart.count() == Count::UartErrors as u8);
+    assert!(Overrun.count() == Count::Overruns as u8 && TooLong.count() == Count::Overruns as u8);
+    assert!(TooShort.count() == Count::Malformed as u8 && Gap.count() == Count::Malformed as u8);
+    #[cfg(feature = "ascii")]
+    assert!(Encoding.count() == Count::Malformed as u8);
+};
 
 impl<const N: usize> Engine<N> {
     /// FC 8 echoes up to 252 bytes of data, FC 17, 23 and 43 reply with up to 255 bytes: with
@@ -193,9 +198,16 @@ impl<const N: usize> Engine<N> {
 
     /// One more in `counter`, wrapping. Not inlined: a call where an inlined increment of
     /// a counter at a fixed address takes twice the flash.
-    #[inline(never)]
+    #[inline(always)]
     fn bump(&mut self, counter: Count) {
-        if let Some(count) = self.counts.get_mut(counter as usize) {
+        self.bump_at(counter as u8);
+    }
+
+    /// One more in the counter at `at` in [`Engine::counts`], wrapping (see
+    /// [`Engine::bump`]).
+    #[inline(never)]
+    fn bump_at(&mut self, at: u8) {
+        if let Some(count) = self.counts.get_mut(usize::from(at)) {
             *count = count.wrapping_add(1);
         }
     }
@@ -246,7 +258,7 @@ impl<const N: usize> Engine<N> {
         let len = match result {
             Ok(len) => len,
             Err(e) => {
-                self.bump(e.count());
+                self.bump_at(e.count());
                 return EndOfFrame::Dropped(e);
             }
         };
