@@ -340,13 +340,13 @@ impl<const N: usize> Engine<N> {
     pub fn prepare<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
         let len = self.pending_len;
         match core::mem::replace(&mut self.pending, Pending::None) {
-            Pending::Reply => self.answer(len, model, true),
-            Pending::Broadcast => self.answer(len, model, false),
-            Pending::Silent => {
+            pending @ (Pending::Reply | Pending::Broadcast) => self.answer(len, model, pending == Pending::Reply),
+            // Without feature `diagnostics` no frame is ever silent (`Engine::is_silent`).
+            Pending::Silent if diagnostics::ENABLED => {
                 self.stay_silent(len);
                 0
             }
-            Pending::None => 0,
+            Pending::Silent | Pending::None => 0,
         }
     }
 
