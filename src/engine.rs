@@ -80,10 +80,14 @@ pub enum EndOfFrame {
 
 /// A Modbus RTU slave's protocol state: the frame buffer (of `N` bytes, see
 /// [`DataModel::FRAME`]), the address, the counters.
+///
+/// In declaration order (`repr(C)`): the address, then the framer, whose first fields are
+/// the only others that start other than zero (see [`Framer`]).
+#[repr(C)]
 #[derive(Clone, Debug)]
 pub struct Engine<const N: usize = MAX_FRAME> {
-    framer: Framer<N>,
     id: SlaveId,
+    framer: Framer<N>,
     /// The counters, in the order of [`Counters`]'s fields (see [`Count`]).
     counts: [u16; COUNTS],
     /// What [`Engine::on_end_deadline`] decided for the frame not yet processed, and its

@@ -85,9 +85,17 @@ enum State {
 }
 
 /// The receiver of RTU frames; holds the one frame buffer, of `N` bytes (8 to 256).
+///
+/// In declaration order (`repr(C)`), the two fields that start other than zero first: the
+/// rest of a new framer, and of the engine that holds it after its address, is one run of
+/// zeros, which the slave's start writes in one go.
+#[repr(C)]
 #[derive(Clone, Debug)]
 pub struct Framer<const N: usize = MAX_FRAME> {
-    buf: [u8; N],
+    state: State,
+    /// Why the frame is dropped (`Broken`), or the verdict of the checks at the gap
+    /// deadline (`Waiting`: `None` for a good frame).
+    error: Option<FrameError>,
     /// Bytes stored, modulo 256: inside a frame at least one byte is stored, so 0 there
     /// means all 256 ([`Framer::stored`]). One byte, so the receive interrupt stays short.
     len: u8,
@@ -95,10 +103,7 @@ pub struct Framer<const N: usize = MAX_FRAME> {
     past: u8,
     /// Their CRC, folded from [`Crc16::tail`] (which [`Framer::listen`] sets).
     tail: Crc16,
-    state: State,
-    /// Why the frame is dropped (`Broken`), or the verdict of the checks at the gap
-    /// deadline (`Waiting`: `None` for a good frame).
-    error: Option<FrameError>,
+    buf: [u8; N],
     /// ASCII framing's own state (feature `ascii`), off for RTU.
     #[cfg(feature = "ascii")]
     ascii: ascii::Ascii,
