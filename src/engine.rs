@@ -329,10 +329,10 @@ impl<const N: usize> Engine<N> {
             self.reply_len = body + 1;
             return self.reply_len;
         }
-        let buf = self.framer.buffer_mut();
-        let crc = Crc16::new().update_slice(buf.get(..body).unwrap_or(&[])).to_wire();
-        if let Some(slot) = buf.get_mut(body..body + 2) {
-            slot.copy_from_slice(&crc);
+        // The reply always leaves room for its CRC (one bounds check, for both slices).
+        let frame = self.framer.buffer_mut().get_mut(..body + 2);
+        if let Some((reply, crc)) = frame.and_then(<[u8]>::split_last_chunk_mut) {
+            *crc = Crc16::new().update_slice(reply).to_wire();
         }
         self.reply_len = body + 2;
         self.reply_len
