@@ -204,8 +204,11 @@ impl<const N: usize> Framer<N> {
     #[inline(always)]
     fn idle(&mut self) {
         self.state = State::Idle;
-        self.past = 0;
-        self.tail = Crc16::tail();
+        // A 256-byte buffer holds every frame: nothing is past it, and both stay 0.
+        if N < MAX_FRAME {
+            self.past = 0;
+            self.tail = Crc16::tail();
+        }
     }
 
     fn break_frame(&mut self, error: FrameError) {
