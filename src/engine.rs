@@ -360,8 +360,10 @@ impl<const N: usize> Engine<N> {
     /// the PDU engine. The reply PDU is written over the request. A broadcast (`unicast`
     /// false) only checks a read and executes a write.
     fn handle<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M, unicast: bool) -> Result<Answer, Exception> {
-        // The PDU sits between the address and the CRC.
-        let pdu_len = len.saturating_sub(3);
+        // The PDU sits between the address and the CRC (a frame handed on has at least 4
+        // bytes, `MIN_FRAME`, so either subtraction gives the same; each is the smaller code
+        // where it is used).
+        let pdu_len = if diagnostics::ENABLED { len.saturating_sub(3) } else { len.wrapping_sub(3) };
         let counters = if diagnostics::ENABLED { self.counters() } else { Counters::new() };
         let (_, pdu) = self.framer.buffer_mut().split_at_mut(1);
         // Without their features, the optional codes fall through to `execute`, which
