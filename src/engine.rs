@@ -90,10 +90,9 @@ pub struct Engine<const N: usize = MAX_FRAME> {
     framer: Framer<N>,
     /// The counters, in the order of [`Counters`]'s fields (see [`Count`]).
     counts: [u16; COUNTS],
-    /// What [`Engine::on_end_deadline`] decided for the frame not yet processed, and its
-    /// length.
+    /// What [`Engine::on_end_deadline`] decided for the frame not yet processed (whose
+    /// length the framer keeps, [`Framer::frame_len`]).
     pending: Pending,
-    pending_len: usize,
     reply_len: usize,
     listen_only: bool,
 }
@@ -165,7 +164,6 @@ impl<const N: usize> Engine<N> {
             id,
             counts: [0; COUNTS],
             pending: Pending::None,
-            pending_len: 0,
             reply_len: 0,
             listen_only: false,
         }
@@ -289,7 +287,6 @@ impl<const N: usize> Engine<N> {
             self.bump(Count::NoResponse);
         }
         self.pending = pending;
-        self.pending_len = len;
         end
     }
 
@@ -342,7 +339,9 @@ impl<const N: usize> Engine<N> {
     /// address and PDU, and [`Engine::reply`] holds just those, for a sender that computes
     /// the CRC itself as the bytes go out.
     pub fn prepare<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
-        let len = self.pending_len;
+        // Read here, not kept from `on_end_deadline`: the T3.5 interrupt then holds no length
+        // across its calls.
+        let len = self.framer.frame_len();
         match core::mem::replace(&mut self.pending, Pending::None) {
             pending @ (Pending::Reply | Pending::Broadcast) => self.answer(len, model, pending == Pending::Reply),
             // Without feature `diagnostics` no frame is ever silent (`Engine::is_silent`).

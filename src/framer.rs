@@ -193,6 +193,16 @@ impl<const N: usize> Framer<N> {
         self.stored() + usize::from(self.past)
     }
 
+    /// The length [`Framer::on_end_deadline`] gave the frame it handed out, read again while
+    /// the frame is in use (the framer changes nothing of it until [`Framer::release`]).
+    pub(crate) fn frame_len(&self) -> usize {
+        #[cfg(feature = "ascii")]
+        if self.ascii.on {
+            return usize::from(self.len) + usize::from(self.past) + 1;
+        }
+        self.received()
+    }
+
     /// Silence: the next character starts a frame. Not inlined: several paths of the
     /// interrupts end here.
     #[inline(never)]
