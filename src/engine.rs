@@ -426,12 +426,13 @@ impl<const N: usize> Engine<N> {
             }
             Err(exception) => encode_exception(self.framer.buffer_mut().get_mut(1..).unwrap_or(&mut []), exception),
         };
-        // The longest reply PDU is 252 bytes, so address, PDU and CRC always fit.
-        self.reply_len = 1 + reply_pdu;
         self.bump(Count::Replies);
         if let Ok(Answer::Restart(_)) = result {
             self.restart();
         }
+        // The longest reply PDU is 252 bytes, so address, PDU and CRC always fit. Set after
+        // the calls above, so that it is not read back from memory.
+        self.reply_len = 1 + reply_pdu;
         self.reply_len
     }
 
