@@ -80,16 +80,19 @@ pub enum EndOfFrame {
 
 /// A Modbus RTU slave's protocol state: the frame buffer (of `N` bytes, see
 /// [`DataModel::FRAME`]), the address, the counters.
+///
+/// In declaration order (`repr(C)`): the address, then the framer, whose first fields are
+/// the only others that start other than zero (see [`Framer`]).
+#[repr(C)]
 #[derive(Clone, Debug)]
 pub struct Engine<const N: usize = MAX_FRAME> {
-    framer: Framer<N>,
     id: SlaveId,
+    framer: Framer<N>,
     /// The counters, in the order of [`Counters`]'s fields (see [`Count`]).
     counts: [u16; COUNTS],
-    /// What [`Engine::on_end_deadline`] decided for the frame not yet processed, and its
-    /// length.
+    /// What [`Engine::on_end_deadline`] decided for the frame not yet processed (whose
+    /// length the framer keeps, [`Framer::frame_len`]).
     pending: Pending,
-    pending_len: usize,
     reply_len: usize,
     listen_only: bool,
 }
@@ -125,20 +128,25 @@ enum Count {
 const COUNTS: usize = Count::Events as usize + 1;
 
 impl FrameError {
-    /// The counter a frame dropped for this error goes to: comparisons, where a `match`
-    /// choosing the counter would be a table, copied to RAM on AVR.
-    fn count(self) -> Count {
-        if self == FrameError::BadCrc {
-            Count::CrcErrors
-        } else if self == FrameError::Uart {
-            Count::UartErrors
-        } else if matches!(self, FrameError::Overrun | FrameError::TooLong) {
-            Count::Overruns
-        } else {
-            Count::Malformed
+    /// The place in [`Engine::counts`] of the counter a frame dropped for this error goes
+    /// to: half the value (see [`FrameError`]); ASCII's encoding errors are malformed frames.
+    const fn count(self) -> u8 {
+        #[cfg(feature = "ascii")]
+        if matches!(self, FrameError::Encoding) {
+            return Count::Malformed as u8;
         }
+        self as u8 >> 1
     }
 }
+
+const _: () = {
+    use FrameError::*;
+    assert!(BadCrc.count() == Count::CrcErrors as u8 && Uart.count() == Count::UartErrors as u8);
+    assert!(Overrun.count() == Count::Overruns as u8 && TooLong.count() == Count::Overruns as u8);
+    assert!(TooShort.count() == Count::Malformed as u8 && Gap.count() == Count::Malformed as u8);
+    #[cfg(feature = "ascii")]
+    assert!(Encoding.count() == Count::Malformed as u8);
+};
 
 impl<const N: usize> Engine<N> {
     /// FC 8 echoes up to 252 bytes of data, FC 17, 23 and 43 reply with up to 255 bytes: with
@@ -156,7 +164,6 @@ impl<const N: usize> Engine<N> {
             id,
             counts: [0; COUNTS],
             pending: Pending::None,
-            pending_len: 0,
             reply_len: 0,
             listen_only: false,
         }
@@ -193,9 +200,16 @@ impl<const N: usize> Engine<N> {
 
     /// One more in `counter`, wrapping. Not inlined: a call where an inlined increment of
     /// a counter at a fixed address takes twice the flash.
-    #[inline(never)]
+    #[inline(always)]
     fn bump(&mut self, counter: Count) {
-        if let Some(count) = self.counts.get_mut(counter as usize) {
+        self.bump_at(counter as u8);
+    }
+
+    /// One more in the counter at `at` in [`Engine::counts`], wrapping (see
+    /// [`Engine::bump`]).
+    #[inline(never)]
+    fn bump_at(&mut self, at: u8) {
+        if let Some(count) = self.counts.get_mut(usize::from(at)) {
             *count = count.wrapping_add(1);
         }
     }
@@ -246,7 +260,7 @@ impl<const N: usize> Engine<N> {
         let len = match result {
             Ok(len) => len,
             Err(e) => {
-                self.bump(e.count());
+                self.bump_at(e.count());
                 return EndOfFrame::Dropped(e);
             }
         };
@@ -273,7 +287,6 @@ impl<const N: usize> Engine<N> {
             self.bump(Count::NoResponse);
         }
         self.pending = pending;
-        self.pending_len = len;
         end
     }
 
@@ -313,10 +326,10 @@ impl<const N: usize> Engine<N> {
             self.reply_len = body + 1;
             return self.reply_len;
         }
-        let buf = self.framer.buffer_mut();
-        let crc = Crc16::new().update_slice(buf.get(..body).unwrap_or(&[])).to_wire();
-        if let Some(slot) = buf.get_mut(body..body + 2) {
-            slot.copy_from_slice(&crc);
+        // The reply always leaves room for its CRC (one bounds check, for both slices).
+        let frame = self.framer.buffer_mut().get_mut(..body + 2);
+        if let Some((reply, crc)) = frame.and_then(<[u8]>::split_last_chunk_mut) {
+            *crc = Crc16::new().update_slice(reply).to_wire();
         }
         self.reply_len = body + 2;
         self.reply_len
@@ -326,15 +339,17 @@ impl<const N: usize> Engine<N> {
     /// address and PDU, and [`Engine::reply`] holds just those, for a sender that computes
     /// the CRC itself as the bytes go out.
     pub fn prepare<M: DataModel + ?Sized>(&mut self, model: &mut M) -> usize {
-        let len = self.pending_len;
+        // Read here, not kept from `on_end_deadline`: the T3.5 interrupt then holds no length
+        // across its calls.
+        let len = self.framer.frame_len();
         match core::mem::replace(&mut self.pending, Pending::None) {
-            Pending::Reply => self.answer(len, model, true),
-            Pending::Broadcast => self.answer(len, model, false),
-            Pending::Silent => {
+            pending @ (Pending::Reply | Pending::Broadcast) => self.answer(len, model, pending == Pending::Reply),
+            // Without feature `diagnostics` no frame is ever silent (`Engine::is_silent`).
+            Pending::Silent if diagnostics::ENABLED => {
                 self.stay_silent(len);
                 0
             }
-            Pending::None => 0,
+            Pending::Silent | Pending::None => 0,
         }
     }
 
@@ -344,8 +359,10 @@ impl<const N: usize> Engine<N> {
     /// the PDU engine. The reply PDU is written over the request. A broadcast (`unicast`
     /// false) only checks a read and executes a write.
     fn handle<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M, unicast: bool) -> Result<Answer, Exception> {
-        // The PDU sits between the address and the CRC.
-        let pdu_len = len.saturating_sub(3);
+        // The PDU sits between the address and the CRC (a frame handed on has at least 4
+        // bytes, `MIN_FRAME`, so either subtraction gives the same; each is the smaller code
+        // where it is used).
+        let pdu_len = if diagnostics::ENABLED { len.saturating_sub(3) } else { len.wrapping_sub(3) };
         let counters = if diagnostics::ENABLED { self.counters() } else { Counters::new() };
         let (_, pdu) = self.framer.buffer_mut().split_at_mut(1);
         // Without their features, the optional codes fall through to `execute`, which
@@ -409,12 +426,13 @@ impl<const N: usize> Engine<N> {
             }
             Err(exception) => encode_exception(self.framer.buffer_mut().get_mut(1..).unwrap_or(&mut []), exception),
         };
-        // The longest reply PDU is 252 bytes, so address, PDU and CRC always fit.
-        self.reply_len = 1 + reply_pdu;
         self.bump(Count::Replies);
         if let Ok(Answer::Restart(_)) = result {
             self.restart();
         }
+        // The longest reply PDU is 252 bytes, so address, PDU and CRC always fit. Set after
+        // the calls above, so that it is not read back from memory.
+        self.reply_len = 1 + reply_pdu;
         self.reply_len
     }
 

@@ -29,24 +29,29 @@ pub const MIN_FRAME: usize = 4;
 pub const MIN_CAPACITY: usize = 8;
 
 /// Why a frame was dropped in silence (never answered with an exception).
+///
+/// Half a value is the place of the counter it goes to among the engine's counters (CRC
+/// errors 1, UART errors 2, overruns 3, malformed frames 4): a shift, where choosing the
+/// counter took a chain of comparisons. `Uart` is 4 as the receiver's `State::Broken` is,
+/// so that the receive interrupt's error path loads the one value for both.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FrameError {
     /// Fewer than 4 bytes between two T3.5 silences.
-    TooShort,
+    TooShort = 8,
     /// More than 256 bytes: the rest was discarded without being stored.
-    TooLong,
+    TooLong = 7,
     /// The CRC did not check.
-    BadCrc,
+    BadCrc = 2,
     /// A character came after a silence longer than T1.5 but shorter than T3.5.
-    Gap,
+    Gap = 9,
     /// A character had a parity or framing error.
-    Uart,
+    Uart = 4,
     /// The USART lost a character (data overrun).
-    Overrun,
+    Overrun = 6,
     /// ASCII framing (feature `ascii`): a character that is not a hex digit, an odd number
     /// of hex digits, or anything but LF after CR.
     #[cfg(feature = "ascii")]
-    Encoding,
+    Encoding = 10,
 }
 
 /// What the USART reported about a damaged character.
@@ -80,9 +85,17 @@ enum State {
 }
 
 /// The receiver of RTU frames; holds the one frame buffer, of `N` bytes (8 to 256).
+///
+/// In declaration order (`repr(C)`), the two fields that start other than zero first: the
+/// rest of a new framer, and of the engine that holds it after its address, is one run of
+/// zeros, which the slave's start writes in one go.
+#[repr(C)]
 #[derive(Clone, Debug)]
 pub struct Framer<const N: usize = MAX_FRAME> {
-    buf: [u8; N],
+    state: State,
+    /// Why the frame is dropped (`Broken`), or the verdict of the checks at the gap
+    /// deadline (`Waiting`: `None` for a good frame).
+    error: Option<FrameError>,
     /// Bytes stored, modulo 256: inside a frame at least one byte is stored, so 0 there
     /// means all 256 ([`Framer::stored`]). One byte, so the receive interrupt stays short.
     len: u8,
@@ -90,10 +103,7 @@ pub struct Framer<const N: usize = MAX_FRAME> {
     past: u8,
     /// Their CRC, folded from [`Crc16::tail`] (which [`Framer::listen`] sets).
     tail: Crc16,
-    state: State,
-    /// Why the frame is dropped (`Broken`), or the verdict of the checks at the gap
-    /// deadline (`Waiting`: `None` for a good frame).
-    error: Option<FrameError>,
+    buf: [u8; N],
     /// ASCII framing's own state (feature `ascii`), off for RTU.
     #[cfg(feature = "ascii")]
     ascii: ascii::Ascii,
@@ -183,6 +193,16 @@ impl<const N: usize> Framer<N> {
         self.stored() + usize::from(self.past)
     }
 
+    /// The length [`Framer::on_end_deadline`] gave the frame it handed out, read again while
+    /// the frame is in use (the framer changes nothing of it until [`Framer::release`]).
+    pub(crate) fn frame_len(&self) -> usize {
+        #[cfg(feature = "ascii")]
+        if self.ascii.on {
+            return usize::from(self.len) + usize::from(self.past) + 1;
+        }
+        self.received()
+    }
+
     /// Silence: the next character starts a frame. Not inlined: several paths of the
     /// interrupts end here.
     #[inline(never)]
@@ -194,8 +214,11 @@ impl<const N: usize> Framer<N> {
     #[inline(always)]
     fn idle(&mut self) {
         self.state = State::Idle;
-        self.past = 0;
-        self.tail = Crc16::tail();
+        // A 256-byte buffer holds every frame: nothing is past it, and both stay 0.
+        if N < MAX_FRAME {
+            self.past = 0;
+            self.tail = Crc16::tail();
+        }
     }
 
     fn break_frame(&mut self, error: FrameError) {

@@ -494,6 +494,7 @@ macro_rules! register_map {
 
         impl $crate::DataModel for $name {
             const FRAME: usize = $crate::internal::map::Layout::frame(&[$($crate::__range!($first $(..= $last)?)),+]);
+            const FRAME_HOLDS_ALL: bool = true;
 
             fn read_bits(&self, table: $crate::Table, start: u16, qty: u16, out: &mut [u8]) -> ::core::result::Result<(), $crate::Exception> {
                 self.0.read_bits(Self::locate(table, start, qty), qty, out)

@@ -32,6 +32,13 @@ pub trait DataModel {
     /// out from its ranges. Features `diagnostics` and `extra-fc` need 256.
     const FRAME: usize = crate::framer::MAX_FRAME;
 
+    /// True when every request whose addresses all exist fits [`DataModel::FRAME`], as
+    /// [`crate::register_map!`] works it out: a request too long for the frame buffer then
+    /// has a missing address, and gets exception 02 without a lookup. False, the default,
+    /// asks [`DataModel::has_range`] (02 for a missing address, else 04).
+    #[doc(hidden)]
+    const FRAME_HOLDS_ALL: bool = false;
+
     /// Reads `qty` (≥ 1) bits of `table` (coils or discrete inputs) from `start` into
     /// `out`, packed LSB first, the unused high bits of the last byte zero.
     /// `out.len()` is `qty.div_ceil(8)`.

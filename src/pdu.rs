@@ -223,7 +223,7 @@ pub struct Request {
 /// The big-endian word at `at`, 0 past the end (the length checks decide what that means).
 pub(crate) fn word(pdu: &[u8], at: usize) -> u16 {
     match pdu.get(at..at + 2) {
-        Some(&[hi, lo]) => u16::from_be_bytes([hi, lo]),
+        Some(&[hi, lo]) => crate::storage::from_be(hi, lo),
         _ => 0,
     }
 }
@@ -280,7 +280,7 @@ impl Request {
     /// all eight codes (the order of the 03 checks among themselves makes no difference).
     pub fn parse(pdu: &[u8], len: usize) -> Result<Self, Exception> {
         let code = pdu.first().copied().unwrap_or(0);
-        let (start, b) = (word(pdu, 1), word(pdu, 3));
+        let b = word(pdu, 3);
         let multiple = code.wrapping_sub(FunctionCode::WriteMultipleCoils.value()) < 2;
         let single = if multiple { code - 10 } else { code };
         if single.wrapping_sub(FunctionCode::ReadCoils.value()) > 5 {
@@ -305,6 +305,8 @@ impl Request {
         let length_ok =
             if multiple { pdu.get(5) == Some(&data_len) && len == 6 + usize::from(data_len) } else { len == 5 };
         value_check(length_ok && (!coil || multiple || b == COIL_ON || b == COIL_OFF))?;
+        // Read only here: the first address matters to the last check alone.
+        let start = word(pdu, 1);
         range_check(start, qty)?;
         Ok(Request { table, start, qty, access, data_at, data_len })
     }

@@ -10,17 +10,54 @@ use crate::model::Access;
 /// A register's value, big-endian (high byte first), as on the wire.
 pub(crate) type Word = [u8; 2];
 
+/// `value` with its bytes swapped: [`u16::swap_bytes`], but as three instructions on the
+/// AVR, where the backend writes a byte swap out as seven. A big-endian pair of bytes
+/// loaded or stored side by side becomes one 16-bit access and a swap.
+#[inline(always)]
+#[cfg_attr(target_arch = "avr", allow(unsafe_code))]
+fn swap(value: u16) -> u16 {
+    #[cfg(target_arch = "avr")]
+    {
+        let mut value = value;
+        // SAFETY: three exclusive-ors within the register pair: no memory, no stack.
+        unsafe {
+            core::arch::asm!(
+                "eor {0:l}, {0:h}",
+                "eor {0:h}, {0:l}",
+                "eor {0:l}, {0:h}",
+                inout(reg_pair) value,
+                options(pure, nomem, nostack),
+            )
+        };
+        value
+    }
+    #[cfg(not(target_arch = "avr"))]
+    value.swap_bytes()
+}
+
+/// [`u16::from_be_bytes`] with the swap of [`swap`].
+#[inline(always)]
+pub(crate) fn from_be(hi: u8, lo: u8) -> u16 {
+    swap(u16::from_le_bytes([hi, lo]))
+}
+
+/// [`u16::to_be_bytes`] with the swap of [`swap`].
+#[inline(always)]
+pub(crate) fn to_be(value: u16) -> Word {
+    swap(value).to_le_bytes()
+}
+
 /// The value of a register kept as a [`Word`], 0 past the end.
 #[inline(always)]
 pub(crate) fn word(words: &[Word], i: usize) -> u16 {
-    words.get(i).map_or(0, |&w| u16::from_be_bytes(w))
+    words.get(i).map_or(0, |&[hi, lo]| from_be(hi, lo))
 }
 
 /// Sets the register `i` kept as a [`Word`].
 #[inline(always)]
 pub(crate) fn set_word(words: &mut [Word], i: usize, value: u16) {
     if let Some(slot) = words.get_mut(i) {
-        *slot = value.to_be_bytes();
+        *slot = to_be(value);
     }
 }
 

@@ -25,10 +25,13 @@ use crate::reference::IntoReference;
 /// the application's data model `M`, the RS-485 driver-enable pin `DE` and the
 /// communication LED `LED`. It lives in a [`Slave`] and is reached only with interrupts
 /// disabled.
+#[repr(C)]
 pub(crate) struct Running<M, DE, LED, const N: usize> {
+    // First, in declaration order (`repr(C)`): the engine starts with the fields that start
+    // other than zero, the rest of the slave follows its run of zeros (see `Engine`).
+    engine: Engine<N>,
     usart: Usart,
     timer: FrameTimer,
-    engine: Engine<N>,
     model: M,
     /// Index of the reply's next byte, and the reply's length (at most 255 bytes; in
     /// ASCII framing, characters: at most 513).

@@ -128,10 +128,13 @@ impl Deadlines {
     /// when it reads T3.5's value itself, the write waits for the next tick edge (at most
     /// a tick, 64 cycles), so that whether the match comes does not hang on the moment of
     /// the write.
+    ///
+    /// `plan` is the plan as the interrupt read it first: read again after the volatile
+    /// reads of TCNT0, it would be loaded again.
     #[inline(always)]
-    fn move_to_end(&mut self) {
+    fn move_to_end(&mut self, plan: Schedule) {
         let gap_value = OCR0B.read();
-        let to_end = self.plan.to_end;
+        let to_end = plan.to_end;
         let read = TCNT0.read();
         let mut elapsed = read.wrapping_sub(gap_value);
         if to_end != 0 && elapsed == to_end {
@@ -139,7 +142,7 @@ impl Deadlines {
             elapsed = elapsed.wrapping_add(1);
         }
         OCR0B.write(gap_value.wrapping_add(to_end));
-        self.matches = self.plan.count_after_gap(elapsed);
+        self.matches = plan.count_after_gap(elapsed);
     }
 
     /// A compare interrupt whose flag was noted stale: lets it pass, once.
@@ -259,10 +262,11 @@ impl FrameTimer {
                 if d.was_stale() {
                     return Passed::Nothing;
                 }
-                let (passed, matches) = d.plan.on_match(d.matches);
+                let plan = d.plan;
+                let (passed, matches) = plan.on_match(d.matches);
                 d.matches = matches;
                 if passed == Passed::Gap {
-                    d.move_to_end();
+                    d.move_to_end(plan);
                 }
                 passed
             })

@@ -19,7 +19,7 @@ use crate::reference::Table;
 /// cannot carry the request out (04).
 #[inline(never)]
 pub(crate) fn range_exception<M: DataModel + ?Sized>(model: &M, table: Table, start: u16, qty: u16) -> Exception {
-    if model.has_range(table, start, qty) {
+    if !M::FRAME_HOLDS_ALL && model.has_range(table, start, qty) {
         Exception::ServerDeviceFailure
     } else {
         Exception::IllegalDataAddress
