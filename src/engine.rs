@@ -198,15 +198,14 @@ impl<const N: usize> Engine<N> {
         }
     }
 
-    /// One more in `counter`, wrapping. Not inlined: a call where an inlined increment of
-    /// a counter at a fixed address takes twice the flash.
+    /// One more in `counter`, wrapping (through [`Engine::bump_at`]).
     #[inline(always)]
     fn bump(&mut self, counter: Count) {
         self.bump_at(counter as u8);
     }
 
-    /// One more in the counter at `at` in [`Engine::counts`], wrapping (see
-    /// [`Engine::bump`]).
+    /// One more in the counter at `at` in [`Engine::counts`], wrapping. Not inlined: a call
+    /// where an inlined increment of a counter at a fixed address takes twice the flash.
     #[inline(never)]
     fn bump_at(&mut self, at: u8) {
         if let Some(count) = self.counts.get_mut(usize::from(at)) {

@@ -198,7 +198,7 @@ impl<const N: usize> Framer<N> {
     pub(crate) fn frame_len(&self) -> usize {
         #[cfg(feature = "ascii")]
         if self.ascii.on {
-            return usize::from(self.len) + usize::from(self.past) + 1;
+            return self.ascii_frame_len();
         }
         self.received()
     }

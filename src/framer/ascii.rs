@@ -237,6 +237,12 @@ impl<const N: usize> Framer<N> {
         }
     }
 
+    /// The length of the frame received, counted as an RTU frame's (see
+    /// [`Framer::ascii_end`]).
+    pub(super) fn ascii_frame_len(&self) -> usize {
+        usize::from(self.len) + usize::from(self.past) + 1
+    }
+
     /// The outcome [`Framer::on_end_deadline`] reports for ASCII: a frame a `:` dropped,
     /// else the frame that ended (LF, or the timeout), with its length counted as an RTU
     /// frame's (address, PDU and a two-byte check: one more than the bytes, which end with
@@ -251,7 +257,7 @@ impl<const N: usize> Framer<N> {
         Some(match self.error {
             None => {
                 self.state = State::Busy;
-                Ok(usize::from(self.len) + usize::from(self.past) + 1)
+                Ok(self.ascii_frame_len())
             }
             Some(error) => {
                 self.state = State::Idle;
