@@ -21,7 +21,7 @@ impl Adc {
     where
         P::Target: Sized,
     {
-        claim::<_, { reg::ADC.0 }, { reg::ADC.1 }>(adc)?;
+        claim::<_, { reg::ADC.1 }>(adc, reg::ADC.0)?;
         ADCSRA.write(ADEN | ADPS_128);
         Ok(Adc(()))
     }

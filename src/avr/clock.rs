@@ -39,7 +39,7 @@ pub(crate) fn millis() -> u32 {
 /// TIMER0_OVF: Timer0 overflowed (every 1.024 ms), the clock moves on. Bound here rather
 /// than by [`crate::slave!`]: it touches nothing of the slave's, and a firmware without
 /// the feature has no handler at all (the interrupt stays off).
-#[export_name = "__vector_16"]
+#[export_name = crate::__chip!(vector TIMER0_OVF)]
 unsafe extern "avr-interrupt" fn timer0_overflow() {
     // SAFETY: the overflow interrupt handler, which runs with interrupts disabled.
     unsafe { CLOCK.with(|c| c.uptime = c.uptime.after_overflow()) }

@@ -12,6 +12,7 @@
 
 use core::ops::Deref;
 
+use super::chip::CHIP;
 use super::reg::{self, claim, EEARH, EEARL, EECR, EEDR};
 use crate::error::Error;
 
@@ -28,15 +29,16 @@ const EEMPE: u8 = 1 << 2;
 pub struct Eeprom(());
 
 impl Eeprom {
-    /// Size of the ATmega328P's EEPROM, in bytes.
-    pub const SIZE: u16 = 1024;
+    /// Size of the chip's EEPROM, in bytes: 1024 on the ATmega328P and ATmega32U4, 512 on
+    /// the ATmega168, 4096 on the ATmega2560 and ATmega1280.
+    pub const SIZE: u16 = CHIP.eeprom_size;
 
     /// Takes the EEPROM from the application's PAC (`dp.EEPROM`).
     pub fn new<P: Deref>(eeprom: P) -> Result<Self, Error>
     where
         P::Target: Sized,
     {
-        claim::<_, { reg::EEPROM.0 }, { reg::EEPROM.1 }>(eeprom)?;
+        claim::<_, { reg::EEPROM.1 }>(eeprom, reg::EEPROM.0)?;
         Ok(Eeprom(()))
     }
 

@@ -1,14 +1,16 @@
-//! The ATmega328P layer: USART0 on pins 0/1, Timer0 as the silence detector and the
-//! application's millisecond clock, and the interrupt-driven [`Slave`] that ties them to
-//! the protocol engine (Modbus over Serial Line v1.02 §2.5.1.1 and §3.3).
+//! The AVR layer: a USART (USART0 on the Uno's pins 0/1, any of the chip's), Timer0 as the
+//! silence detector and the application's millisecond clock, and the interrupt-driven
+//! [`Slave`] that ties them to the protocol engine (Modbus over Serial Line v1.02
+//! §2.5.1.1 and §3.3). What differs between the chips is in one table each, `chip`.
 //!
 //! Everything here is thin: register writes and reads, and calls into the pure core. The
-//! slave takes the `USART0` and `TC0` the application gets from its HAL's
+//! slave takes the USART and `TC0` the application gets from its HAL's
 //! `Peripherals::take()` (arduino-hal's, or `avr-device`'s of any version), and reaches
 //! their registers by address, so no PAC version is part of this crate's API.
 #![allow(unsafe_code)]
 
 mod adc;
+mod chip;
 #[cfg(feature = "millis")]
 mod clock;
 #[cfg(not(feature = "millis"))]
@@ -50,7 +52,7 @@ pub fn millis() -> u32 {
 /// For the handlers that [`crate::slave!`] binds.
 #[doc(hidden)]
 pub mod __private {
-    /// USART0 receive complete, before anything else: when the character arrived.
+    /// USART receive complete, before anything else: when the character arrived.
     ///
     /// # Safety
     /// Only first thing in the USART_RX interrupt handler (interrupts disabled).
@@ -61,39 +63,48 @@ pub mod __private {
 }
 
 /// Declares the slave `NAME` for a data model type and binds the four interrupts it needs:
-/// USART0 RX complete, data register empty and TX complete, and Timer0 compare B (the
+/// its USART's RX complete, data register empty and TX complete, and Timer0 compare B (the
 /// silences). With feature `millis` the crate binds Timer0's overflow too, the clock of
 /// `millis()`.
 ///
 /// ```ignore
-/// avr_modbus_slave::slave!(SLAVE: Registers);                  // no pins
+/// avr_modbus_slave::slave!(SLAVE: Registers);                  // the board's pins 0/1, no pins
 /// avr_modbus_slave::slave!(SLAVE: Registers, NoPin, LedPin);   // driver enable, LED
+/// avr_modbus_slave::slave!(SLAVE on USART1: Registers);        // a Mega's Serial1 (pins 19/18)
 /// ```
+///
+/// Without `on`, the slave serves the USART on the board's pins 0/1: USART0 on the
+/// ATmega328P, ATmega168, ATmega2560 and ATmega1280, USART1 on the ATmega32U4. `on USARTn`
+/// names any USART the chip has (USART0–USART3 on the Mega's chips); one it lacks fails the
+/// build. [`Slave::start`] then takes that USART (`dp.USART1`, …).
 ///
 /// The handlers use the `avr-interrupt` calling convention: the firmware crate needs
 /// `#![feature(abi_avr_interrupt)]`, as every AVR interrupt handler does. Nothing else in
 /// the firmware may handle these interrupts, nor Timer0's overflow (no `default_serial!` on
-/// USART0, nothing on TC0).
+/// the slave's USART, nothing on TC0).
 #[macro_export]
 macro_rules! slave {
-    ($name:ident : $model:ty) => {
-        $crate::slave!($name: $model, $crate::NoPin, $crate::NoPin);
-    };
-    ($name:ident : $model:ty, $de:ty, $led:ty) => {
-        static $name: $crate::Slave<$model, $de, $led, { <$model as $crate::DataModel>::FRAME }> = $crate::Slave::new();
+    (@on $usart:ident $name:ident : $model:ty, $de:ty, $led:ty) => {
+        static $name: $crate::Slave<
+            $model,
+            $de,
+            $led,
+            { <$model as $crate::DataModel>::FRAME },
+            { $crate::__chip!(usart $usart) },
+        > = $crate::Slave::new();
 
         #[doc(hidden)]
         #[allow(non_snake_case)]
         mod __avr_modbus_slave_interrupts {
             /// TIMER0_COMPB: the gap deadline, then T3.5.
-            #[export_name = "__vector_15"]
+            #[export_name = $crate::__chip!(vector TIMER0_COMPB)]
             unsafe extern "avr-interrupt" fn TIMER0_COMPB() {
                 // SAFETY: an interrupt handler, which runs with interrupts disabled.
                 unsafe { super::$name.on_timer_compare() }
             }
 
-            /// USART_RX: a character arrived.
-            #[export_name = "__vector_18"]
+            /// USARTn_RX: a character arrived.
+            #[export_name = $crate::__chip!(vector $usart RX)]
             unsafe extern "avr-interrupt" fn USART_RX() {
                 // SAFETY: as above; the handler's first call.
                 unsafe { $crate::__private::usart_rx_arrived() };
@@ -101,19 +112,31 @@ macro_rules! slave {
                 unsafe { super::$name.on_usart_rx() }
             }
 
-            /// USART_UDRE: room for the next character of a reply.
-            #[export_name = "__vector_19"]
+            /// USARTn_UDRE: room for the next character of a reply.
+            #[export_name = $crate::__chip!(vector $usart UDRE)]
             unsafe extern "avr-interrupt" fn USART_UDRE() {
                 // SAFETY: as above.
                 unsafe { super::$name.on_usart_udre() }
             }
 
-            /// USART_TX: the reply has left the wire.
-            #[export_name = "__vector_20"]
+            /// USARTn_TX: the reply has left the wire.
+            #[export_name = $crate::__chip!(vector $usart TX)]
             unsafe extern "avr-interrupt" fn USART_TX() {
                 // SAFETY: as above.
                 unsafe { super::$name.on_usart_tx() }
             }
         }
+    };
+    ($name:ident on $usart:ident : $model:ty) => {
+        $crate::slave!(@on $usart $name: $model, $crate::NoPin, $crate::NoPin);
+    };
+    ($name:ident on $usart:ident : $model:ty, $de:ty, $led:ty) => {
+        $crate::slave!(@on $usart $name: $model, $de, $led);
+    };
+    ($name:ident : $model:ty) => {
+        $crate::__chip!(default $name: $model, $crate::NoPin, $crate::NoPin);
+    };
+    ($name:ident : $model:ty, $de:ty, $led:ty) => {
+        $crate::__chip!(default $name: $model, $de, $led);
     };
 }

@@ -7,6 +7,7 @@ use core::ops::Deref;
 
 use embedded_hal::digital::{ErrorType, InputPin, OutputPin, StatefulOutputPin};
 
+use super::chip::CHIP;
 use super::reg::{self, claim, Reg};
 use crate::error::Error;
 
@@ -169,9 +170,9 @@ impl Pins {
         C::Target: Sized,
         D::Target: Sized,
     {
-        claim::<_, { reg::PORTB.0 }, { reg::PORTB.1 }>(portb)?;
-        claim::<_, { reg::PORTC.0 }, { reg::PORTC.1 }>(portc)?;
-        claim::<_, { reg::PORTD.0 }, { reg::PORTD.1 }>(portd)?;
+        claim::<_, { reg::PORTB.1 }>(portb, reg::PORTB.0)?;
+        claim::<_, { reg::PORTC.1 }>(portc, reg::PORTC.0)?;
+        claim::<_, { reg::PORTD.1 }>(portd, reg::PORTD.0)?;
         Ok(Pins {
             d2: Pin::new(PIND, 2),
             d3: Pin::new(PIND, 3),
@@ -195,14 +196,14 @@ impl Pins {
     }
 }
 
-/// Stops the firmware when it could not start: lights the on-board LED "L" (pin 13) and
-/// sleeps with interrupts off, so that a start-up error is seen rather than a slave that
-/// answers half its map.
+/// Stops the firmware when it could not start: lights the on-board LED "L" (pin 13: PB5
+/// on the Uno and Nano, PB7 on the Mega, PC7 on the Leonardo) and sleeps with interrupts
+/// off, so that a start-up error is seen rather than a slave that answers half its map.
 pub fn halt(error: Error) -> ! {
     let _ = error;
-    // Pin 13 is PB5: an output (DDRB), driven high (PORTB).
+    // An output (DDRx), driven high (PORTx).
     reg::free(|| {
-        let led = Pin::new(PINB, 5);
+        let led = Pin::new(CHIP.led.0, CHIP.led.1);
         led.register(1).modify(|bits| bits | led.mask);
         led.register(2).modify(|bits| bits | led.mask);
         loop {

@@ -1,5 +1,7 @@
-//! The ATmega328P's I/O registers by data-space address, datasheet §36 (register summary),
-//! and the global interrupt flag (§7.3.1, SREG bit 7).
+//! I/O registers by data-space address, ATmega328P datasheet §36 (register summary), and
+//! the global interrupt flag (§7.3.1, SREG bit 7). Timer0, the EEPROM, the ports and SREG
+//! sit at these addresses on every chip the crate runs on; the USARTs' blocks, which
+//! differ, are in the chip's table (`super::chip`).
 //!
 //! The drivers reach their registers here rather than through a PAC type, so the crate
 //! works with whichever `avr-device` the application's HAL brings; the slave checks the
@@ -47,7 +49,8 @@ impl Reg {
 
 /// Data-space address and register-block size of the peripherals the crate takes, as the
 /// PAC (`avr-device`, generated from Microchip's ATDF) lays them out.
-pub(crate) const USART0: (usize, usize) = (0xC0, 7);
+/// A USART (the address is the chip's, `super::chip`).
+pub(crate) const USART_SIZE: usize = 7;
 /// Timer0: TIFR0 (0x35) to TIMSK0 (0x6E).
 pub(crate) const TC0: (usize, usize) = (0x35, 0x3A);
 /// Port B: PINB, DDRB, PORTB.
@@ -63,33 +66,20 @@ pub(crate) const EEPROM: (usize, usize) = (0x3F, 4);
 
 /// Takes a peripheral from the application's PAC (`avr-device`, any version: its
 /// peripherals dereference to their register block) and checks that it is the one at
-/// `ADDRESS`: a register block of another size is a build error, another address an
-/// `Err` (a check the compiler folds away for the right peripheral). The peripheral is
+/// `address`: a register block of another size (`SIZE`) is a build error, another address
+/// an `Err` (a check the compiler folds away for the right peripheral). The peripheral is
 /// consumed, so the application can't use it beside the crate.
-pub(crate) fn claim<P: Deref, const ADDRESS: usize, const SIZE: usize>(peripheral: P) -> Result<(), Error>
+pub(crate) fn claim<P: Deref, const SIZE: usize>(peripheral: P, address: usize) -> Result<(), Error>
 where
     P::Target: Sized,
 {
     const { assert!(core::mem::size_of::<P::Target>() == SIZE, "not the peripheral expected here") };
-    if ptr::from_ref(&*peripheral) as usize == ADDRESS {
+    if ptr::from_ref(&*peripheral) as usize == address {
         Ok(())
     } else {
         Err(Error::WrongPeripheral)
     }
 }
-
-/// USART0 control and status A.
-pub(crate) const UCSR0A: Reg = Reg(0xC0);
-/// USART0 control and status B.
-pub(crate) const UCSR0B: Reg = Reg(0xC1);
-/// USART0 control and status C (frame format).
-pub(crate) const UCSR0C: Reg = Reg(0xC2);
-/// USART0 baud rate, low byte (writing it applies the rate).
-pub(crate) const UBRR0L: Reg = Reg(0xC4);
-/// USART0 baud rate, high byte.
-pub(crate) const UBRR0H: Reg = Reg(0xC5);
-/// USART0 data.
-pub(crate) const UDR0: Reg = Reg(0xC6);
 
 /// Timer0 interrupt flags.
 pub(crate) const TIFR0: Reg = Reg(0x35);

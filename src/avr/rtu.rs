@@ -26,11 +26,11 @@ use crate::reference::IntoReference;
 /// communication LED `LED`. It lives in a [`Slave`] and is reached only with interrupts
 /// disabled.
 #[repr(C)]
-pub(crate) struct Running<M, DE, LED, const N: usize> {
+pub(crate) struct Running<M, DE, LED, const N: usize, const U: u8> {
     // First, in declaration order (`repr(C)`): the engine starts with the fields that start
     // other than zero, the rest of the slave follows its run of zeros (see `Engine`).
     engine: Engine<N>,
-    usart: Usart,
+    usart: Usart<U>,
     timer: FrameTimer,
     model: M,
     /// Index of the reply's next byte, and the reply's length (at most 255 bytes; in
@@ -47,8 +47,8 @@ type TxIndex = u8;
 #[cfg(feature = "ascii")]
 type TxIndex = u16;
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE, LED, N> {
-    /// Configures USART0 and Timer0 for `config` and starts the power-up wait (T3.5 of
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<M, DE, LED, N, U> {
+    /// Configures the USART and Timer0 for `config` and starts the power-up wait (T3.5 of
     /// silence before the first frame; none in ASCII framing).
     fn new(config: Config, model: M, mut driver_enable: DE, mut led: LED) -> Self {
         const { assert!(N >= M::FRAME, "the slave's frame buffer is smaller than its data model needs") };
@@ -64,7 +64,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE,
         Running { usart, timer, engine, model, tx_next: 0, tx_len: 0, driver_enable, led }
     }
 
-    /// USART0 RX complete: one character (or a damaged one) arrived. The interrupt handler
+    /// USART RX complete: one character (or a damaged one) arrived. The interrupt handler
     /// set the silence deadlines before it got here (`timer::on_receive`), so that they
     /// count from as close to the stop bit as can be.
     #[inline(always)]
@@ -162,7 +162,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE,
         bytes as TxIndex
     }
 
-    /// USART0 data register empty: the next character of the reply (CRC included).
+    /// USART data register empty: the next character of the reply (CRC included).
     #[inline(always)]
     fn on_usart_udre(&mut self) {
         let next = self.tx_next;
@@ -182,7 +182,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE,
         }
     }
 
-    /// USART0 transmit complete: the reply has left the wire.
+    /// USART transmit complete: the reply has left the wire.
     #[inline(always)]
     fn on_usart_tx(&mut self) {
         self.usart.finished();
@@ -193,7 +193,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Running<M, DE,
         self.apply_new_settings();
     }
 
-    /// Switches USART0, Timer0 and the slave id (and with feature `ascii` the framing) to
+    /// Switches the USART, Timer0 and the slave id (and with feature `ascii` the framing) to
     /// settings the master wrote, if they are ready (see [`Slave::poll_settings`]); called
     /// when nothing of a reply is left to send.
     #[cfg(feature = "eeprom-settings")]
@@ -218,7 +218,8 @@ fn set_mode<const N: usize>(engine: &mut Engine<N>, timer: &mut FrameTimer, conf
 }
 
 /// The Modbus RTU slave: declare it with [`crate::slave!`], start it with the
-/// application's `USART0` and `TC0`, then read and write its data like variables.
+/// application's USART (the one `slave!` names) and `TC0`, then read and write its data like
+/// variables.
 ///
 /// ```ignore
 /// avr_modbus_slave::slave!(SLAVE: Registers);
@@ -232,23 +233,24 @@ fn set_mode<const N: usize>(engine: &mut Engine<N>, timer: &mut FrameTimer, conf
 /// microseconds; a flag refuses re-entry (a [`Slave::with`] inside another gets `None`).
 /// The slave starts all-zero, so it lives in `.bss` and costs no flash for an
 /// initializer. `N` is its frame buffer's size: [`crate::slave!`] gives it the model's
-/// [`DataModel::FRAME`]; 256, the default, fits every model.
-pub struct Slave<M, DE = NoPin, LED = NoPin, const N: usize = MAX_FRAME> {
+/// [`DataModel::FRAME`]; 256, the default, fits every model. `U` is the number of the
+/// USART it serves, as `slave!` names it.
+pub struct Slave<M, DE = NoPin, LED = NoPin, const N: usize = MAX_FRAME, const U: u8 = 0> {
     state: UnsafeCell<u8>,
-    running: UnsafeCell<MaybeUninit<Running<M, DE, LED, N>>>,
+    running: UnsafeCell<MaybeUninit<Running<M, DE, LED, N, U>>>,
 }
 
 const EMPTY: u8 = 0;
 const READY: u8 = 1;
 const IN_USE: u8 = 2;
 
-// SAFETY: the ATmega328P has one core, and the cell is only touched with interrupts
+// SAFETY: the chip has one core, and the cell is only touched with interrupts
 // disabled (`reg::free`, or inside the slave's interrupt handlers), so no two accesses
 // overlap. What it holds moves in from `start`'s caller and is used from interrupts, hence
 // the `Send` bounds.
-unsafe impl<M: Send, DE: Send, LED: Send, const N: usize> Sync for Slave<M, DE, LED, N> {}
+unsafe impl<M: Send, DE: Send, LED: Send, const N: usize, const U: u8> Sync for Slave<M, DE, LED, N, U> {}
 
-impl<M, DE, LED, const N: usize> Slave<M, DE, LED, N> {
+impl<M, DE, LED, const N: usize, const U: u8> Slave<M, DE, LED, N, U> {
     /// A slave not yet started: what [`crate::slave!`] declares.
     #[doc(hidden)]
     pub const fn new() -> Self {
@@ -260,7 +262,7 @@ impl<M, DE, LED, const N: usize> Slave<M, DE, LED, N> {
     /// # Safety
     /// Interrupts must be disabled for the whole call.
     #[inline(always)]
-    unsafe fn access<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N>) -> R) -> Option<R> {
+    unsafe fn access<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N, U>) -> R) -> Option<R> {
         // SAFETY: no other access can run (the caller's promise); READY means the slave
         // was written by `start`, and IN_USE keeps a nested call from aliasing it.
         unsafe {
@@ -284,54 +286,56 @@ impl<M, DE, LED, const N: usize> Slave<M, DE, LED, N> {
     /// and Timer0 interrupts, after writing it, and only the slave's handlers enable the
     /// transmit ones.
     #[inline(always)]
-    unsafe fn access_in_handler<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N>) -> R) -> R {
+    unsafe fn access_in_handler<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N, U>) -> R) -> R {
         // SAFETY: as promised by the caller, nothing else reaches the slave meanwhile, and
         // it was written.
         unsafe { f((*self.running.get()).assume_init_mut()) }
     }
 
     /// Runs `f` on the running slave with interrupts disabled.
-    fn locked<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N>) -> R) -> Option<R> {
+    fn locked<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N, U>) -> R) -> Option<R> {
         // SAFETY: interrupts are disabled for the whole access.
         reg::free(|| unsafe { self.access(f) })
     }
 }
 
-impl<M: DataModel, const N: usize> Slave<M, NoPin, NoPin, N> {
-    /// Starts the slave on Arduino pins 0 (RX) and 1 (TX): takes `USART0` and `TC0` from
-    /// the application's `Peripherals` (arduino-hal's or `avr-device`'s, any version),
-    /// configures them for `config`, and enables interrupts. From here on the slave
+impl<M: DataModel, const N: usize, const U: u8> Slave<M, NoPin, NoPin, N, U> {
+    /// Starts the slave: takes the USART that [`crate::slave!`] named (`dp.USART0` on the
+    /// Uno's pins 0/1, `dp.USART1` on the Leonardo's or the Mega's Serial1, …) and `TC0`
+    /// from the application's `Peripherals` (arduino-hal's or `avr-device`'s, any version),
+    /// configures them for `config`, and enables interrupts. Another USART than the one
+    /// `slave!` named is [`Error::WrongPeripheral`], and nothing starts. From here on the slave
     /// answers by itself; the application reads and writes `model` through
     /// [`Slave::get`], [`Slave::set`] and [`Slave::with`].
-    pub fn start<U: Deref, T: Deref>(&self, config: Config, usart0: U, tc0: T, model: M) -> Result<(), Error>
+    pub fn start<P: Deref, T: Deref>(&self, config: Config, usart: P, tc0: T, model: M) -> Result<(), Error>
     where
-        U::Target: Sized,
+        P::Target: Sized,
         T::Target: Sized,
     {
-        self.start_with_pins(config, usart0, tc0, model, NoPin, NoPin)
+        self.start_with_pins(config, usart, tc0, model, NoPin, NoPin)
     }
 }
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Slave<M, DE, LED, N> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Slave<M, DE, LED, N, U> {
     /// [`Slave::start`] with an RS-485 driver-enable pin (high from just before the first
     /// character of a reply until its last one has left the wire) and a communication LED
     /// (lit while the slave answers a frame addressed to it): any `embedded-hal` output
     /// pin, arduino-hal's included, or [`crate::NoPin`].
-    pub fn start_with_pins<U: Deref, T: Deref>(
+    pub fn start_with_pins<P: Deref, T: Deref>(
         &self,
         config: Config,
-        usart0: U,
+        usart: P,
         tc0: T,
         model: M,
         driver_enable: DE,
         led: LED,
     ) -> Result<(), Error>
     where
-        U::Target: Sized,
+        P::Target: Sized,
         T::Target: Sized,
     {
-        claim::<_, { reg::USART0.0 }, { reg::USART0.1 }>(usart0)?;
-        claim::<_, { reg::TC0.0 }, { reg::TC0.1 }>(tc0)?;
+        claim::<_, { reg::USART_SIZE }>(usart, Usart::<U>::BLOCK)?;
+        claim::<_, { reg::TC0.1 }>(tc0, reg::TC0.0)?;
         reg::free(|| {
             // SAFETY: interrupts are disabled, so nothing else accesses the cell.
             unsafe {
@@ -407,7 +411,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Slave<M, DE, L
     }
 }
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Slave<M, DE, LED, N> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Slave<M, DE, LED, N, U> {
     /// Reads a coil, input or register by its classic reference (see [`crate::Bank::get`]).
     pub fn get(&self, reference: impl IntoReference) -> Result<u16, Error> {
         // The reference is worked out before interrupts go off: shorter critical section.
@@ -430,7 +434,9 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Slave<M, DE, L
 }
 
 #[cfg(feature = "eeprom-settings")]
-impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize> Slave<crate::settings::Configurable<M>, DE, LED, N> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8>
+    Slave<crate::settings::Configurable<M>, DE, LED, N, U>
+{
     /// The main loop's part of a settings change (feature `eeprom-settings`): call it
     /// from the main loop as often as it comes round. Returns how many EEPROM bytes it
     /// wrote when it stored new settings at `address`, else `None`.

@@ -1,9 +1,11 @@
-//! USART0 in asynchronous mode, 8 data bits (or 7 for ASCII framing, feature `ascii`),
-//! ATmega328P datasheet §20 (registers §20.11).
+//! A USART in asynchronous mode, 8 data bits (or 7 for ASCII framing, feature `ascii`),
+//! ATmega328P datasheet §20 (registers §20.11); the same block on every chip the crate
+//! runs on, at the address the chip's table gives (`super::chip`).
 
 use core::arch::asm;
 
-use super::reg::{UBRR0H, UBRR0L, UCSR0A, UCSR0B, UCSR0C, UDR0};
+use super::chip::CHIP;
+use super::reg::Reg;
 use crate::config::{Config, Parity, StopBits};
 use crate::framer::UartError;
 
@@ -20,48 +22,20 @@ const UDRIE0: u8 = 1 << 5;
 const RXEN0: u8 = 1 << 4;
 const TXEN0: u8 = 1 << 3;
 
-/// UCSR0A's data-space address (`reg::UCSR0A`), for the assembly below.
-const UCSR0A_ADDRESS: u16 = 0xC0;
-
-/// UCSR0A's error flags (DOR0, FE0, UPE0), in one register: written out so that the
-/// compiler keeps no second copy of the status for the error path, which costs the receive
-/// interrupt a saved register.
-#[inline(always)]
-fn read_errors() -> u8 {
-    let errors: u8;
-    // SAFETY: reads UCSR0A (a read has no side effect) into the one register named.
-    unsafe {
-        asm!(
-            "lds {errors}, {ucsr0a}",
-            "andi {errors}, {mask}",
-            errors = out(reg_upper) errors,
-            ucsr0a = const UCSR0A_ADDRESS,
-            mask = const DOR0 | FE0 | UPE0,
-            options(nostack),
-        );
-    }
-    errors
+/// What a configuration writes to a USART's registers.
+struct Format {
+    /// UCSRnA: double speed or not.
+    ucsra: u8,
+    /// UCSRnC: asynchronous, parity, stop bits, data bits.
+    ucsrc: u8,
+    /// UBRRn, high byte first.
+    ubrr: [u8; 2],
 }
 
-/// USART0 on Arduino pins 0 (RX) and 1 (TX).
-pub(crate) struct Usart;
-
-impl Usart {
-    /// Configures the format and rate, enables receiver, transmitter and the receive
-    /// interrupt.
-    ///
-    /// The frame format (UCSR0C) is written before the rate, and UBRR0's high byte before
-    /// its low byte: the low-byte write is what applies the new rate.
-    pub(crate) fn new(config: &Config) -> Self {
-        let mut usart = Usart;
-        usart.configure(config);
-        usart
-    }
-
-    /// Applies `config`'s format and rate, as [`Usart::new`] does. Turning the receiver
-    /// and transmitter off first flushes the receive buffer and drops a character being
-    /// sent: call it when the reply has left the wire (transmit complete).
-    pub(crate) fn configure(&mut self, config: &Config) {
+impl Format {
+    /// The register values for `config`, worked out apart from the USART they go to (so
+    /// that every USART shares this code).
+    fn of(config: &Config) -> Self {
         let divisor = config.divisor();
         let parity = match config.parity() {
             Parity::None => 0b00,
@@ -72,28 +46,92 @@ impl Usart {
             StopBits::One => 0,
             StopBits::Two => 1,
         };
-        // Asynchronous, parity, stop bits, 8 data bits (UCSZ01:0 = 11); with feature
-        // `ascii` 7 for ASCII framing (UCSZ01:0 = 10).
+        // Asynchronous, parity, stop bits, 8 data bits (UCSZn1:0 = 11); with feature
+        // `ascii` 7 for ASCII framing (UCSZn1:0 = 10).
         #[cfg(not(feature = "ascii"))]
         let size = 0b110;
         #[cfg(feature = "ascii")]
         let size = if config.data_bits() == 7 { 0b100 } else { 0b110 };
-        let ucsr0c = (parity << 4) | (stop << 3) | size;
-        let [ubrr_high, ubrr_low] = divisor.ubrr.to_be_bytes();
-        UCSR0B.write(0);
-        UCSR0C.write(ucsr0c);
-        UCSR0A.write(if divisor.double_speed { U2X0 } else { 0 });
-        UBRR0H.write(ubrr_high);
-        UBRR0L.write(ubrr_low);
-        UCSR0B.write(RXCIE0 | RXEN0 | TXEN0);
+        Format {
+            ucsra: if divisor.double_speed { U2X0 } else { 0 },
+            ucsrc: (parity << 4) | (stop << 3) | size,
+            ubrr: divisor.ubrr.to_be_bytes(),
+        }
+    }
+}
+
+/// USART `U` (USART0 on the Uno's pins 0/1, USART1 on the Leonardo's, USART0–3 on the
+/// Mega's): its registers, UCSRnA to UDRn, from the block the chip's table gives.
+pub(crate) struct Usart<const U: u8>;
+
+impl<const U: u8> Usart<U> {
+    /// The register block's data-space address; a build error for a USART the chip lacks.
+    pub(crate) const BLOCK: usize = CHIP.usart(U);
+    /// Control and status A (the flags).
+    const UCSRA: Reg = Reg::at(Self::BLOCK);
+    /// Control and status B (enables).
+    const UCSRB: Reg = Reg::at(Self::BLOCK + 1);
+    /// Control and status C (frame format).
+    const UCSRC: Reg = Reg::at(Self::BLOCK + 2);
+    /// Baud rate, low byte (writing it applies the rate).
+    const UBRRL: Reg = Reg::at(Self::BLOCK + 4);
+    /// Baud rate, high byte.
+    const UBRRH: Reg = Reg::at(Self::BLOCK + 5);
+    /// Data.
+    const UDR: Reg = Reg::at(Self::BLOCK + 6);
+
+    /// Configures the format and rate, enables receiver, transmitter and the receive
+    /// interrupt.
+    ///
+    /// The frame format (UCSRnC) is written before the rate, and UBRRn's high byte before
+    /// its low byte: the low-byte write is what applies the new rate.
+    pub(crate) fn new(config: &Config) -> Self {
+        let mut usart = Usart;
+        usart.configure(config);
+        usart
+    }
+
+    /// Applies `config`'s format and rate, as [`Usart::new`] does. Turning the receiver
+    /// and transmitter off first flushes the receive buffer and drops a character being
+    /// sent: call it when the reply has left the wire (transmit complete).
+    // With the feature it is called twice (start, and a settings switch): once out of line.
+    #[cfg_attr(feature = "eeprom-settings", inline(never))]
+    pub(crate) fn configure(&mut self, config: &Config) {
+        let Format { ucsra, ucsrc, ubrr: [ubrr_high, ubrr_low] } = Format::of(config);
+        Self::UCSRB.write(0);
+        Self::UCSRC.write(ucsrc);
+        Self::UCSRA.write(ucsra);
+        Self::UBRRH.write(ubrr_high);
+        Self::UBRRL.write(ubrr_low);
+        Self::UCSRB.write(RXCIE0 | RXEN0 | TXEN0);
+    }
+
+    /// UCSRnA's error flags (DORn, FEn, UPEn), in one register: written out so that the
+    /// compiler keeps no second copy of the status for the error path, which costs the
+    /// receive interrupt a saved register.
+    #[inline(always)]
+    fn read_errors() -> u8 {
+        let errors: u8;
+        // SAFETY: reads UCSRnA (a read has no side effect) into the one register named.
+        unsafe {
+            asm!(
+                "lds {errors}, {ucsra}",
+                "andi {errors}, {mask}",
+                errors = out(reg_upper) errors,
+                ucsra = const Self::BLOCK,
+                mask = const DOR0 | FE0 | UPE0,
+                options(nostack),
+            );
+        }
+        errors
     }
 
     /// Reads the received character, or the error it came with. The status flags belong
-    /// to the character in UDR0, so they are read first.
+    /// to the character in UDRn, so they are read first.
     #[inline(always)]
     pub(crate) fn read(&self) -> Result<u8, UartError> {
-        let errors = read_errors();
-        let byte = UDR0.read();
+        let errors = Self::read_errors();
+        let byte = Self::UDR.read();
         if errors == 0 {
             Ok(byte)
         } else if errors & DOR0 != 0 {
@@ -105,15 +143,15 @@ impl Usart {
         }
     }
 
-    /// True when a received character waits in UDR0.
+    /// True when a received character waits in Self::UDR.
     pub(crate) fn has_data(&self) -> bool {
-        UCSR0A.read() & RXC0 != 0
+        Self::UCSRA.read() & RXC0 != 0
     }
 
     /// Writes one character to the transmit buffer.
     #[inline(always)]
     pub(crate) fn write(&self, byte: u8) {
-        UDR0.write(byte);
+        Self::UDR.write(byte);
     }
 
     /// Starts feeding a reply from the data-register-empty interrupt.
@@ -128,7 +166,7 @@ impl Usart {
     pub(crate) fn last_written(&self) {
         // Writing 1 to TXC0 clears it; U2X0 is written back unchanged and the error flags
         // are read-only.
-        UCSR0A.modify(|bits| (bits & U2X0) | TXC0);
+        Self::UCSRA.modify(|bits| (bits & U2X0) | TXC0);
         self.modify_control(|b| (b & !UDRIE0) | TXCIE0);
     }
 
@@ -136,7 +174,7 @@ impl Usart {
     /// way.
     #[cfg(feature = "eeprom-settings")]
     pub(crate) fn is_sending(&self) -> bool {
-        UCSR0B.read() & (UDRIE0 | TXCIE0) != 0
+        Self::UCSRB.read() & (UDRIE0 | TXCIE0) != 0
     }
 
     /// The reply has left the wire: stop the transmit-complete interrupt.
@@ -146,8 +184,8 @@ impl Usart {
     }
 
     fn modify_control(&self, f: impl FnOnce(u8) -> u8) {
-        // UCSR0B holds enable bits only; `f` changes interrupt enables. Only the slave's
+        // UCSRnB holds enable bits only; `f` changes interrupt enables. Only the slave's
         // interrupt handlers and its critical sections change it.
-        UCSR0B.modify(f);
+        Self::UCSRB.modify(f);
     }
 }
