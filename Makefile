@@ -8,7 +8,7 @@ EXAMPLES := $(patsubst examples/%.rs,%,$(wildcard examples/*.rs))
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: help setup firmware fixtures sizes lint fmt-check clippy docs host-test test demo serve interop bench bench-features fuzz soak
+.PHONY: help setup firmware chips fixtures sizes lint fmt-check clippy docs host-test test demo serve interop bench bench-features fuzz soak
 
 help:
 	@echo "make demo   - build the Uno slave and poll it on a virtual Uno"
@@ -26,23 +26,54 @@ setup:
 # others carry no clock.
 firmware: setup
 	$(CARGO) uno --examples --features examples
-	$(CARGO) uno --example uno_slave --example dip_switch --features examples,millis
+	$(CARGO) uno --example uno_slave --example dip_switch --example boards --features examples,millis
 	$(CARGO) uno --example ascii --features examples,ascii
 	$(CARGO) uno --example configurable --features examples,eeprom-settings,ascii,device-id,$(OPTIONAL)
 	@.ci/sizes $(FIRMWARE)
 	@.ci/no-panic $(FIRMWARE)
+	@$(MAKE) --no-print-directory chips
+
+# examples/boards.rs on the other chips, as the avr-hal template builds (target avr-none,
+# -C target-cpu=CHIP), on each of their USARTs: target/chips/CHIP/avr-none/release/examples/
+# (the board's pins 0/1: USART0, the 32U4's USART1) and target/chips/CHIP-usartN/… for the
+# Mega's other USARTs. A USART is a cfg of this crate (build.rs), so only the crate rebuilds.
+CHIPS := atmega168 atmega32u4 atmega1280 atmega2560
+MEGA_USARTS := 1 2 3
+CHIP_ELF = target/chips/$(1)/avr-none/release/examples/boards.elf
+chips: setup
+	@for chip in $(CHIPS); do \
+		usarts=""; case $$chip in atmega1280|atmega2560) usarts="$(MEGA_USARTS)";; esac; \
+		for usart in "" $$usarts; do \
+			CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=$$chip" AVR_MODBUS_SLAVE_EXAMPLE_USART=$$usart \
+				$(CARGO) build --release -Zbuild-std=core --target avr-none --example boards \
+				--features examples,millis --target-dir target/chips/$$chip; \
+			if [ -n "$$usart" ]; then \
+				mkdir -p target/chips/$$chip-usart$$usart/avr-none/release/examples; \
+				cp $(call CHIP_ELF,$$chip) $(call CHIP_ELF,$$chip-usart$$usart); \
+			fi; \
+		done; \
+	done
+	@.ci/sizes target/chips/*/avr-none/release/examples/boards.elf
+	@.ci/no-panic target/chips/*/avr-none/release/examples/boards.elf
 
 sizes: firmware
 
 # A user's firmware in the avr-hal template's form (fixtures/), outside the workspace, built
-# against avr-device 0.8.1 (arduino-hal's) and 0.9: tests/sim_template.rs runs both ELFs.
+# against avr-device 0.8.1 (arduino-hal's) and 0.9, for three of the template's boards as it
+# builds them (its board's -C target-cpu and HAL feature): tests/sim_template.rs runs each
+# ELF, target/fixtures/BOARD/avr-none/release/template-avr-device-0N.elf.
 FIXTURES := $(wildcard fixtures/template-*)
+FIXTURE_BOARDS := uno:atmega328p mega2560:atmega2560 leonardo:atmega32u4
 fixtures: setup
 	@for f in $(FIXTURES); do \
-		echo "fixture: $$f"; \
-		(cd $$f && ../../.ci/cargo build --release --locked --target-dir ../../target/fixtures); \
+		for board in $(FIXTURE_BOARDS); do \
+			echo "fixture: $$f, $${board%%:*}"; \
+			(cd $$f && ../../.ci/cargo build --release --locked --features $${board%%:*} \
+				--config "build.rustflags = ['-C', 'target-cpu=$${board##*:}']" \
+				--target-dir ../../target/fixtures/$${board%%:*}); \
+		done; \
 	done
-	@.ci/sizes $(foreach f,$(FIXTURES),target/fixtures/avr-none/release/$(subst .,,$(notdir $(f))).elf)
+	@.ci/sizes target/fixtures/*/avr-none/release/template-*.elf
 
 
 fmt-check: setup

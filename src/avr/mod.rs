@@ -31,12 +31,13 @@ pub use pins::NoPin;
 pub use rtu::Slave;
 
 /// Small drivers for firmware written without a HAL (this crate's examples): the Uno's
-/// pins by their board names, the ADC and the EEPROM. With arduino-hal, use its `pins!`,
-/// `Adc` and `Eeprom` instead; the slave takes arduino-hal's pins as they are.
+/// pins by their board names and the ADC (ATmega328P and ATmega168 only: their numbering
+/// is the Uno's), the EEPROM and the board's LED (every chip). With arduino-hal, use its
+/// `pins!`, `Adc` and `Eeprom` instead; the slave takes arduino-hal's pins as they are.
 pub mod board {
     pub use super::adc::Adc;
     pub use super::eeprom::Eeprom;
-    pub use super::pins::{halt, Pin, Pins};
+    pub use super::pins::{halt, led, Pin, Pins};
 }
 
 /// Milliseconds since the slave started, wrapping after 49.7 days: Arduino's `millis()`

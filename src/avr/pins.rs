@@ -196,6 +196,18 @@ impl Pins {
     }
 }
 
+/// The board's LED "L" (pin 13: PB5 on the Uno and Nano, PB7 on the Mega, PC7 on the
+/// Leonardo) as an output, driven low: takes its port from the application's PAC
+/// (`dp.PORTB`, or `dp.PORTC` on the Leonardo), which works on every chip the crate runs
+/// on, where [`Pins`] is the Uno's.
+pub fn led<P: Deref>(port: P) -> Result<Pin, Error>
+where
+    P::Target: Sized,
+{
+    claim::<_, 3>(port, CHIP.led.0)?;
+    Ok(Pin::new(CHIP.led.0, CHIP.led.1).into_output())
+}
+
 /// Stops the firmware when it could not start: lights the on-board LED "L" (pin 13: PB5
 /// on the Uno and Nano, PB7 on the Mega, PC7 on the Leonardo) and sleeps with interrupts
 /// off, so that a start-up error is seen rather than a slave that answers half its map.

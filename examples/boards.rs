@@ -1,0 +1,157 @@
+/*!
+ * One firmware for every board the crate runs on: the peers' size contract
+ * (`sixteen_each`'s map), 30001 counting seconds, and the board's LED "L" lit while the
+ * slave answers. The chip is the one the build is for (`-C target-cpu`); `make firmware`
+ * builds it for the ATmega168, ATmega32U4, ATmega1280 and ATmega2560, on each USART they
+ * have, and `make serve BOARD=mega2560 USART=1` runs it.
+ *
+ * Wiring: the USART's pins to the TTL side of a MAX3232 board (or an RS-485 transceiver),
+ * GND to GND:
+ *
+ * | board (chip)                      | USART  | RX pin | TX pin |
+ * |-----------------------------------|--------|--------|--------|
+ * | Uno, Nano, Pro Mini, Nano168      | USART0 | 0      | 1      |
+ * | Leonardo, Micro, Pro Micro (32U4) | USART1 | 0      | 1      |
+ * | Mega 2560, Mega 1280              | USART0 | 0      | 1      |
+ * |                                   | USART1 | 19     | 18     |
+ * |                                   | USART2 | 17     | 16     |
+ * |                                   | USART3 | 15     | 14     |
+ *
+ * On a Mega with the slave on USART1–3, USART0 (pins 0/1, the USB serial) stays the
+ * application's: this firmware prints `writes N` there at 9600 8N1 each time the master
+ * has written.
+ *
+ * Serial line: slave id 1, 19200 bps, 8 data bits, even parity, 1 stop bit (8E1).
+ *
+ * | reference   | address | meaning                                          | QModMaster               |
+ * |-------------|---------|--------------------------------------------------|--------------------------|
+ * | 00001–00016 | 0–15    | coils, written by the master                     | Coils, start 0, 16       |
+ * | 10001–10016 | 0–15    | discrete inputs (0 until the firmware sets them) | Discrete Inputs, 0, 16   |
+ * | 30001       | 0       | seconds since start-up                           | Input Registers, 0, 1    |
+ * | 30002–30008 | 1–7     | input registers (0)                              | Input Registers, 1, 7    |
+ * | 40001–40016 | 0–15    | holding registers, written by the master         | Holding Registers, 0, 16 |
+ */
+#![no_std]
+#![no_main]
+#![feature(abi_avr_interrupt)]
+
+use avr_modbus_slave::{board, millis, Config, NoPin, Parity, StopBits};
+use panic_halt as _;
+
+// The chip's peripherals, as the build's `-C target-cpu` chose the chip (build.rs).
+#[cfg(avr_chip = "atmega1280")]
+use avr_device::atmega1280 as pac;
+#[cfg(avr_chip = "atmega168")]
+use avr_device::atmega168 as pac;
+#[cfg(avr_chip = "atmega2560")]
+use avr_device::atmega2560 as pac;
+#[cfg(avr_chip = "atmega328p")]
+use avr_device::atmega328p as pac;
+#[cfg(avr_chip = "atmega32u4")]
+use avr_device::atmega32u4 as pac;
+
+const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
+
+avr_modbus_slave::register_map! {
+    /// The contract's map: 16 coils, 16 discrete inputs, 8 input and 16 holding registers.
+    struct Registers {
+        1..=16,
+        10001..=10016,
+        30001..=30008,
+        40001..=40016,
+    }
+}
+
+// The USART `make firmware` builds this for (AVR_MODBUS_SLAVE_EXAMPLE_USART, see build.rs);
+// in a firmware of your own, one line: `slave!(SLAVE on USART1: …)` or `slave!(SLAVE: …)`.
+#[cfg(not(any(example_usart = "1", example_usart = "2", example_usart = "3")))]
+avr_modbus_slave::slave!(SLAVE: Registers, NoPin, board::Pin);
+#[cfg(example_usart = "1")]
+avr_modbus_slave::slave!(SLAVE on USART1: Registers, NoPin, board::Pin);
+#[cfg(example_usart = "2")]
+avr_modbus_slave::slave!(SLAVE on USART2: Registers, NoPin, board::Pin);
+#[cfg(example_usart = "3")]
+avr_modbus_slave::slave!(SLAVE on USART3: Registers, NoPin, board::Pin);
+
+#[avr_device::entry]
+fn main() -> ! {
+    // SAFETY: the only place that takes the peripherals, and it runs once.
+    #[allow(unsafe_code)]
+    let dp = unsafe { pac::Peripherals::steal() };
+    #[cfg(not(avr_chip = "atmega32u4"))]
+    let led_port = dp.PORTB;
+    #[cfg(avr_chip = "atmega32u4")]
+    let led_port = dp.PORTC;
+    let led = match board::led(led_port) {
+        Ok(led) => led,
+        Err(error) => board::halt(error),
+    };
+    #[cfg(not(any(example_usart = "1", example_usart = "2", example_usart = "3")))]
+    let usart = {
+        #[cfg(not(avr_chip = "atmega32u4"))]
+        let usart = dp.USART0;
+        #[cfg(avr_chip = "atmega32u4")]
+        let usart = dp.USART1;
+        usart
+    };
+    #[cfg(example_usart = "1")]
+    let usart = dp.USART1;
+    #[cfg(example_usart = "2")]
+    let usart = dp.USART2;
+    #[cfg(example_usart = "3")]
+    let usart = dp.USART3;
+    if let Err(error) = SLAVE.start_with_pins(CONFIG, usart, dp.TC0, Registers::new(), NoPin, led) {
+        board::halt(error);
+    }
+    #[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3"))]
+    let console = Console::new(dp.USART0);
+    let mut seen = 0;
+    loop {
+        SLAVE.set(30001, (millis() / 1000) as u16).ok();
+        let writes = SLAVE.master_writes();
+        if writes != seen {
+            seen = writes;
+            #[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3"))]
+            console.print_writes(writes);
+        }
+    }
+}
+
+/// USART0 as the application's own output, beside a slave on another USART: polled, 9600
+/// 8N1, transmit only.
+#[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3"))]
+struct Console(pac::USART0);
+
+#[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3"))]
+impl Console {
+    fn new(usart: pac::USART0) -> Self {
+        // 9600 bps at 16 MHz: UBRR0 = 103; 8 data bits, no parity, 1 stop bit (reset value).
+        usart.ubrr0().write(|w| w.set(103));
+        usart.ucsr0b().write(|w| w.txen0().set_bit());
+        Console(usart)
+    }
+
+    fn write(&self, byte: u8) {
+        while self.0.ucsr0a().read().udre0().bit_is_clear() {}
+        self.0.udr0().write(|w| w.set(byte));
+    }
+
+    /// `writes N` and CR LF.
+    fn print_writes(&self, writes: u16) {
+        b"writes ".iter().for_each(|&b| self.write(b));
+        let mut digits = [0u8; 5];
+        let mut n = writes;
+        let mut len = 0;
+        loop {
+            digits[len] = b'0' + (n % 10) as u8;
+            len += 1;
+            n /= 10;
+            if n == 0 {
+                break;
+            }
+        }
+        digits[..len].iter().rev().for_each(|&b| self.write(b));
+        self.write(b'\r');
+        self.write(b'\n');
+    }
+}
