@@ -1,6 +1,6 @@
 #![doc = include_str!("../README.md")]
 #![cfg_attr(not(test), no_std)]
-#![cfg_attr(target_arch = "avr", feature(asm_experimental_arch))]
+#![cfg_attr(target_arch = "avr", feature(asm_experimental_arch, const_type_name))]
 #![cfg_attr(all(target_arch = "avr", feature = "millis"), feature(abi_avr_interrupt))]
 #![deny(missing_docs)]
 
