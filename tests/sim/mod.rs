@@ -42,10 +42,15 @@ pub fn firmware(name: &str) -> PathBuf {
 /// Where the build puts example `name` for `chip` with the wire on USART`usart`, whether or
 /// not it is there: under the target directory, `chips/CHIP/avr-none/release/examples/NAME.elf`
 /// for the chip's default USART (USART0, or the 32U4's only one, USART1), else
-/// `chips/CHIP-usartN/avr-none/release/examples/NAME.elf`.
+/// `chips/CHIP-usartN/avr-none/release/examples/NAME.elf`; the Uno's own build
+/// (`avr-atmega328p/release/examples/NAME.elf`, as [`firmware`]) for the ATmega328P's USART0.
 pub fn chip_firmware_path(chip: Chip, usart: u8, name: &str) -> PathBuf {
+    let elf = format!("{name}.elf");
+    if chip == Chip::Atmega328p && usart == 0 {
+        return target_dir().join("avr-atmega328p/release/examples").join(elf);
+    }
     let build = if usart == chip.default_usart() { chip.name().to_owned() } else { format!("{chip}-usart{usart}") };
-    target_dir().join("chips").join(build).join("avr-none/release/examples").join(format!("{name}.elf"))
+    target_dir().join("chips").join(build).join("avr-none/release/examples").join(elf)
 }
 
 /// [`chip_firmware_path`], which must exist.
