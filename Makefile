@@ -13,6 +13,7 @@ FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 help:
 	@echo "make demo   - build the Uno slave and poll it on a virtual Uno"
 	@echo "make serve EXAMPLE=uno_slave - keep a virtual Uno running for QModMaster or any master"
+	@echo "           (BOARD=mega2560 USART=1: another board's chip, built under target/chips/)"
 	@echo "make test   - set up, lint, build every firmware, run all tests"
 	@echo "make firmware - build every example for the Uno ($(FIRMWARE_DIR))"
 	@echo "make bench  - size-issue targets (met or not), flash, RAM, stack, interrupt cycles, turnaround, throughput -> bench/results.md"
@@ -119,8 +120,26 @@ demo: firmware
 	demo/demo.sh
 
 # Keeps a virtual Uno running for QModMaster or any master: make serve EXAMPLE=NAME ARGS="..."
-serve: firmware
-	demo/serve.sh $(EXAMPLE) $(ARGS)
+# Another board: make serve BOARD=mega2560 USART=1 EXAMPLE=NAME runs the firmware built for its
+# chip (target/chips/CHIP[-usartN]/avr-none/release/examples/NAME.elf; the Uno's boards use
+# make firmware's) with USART (default: the board's USB serial one, USART1 on the 32U4
+# boards) on the pty.
+BOARD ?= uno
+USART ?=
+SERVE_CHIP := $(strip \
+	$(if $(filter uno nano promini,$(BOARD)),atmega328p) \
+	$(if $(filter nano168,$(BOARD)),atmega168) \
+	$(if $(filter mega2560,$(BOARD)),atmega2560) \
+	$(if $(filter mega1280,$(BOARD)),atmega1280) \
+	$(if $(filter leonardo promicro micro,$(BOARD)),atmega32u4))
+SERVE_DEFAULT_USART := $(if $(filter atmega32u4,$(SERVE_CHIP)),1,0)
+SERVE_USART := $(or $(USART),$(SERVE_DEFAULT_USART))
+SERVE_BUILD := $(SERVE_CHIP)$(if $(filter-out $(SERVE_DEFAULT_USART),$(SERVE_USART)),-usart$(SERVE_USART))
+SERVE_ELF := $(if $(filter atmega328p,$(SERVE_CHIP)),$(FIRMWARE_DIR),target/chips/$(SERVE_BUILD)/avr-none/release/examples)/$(EXAMPLE).elf
+
+serve: $(if $(filter atmega328p,$(SERVE_CHIP)),firmware,setup)
+	@[ -n "$(SERVE_CHIP)" ] || { echo "serve: BOARD=$(BOARD)? one of uno nano promini nano168 mega2560 mega1280 leonardo promicro micro" >&2; exit 2; }
+	SERVE_BOARD=$(BOARD) SERVE_CHIP=$(SERVE_CHIP) SERVE_USART=$(SERVE_USART) SERVE_ELF=$(SERVE_ELF) demo/serve.sh $(EXAMPLE) $(ARGS)
 
 # mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on the virtual Uno, with answer rates.
 interop: firmware

@@ -6,17 +6,47 @@
 #
 #   demo/serve.sh [EXAMPLE] [virtual-uno options, e.g. --pin 10=0 for dip_switch]
 #   SERVE_PORT=/tmp/ttyUNO (default) names the symlink to the pty.
+#
+# Another board (make serve BOARD=mega2560 USART=1 sets these): SERVE_BOARD (uno), SERVE_CHIP
+# (atmega328p), SERVE_USART (0), SERVE_ELF (the firmware built for that chip and USART). The
+# pin commands and --pin/--watch take the Uno's pin numbers: they work on the Uno's chips
+# (ATmega328P, ATmega168) only.
 set -euo pipefail
 
 root=$(cd "$(dirname "$0")/.." && pwd)
 target=${CARGO_TARGET_DIR:-$root/target}
 example=${1:-uno_slave}
 [ $# -gt 0 ] && shift
-elf=$target/avr-atmega328p/release/examples/$example.elf
+board=${SERVE_BOARD:-uno}
+chip=${SERVE_CHIP:-atmega328p}
+usart=${SERVE_USART:-0}
+elf=${SERVE_ELF:-$target/avr-atmega328p/release/examples/$example.elf}
 port=${SERVE_PORT:-/tmp/ttyUNO}
 
-[ -f "$elf" ] || { echo "serve: $elf is missing: run make firmware first" >&2; exit 1; }
+if [ ! -f "$elf" ]; then
+  case $chip in
+    atmega328p) echo "serve: $elf is missing: run make firmware first" >&2 ;;
+    *) echo "serve: $elf is missing: build $example for the $chip (USART$usart) first" >&2 ;;
+  esac
+  exit 1
+fi
 "$root/.ci/cargo" build --release --quiet -p virtual-uno
+
+# The board's Arduino pins for its USART: RX, then TX.
+case $board:$usart in
+  uno:0 | nano:0 | promini:0 | nano168:0) pins="pins 0 (RX) and 1 (TX), shared with the USB serial port" ;;
+  mega2560:0 | mega1280:0) pins="pins 0 (RX) and 1 (TX), shared with the USB serial port" ;;
+  mega2560:1 | mega1280:1) pins="pins 19 (RX1) and 18 (TX1)" ;;
+  mega2560:2 | mega1280:2) pins="pins 17 (RX2) and 16 (TX2)" ;;
+  mega2560:3 | mega1280:3) pins="pins 15 (RX3) and 14 (TX3)" ;;
+  leonardo:1 | promicro:1 | micro:1) pins="pins 0 (RX) and 1 (TX); USB is the chip's own" ;;
+  *) pins="the $board has no USART$usart" ;;
+esac
+# What can be typed while it runs: pin numbers are the Uno's.
+case $chip in
+  atmega328p | atmega168) commands="pin 6 0 | pin 6 z | adc A0 2500 | pins" ;;
+  *) commands="adc A0 2500 (pin numbers are the Uno's: no pin commands on the $chip)" ;;
+esac
 
 # How to reach the slave, once the firmware has set up its USART ("serial: 19200 8E1 ...").
 settings() {
@@ -40,7 +70,7 @@ settings() {
                                    parity="${format:1:1}", stopbits=${format:2:1}, timeout=1, strict=False), then slave=1 on each call
     QModMaster and mbpoll speak RTU and TCP only (libmodbus has no ASCII): they can't reach it.
   A pty passes on the characters and the baud rate, not the data bits or parity.
-  Type here: pin 6 0 | pin 6 z | adc A0 2500 | pins    Ctrl-C stops.
+  Type here: $commands    Ctrl-C stops.
 
 TEXT
     return
@@ -57,17 +87,19 @@ TEXT
                                         stopbits=${format:2:1}, bytesize=8, timeout=1$strict), then slave=1 on each call
       minimalmodbus: uno = minimalmodbus.Instrument("$port", 1)
                      uno.serial.baudrate = $baud; uno.serial.parity = "$python_parity"; uno.serial.stopbits = ${format:2:1}
-  A master at another baud rate, stop bits or odd parity gets no answer, and the virtual Uno
+  A master at another baud rate, stop bits or odd parity gets no answer, and the virtual board
   says why (a pty does not pass on whether parity is none or even: both are served).
-  Type here: pin 6 0 | pin 6 z | adc A0 2500 | pins    Ctrl-C stops.
+  Type here: $commands    Ctrl-C stops.
 
 TEXT
 }
 
-echo "serve: $example on the virtual Uno"
-"$target/release/virtual-uno" --link "$port" "$@" "$elf" | while IFS= read -r line; do
+echo "serve: $example on a virtual $board: $chip, USART$usart ($pins)"
+"$target/release/virtual-uno" --link "$port" --usart "$usart" "$@" "$elf" | while IFS= read -r line; do
   printf '%s\n' "$line"
   case $line in
+    "chip: $chip,"*) ;;
+    "chip: "*) built=${line#chip: } && echo "serve: warning: $elf is built for ${built%%,*}, not the $board's $chip" >&2 ;;
     "serial: off"*) ;;
     "serial: "*) settings "$(sed 's/^serial: \([0-9]* [5-9][NEO][12]\).*/\1/' <<<"$line")" ;;
   esac

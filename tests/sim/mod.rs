@@ -4,12 +4,19 @@
 //!
 //! All times are CPU cycles at 16 MHz; wall time is never looked at.
 //!
+//! The Uno's firmware (`firmware`, `Rtu::boot`) runs on an ATmega328P with the wire on USART0.
+//! A firmware built for another chip (`chip_firmware`) boots with `Rtu::boot_chip` or
+//! `Rtu::boot_elf_on`: the chip comes from the ELF file, the wire goes on the USART asked for;
+//! its vector numbers are `rtu.uno.vectors()`, its pins `rtu.uno.port_pin` (Arduino pin
+//! numbers, `watch` included, are the Uno's: `watch_ports` names port and bit instead).
+//!
 //! Each test crate uses a different subset of these helpers.
 #![allow(dead_code)]
 
+use std::fmt::Debug;
 use std::path::{Path, PathBuf};
 
-use uno_sim::{Parity, TxByte, Uno, F_CPU};
+use uno_sim::{Chip, Options, Parity, PinState, TxByte, Uno, F_CPU};
 
 #[allow(unused_imports)] // not every test crate needs both
 pub use uno_sim::{cycles_to_us, us_to_cycles};
@@ -17,14 +24,39 @@ pub use uno_sim::{cycles_to_us, us_to_cycles};
 /// The slave id every example answers to.
 pub const ID: u8 = 1;
 
+/// `$CARGO_TARGET_DIR`, else `target/` of this package.
+fn target_dir() -> PathBuf {
+    std::env::var_os("CARGO_TARGET_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target"))
+}
+
 /// Path of the release ELF of example `name`: `$CARGO_TARGET_DIR` (else `target/` of this
 /// package), then `avr-atmega328p/release/examples/NAME.elf`.
 pub fn firmware(name: &str) -> PathBuf {
-    let target = std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target"));
-    let path = target.join("avr-atmega328p/release/examples").join(format!("{name}.elf"));
+    let path = target_dir().join("avr-atmega328p/release/examples").join(format!("{name}.elf"));
     assert!(path.is_file(), "{} is missing: run `make firmware` first", path.display());
+    path
+}
+
+/// Where the build puts example `name` for `chip` with the wire on USART`usart`, whether or
+/// not it is there: under the target directory, `chips/CHIP/avr-none/release/examples/NAME.elf`
+/// for the chip's default USART (USART0, or the 32U4's only one, USART1), else
+/// `chips/CHIP-usartN/avr-none/release/examples/NAME.elf`; the Uno's own build
+/// (`avr-atmega328p/release/examples/NAME.elf`, as [`firmware`]) for the ATmega328P's USART0.
+pub fn chip_firmware_path(chip: Chip, usart: u8, name: &str) -> PathBuf {
+    let elf = format!("{name}.elf");
+    if chip == Chip::Atmega328p && usart == 0 {
+        return target_dir().join("avr-atmega328p/release/examples").join(elf);
+    }
+    let build = if usart == chip.default_usart() { chip.name().to_owned() } else { format!("{chip}-usart{usart}") };
+    target_dir().join("chips").join(build).join("avr-none/release/examples").join(elf)
+}
+
+/// [`chip_firmware_path`], which must exist.
+pub fn chip_firmware(chip: Chip, usart: u8, name: &str) -> PathBuf {
+    let path = chip_firmware_path(chip, usart, name);
+    assert!(path.is_file(), "{} is missing: build the firmware for the {chip} (USART{usart}) first", path.display());
     path
 }
 
@@ -200,13 +232,13 @@ impl Exchange {
     }
 }
 
-/// A firmware running on a simulated Uno, with a master on its serial line.
+/// A firmware running on a simulated Uno (or another chip), with a master on its serial line.
 pub struct Rtu {
-    /// The simulated board.
+    /// The simulated board (`uno.chip()`, `uno.usart()`: which chip, which USART is the wire).
     pub uno: Uno,
     /// The line setting the master uses.
     pub line: Line,
-    /// One character on the wire, in cycles (from the firmware's UBRR0 and format).
+    /// One character on the wire, in cycles (from the firmware's UBRRn and format).
     pub char_cycles: u64,
     /// One tick of Timer0 (the silence detector), in cycles, from the clock select the
     /// firmware wrote when it started the timer.
@@ -255,13 +287,33 @@ impl Rtu {
         Rtu::boot_elf(&firmware(name), line, before_reset)
     }
 
-    /// Boots the firmware at `elf`, which must use `line`.
+    /// Boots the firmware at `elf`, which must use `line`, with the wire on its chip's default
+    /// USART (USART0 on the Uno).
     pub fn boot_elf(elf: &Path, line: Line, before_reset: impl FnOnce(&mut Uno)) -> Rtu {
-        let mut uno = Uno::load(elf).expect("firmware loads");
+        Rtu::boot_elf_with(elf, Options::new(), line, before_reset)
+    }
+
+    /// Boots the firmware at `elf` on the chip it was built for, with the wire on USART`usart`.
+    pub fn boot_elf_on(elf: &Path, usart: u8, line: Line, before_reset: impl FnOnce(&mut Uno)) -> Rtu {
+        Rtu::boot_elf_with(elf, Options::new().usart(usart), line, before_reset)
+    }
+
+    /// Boots example `name` built for `chip` with the wire on USART`usart` (see
+    /// [`chip_firmware`]); the file must name that chip.
+    pub fn boot_chip(chip: Chip, usart: u8, name: &str, line: Line) -> Rtu {
+        let rtu = Rtu::boot_elf_on(&chip_firmware(chip, usart, name), usart, line, |_| {});
+        assert_eq!(rtu.uno.chip(), chip, "{name} for the {chip} names another chip");
+        rtu
+    }
+
+    /// Boots the firmware at `elf` on the chip and USART `options` pick.
+    pub fn boot_elf_with(elf: &Path, options: Options, line: Line, before_reset: impl FnOnce(&mut Uno)) -> Rtu {
+        let mut uno = Uno::load_with(elf, options).expect("firmware loads");
         before_reset(&mut uno);
         let (tick, timer0_started) = timer0_tick(&mut uno);
         uno.run_until(BOOT_CYCLES).expect("firmware runs");
-        let char_cycles = uno.wire_char_cycles().expect("the firmware enabled USART0");
+        let usart = uno.usart();
+        let char_cycles = uno.wire_char_cycles().unwrap_or_else(|| panic!("the firmware enabled USART{usart}"));
         // The slave's own power-up wait counts from its start; the master waits T3.5 from here.
         let quiet_since = uno.now();
         Rtu { uno, line, char_cycles, tick, timer0_started, quiet_since }
@@ -345,18 +397,19 @@ pub struct Edges {
     pub fell: Option<u64>,
 }
 
-/// What the slave did while [`Rtu::watch`] ran.
+/// What the slave did while [`Rtu::watch`] (pins by Arduino Uno number) or
+/// [`Rtu::watch_ports`] (pins by port letter and bit) ran.
 #[derive(Clone, Debug)]
-pub struct Watched {
+pub struct Watched<P = u8> {
     /// The characters it sent (empty: none).
     pub exchange: Exchange,
     /// The edges of each watched pin, in the order asked for.
-    pub edges: Vec<(u8, Edges)>,
+    pub edges: Vec<(P, Edges)>,
 }
 
-impl Watched {
+impl<P: Copy + PartialEq> Watched<P> {
     /// The edges of `pin`, which must have been watched.
-    pub fn pin(&self, pin: u8) -> Edges {
+    pub fn pin(&self, pin: P) -> Edges {
         self.edges.iter().find(|(p, _)| *p == pin).map(|&(_, e)| e).expect("pin watched")
     }
 }
@@ -366,12 +419,29 @@ impl Rtu {
     /// `request_end` (a request already scheduled), recording every character it sends
     /// and the first rising and falling edge of each of `pins`. A pin level changes only
     /// by an instruction, so checking after each one misses no pulse, however short.
-    /// Every pin must be a low output when the watch starts.
+    /// Every pin must be a low output when the watch starts. Arduino Uno pin numbers: on
+    /// other chips, [`Rtu::watch_ports`].
     pub fn watch(&mut self, request_end: u64, pins: &[u8], window: u64) -> Watched {
+        self.watch_by(request_end, pins, window, |uno, pin| uno.pin(pin).expect("Uno pin"))
+    }
+
+    /// [`Rtu::watch`] with pins named by port letter and bit (`('B', 7)`: PB7, a Mega's LED),
+    /// on any chip.
+    pub fn watch_ports(&mut self, request_end: u64, pins: &[(char, u8)], window: u64) -> Watched<(char, u8)> {
+        self.watch_by(request_end, pins, window, |uno, (port, bit)| uno.port_pin(port, bit).expect("port pin"))
+    }
+
+    fn watch_by<P: Copy + Debug>(
+        &mut self,
+        request_end: u64,
+        pins: &[P],
+        window: u64,
+        state_of: impl Fn(&Uno, P) -> PinState,
+    ) -> Watched<P> {
         let mut was_high = Vec::with_capacity(pins.len());
         for &pin in pins {
-            let state = self.uno.pin(pin).expect("Uno pin");
-            assert!(state.output && !state.level, "pin {pin} is a low output while the slave listens: {state:?}");
+            let state = state_of(&self.uno, pin);
+            assert!(state.output && !state.level, "pin {pin:?} is a low output while the slave listens: {state:?}");
             was_high.push(false);
         }
         let mut edges = vec![Edges::default(); pins.len()];
@@ -381,7 +451,7 @@ impl Rtu {
             self.uno.step().expect("firmware runs");
             let now = self.uno.now();
             for ((&pin, was), edge) in pins.iter().zip(was_high.iter_mut()).zip(edges.iter_mut()) {
-                let high = self.uno.pin(pin).expect("Uno pin").level;
+                let high = state_of(&self.uno, pin).level;
                 match (*was, high) {
                     (false, true) if edge.rose.is_none() => edge.rose = Some(now),
                     (true, false) if edge.fell.is_none() => edge.fell = Some(now),

@@ -1,20 +1,25 @@
 /*
  * Thin C layer between simavr 1.6 (Debian's libsimavr) and the `uno-sim` crate.
  *
- * simavr simulates the ATmega328P core and most peripherals well, but its USART
- * timing is not wire-accurate (see the crate documentation for details). This shim
- * keeps simavr's register handling for USART0 and replaces its timing:
+ * simavr simulates the AVR cores (here ATmega328P, 168, 32U4, 1280, 2560) and most
+ * peripherals well, but its USART timing is not wire-accurate (see the crate
+ * documentation for details). This shim keeps simavr's register handling for one
+ * USART, "the wire" (USARTn, whichever the caller picks), and replaces its timing:
  *
  *   - RX: bytes are written straight into the USART's receive FIFO at the cycle
- *     their stop bit ends, and RXC0 is raised at that very cycle by a simavr cycle
+ *     their stop bit ends, and RXCn is raised at that very cycle by a simavr cycle
  *     timer. simavr's own RX pump (which adds one of *its* character times and lets
  *     queued bytes be read early) is never started.
- *   - TX: every UDR0 write is timed against a model of the transmit buffer + shift
- *     register using the character time the firmware configured; UDRE0 and TXC0 are
+ *   - TX: every UDRn write is timed against a model of the transmit buffer + shift
+ *     register using the character time the firmware configured; UDREn and TXCn are
  *     raised when the real chip would raise them. simavr's TX pump is parked.
  *
- * It also adds the AVR's interrupt response time (4 cycles, 8 when waking from
- * sleep), which simavr 1.6 leaves out, and keeps per-vector ISR statistics.
+ * The chip's other USARTs run as simavr models them; the bytes they transmit are
+ * collected (without timing) so that a test can read, e.g., debug output.
+ *
+ * It also adds the AVR's interrupt response time (4 cycles, or 5 with a 3-byte
+ * program counter; twice that when waking from sleep), which simavr 1.6 leaves out,
+ * and keeps per-vector ISR statistics.
  */
 #include <pthread.h>
 #include <stdarg.h>
@@ -38,20 +43,26 @@
 
 DEFINE_FIFO(uint16_t, uart_fifo);
 
-/* Data-space addresses of the USART0 registers (ATmega328P). */
-#define R_UCSR0A 0xC0
-#define R_UCSR0B 0xC1
-#define R_UCSR0C 0xC2
-#define R_UBRR0L 0xC4
-#define R_UBRR0H 0xC5
+/* Data-space addresses of the wire USART's registers: UCSRnA is at s->base. */
+#define R_UCSRA(s) ((s)->base)
+#define R_UCSRB(s) ((s)->base + 1)
+#define R_UCSRC(s) ((s)->base + 2)
+#define R_UBRRL(s) ((s)->base + 4)
+#define R_UBRRH(s) ((s)->base + 5)
 
-#define FE0 4
-#define DOR0 3
-#define UPE0 2
+/* UCSRnA and UCSRnB bits, the same for every USART */
+#define FE 4
+#define DOR 3
+#define UPE 2
 
-#define UCSR0B_TXEN 0x08
-#define UCSR0B_RXCIE 0x80
-#define UCSR0B_UDRIE 0x20
+#define UCSRB_TXEN 0x08
+#define UCSRB_RXCIE 0x80
+#define UCSRB_UDRIE 0x20
+
+/* USART0..3 */
+#define USARTS 4
+/* ports 'A'..'L' */
+#define PORTS 12
 
 /* Marks a received frame with a parity error (bit 15 is simavr's UART_INPUT_FE). */
 #define UNO_INPUT_PE 0x4000
@@ -83,10 +94,19 @@ typedef struct {
 	uint64_t max_cycles;
 } uno_isr_t;
 
+/* Bytes another USART transmitted (simavr's UART_IRQ_OUTPUT). */
+typedef struct {
+	uint8_t *bytes;
+	size_t len, cap;
+} usart_out_t;
+
 typedef struct uno_shim {
 	avr_t *avr;
-	avr_uart_t *uart;
-	avr_cycle_timer_t uart_pump; /* simavr's static TX pump, found on first UDR0 write */
+	avr_uart_t *uart;            /* the wire */
+	uint16_t base;               /* its UCSRnA */
+	char uart_name;              /* '0'..'3' */
+	avr_cycle_timer_t uart_pump; /* simavr's static TX pump, found on first UDRn write */
+	usart_out_t out[USARTS];     /* what the other USARTs sent */
 
 	/* RX schedule, sorted by `at` */
 	rx_item_t *rx;
@@ -96,14 +116,15 @@ typedef struct uno_shim {
 	/* TX model */
 	int tx_active;         /* a frame is in the shift register */
 	uint64_t tx_shift_end; /* its stop bit ends here */
-	int tx_buf_full;       /* a second frame waits in UDR0 */
+	int tx_buf_full;       /* a second frame waits in UDRn */
 	uint64_t tx_buf_end;   /* when that one will end */
-	int tx_written;        /* UDR0 was written during the current instruction */
+	int tx_written;        /* UDRn was written during the current instruction */
 	uint64_t tx_ignored;   /* writes while UDRE0 was clear (ignored by the chip) */
 	uno_tx_t *tx;
 	size_t tx_len, tx_cap;
 
 	/* interrupt bookkeeping */
+	uint64_t response;     /* interrupt response cycles (4, or 5 with a 3-byte PC) */
 	int was_sleeping;
 	uint64_t entry_added;
 	int entered_vec;
@@ -114,8 +135,8 @@ typedef struct uno_shim {
 	uint8_t reti_vec;
 	uint64_t reti_start;
 
-	/* externally driven inputs per port B, C, D */
-	uint8_t ext_mask[3], ext_value[3];
+	/* externally driven inputs per port 'A'..'L' */
+	uint8_t ext_mask[PORTS], ext_value[PORTS];
 } uno_shim_t;
 
 /* ------------------------------------------------------------------------- */
@@ -150,10 +171,11 @@ static void install_logger(void)
 /* ------------------------------------------------------------------------- */
 /* helpers                                                                   */
 
-static uint64_t char_cycles(avr_t *avr)
+static uint64_t char_cycles(const uno_shim_t *s)
 {
-	uint8_t a = avr->data[R_UCSR0A], b = avr->data[R_UCSR0B], c = avr->data[R_UCSR0C];
-	uint64_t ubrr = ((uint64_t)(avr->data[R_UBRR0H] & 0x0F) << 8) | avr->data[R_UBRR0L];
+	const uint8_t *d = s->avr->data;
+	uint8_t a = d[R_UCSRA(s)], b = d[R_UCSRB(s)], c = d[R_UCSRC(s)];
+	uint64_t ubrr = ((uint64_t)(d[R_UBRRH(s)] & 0x0F) << 8) | d[R_UBRRL(s)];
 	uint64_t bit = (ubrr + 1) * ((a & 0x02) ? 8 : 16);
 	int ucsz = ((c >> 1) & 3) | ((b & 0x04) ? 4 : 0);
 	int data_bits = ucsz <= 3 ? 5 + ucsz : (ucsz == 7 ? 9 : 8);
@@ -170,8 +192,8 @@ static void clear_flag(avr_t *avr, avr_int_vector_t *v)
 	}
 }
 
-/* Park simavr's TX pump: keep it "flying" (far in the future) while UDR0 holds a
- * byte, so that enabling UDRIE0 does not raise UDRE0; remove it otherwise. */
+/* Park simavr's TX pump: keep it "flying" (far in the future) while UDRn holds a
+ * byte, so that enabling UDRIEn does not raise UDREn; remove it otherwise. */
 static void park_uart_pump(uno_shim_t *s)
 {
 	avr_t *avr = s->avr;
@@ -214,7 +236,7 @@ static void tx_catch_up(uno_shim_t *s, uint64_t now)
 	avr_t *avr = s->avr;
 	while (s->tx_active && s->tx_shift_end <= now) {
 		if (s->tx_buf_full) {
-			/* UDR0 -> shift register right after the previous stop bit */
+			/* UDRn -> shift register right after the previous stop bit */
 			s->tx_shift_end = s->tx_buf_end;
 			s->tx_buf_full = 0;
 			avr_raise_interrupt(avr, &s->uart->udrc);
@@ -234,15 +256,15 @@ static avr_cycle_count_t tx_timer(avr_t *avr, avr_cycle_count_t when, void *para
 	return s->tx_active ? s->tx_shift_end : 0;
 }
 
-/* UART_IRQ_OUTPUT: raised by simavr from within the UDR0 write (only when TXEN0 is
- * set), after it has cleared UDRE0. avr->cycle is the first cycle of the ST/STS. */
+/* UART_IRQ_OUTPUT: raised by simavr from within the UDRn write (only when TXENn is
+ * set), after it has cleared UDREn. avr->cycle is the first cycle of the ST/STS. */
 static void tx_output_irq(avr_irq_t *irq, uint32_t value, void *param)
 {
 	(void)irq;
 	uno_shim_t *s = param;
 	avr_t *avr = s->avr;
 	uint64_t written = avr->cycle + 2; /* ST/STS take 2 cycles; the write lands at the end */
-	uint64_t ch = char_cycles(avr);
+	uint64_t ch = char_cycles(s);
 
 	s->tx_written = 1;
 	tx_catch_up(s, written);
@@ -258,9 +280,25 @@ static void tx_output_irq(avr_irq_t *irq, uint32_t value, void *param)
 		s->tx_buf_end = s->tx_shift_end + ch;
 		tx_push_log(s, (uint8_t)value, s->tx_shift_end, s->tx_buf_end);
 	} else {
-		/* data sheet: written while UDRE0 is clear -> ignored by the transmitter */
+		/* data sheet: written while UDREn is clear -> ignored by the transmitter */
 		s->tx_ignored++;
 	}
+}
+
+/* UART_IRQ_OUTPUT of another USART: keep the byte for uno_usart_take(). */
+static void other_output_irq(avr_irq_t *irq, uint32_t value, void *param)
+{
+	(void)irq;
+	usart_out_t *o = param;
+	if (o->len == o->cap) {
+		size_t cap = o->cap ? o->cap * 2 : 256;
+		uint8_t *n = realloc(o->bytes, cap);
+		if (!n)
+			return;
+		o->bytes = n;
+		o->cap = cap;
+	}
+	o->bytes[o->len++] = (uint8_t)value;
 }
 
 /* ------------------------------------------------------------------------- */
@@ -325,8 +363,8 @@ static void isr_running_irq(avr_irq_t *irq, uint32_t value, void *param)
 	uint8_t vec = v->vector & (ISR_VECTORS - 1);
 	if (value) {
 		finish_reti(s);
-		/* interrupt response: 4 cycles (PC push), +4 when waking up from sleep */
-		uint64_t extra = s->was_sleeping ? 8 : 4;
+		/* interrupt response: 4 or 5 cycles (PC push), as many again when waking up */
+		uint64_t extra = s->was_sleeping ? 2 * s->response : s->response;
 		if (s->isr_depth < ISR_VECTORS)
 			s->isr_start[s->isr_depth] = avr->cycle;
 		s->isr_depth++;
@@ -363,17 +401,17 @@ static avr_cycle_count_t stop_timer(avr_t *avr, avr_cycle_count_t when, void *pa
 }
 
 /* After every instruction: restore the hardware invariants simavr would break.
- * `dor_before`/`read_before`: DOR0 and the receive FIFO's read cursor before it. */
+ * `dor_before`/`read_before`: DORn and the receive FIFO's read cursor before it. */
 static void post_step(uno_shim_t *s, int dor_before, unsigned read_before)
 {
 	avr_t *avr = s->avr;
 	avr_uart_t *p = s->uart;
-	uint8_t ucsr0b = avr->data[R_UCSR0B];
+	uint8_t ucsrb = avr->data[R_UCSRB(s)];
 
-	/* DOR0 is read-only on the chip; simavr clears it on any UCSR0A write. Only reading
-	 * UDR0 may clear it. */
+	/* DORn is read-only on the chip; simavr clears it on any UCSRnA write. Only reading
+	 * UDRn may clear it. */
 	if (dor_before && p->input.read == read_before)
-		avr->data[R_UCSR0A] |= 1 << DOR0;
+		avr->data[R_UCSRA(s)] |= 1 << DOR;
 
 	/* disarm simavr's "bytes read too fast" check: our FIFO only holds received bytes */
 	p->rx_cnt = 0;
@@ -382,31 +420,31 @@ static void post_step(uno_shim_t *s, int dor_before, unsigned read_before)
 		park_uart_pump(s);
 	}
 
-	/* UDRE0 == transmit buffer empty; level-triggered interrupt */
+	/* UDREn == transmit buffer empty; level-triggered interrupt */
 	int udre = avr_regbit_get(avr, p->udrc.raised);
 	if (s->tx_buf_full) {
 		if (udre)
 			clear_flag(avr, &p->udrc);
-	} else if (!udre || ((ucsr0b & UCSR0B_UDRIE) && !p->udrc.pending)) {
+	} else if (!udre || ((ucsrb & UCSRB_UDRIE) && !p->udrc.pending)) {
 		avr_raise_interrupt(avr, &p->udrc);
 	}
 
-	/* RXC0 == receive buffer not empty; level-triggered interrupt */
+	/* RXCn == receive buffer not empty; level-triggered interrupt */
 	uart_fifo_t *f = &p->input;
 	int have = f->read != f->write;
 	if (have) {
-		if (!avr_regbit_get(avr, p->rxc.raised) || ((ucsr0b & UCSR0B_RXCIE) && !p->rxc.pending))
+		if (!avr_regbit_get(avr, p->rxc.raised) || ((ucsrb & UCSRB_RXCIE) && !p->rxc.pending))
 			avr_raise_interrupt(avr, &p->rxc);
-		/* FE0 (simavr sets it on UCSR0A reads) and UPE0 follow the oldest unread frame */
+		/* FEn (simavr sets it on UCSRnA reads) and UPEn follow the oldest unread frame */
 		uint16_t head = f->buffer[f->read & (uart_fifo_fifo_size - 1)];
-		uint8_t a = avr->data[R_UCSR0A] & (uint8_t)~((1 << FE0) | (1 << UPE0));
+		uint8_t a = avr->data[R_UCSRA(s)] & (uint8_t)~((1 << FE) | (1 << UPE));
 		if (head & UART_INPUT_FE)
-			a |= 1 << FE0;
+			a |= 1 << FE;
 		if (head & UNO_INPUT_PE)
-			a |= 1 << UPE0;
-		avr->data[R_UCSR0A] = a;
+			a |= 1 << UPE;
+		avr->data[R_UCSRA(s)] = a;
 	} else {
-		avr->data[R_UCSR0A] &= (uint8_t)~((1 << FE0) | (1 << UPE0));
+		avr->data[R_UCSRA(s)] &= (uint8_t)~((1 << FE) | (1 << UPE));
 	}
 }
 
@@ -417,7 +455,7 @@ static void step_once(uno_shim_t *s)
 	uint8_t vec = depth ? avr->interrupts.running[depth - 1]->vector & (ISR_VECTORS - 1) : 0;
 	uint64_t c0 = avr->cycle;
 
-	int dor_before = (avr->data[R_UCSR0A] >> DOR0) & 1;
+	int dor_before = (avr->data[R_UCSRA(s)] >> DOR) & 1;
 	unsigned read_before = s->uart->input.read;
 
 	s->was_sleeping = avr->state == cpu_Sleeping;
@@ -435,12 +473,20 @@ static void step_once(uno_shim_t *s)
 
 void uno_free(uno_shim_t *s);
 
-uno_shim_t *uno_new(const char *path, char *err, size_t errlen)
+/* Loads the ELF file at `path` into a fresh `mcu` (simavr's core name) at 16 MHz
+ * and makes USART`usart` the wire; its UCSRnA must be at `base` (the caller's
+ * table, checked against simavr's core). `response`: interrupt response cycles. */
+uno_shim_t *uno_new(const char *path, const char *mcu, int usart, uint16_t base, uint32_t response, char *err,
+		    size_t errlen)
 {
 	pthread_once(&logger_once, install_logger);
 	last_error[0] = 0;
 	if (errlen)
 		err[0] = 0;
+	if (usart < 0 || usart >= USARTS) {
+		snprintf(err, errlen, "USART%d does not exist", usart);
+		return NULL;
+	}
 
 	elf_firmware_t *f = calloc(1, sizeof(*f) + 4096);
 	uno_shim_t *s = calloc(1, sizeof(*s));
@@ -455,9 +501,9 @@ uno_shim_t *uno_new(const char *path, char *err, size_t errlen)
 			 last_error);
 		goto fail;
 	}
-	s->avr = avr_make_mcu_by_name("atmega328p");
+	s->avr = avr_make_mcu_by_name(mcu);
 	if (!s->avr) {
-		snprintf(err, errlen, "simavr has no atmega328p core");
+		snprintf(err, errlen, "simavr has no %s core", mcu);
 		goto fail;
 	}
 	avr_init(s->avr);
@@ -466,13 +512,13 @@ uno_shim_t *uno_new(const char *path, char *err, size_t errlen)
 		goto fail;
 	}
 	if ((uint64_t)f->flashbase + f->flashsize > (uint64_t)s->avr->flashend + 1) {
-		snprintf(err, errlen, "the code (%u bytes at 0x%x) does not fit the ATmega328P's 32 KiB flash",
-			 (unsigned)f->flashsize, (unsigned)f->flashbase);
+		snprintf(err, errlen, "the code (%u bytes at 0x%x) does not fit the %s's %u KiB flash",
+			 (unsigned)f->flashsize, (unsigned)f->flashbase, mcu, (unsigned)((s->avr->flashend + 1) / 1024));
 		goto fail;
 	}
 	if (f->eeprom && f->eesize > (uint64_t)s->avr->e2end + 1) {
-		snprintf(err, errlen, "the .eeprom section (%u bytes) does not fit the ATmega328P's EEPROM",
-			 (unsigned)f->eesize);
+		snprintf(err, errlen, "the .eeprom section (%u bytes) does not fit the %s's %u-byte EEPROM",
+			 (unsigned)f->eesize, mcu, (unsigned)(s->avr->e2end + 1));
 		goto fail;
 	}
 	f->frequency = 16000000;
@@ -483,21 +529,37 @@ uno_shim_t *uno_new(const char *path, char *err, size_t errlen)
 	avr->vcc = avr->avcc = avr->aref = 5000;
 	avr->log = LOG_ERROR;
 	avr->sleep = sleep_exact;
+	s->response = response;
+	s->uart_name = (char)('0' + usart);
+	s->base = base;
 
-	for (avr_io_t *io = avr->io_port; io; io = io->next)
-		if (!strcmp(io->kind, "uart") && ((avr_uart_t *)io)->name == '0')
-			s->uart = (avr_uart_t *)io;
+	for (avr_io_t *io = avr->io_port; io; io = io->next) {
+		if (strcmp(io->kind, "uart"))
+			continue;
+		avr_uart_t *u = (avr_uart_t *)io;
+		uint32_t flags = 0;
+		avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS(u->name), &flags);
+		flags &= ~(uint32_t)(AVR_UART_FLAG_POLL_SLEEP | AVR_UART_FLAG_STDIO);
+		avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS(u->name), &flags);
+		/* simavr enables the transmitter at reset "to allow printf"; the chip does not */
+		avr_regbit_clear(avr, u->txen);
+		avr_irq_t *output = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ(u->name), UART_IRQ_OUTPUT);
+		if (u->name == s->uart_name) {
+			s->uart = u;
+			avr_irq_register_notify(output, tx_output_irq, s);
+		} else if (u->name >= '0' && u->name < '0' + USARTS) {
+			avr_irq_register_notify(output, other_output_irq, &s->out[u->name - '0']);
+		}
+	}
 	if (!s->uart) {
-		snprintf(err, errlen, "simavr's atmega328p core has no USART0");
+		snprintf(err, errlen, "simavr's %s core has no USART%d", mcu, usart);
 		goto fail;
 	}
-	uint32_t flags = 0;
-	avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS('0'), &flags);
-	flags &= ~(uint32_t)(AVR_UART_FLAG_POLL_SLEEP | AVR_UART_FLAG_STDIO);
-	avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
-	avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT), tx_output_irq, s);
-	/* simavr enables the transmitter at reset "to allow printf"; the chip does not */
-	avr->data[R_UCSR0B] &= (uint8_t)~UCSR0B_TXEN;
+	if (s->uart->r_ucsra != base) {
+		snprintf(err, errlen, "simavr's %s core has UCSR%dA at 0x%x, not 0x%x", mcu, usart,
+			 (unsigned)s->uart->r_ucsra, (unsigned)base);
+		goto fail;
+	}
 
 	for (int i = 0; i < avr->interrupts.vector_count; i++)
 		avr_irq_register_notify(&avr->interrupts.vector[i]->irq[AVR_INT_IRQ_RUNNING], isr_running_irq, s);
@@ -524,6 +586,8 @@ void uno_free(uno_shim_t *s)
 	}
 	free(s->rx);
 	free(s->tx);
+	for (int i = 0; i < USARTS; i++)
+		free(s->out[i].bytes);
 	free(s);
 }
 
@@ -543,7 +607,7 @@ static int runnable(const uno_shim_t *s)
 }
 
 /* Run until the clock reaches `target`, the core stops, or (if `stop_on_tx`)
- * the firmware writes UDR0. Returns the core state. */
+ * the firmware writes UDRn. Returns the core state. */
 int uno_run(uno_shim_t *s, uint64_t target, int stop_on_tx)
 {
 	avr_t *avr = s->avr;
@@ -612,7 +676,7 @@ void uno_isr_reset(uno_shim_t *s)
 }
 
 /* Schedule a received frame: `value` is the data byte, optionally ORed with
- * UART_INPUT_FE (0x8000) / UNO_INPUT_PE (0x4000); RXC0 rises at cycle `at`. */
+ * UART_INPUT_FE (0x8000) / UNO_INPUT_PE (0x4000); RXCn rises at cycle `at`. */
 int uno_rx_push(uno_shim_t *s, uint64_t at, uint16_t value)
 {
 	avr_t *avr = s->avr;
@@ -687,7 +751,7 @@ uint64_t uno_tx_busy_until(const uno_shim_t *s)
 uint32_t uno_uart_flags(const uno_shim_t *s)
 {
 	uint32_t flags = 0;
-	avr_ioctl(s->avr, AVR_IOCTL_UART_GET_FLAGS('0'), &flags);
+	avr_ioctl(s->avr, AVR_IOCTL_UART_GET_FLAGS(s->uart_name), &flags);
 	return flags;
 }
 
@@ -697,13 +761,53 @@ uint8_t *uno_data(uno_shim_t *s, size_t *len)
 	return s->avr->data;
 }
 
-/* Drive input `bit` of port 'B'/'C'/'D' to `level` (0/1), or release it (-1). */
+/* Move up to `max` bytes USART`usart` (not the wire) transmitted, oldest first, to
+ * `out`. Returns how many, or UNO_ERR_ARG for the wire or a USART out of range. */
+long uno_usart_take(uno_shim_t *s, int usart, uint8_t *out, size_t max)
+{
+	if (usart < 0 || usart >= USARTS || '0' + usart == s->uart_name)
+		return UNO_ERR_ARG;
+	usart_out_t *o = &s->out[usart];
+	size_t n = o->len < max ? o->len : max;
+	memcpy(out, o->bytes, n);
+	memmove(o->bytes, o->bytes + n, o->len - n);
+	o->len -= n;
+	return (long)n;
+}
+
+/* simavr's description of port `port` ('A'..'L'), or NULL if the chip has none. */
+static avr_ioport_t *find_port(const uno_shim_t *s, char port)
+{
+	for (avr_io_t *io = s->avr->io_port; io; io = io->next)
+		if (!strcmp(io->kind, "port") && ((avr_ioport_t *)io)->name == port)
+			return (avr_ioport_t *)io;
+	return NULL;
+}
+
+/* Data-space addresses of PINx, DDRx and PORTx of port `port`; UNO_ERR_ARG if the chip
+ * has no such port. */
+int uno_port_regs(const uno_shim_t *s, char port, uint16_t *pin, uint16_t *ddr, uint16_t *portreg)
+{
+	avr_ioport_t *p = find_port(s, port);
+	if (!p)
+		return UNO_ERR_ARG;
+	*pin = p->r_pin;
+	*ddr = p->r_ddr;
+	*portreg = p->r_port;
+	return UNO_OK;
+}
+
+/* Drive input `bit` of port `port` ('A'..'L', as the chip has them) to `level` (0/1), or
+ * release it (-1). */
 int uno_pin_drive(uno_shim_t *s, char port, int bit, int level)
 {
-	if (port < 'B' || port > 'D' || bit < 0 || bit > 7 || level < -1 || level > 1)
+	if (port < 'A' || port >= 'A' + PORTS || bit < 0 || bit > 7 || level < -1 || level > 1)
+		return UNO_ERR_ARG;
+	avr_ioport_t *p = find_port(s, port);
+	if (!p)
 		return UNO_ERR_ARG;
 	avr_t *avr = s->avr;
-	int i = port - 'B';
+	int i = port - 'A';
 	uint8_t m = (uint8_t)(1 << bit);
 	avr_irq_t *irq = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(port), bit);
 	if (!irq)
@@ -720,16 +824,15 @@ int uno_pin_drive(uno_shim_t *s, char port, int bit, int level)
 		avr_raise_irq(irq, (uint32_t)level);
 	} else {
 		/* released: an input with its pull-up on reads high, a floating one low */
-		uint16_t r_port = (uint16_t)(0x25 + 3 * i), r_ddr = (uint16_t)(0x24 + 3 * i);
-		if (!(avr->data[r_ddr] & m))
-			avr_raise_irq(irq, (avr->data[r_port] & m) ? 1 : 0);
+		if (!(avr->data[p->r_ddr] & m))
+			avr_raise_irq(irq, (avr->data[p->r_port] & m) ? 1 : 0);
 	}
 	return UNO_OK;
 }
 
 int uno_adc_set(uno_shim_t *s, int channel, uint32_t millivolts)
 {
-	if (channel < 0 || channel > 7)
+	if (channel < 0 || channel > 15)
 		return UNO_ERR_ARG;
 	avr_irq_t *irq = avr_io_getirq(s->avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + channel);
 	if (!irq)

@@ -1,4 +1,5 @@
-//! Just enough ELF32 parsing to vet a file before simavr sees it and to read its symbol table.
+//! Just enough ELF32 parsing to vet a file before simavr sees it, to read its symbol table and
+//! the device it was linked for.
 
 use crate::Error;
 use std::path::Path;
@@ -71,6 +72,46 @@ pub fn check_avr(path: &Path, bytes: &[u8]) -> Result<(), Error> {
         return Err(bad("not an executable (ET_EXEC) ELF file".into()));
     }
     Ok(())
+}
+
+/// The device a linked AVR executable was built for (`atmega2560`), from the
+/// `.note.gnu.avr.deviceinfo` note that avr-libc's start-up code (crt*.o) puts into every file
+/// avr-gcc links, Rust firmware included. `None` if the file has no such note.
+///
+/// The note (owner `AVR`, type 1) describes flash, SRAM and EEPROM as six 32-bit words, then a
+/// table of string offsets whose first word is the table's size in bytes and whose second is
+/// the device name's offset in the string table that follows the offset table.
+pub fn device_name(bytes: &[u8]) -> Option<String> {
+    const SHT_NOTE: u32 = 7;
+    let shoff = usize_at(bytes, 32)?;
+    let shentsize = usize::from(u16_at(bytes, 46)?);
+    let shnum = usize::from(u16_at(bytes, 48)?);
+    (0..shnum).find_map(|i| {
+        let sh = shoff.checked_add(i.checked_mul(shentsize)?)?;
+        if u32_at(bytes, sh.checked_add(4)?)? != SHT_NOTE {
+            return None;
+        }
+        let off = usize_at(bytes, sh.checked_add(16)?)?;
+        let size = usize_at(bytes, sh.checked_add(20)?)?;
+        avr_note_device(bytes.get(off..off.checked_add(size)?)?)
+    })
+}
+
+/// The device name in one note section, if it is avr-libc's device-info note.
+fn avr_note_device(note: &[u8]) -> Option<String> {
+    let (namesz, descsz, kind) = (usize_at(note, 0)?, usize_at(note, 4)?, u32_at(note, 8)?);
+    let desc_at = 12usize.checked_add(namesz.checked_next_multiple_of(4)?)?;
+    if kind != 1 || note.get(12..12usize.checked_add(namesz)?)? != b"AVR\0" {
+        return None;
+    }
+    let desc = note.get(desc_at..desc_at.checked_add(descsz)?)?;
+    let table_size = usize_at(desc, 24)?;
+    let name_off = usize_at(desc, 28)?;
+    let strtab = desc.get(24usize.checked_add(table_size)?..)?;
+    let name = strtab.get(name_off..)?;
+    let name = &name[..name.iter().position(|&c| c == 0)?];
+    let name = std::str::from_utf8(name).ok()?;
+    (!name.is_empty()).then(|| name.to_owned())
 }
 
 /// Reads the symbol table (`.symtab`) of a 32-bit little-endian ELF file.

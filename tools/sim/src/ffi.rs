@@ -1,6 +1,6 @@
 //! Declarations of the C shim in `csrc/shim.c`.
 
-use std::ffi::{c_char, c_int};
+use std::ffi::{c_char, c_int, c_long};
 
 /// The shim's simulator instance (opaque).
 #[repr(C)]
@@ -36,7 +36,15 @@ pub(crate) const ERR_ORDER: c_int = -2;
 pub(crate) const ERR_NOMEM: c_int = -3;
 
 extern "C" {
-    pub(crate) fn uno_new(path: *const c_char, err: *mut c_char, errlen: usize) -> *mut Shim;
+    pub(crate) fn uno_new(
+        path: *const c_char,
+        mcu: *const c_char,
+        usart: c_int,
+        base: u16,
+        response: u32,
+        err: *mut c_char,
+        errlen: usize,
+    ) -> *mut Shim;
     pub(crate) fn uno_free(s: *mut Shim);
     pub(crate) fn uno_cycle(s: *const Shim) -> u64;
     pub(crate) fn uno_state(s: *const Shim) -> c_int;
@@ -63,6 +71,14 @@ extern "C" {
     pub(crate) fn uno_tx_busy_until(s: *const Shim) -> u64;
     pub(crate) fn uno_uart_flags(s: *const Shim) -> u32;
     pub(crate) fn uno_data(s: *mut Shim, len: *mut usize) -> *mut u8;
+    pub(crate) fn uno_usart_take(s: *mut Shim, usart: c_int, out: *mut u8, max: usize) -> c_long;
+    pub(crate) fn uno_port_regs(
+        s: *const Shim,
+        port: c_char,
+        pin: *mut u16,
+        ddr: *mut u16,
+        port_reg: *mut u16,
+    ) -> c_int;
     pub(crate) fn uno_pin_drive(s: *mut Shim, port: c_char, bit: c_int, level: c_int) -> c_int;
     pub(crate) fn uno_adc_set(s: *mut Shim, channel: c_int, millivolts: u32) -> c_int;
     pub(crate) fn uno_set_aref(s: *mut Shim, millivolts: u32);

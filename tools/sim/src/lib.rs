@@ -1,8 +1,27 @@
 //! A simulated Arduino Uno: an ATmega328P at 16 MHz in [simavr] 1.6, with USART0 driven on
-//! simulated time as a real wire would drive it.
+//! simulated time as a real wire would drive it; or any other [`Chip`] a Modbus slave runs on
+//! (ATmega168, ATmega32U4, ATmega1280, ATmega2560), with the wire on any of its USARTs.
 //!
 //! Used by the integration tests (Modbus RTU T1.5/T3.5 timing), by the benchmarks (cycles spent in
 //! interrupt handlers) and by the virtual Uno.
+//!
+//! [`Uno::load`] runs the chip the ELF file was linked for (avr-gcc records it in every
+//! executable it links, Rust firmware included), an ATmega328P if the file does not say, with
+//! the wire on the chip's default USART (USART0, or USART1 on the 32U4).
+//! [`Uno::load_with`] picks the chip and the USART:
+//!
+//! ```no_run
+//! use uno_sim::{Chip, Options, Uno};
+//!
+//! let mega = Uno::load_with("mega_slave.elf", Options::new().chip(Chip::Atmega2560).usart(1))?;
+//! assert_eq!(mega.vectors().usart_rx, 36);
+//! # Ok::<(), uno_sim::Error>(())
+//! ```
+//!
+//! The chip's other USARTs work as simavr models them; [`Uno::take_usart_output`] collects what
+//! they send (e.g. a firmware's debug print on a Mega's USART0 while Modbus uses USART1).
+//! Arduino pin numbers ([`Uno::pin`]) are the Uno's and work on the 328P and 168 only; every
+//! chip's pins can be named by port and bit ([`Uno::port_pin`]).
 //!
 //! ```no_run
 //! use uno_sim::{us_to_cycles, Uno};
@@ -18,9 +37,10 @@
 //!
 //! # Timing model
 //!
-//! All times are CPU cycles since reset (16 per µs). The character time of the USART is exact:
-//! a bit lasts `16 * (UBRR0 + 1)` cycles (`8 *` with U2X0), a character `1 + data + parity + stop`
-//! bits ([`Uno::wire_char_cycles`]).
+//! All times are CPU cycles since reset (16 per µs, whatever the chip or the file says). The
+//! character time of the wire's USART (USART0 here; USARTn reads the same) is exact: a bit lasts
+//! `16 * (UBRR0 + 1)` cycles (`8 *` with U2X0), a character `1 + data + parity + stop` bits
+//! ([`Uno::wire_char_cycles`]).
 //!
 //! simavr 1.6's own USART timing is not wire-accurate: its character time always counts a parity
 //! bit, it reads the frame format only when UBRR0L is written, a received byte gets RXC0 one of its
@@ -42,16 +62,21 @@
 //!   (On silicon the start bit waits for the next edge of the free-running transmit bit clock, i.e.
 //!   up to one bit time longer; the simulation does not model that phase.)
 //! * **Interrupts**: simavr 1.6 enters an interrupt handler in zero cycles; this crate adds the
-//!   AVR's 4-cycle interrupt response (8 when waking up from sleep), so handler timing and
-//!   [`Uno::isr_stats`] match the data sheet.
+//!   AVR's 4-cycle interrupt response (8 when waking up from sleep; 5 and 10 on the ATmega2560,
+//!   which pushes a 3-byte return address, see [`Chip::interrupt_response_cycles`]), so handler
+//!   timing and [`Uno::isr_stats`] match the data sheet. simavr already counts RETI as 4 cycles
+//!   (5 on the 2560).
 //!
 //! [simavr]: https://github.com/buserror/simavr
 
 #![deny(missing_docs)]
 #![deny(clippy::undocumented_unsafe_blocks)]
 
+mod chip;
 mod elf;
+mod error;
 mod ffi;
+mod pins;
 
 use std::ffi::{c_char, c_int, CStr, CString};
 use std::fmt;
@@ -60,7 +85,10 @@ use std::path::{Path, PathBuf};
 use std::ptr::NonNull;
 use std::sync::Mutex;
 
+pub use chip::{Chip, UsartRegs, Vectors};
 pub use elf::{Space, Symbol};
+pub use error::Error;
+pub use pins::{PinState, A0, A1, A2, A3, A4, A5};
 
 /// CPU clock of the Uno, in Hz.
 pub const F_CPU: u64 = 16_000_000;
@@ -77,7 +105,8 @@ pub fn cycles_to_us(cycles: u64) -> f64 {
     cycles as f64 / CYCLES_PER_US as f64
 }
 
-/// Interrupt vector numbers of the ATmega328P (vector address = number × 4 bytes).
+/// Interrupt vector numbers of the ATmega328P and ATmega168 (vector address = number × 4 bytes).
+/// Other chips number them differently: see [`Chip::vectors`] and [`Uno::vectors`].
 pub mod vector {
     /// External interrupt 0 (pin 2).
     pub const INT0: u8 = 1;
@@ -131,7 +160,8 @@ pub mod vector {
     pub const SPM_READY: u8 = 25;
 }
 
-/// Data-space addresses of the USART0 registers (for [`Uno::read_ram`]).
+/// Data-space addresses of the USART0 registers (for [`Uno::read_ram`]). Other USARTs: see
+/// [`UsartRegs`] and [`Uno::usart_regs`].
 pub mod reg {
     /// USART0 control and status register A (RXC0 0x80, TXC0 0x40, UDRE0 0x20, FE0 0x10, DOR0 0x08, UPE0 0x04, U2X0 0x02).
     pub const UCSR0A: u16 = 0xC0;
@@ -145,139 +175,6 @@ pub mod reg {
     pub const UBRR0H: u16 = 0xC5;
     /// USART0 data register.
     pub const UDR0: u16 = 0xC6;
-}
-
-/// Arduino pin number of analog input A0 (PC0); A1..A5 follow.
-pub const A0: u8 = 14;
-/// Arduino pin number of A1 (PC1).
-pub const A1: u8 = 15;
-/// Arduino pin number of A2 (PC2).
-pub const A2: u8 = 16;
-/// Arduino pin number of A3 (PC3).
-pub const A3: u8 = 17;
-/// Arduino pin number of A4 (PC4).
-pub const A4: u8 = 18;
-/// Arduino pin number of A5 (PC5).
-pub const A5: u8 = 19;
-
-/// What went wrong.
-#[derive(Debug)]
-#[non_exhaustive]
-pub enum Error {
-    /// The firmware file could not be read.
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The underlying error.
-        source: std::io::Error,
-    },
-    /// The file is not an AVR executable.
-    BadElf {
-        /// The file.
-        path: PathBuf,
-        /// Why it was refused.
-        reason: String,
-    },
-    /// simavr refused the file.
-    Load {
-        /// The file.
-        path: PathBuf,
-        /// simavr's reason.
-        reason: String,
-    },
-    /// The simulated CPU has stopped (crashed, or slept with interrupts disabled).
-    Stopped {
-        /// Its state.
-        state: CpuState,
-        /// The cycle it stopped at.
-        cycle: u64,
-    },
-    /// A byte was scheduled to arrive before the current cycle.
-    RxInPast {
-        /// The requested arrival cycle.
-        at: u64,
-        /// The current cycle.
-        now: u64,
-    },
-    /// A byte was scheduled to arrive before a byte already scheduled.
-    RxOutOfOrder {
-        /// The requested arrival cycle.
-        at: u64,
-    },
-    /// The firmware has not enabled USART0 in asynchronous mode (needed to know the character time).
-    UartNotConfigured,
-    /// Not an Arduino Uno pin number (0-19).
-    BadPin(u8),
-    /// Not an ADC channel (0-7).
-    BadAdcChannel(u8),
-    /// A memory access outside the data space.
-    OutOfRange {
-        /// First address.
-        addr: usize,
-        /// Length of the access.
-        len: usize,
-        /// Size of the data space.
-        size: usize,
-    },
-    /// An EEPROM access past its end.
-    EepromOutOfRange {
-        /// First address.
-        addr: usize,
-        /// Length of the access.
-        len: usize,
-    },
-    /// No such symbol in the ELF file.
-    UnknownSymbol(String),
-    /// The symbol is not in the data space.
-    NotInRam(String),
-    /// More bytes than the variable holds.
-    SymbolTooSmall {
-        /// The symbol.
-        name: String,
-        /// Its size.
-        size: usize,
-        /// Bytes to write.
-        len: usize,
-    },
-    /// The simulator failed internally (e.g. out of memory).
-    Internal(String),
-}
-
-impl fmt::Display for Error {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Error::Io { path, source } => write!(f, "cannot read firmware {}: {source}", path.display()),
-            Error::BadElf { path, reason } => write!(f, "{}: {reason}", path.display()),
-            Error::Load { path, reason } => write!(f, "{}: {reason}", path.display()),
-            Error::Stopped { state, cycle } => write!(f, "simulated CPU stopped ({state:?}) at cycle {cycle}"),
-            Error::RxInPast { at, now } => write!(f, "byte scheduled at cycle {at}, but it is already cycle {now}"),
-            Error::RxOutOfOrder { at } => write!(f, "byte scheduled at cycle {at}, before a byte already scheduled"),
-            Error::UartNotConfigured => write!(f, "the firmware has not enabled USART0 (asynchronous mode)"),
-            Error::BadPin(pin) => write!(f, "{pin} is not an Arduino Uno pin (0-13, A0-A5 = 14-19)"),
-            Error::BadAdcChannel(ch) => write!(f, "{ch} is not an ADC channel (0-7)"),
-            Error::OutOfRange { addr, len, size } => {
-                write!(f, "{len} bytes at 0x{addr:04x} are outside the data space (0x{size:04x} bytes)")
-            }
-            Error::EepromOutOfRange { addr, len } => {
-                write!(f, "{len} bytes at 0x{addr:03x} are past the end of the 1 KiB EEPROM")
-            }
-            Error::UnknownSymbol(name) => write!(f, "no symbol `{name}` in the firmware"),
-            Error::NotInRam(name) => write!(f, "symbol `{name}` is not in the data space"),
-            Error::SymbolTooSmall { name, size, len } => {
-                write!(f, "cannot write {len} bytes to `{name}`, which has {size}")
-            }
-            Error::Internal(msg) => write!(f, "simulator error: {msg}"),
-        }
-    }
-}
-
-impl std::error::Error for Error {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            Error::Io { source, .. } => Some(source),
-            _ => None,
-        }
-    }
 }
 
 /// simavr's CPU states.
@@ -335,7 +232,7 @@ pub enum Parity {
     Odd,
 }
 
-/// The USART0 format the firmware configured.
+/// The USART format the firmware configured (USART0's bits are named here; USARTn's are the same).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SerialConfig {
     /// UBRR0 (12 bits).
@@ -460,7 +357,8 @@ pub struct Step {
     pub cycles: u64,
     /// An interrupt handler entered right after the instruction, if any.
     pub entered: Option<u8>,
-    /// Cycles of that interrupt response (4, or 8 when waking up; 0 if none).
+    /// Cycles of that interrupt response (4, or 8 when waking up; 5 and 10 on the ATmega2560;
+    /// 0 if none).
     pub response_cycles: u64,
 }
 
@@ -476,27 +374,47 @@ pub struct IsrStats {
     pub max_cycles: u64,
 }
 
-/// Direction and level of a pin.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct PinState {
-    /// DDR bit set: the firmware drives the pin.
-    pub output: bool,
-    /// For an output, the level it drives; for an input, what the firmware reads from PINx.
-    pub level: bool,
-    /// Input with the internal pull-up on (DDR bit clear, PORT bit set).
-    pub pull_up: bool,
-}
-
 /// Serialises loading: libelf and simavr's loader are not known to be thread-safe.
 static LOAD_LOCK: Mutex<()> = Mutex::new(());
 
 /// Cycles a sleeping CPU may skip in one [`Uno::step`] when nothing is scheduled.
 const STEP_SLEEP_LIMIT: u64 = 1000;
 
-/// A simulated Arduino Uno running one firmware.
+/// Which chip to simulate and which of its USARTs is the wire (see [`Uno::load_with`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Options {
+    /// The chip; `None`: the one the ELF file names (`.note.gnu.avr.deviceinfo`), or the
+    /// ATmega328P if it names none. A chip given here wins over the file's.
+    pub chip: Option<Chip>,
+    /// The USART the wire is on; `None`: the chip's default ([`Chip::default_usart`]).
+    pub usart: Option<u8>,
+}
+
+impl Options {
+    /// The chip from the file, its default USART.
+    pub const fn new() -> Options {
+        Options { chip: None, usart: None }
+    }
+
+    /// Simulates `chip`, whatever the file names.
+    pub const fn chip(self, chip: Chip) -> Options {
+        Options { chip: Some(chip), ..self }
+    }
+
+    /// Puts the wire on USART`n`.
+    pub const fn usart(self, n: u8) -> Options {
+        Options { usart: Some(n), ..self }
+    }
+}
+
+/// A simulated Arduino Uno (or another board's chip) running one firmware.
 pub struct Uno {
     shim: NonNull<ffi::Shim>,
     path: PathBuf,
+    chip: Chip,
+    usart: u8,
+    regs: UsartRegs,
+    vectors: Vectors,
     symbols: Vec<Symbol>,
     tx: Vec<TxByte>,
 }
@@ -508,7 +426,12 @@ unsafe impl Send for Uno {}
 
 impl fmt::Debug for Uno {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.debug_struct("Uno").field("path", &self.path).field("cycle", &self.now()).finish_non_exhaustive()
+        f.debug_struct("Uno")
+            .field("path", &self.path)
+            .field("chip", &self.chip)
+            .field("usart", &self.usart)
+            .field("cycle", &self.now())
+            .finish_non_exhaustive()
     }
 }
 
@@ -520,24 +443,51 @@ impl Drop for Uno {
 }
 
 impl Uno {
-    /// Loads an ELF file into a fresh ATmega328P at 16 MHz (5 V supply and AREF) and resets it,
-    /// whatever MCU and clock the file names.
+    /// Loads an ELF file into the chip it was linked for (an ATmega328P if the file does not
+    /// say) at 16 MHz (5 V supply and AREF), whatever clock the file names, and resets it. The
+    /// wire is on the chip's default USART: USART0, or USART1 on the 32U4.
     ///
-    /// Fails with a one-line message if the file is missing, is not a 32-bit AVR executable, or
-    /// does not fit the chip.
+    /// Fails with a one-line message if the file is missing, is not a 32-bit AVR executable,
+    /// names a chip not simulated here, or does not fit the chip.
     pub fn load(path: impl AsRef<Path>) -> Result<Uno, Error> {
+        Uno::load_with(path, Options::new())
+    }
+
+    /// Like [`Uno::load`], on the chip and USART `options` give: an explicit chip wins over
+    /// the one the file names; a USART the chip lacks is [`Error::NoSuchUsart`].
+    pub fn load_with(path: impl AsRef<Path>, options: Options) -> Result<Uno, Error> {
         let path = path.as_ref().to_owned();
         let bytes = std::fs::read(&path).map_err(|source| Error::Io { path: path.clone(), source })?;
         elf::check_avr(&path, &bytes)?;
+        let chip = match (options.chip, elf::device_name(&bytes)) {
+            (Some(chip), _) => chip,
+            (None, None) => Chip::Atmega328p,
+            (None, Some(name)) => Chip::from_name(&name).ok_or(Error::UnsupportedChip { path: path.clone(), name })?,
+        };
+        let usart = options.usart.unwrap_or(chip.default_usart());
+        let no_such = Error::NoSuchUsart { chip, usart };
+        let (regs, vectors) = chip.usart_regs(usart).zip(chip.vectors(usart)).ok_or(no_such)?;
         let symbols = elf::symbols(&bytes);
         let c_path = CString::new(path.as_os_str().as_bytes())
             .map_err(|_| Error::BadElf { path: path.clone(), reason: "path contains a NUL byte".into() })?;
+        let c_mcu = CString::new(chip.name()).map_err(|_| Error::Internal("chip name with a NUL byte".into()))?;
+        let response = u32::try_from(chip.interrupt_response_cycles()).unwrap_or(4);
 
         let mut err = [0 as c_char; 256];
         let raw = {
             let _guard = LOAD_LOCK.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-            // SAFETY: `c_path` is NUL-terminated, `err` is writable for its full length.
-            unsafe { ffi::uno_new(c_path.as_ptr(), err.as_mut_ptr(), err.len()) }
+            // SAFETY: `c_path` and `c_mcu` are NUL-terminated, `err` is writable for its full length.
+            unsafe {
+                ffi::uno_new(
+                    c_path.as_ptr(),
+                    c_mcu.as_ptr(),
+                    c_int::from(usart),
+                    regs.ucsra,
+                    response,
+                    err.as_mut_ptr(),
+                    err.len(),
+                )
+            }
         };
         let Some(shim) = NonNull::new(raw) else {
             // SAFETY: `uno_new` always NUL-terminates `err` within its length.
@@ -545,7 +495,27 @@ impl Uno {
             let reason = if msg.is_empty() { "simavr could not load the file".to_owned() } else { msg };
             return Err(Error::Load { path, reason });
         };
-        Ok(Uno { shim, path, symbols, tx: Vec::new() })
+        Ok(Uno { shim, path, chip, usart, regs, vectors, symbols, tx: Vec::new() })
+    }
+
+    /// The simulated chip.
+    pub fn chip(&self) -> Chip {
+        self.chip
+    }
+
+    /// The number of the USART the wire is on.
+    pub fn usart(&self) -> u8 {
+        self.usart
+    }
+
+    /// The wire USART's register addresses.
+    pub fn usart_regs(&self) -> UsartRegs {
+        self.regs
+    }
+
+    /// Timer0's and the wire USART's interrupt vector numbers on this chip.
+    pub fn vectors(&self) -> Vectors {
+        self.vectors
     }
 
     /// A reset (power cycle or reset button): the firmware starts again from a freshly
@@ -557,7 +527,7 @@ impl Uno {
     /// the cycle timers this crate's USART model runs on, so a reset reloads instead.
     pub fn reset(&mut self) -> Result<(), Error> {
         let eeprom = self.eeprom();
-        let mut fresh = Uno::load(&self.path)?;
+        let mut fresh = Uno::load_with(&self.path, Options::new().chip(self.chip).usart(self.usart))?;
         fresh.write_eeprom(0, &eeprom)?;
         *self = fresh;
         Ok(())
@@ -674,11 +644,11 @@ impl Uno {
     // ----------------------------------------------------------------------------------------
     // USART
 
-    /// The USART0 format the firmware configured, or `None` while USART0 is off (neither RXEN0
-    /// nor TXEN0) or not in asynchronous mode.
+    /// The format the firmware configured on the wire's USART (USART0 on the Uno), or `None`
+    /// while it is off (neither RXENn nor TXENn) or not in asynchronous mode.
     pub fn serial_config(&self) -> Option<SerialConfig> {
         let d = self.data();
-        let base = usize::from(reg::UCSR0A);
+        let base = usize::from(self.regs.ucsra);
         let cfg = SerialConfig::from_registers(d[base], d[base + 1], d[base + 2], d[base + 4], d[base + 5]);
         let asynchronous = d[base + 2] & 0xc0 == 0;
         (asynchronous && (cfg.rx_enabled || cfg.tx_enabled)).then_some(cfg)
@@ -753,7 +723,8 @@ impl Uno {
         c
     }
 
-    /// simavr's USART0 flags (`AVR_UART_FLAG_*`); this crate clears POLL_SLEEP and STDIO.
+    /// simavr's flags (`AVR_UART_FLAG_*`) of the wire's USART; this crate clears POLL_SLEEP and
+    /// STDIO on every USART.
     pub fn uart_sim_flags(&self) -> u32 {
         // SAFETY: `shim` is valid for the lifetime of `self`.
         unsafe { ffi::uno_uart_flags(self.raw()) }
@@ -772,11 +743,38 @@ impl Uno {
         }
     }
 
-    /// Takes every frame the firmware has transmitted since the last call, oldest first. A frame
-    /// is listed as soon as UDR0 is written, so its `end_cycle` may still be in the future.
+    /// Takes every frame the firmware has transmitted on the wire since the last call, oldest
+    /// first. A frame is listed as soon as UDRn is written, so its `end_cycle` may still be in
+    /// the future.
     pub fn take_tx(&mut self) -> Vec<TxByte> {
         self.drain_tx();
         std::mem::take(&mut self.tx)
+    }
+
+    /// Takes the bytes the firmware has transmitted on USART`usart`, another USART than the
+    /// wire, since the last call (oldest first; simavr's own timing, not modelled here: a byte
+    /// is listed when it is written to UDRn). [`Error::WireUsart`] for the wire's USART,
+    /// [`Error::NoSuchUsart`] for one the chip lacks.
+    pub fn take_usart_output(&mut self, usart: u8) -> Result<Vec<u8>, Error> {
+        if !self.chip.has_usart(usart) {
+            return Err(Error::NoSuchUsart { chip: self.chip, usart });
+        }
+        if usart == self.usart {
+            return Err(Error::WireUsart(usart));
+        }
+        let mut out = Vec::new();
+        let mut buf = [0u8; 256];
+        loop {
+            // SAFETY: `shim` is valid and exclusively borrowed; `buf` is writable for its length.
+            let n = unsafe { ffi::uno_usart_take(self.raw_mut(), c_int::from(usart), buf.as_mut_ptr(), buf.len()) };
+            let Ok(n) = usize::try_from(n) else {
+                return Err(Error::Internal(format!("uno_usart_take({usart}) returned {n}")));
+            };
+            out.extend_from_slice(&buf[..n]);
+            if n < buf.len() {
+                return Ok(out);
+            }
+        }
     }
 
     /// Cycle at which the transmitter becomes idle, if it is busy.
@@ -817,69 +815,6 @@ impl Uno {
     }
 
     // ----------------------------------------------------------------------------------------
-    // GPIO and ADC
-
-    /// Port letter and bit of an Arduino pin: 0-7 = PD0-7, 8-13 = PB0-5, 14-19 (A0-A5) = PC0-5.
-    fn port_bit(pin: u8) -> Result<(u8, u8), Error> {
-        match pin {
-            0..=7 => Ok((b'D', pin)),
-            8..=13 => Ok((b'B', pin - 8)),
-            14..=19 => Ok((b'C', pin - 14)),
-            _ => Err(Error::BadPin(pin)),
-        }
-    }
-
-    /// Direction and level of Arduino pin `pin` (0-13, [`A0`]-[`A5`]).
-    pub fn pin(&self, pin: u8) -> Result<PinState, Error> {
-        let (port, bit) = Self::port_bit(pin)?;
-        // PINx, DDRx, PORTx are at 0x23/0x24/0x25 for port B, +3 per port
-        let base = 0x23 + 3 * usize::from(port - b'B');
-        let d = self.data();
-        let mask = 1u8 << bit;
-        let (pin_reg, ddr, port_reg) = (d[base], d[base + 1], d[base + 2]);
-        let output = ddr & mask != 0;
-        let level = if output { port_reg & mask != 0 } else { pin_reg & mask != 0 };
-        Ok(PinState { output, level, pull_up: !output && port_reg & mask != 0 })
-    }
-
-    /// Drives input pin `pin` high or low from outside (`Some(level)`, e.g. a switch), or
-    /// releases it (`None`: reads high if its pull-up is on, else low). Pin-change and external
-    /// interrupts fire as on the chip.
-    pub fn drive_pin(&mut self, pin: u8, level: Option<bool>) -> Result<(), Error> {
-        let (port, bit) = Self::port_bit(pin)?;
-        let level: c_int = match level {
-            None => -1,
-            Some(high) => c_int::from(high),
-        };
-        // SAFETY: `shim` is valid and exclusively borrowed; arguments are range-checked in C.
-        match unsafe { ffi::uno_pin_drive(self.raw_mut(), port as c_char, c_int::from(bit), level) } {
-            0 => Ok(()),
-            _ => Err(Error::BadPin(pin)),
-        }
-    }
-
-    /// Sets the voltage on ADC channel `channel` (0-5 = A0-A5; 6 and 7 exist on the chip only),
-    /// in millivolts. With the AVCC reference (5 V) the firmware reads `mv * 1023 / 5000`
-    /// (simavr's scaling; clipped at 1023).
-    pub fn set_analog_mv(&mut self, channel: u8, millivolts: u32) -> Result<(), Error> {
-        if channel > 7 {
-            return Err(Error::BadAdcChannel(channel));
-        }
-        // SAFETY: `shim` is valid and exclusively borrowed; `channel` is 0-7.
-        match unsafe { ffi::uno_adc_set(self.raw_mut(), c_int::from(channel), millivolts) } {
-            0 => Ok(()),
-            _ => Err(Error::BadAdcChannel(channel)),
-        }
-    }
-
-    /// Sets the voltage on the AREF pin (default 5000 mV), used when the firmware selects the
-    /// external reference.
-    pub fn set_aref_mv(&mut self, millivolts: u32) {
-        // SAFETY: `shim` is valid and exclusively borrowed.
-        unsafe { ffi::uno_set_aref(self.raw_mut(), millivolts) }
-    }
-
-    // ----------------------------------------------------------------------------------------
     // memory
 
     fn data(&self) -> &[u8] {
@@ -911,7 +846,8 @@ impl Uno {
     }
 
     /// Reads `len` bytes of data space at `addr` (0x000-0x01F registers, 0x020-0x0FF I/O,
-    /// 0x100-0x8FF SRAM). Reads raw memory: no I/O side effects (reading UDR0 does not pop a byte).
+    /// 0x100-0x8FF SRAM on the 328P; up to RAMEND on other chips). Reads raw memory: no I/O
+    /// side effects (reading UDR0 does not pop a byte).
     pub fn read_ram(&self, addr: u16, len: usize) -> Result<Vec<u8>, Error> {
         let range = self.range(usize::from(addr), len)?;
         Ok(self.data()[range].to_vec())
@@ -925,7 +861,7 @@ impl Uno {
         Ok(())
     }
 
-    /// Size of the EEPROM (1024 bytes).
+    /// Size of the EEPROM (1024 bytes on the 328P and 32U4, 512 on the 168, 4096 on the Megas).
     pub fn eeprom_size(&self) -> usize {
         // SAFETY: `shim` is valid for the lifetime of `self`.
         unsafe { ffi::uno_eeprom_size(self.raw()) as usize }

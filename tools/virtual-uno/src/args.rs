@@ -2,6 +2,8 @@
 
 use std::path::PathBuf;
 
+use uno_sim::Chip;
+
 use crate::control::Command;
 
 /// Usage text for `--help` and errors.
@@ -10,16 +12,24 @@ usage: virtual-uno [OPTIONS] FIRMWARE.elf
 
 Runs the firmware on a simulated Arduino Uno (simavr, 16 MHz) paced to real time, with
 USART0 on a pseudo-terminal: open the printed /dev/pts/N (or the --link) with any Modbus
-master, at the firmware's baud rate and frame format.
+master, at the firmware's baud rate and frame format. A firmware built for another chip
+(ATmega168, 32U4, 1280, 2560) runs on that chip, its serial line on --usart.
 
 options:
   --link PATH      make PATH a symlink to the pty (removed on exit), e.g. /tmp/ttyUNO
+  --chip NAME      the chip: atmega328p, atmega168, atmega32u4, atmega1280, atmega2560
+                   (default: the one the ELF file names, else atmega328p)
+  --usart N        the USART on the pty (default: USART0, on the ATmega32U4 USART1)
   --pin N=0|1|z    drive input pin N low, high, or release it, from the start (repeatable)
   --adc A0=MV      put MV millivolts (0-5000) on an analog input from the start (repeatable)
   --control PATH   read commands from PATH, a FIFO (created if missing, then removed)
   --no-stdin       do not read commands from standard input
-  --watch LIST     output pins to print when they change (default 13,2,3,4,5; `none`)
+  --watch LIST     output pins to print when they change (default 13,2,3,4,5 on the Uno's
+                   chips, none on the others; `none`)
   -h, --help       this text
+
+Pin numbers (--pin, --watch, `pin`) are the Uno's (0-13, A0-A5) and work on the ATmega328P
+and ATmega168 only.
 
 commands (stdin or --control), one per line:
   pin 6 0 | pin 6 1 | pin 6 z    drive or release an input pin
@@ -34,14 +44,28 @@ pub struct Args {
     pub elf: PathBuf,
     /// `--link`.
     pub link: Option<PathBuf>,
+    /// `--chip`.
+    pub chip: Option<Chip>,
+    /// `--usart`.
+    pub usart: Option<u8>,
     /// `--pin` and `--adc`, in order.
     pub initial: Vec<Command>,
     /// `--control`.
     pub control: Option<PathBuf>,
     /// Not `--no-stdin`.
     pub stdin: bool,
-    /// `--watch`.
-    pub watch: Vec<u8>,
+    /// `--watch`; `None`: the default for the chip.
+    pub watch: Option<Vec<u8>>,
+}
+
+/// The pins watched when `--watch` is not given: the Uno's LED and pins 2-5, on the chips
+/// wired like the Uno.
+pub fn default_watch(chip: Chip) -> Vec<u8> {
+    if chip.has_uno_pinout() {
+        vec![13, 2, 3, 4, 5]
+    } else {
+        Vec::new()
+    }
 }
 
 /// `Err(None)` for `--help`, `Err(Some(message))` for a mistake.
@@ -49,10 +73,12 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
     let mut args = Args {
         elf: PathBuf::new(),
         link: None,
+        chip: None,
+        usart: None,
         initial: Vec::new(),
         control: None,
         stdin: true,
-        watch: vec![13, 2, 3, 4, 5],
+        watch: None,
     };
     let mut elf = None;
     while let Some(word) = words.next() {
@@ -60,11 +86,13 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
         match word.as_str() {
             "-h" | "--help" => return Err(None),
             "--link" => args.link = Some(value()?.into()),
+            "--chip" => args.chip = Some(value()?.parse::<Chip>().map_err(|e| Some(format!("--chip: {e}")))?),
+            "--usart" => args.usart = Some(parse_usart(&value()?).map_err(Some)?),
             "--pin" => args.initial.push(Command::parse_pin_option(&value()?).map_err(Some)?),
             "--adc" => args.initial.push(Command::parse_adc_option(&value()?).map_err(Some)?),
             "--control" => args.control = Some(value()?.into()),
             "--no-stdin" => args.stdin = false,
-            "--watch" => args.watch = parse_watch(&value()?).map_err(Some)?,
+            "--watch" => args.watch = Some(parse_watch(&value()?).map_err(Some)?),
             w if w.starts_with('-') => return Err(Some(format!("unknown option {w}"))),
             _ if elf.is_some() => return Err(Some(format!("one firmware file only (got {word} too)"))),
             _ => elf = Some(PathBuf::from(word)),
@@ -72,6 +100,10 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
     }
     args.elf = elf.ok_or_else(|| Some("no firmware file given".to_owned()))?;
     Ok(args)
+}
+
+fn parse_usart(text: &str) -> Result<u8, String> {
+    text.parse::<u8>().ok().filter(|&n| n <= 3).ok_or_else(|| format!("--usart: `{text}` is not 0, 1, 2 or 3"))
 }
 
 fn parse_watch(list: &str) -> Result<Vec<u8>, String> {
@@ -97,8 +129,19 @@ mod tests {
         assert_eq!(a.elf, PathBuf::from("fw.elf"));
         assert_eq!(a.link, Some(PathBuf::from("/tmp/ttyUNO")));
         assert_eq!(a.initial, vec![Command::Pin(10, Some(false)), Command::Adc(0, 2500)]);
-        assert_eq!(a.watch, vec![13, 2]);
+        assert_eq!(a.watch, Some(vec![13, 2]));
+        assert_eq!((a.chip, a.usart), (None, None));
         assert!(a.stdin);
+    }
+
+    #[test]
+    fn chip_and_usart() {
+        let a = parse(words("--chip atmega2560 --usart 1 fw.elf")).unwrap();
+        assert_eq!((a.chip, a.usart, a.watch), (Some(Chip::Atmega2560), Some(1), None));
+        assert!(parse(words("--chip atmega4809 fw.elf")).unwrap_err().unwrap().contains("unsupported chip"));
+        assert_eq!(parse(words("--usart 4 fw.elf")).unwrap_err(), Some("--usart: `4` is not 0, 1, 2 or 3".into()));
+        assert_eq!(default_watch(Chip::Atmega168), [13, 2, 3, 4, 5]);
+        assert!(default_watch(Chip::Atmega32u4).is_empty());
     }
 
     #[test]

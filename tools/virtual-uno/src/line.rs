@@ -1,5 +1,5 @@
 //! Serial line settings on both ends of the pseudo-terminal: what the master asked for (its
-//! termios) against what the firmware configured (USART0 registers), and what a mismatch does
+//! termios) against what the firmware configured (its USART's registers), and what a mismatch does
 //! to the bytes on a real wire.
 //!
 //! A Linux pty keeps the baud rate, CSTOPB, PARODD and CMSPAR a master sets, but forces CS8 and

@@ -1,5 +1,7 @@
 //! `virtual-uno`: runs Uno firmware in simavr, paced to real time, with USART0 on a
-//! pseudo-terminal, so that any Modbus master (mbpoll, pymodbus, QModMaster) can poll it.
+//! pseudo-terminal, so that any Modbus master (mbpoll, pymodbus, QModMaster) can poll it; or a
+//! firmware built for another board's chip (`--chip`, else the one the ELF file names) with
+//! any of its USARTs on the pseudo-terminal (`--usart`).
 //!
 //! The loop, once a millisecond: wait for bytes from the master (or commands), hand each byte to
 //! the simulated USART with real-wire timing, run the CPU up to the wall clock, write the bytes
@@ -28,7 +30,7 @@ use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
 use nix::sys::signal::{SigSet, Signal};
 use nix::sys::signalfd::{SfdFlags, SignalFd};
 use nix::sys::stat::Mode;
-use uno_sim::{Uno, CYCLES_PER_US};
+use uno_sim::{Options, Uno, CYCLES_PER_US};
 
 use control::Command;
 use line::Settings;
@@ -179,7 +181,17 @@ fn pins_line(uno: &Uno, watch: &[u8]) -> String {
 }
 
 fn run(args: &args::Args) -> Result<(), String> {
-    let mut uno = Uno::load(&args.elf).map_err(|e| e.to_string())?;
+    let options = Options { chip: args.chip, usart: args.usart };
+    let mut uno = Uno::load_with(&args.elf, options).map_err(|e| e.to_string())?;
+    let (chip, usart) = (uno.chip(), uno.usart());
+    let watch = match &args.watch {
+        Some(pins) if !pins.is_empty() && !chip.has_uno_pinout() => {
+            return Err(format!("--watch: pin numbers are the Uno's; the {chip} has none of them"));
+        }
+        Some(pins) => pins.clone(),
+        None => args::default_watch(chip),
+    };
+    println!("chip: {chip}, USART{usart} on the pty");
     for cmd in &args.initial {
         cmd.apply(&mut uno).map_err(|e| e.to_string())?;
     }
@@ -256,7 +268,7 @@ fn run(args: &args::Args) -> Result<(), String> {
         for (k, i) in open.into_iter().enumerate() {
             if ready[2 + k] {
                 for line in sources[i].read_lines() {
-                    execute(&mut uno, &line, &args.watch);
+                    execute(&mut uno, &line, &watch);
                 }
             }
         }
@@ -272,12 +284,12 @@ fn run(args: &args::Args) -> Result<(), String> {
         if now_serial != serial {
             serial = now_serial;
             match serial {
-                Some(s) => println!("serial: {s} (firmware's USART0)"),
-                None => println!("serial: off (firmware's USART0)"),
+                Some(s) => println!("serial: {s} (firmware's USART{usart})"),
+                None => println!("serial: off (firmware's USART{usart})"),
             }
         }
-        let now_pins = pins_line(&uno, &args.watch);
-        if now_pins != pins && !args.watch.is_empty() {
+        let now_pins = pins_line(&uno, &watch);
+        if now_pins != pins && !watch.is_empty() {
             println!("{now_pins}");
             pins = now_pins;
         }

@@ -1,4 +1,4 @@
-//! The serial wire between the pty and the simulated USART0, in simulated time.
+//! The serial wire between the pty and the simulated USART (USART0 on the Uno), in simulated time.
 //!
 //! Master to Uno: each byte's stop bit ends one character time after the previous byte's, or
 //! after the byte reached us if that is later; a master whose line settings differ from the
@@ -35,7 +35,10 @@ impl Wire {
         if self.reported != Some((master, fw_settings)) {
             self.reported = Some((master, fw_settings));
             match (fw_settings, error) {
-                (None, _) => eprintln!("virtual-uno: the master sends at {master}, but the firmware's USART0 is off"),
+                (None, _) => eprintln!(
+                    "virtual-uno: the master sends at {master}, but the firmware's USART{} is off",
+                    uno.usart()
+                ),
                 (Some(fw), Some(e)) => eprintln!(
                     "virtual-uno: line settings differ: master {master}, firmware {fw}; its bytes arrive with {} errors",
                     match e {

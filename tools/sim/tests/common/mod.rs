@@ -4,8 +4,8 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::OnceLock;
-use uno_sim::Uno;
+use std::sync::{Mutex, OnceLock};
+use uno_sim::{Chip, Options, Uno};
 
 /// Idle loop polls GPIO and the ADC.
 pub const MODE_POLL: u8 = 0;
@@ -25,32 +25,67 @@ pub const RX_VECTOR_ADDR: u32 = 18 * 4;
 /// 19200 baud 8E1 at 16 MHz: UBRR0 = 51, 832 cycles per bit, 11 bits.
 pub const CHAR: u64 = 832 * 11;
 
-fn compile(source: &Path, out: &Path) {
+/// Compiles `source` for `mcu` with the `-D` definitions `defines` into `out`.
+pub fn compile(source: &Path, mcu: &str, defines: &[String], out: &Path) {
     let status = Command::new("avr-gcc")
-        .args(["-mmcu=atmega328p", "-DF_CPU=16000000UL", "-Os", "-g", "-Wall", "-Werror", "-o"])
+        .arg(format!("-mmcu={mcu}"))
+        .args(["-DF_CPU=16000000UL", "-Os", "-g", "-Wall", "-Werror"])
+        .args(defines.iter().map(|d| format!("-D{d}")))
+        .arg("-o")
         .arg(out)
         .arg(source)
         .status()
         .expect("avr-gcc not found (install gcc-avr and avr-libc)");
-    assert!(status.success(), "avr-gcc failed on {}", source.display());
+    assert!(status.success(), "avr-gcc failed on {} for {mcu} {defines:?}", source.display());
 }
 
-/// The echo firmware (tests/fw/echo.c), compiled once per test binary.
+/// A fresh path in the test's scratch directory for `name`.
+pub fn scratch(name: &str) -> PathBuf {
+    let exe = std::env::current_exe().expect("test binary path");
+    let tag = exe.file_stem().and_then(|s| s.to_str()).unwrap_or("test").to_owned();
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("{tag}-{}-{name}", std::process::id()))
+}
+
+/// The echo firmware (tests/fw/echo.c) for the ATmega328P, compiled once per test binary.
 pub fn echo_elf() -> &'static Path {
     static ELF: OnceLock<PathBuf> = OnceLock::new();
-    ELF.get_or_init(|| {
-        let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fw/echo.c");
-        let exe = std::env::current_exe().expect("test binary path");
-        let tag = exe.file_stem().and_then(|s| s.to_str()).unwrap_or("test").to_owned();
-        let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("echo-{tag}-{}.elf", std::process::id()));
-        compile(&source, &out);
-        out
-    })
+    ELF.get_or_init(|| echo_elf_for(Chip::Atmega328p, 0, None))
+}
+
+/// The echo firmware for `chip` on USART`usart`, with `debug` (`Some(k)`) writing "boot\r\n"
+/// on USARTk at start-up; compiled once per test binary and combination.
+pub fn echo_elf_for(chip: Chip, usart: u8, debug: Option<u8>) -> PathBuf {
+    type Key = (Chip, u8, Option<u8>);
+    static ELFS: Mutex<Vec<(Key, PathBuf)>> = Mutex::new(Vec::new());
+    let mut elfs = ELFS.lock().unwrap_or_else(|p| p.into_inner());
+    let key = (chip, usart, debug);
+    if let Some((_, path)) = elfs.iter().find(|(k, _)| *k == key) {
+        return path.clone();
+    }
+    let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fw/echo.c");
+    let debug_tag = debug.map(|k| format!("-debug{k}")).unwrap_or_default();
+    let out = scratch(&format!("echo-{chip}-usart{usart}{debug_tag}.elf"));
+    let mut defines = vec![format!("USART_N={usart}")];
+    defines.extend(debug.map(|k| format!("DEBUG_USART={k}")));
+    compile(&source, chip.name(), &defines, &out);
+    elfs.push((key, out.clone()));
+    out
 }
 
 /// Loads the echo firmware in `mode` and runs it until its USART is set up.
 pub fn boot(mode: u8) -> Uno {
-    let mut uno = Uno::load(echo_elf()).expect("load echo firmware");
+    ready(Uno::load(echo_elf()).expect("load echo firmware"), mode)
+}
+
+/// Loads the echo firmware built for `chip` and USART`usart` (the wire there too) in `mode`
+/// and runs it until its USART is set up.
+pub fn boot_on(chip: Chip, usart: u8, mode: u8) -> Uno {
+    let elf = echo_elf_for(chip, usart, None);
+    ready(Uno::load_with(elf, Options::new().usart(usart)).expect("load echo firmware"), mode)
+}
+
+/// Sets `mode` in a freshly loaded echo firmware and runs it until its USART is set up.
+pub fn ready(mut uno: Uno, mode: u8) -> Uno {
     uno.write_symbol("mode", &[mode]).expect("set mode");
     while uno.read_symbol("ready").unwrap() != [1] {
         assert!(uno.now() < 1_000_000, "firmware never got ready");

@@ -1,5 +1,9 @@
 /*
- * Test firmware for uno-sim: interrupt-driven USART0 echo at 19200 baud 8E1.
+ * Test firmware for uno-sim: interrupt-driven USART echo at 19200 baud 8E1.
+ *
+ * Builds for every chip uno-sim runs (avr-gcc -mmcu=...): -DUSART_N=n picks the USART
+ * ( default 0; the 32U4 has only USART1). -DDEBUG_USART=k also sets up USARTk at 9600 8N1
+ * and writes "boot\r\n" on it (polling UDREk) before `ready` is set.
  *
  * UCSR0C is written *before* UBRR0 (simavr 1.6 only reads the frame format when
  * UBRR0L is written, so this order catches a simulator that trusts simavr's timing).
@@ -18,6 +22,30 @@
 #include <avr/io.h>
 #include <avr/sleep.h>
 #include <stdint.h>
+
+#ifndef USART_N
+#define USART_N 0
+#endif
+
+/* USARTn's names: R(UCSR, A) is UCSR0A with USART_N=0; B(RXEN) is RXEN0 */
+#define CAT3_(a, n, b) a##n##b
+#define CAT3(a, n, b) CAT3_(a, n, b)
+#define R(name, suffix) CAT3(name, USART_N, suffix)
+#define B(name) CAT3(name, USART_N, )
+#define REG_UCSRA R(UCSR, A)
+#define REG_UCSRB R(UCSR, B)
+#define REG_UCSRC R(UCSR, C)
+#define REG_UBRRH R(UBRR, H)
+#define REG_UBRRL R(UBRR, L)
+#define REG_UDR B(UDR)
+/* the 328P and 168 call USART0's vectors USART_RX_vect, the others USARTn_RX_vect */
+#if defined(USART_RX_vect) && USART_N == 0
+#define RX_VECT USART_RX_vect
+#define UDRE_VECT USART_UDRE_vect
+#else
+#define RX_VECT R(USART, _RX_vect)
+#define UDRE_VECT R(USART, _UDRE_vect)
+#endif
 
 struct rx_rec {
 	uint8_t byte;
@@ -39,7 +67,7 @@ static void tx_put(uint8_t b)
 {
 	tx_buf[tx_head] = b;
 	tx_head = (tx_head + 1) & 127;
-	UCSR0B |= _BV(UDRIE0);
+	REG_UCSRB |= _BV(B(UDRIE));
 }
 
 static void log_rx(uint8_t status, uint8_t byte)
@@ -47,30 +75,47 @@ static void log_rx(uint8_t status, uint8_t byte)
 	uint8_t n = rx_count;
 	if (n < 64) {
 		rx_log[n].byte = byte;
-		rx_log[n].status = status & (_BV(FE0) | _BV(DOR0) | _BV(UPE0));
+		rx_log[n].status = status & (_BV(B(FE)) | _BV(B(DOR)) | _BV(B(UPE)));
 		rx_count = n + 1;
 	}
 }
 
-ISR(USART_RX_vect)
+ISR(RX_VECT)
 {
-	uint8_t status = UCSR0A;
-	uint8_t byte = UDR0;
+	uint8_t status = REG_UCSRA;
+	uint8_t byte = REG_UDR;
 	log_rx(status, byte);
 	tx_put(byte);
 	if (mode == 2 || mode == 5)
 		tx_put(byte);
 }
 
-ISR(USART_UDRE_vect)
+ISR(UDRE_VECT)
 {
 	if (tx_head == tx_tail) {
-		UCSR0B &= ~_BV(UDRIE0);
+		REG_UCSRB &= ~_BV(B(UDRIE));
 		return;
 	}
-	UDR0 = tx_buf[tx_tail];
+	REG_UDR = tx_buf[tx_tail];
 	tx_tail = (tx_tail + 1) & 127;
 }
+
+#ifdef DEBUG_USART
+#define D(name, suffix) CAT3(name, DEBUG_USART, suffix)
+/* Writes `text` on USARTk, polling UDREk. */
+static void debug_print(const char *text)
+{
+	D(UBRR, H) = 0;
+	D(UBRR, L) = 103; /* 9600 baud at 16 MHz */
+	D(UCSR, C) = _BV(CAT3(UCSZ, DEBUG_USART, 1)) | _BV(CAT3(UCSZ, DEBUG_USART, 0));
+	D(UCSR, B) = _BV(CAT3(TXEN, DEBUG_USART, ));
+	for (; *text; text++) {
+		while (!(D(UCSR, A) & _BV(CAT3(UDRE, DEBUG_USART, ))))
+			;
+		CAT3(UDR, DEBUG_USART, ) = *text;
+	}
+}
+#endif
 
 int main(void)
 {
@@ -81,12 +126,15 @@ int main(void)
 	PORTD = _BV(PD2);
 
 	if (mode != 5)
-		UCSR0C = _BV(UPM01) | _BV(UCSZ01) | _BV(UCSZ00); /* 8E1, before UBRR0 */
-	UBRR0H = 0;
-	UBRR0L = 51; /* 19200 baud at 16 MHz, U2X0 = 0 */
+		REG_UCSRC = _BV(R(UPM, 1)) | _BV(R(UCSZ, 1)) | _BV(R(UCSZ, 0)); /* 8E1, before UBRRn */
+	REG_UBRRH = 0;
+	REG_UBRRL = 51; /* 19200 baud at 16 MHz, U2Xn = 0 */
 	if (mode == 5)
-		UCSR0C = _BV(UCSZ01) | _BV(UCSZ00); /* 8N1, after UBRR0 */
-	UCSR0B = _BV(RXEN0) | _BV(TXEN0) | (mode == 3 ? 0 : _BV(RXCIE0));
+		REG_UCSRC = _BV(R(UCSZ, 1)) | _BV(R(UCSZ, 0)); /* 8N1, after UBRRn */
+	REG_UCSRB = _BV(B(RXEN)) | _BV(B(TXEN)) | (mode == 3 ? 0 : _BV(B(RXCIE)));
+#ifdef DEBUG_USART
+	debug_print("boot\r\n");
+#endif
 
 	ADMUX = _BV(REFS0); /* AVCC reference, channel 0 */
 	ADCSRA = _BV(ADEN) | _BV(ADPS2) | _BV(ADPS1) | _BV(ADPS0);
@@ -110,13 +158,13 @@ int main(void)
 		}
 		if (mode == 3) {
 			if (clear_txc) {
-				UCSR0A = _BV(TXC0);
+				REG_UCSRA = _BV(B(TXC));
 				clear_txc = 0;
 			}
 			if (drain) {
-				while (UCSR0A & _BV(RXC0)) {
-					uint8_t status = UCSR0A;
-					log_rx(status, UDR0);
+				while (REG_UCSRA & _BV(B(RXC))) {
+					uint8_t status = REG_UCSRA;
+					log_rx(status, REG_UDR);
 				}
 				drain = 0;
 			}
