@@ -78,9 +78,12 @@ TEXT
   cat <<TEXT
 
   Connect a Modbus RTU master to $port (the pty printed above), slave id 1:
-    QModMaster: Options > Modbus RTU: Serial port $port (type it in, or "Add Port"),
-                Baud $baud, Data Bits ${format:0:1}, Parity $parity, Stop Bits ${format:2:1}, RTS None;
-                then Modbus Mode RTU, Slave Addr 1, Connect
+    QModMaster: Options > Modbus RTU: type $port as Serial port ("Add Port" is no dialog),
+                Baud $baud, Data Bits ${format:0:1}, Stop Bits ${format:2:1}, Parity $parity, RTS None; OK;
+                then Modbus Mode RTU, Slave Addr 1, Connect. Start Address counts from 0:
+                40001 is Read Holding Registers at 0, 00002 Read Coils at 1 (leave
+                Options > Settings > Base Addr at 0); function, address and count of each
+                table: the header of examples/$example.rs.
     mbpoll:     mbpoll -m rtu -b $baud -P ${parity,,} -s ${format:2:1} -a 1 -t 3 -c 5 $port
     Python:     parity "$python_parity" ($python_note)
       pymodbus:      ModbusSerialClient("$port", baudrate=$baud, parity="$python_parity",

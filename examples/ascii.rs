@@ -21,6 +21,10 @@
  * |             |         | errors, overruns and overlong frames, malformed (bad hex,   |
  * |             |         | odd count, too short, timeout), exceptions, replies         |
  * | 40001–40008 | 0–7     | setpoints kept for the master                               |
+ *
+ * QModMaster can't poll it (libmodbus speaks RTU and TCP, not ASCII). In a master's terms:
+ * Read Coils (0x01) from 0, 4 coils; Read Discrete Inputs (0x02) 0, 4; Read Input
+ * Registers (0x04) 0, 9; Read Holding Registers (0x03) 0, 8.
  */
 #![no_std]
 #![no_main]

@@ -13,6 +13,13 @@
  * | 40002     | 1       | free for the master                                     |
  * | 40003     | 2       | free for the master                                     |
  * | 40004     | 3       | copy of 40001, made once per pass of the main loop      |
+ *
+ * In QModMaster (Start Address counts from 0; Options › Settings › Base Addr stays 0):
+ *
+ * | references  | Function Code                                      | Start Address | Number |
+ * |-------------|----------------------------------------------------|---------------|--------|
+ * | 30001       | Read Input Registers (0x04)                        | 0             | 1      |
+ * | 40001–40004 | Read Holding Registers (0x03); write: 0x06, 0x10   | 0             | 4      |
  */
 #![no_std]
 #![no_main]

@@ -38,6 +38,16 @@
  * | 40104       | 103     | stop bits: 1 or 2                                    |
  * | 40105       | 104     | mode: 0 RTU, 1 ASCII (7 data bits), 2 ASCII with 8   |
  *
+ * In QModMaster (Start Address counts from 0; Options › Settings › Base Addr stays 0), one
+ * read per row: 40005–40100 don't exist, so a read from 40001 to 40101 gets exception 02.
+ *
+ * | references  | Function Code                                      | Start Address | Number |
+ * |-------------|----------------------------------------------------|---------------|--------|
+ * | 00001–00008 | Read Coils (0x01); write: 0x05, 0x0f               | 0             | 8      |
+ * | 30001–30003 | Read Input Registers (0x04)                        | 0             | 3      |
+ * | 40001–40004 | Read Holding Registers (0x03); write: 0x06, 0x10   | 0             | 4      |
+ * | 40101–40105 | Read Holding Registers (0x03); write: 0x06, 0x10   | 100           | 5      |
+ *
  * A write to 40101–40105 that the slave can't run (id 0 or over 247, a rate the 16 MHz
  * USART can't make within 2.5 %, another code) gets exception 03 and changes nothing. In
  * ASCII the line keeps its rate, parity and stop bits (19200 7E1 after writing 1 to 40105

@@ -24,6 +24,15 @@
  * | 10001–10003 | 0–2     | the DIP switch as read at start-up        |
  * | 30001       | 0       | preset number 0–7                         |
  * | 40001–40010 | 0–9     | holding registers kept for the master     |
+ *
+ * In QModMaster (Start Address counts from 0; Options › Settings › Base Addr stays 0):
+ *
+ * | references  | Function Code                                      | Start Address | Number |
+ * |-------------|----------------------------------------------------|---------------|--------|
+ * | 00001–00016 | Read Coils (0x01); write: 0x05, 0x0f               | 0             | 16     |
+ * | 10001–10003 | Read Discrete Inputs (0x02)                        | 0             | 3      |
+ * | 30001       | Read Input Registers (0x04)                        | 0             | 1      |
+ * | 40001–40010 | Read Holding Registers (0x03); write: 0x06, 0x10   | 0             | 10     |
  */
 #![no_std]
 #![no_main]

@@ -23,6 +23,13 @@
  * | 2  | 00002     | 1       | GREEN lamp     |
  * | 2  | 00003     | 2       | YELLOW lamp    |
  * | 2  | 00004     | 3       | BLUE lamp      |
+ *
+ * In QModMaster (Start Address counts from 0; Options › Settings › Base Addr stays 0):
+ *
+ * | Slave Addr | references  | Function Code                        | Start Address | Number |
+ * |------------|-------------|--------------------------------------|---------------|--------|
+ * | 1          | 10001–10002 | Read Discrete Inputs (0x02)          | 0             | 2      |
+ * | 2          | 00001–00004 | Read Coils (0x01); write: 0x05, 0x0f | 0             | 4      |
  */
 #![no_std]
 #![no_main]

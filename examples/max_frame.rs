@@ -12,6 +12,12 @@
  * | reference   | address | meaning                               |
  * |-------------|---------|---------------------------------------|
  * | 40001–40125 | 0–124   | holding registers kept for the master |
+ *
+ * In QModMaster (Start Address counts from 0; Options › Settings › Base Addr stays 0):
+ *
+ * | references  | Function Code                                      | Start Address | Number |
+ * |-------------|----------------------------------------------------|---------------|--------|
+ * | 40001–40125 | Read Holding Registers (0x03); write: 0x06, 0x10   | 0             | 125 (123 to write) |
  */
 #![no_std]
 #![no_main]

@@ -12,6 +12,12 @@
  * | 40002     | 1       | copy of 40001 made by the main loop           |
  * | 40003     | 2       | count of master writes seen by the main loop  |
  * | 40004     | 3       | free for the master                           |
+ *
+ * In QModMaster (Start Address counts from 0; Options › Settings › Base Addr stays 0):
+ *
+ * | references  | Function Code                                      | Start Address | Number |
+ * |-------------|----------------------------------------------------|---------------|--------|
+ * | 40001–40004 | Read Holding Registers (0x03); write: 0x06, 0x10   | 0             | 4      |
  */
 #![no_std]
 #![no_main]

@@ -14,6 +14,15 @@
  * | 10001–10016 | 0–15    | discrete inputs (0 until the firmware sets them) |
  * | 30001–30008 | 0–7     | input registers (0 until the firmware sets them) |
  * | 40001–40016 | 0–15    | holding registers, written by the master |
+ *
+ * In QModMaster (Start Address counts from 0; Options › Settings › Base Addr stays 0):
+ *
+ * | references  | Function Code                                      | Start Address | Number |
+ * |-------------|----------------------------------------------------|---------------|--------|
+ * | 00001–00016 | Read Coils (0x01); write: 0x05, 0x0f               | 0             | 16     |
+ * | 10001–10016 | Read Discrete Inputs (0x02)                        | 0             | 16     |
+ * | 30001–30008 | Read Input Registers (0x04)                        | 0             | 8      |
+ * | 40001–40016 | Read Holding Registers (0x03); write: 0x06, 0x10   | 0             | 16     |
  */
 #![no_std]
 #![no_main]

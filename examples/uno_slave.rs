@@ -23,6 +23,15 @@
  * | 40001       | 0       | blink half-period of pin 13 in ms (0 = steady), default 500    |
  * | 40002       | 1       | A0 threshold for 30005, default 512                            |
  * | 40003–40010 | 2–9     | setpoints kept for the master                                  |
+ *
+ * In QModMaster (Start Address counts from 0; Options › Settings › Base Addr stays 0):
+ *
+ * | references  | Function Code                                      | Start Address | Number |
+ * |-------------|----------------------------------------------------|---------------|--------|
+ * | 00001–00005 | Read Coils (0x01); write: 0x05, 0x0f               | 0             | 5      |
+ * | 10001–10004 | Read Discrete Inputs (0x02)                        | 0             | 4      |
+ * | 30001–30012 | Read Input Registers (0x04)                        | 0             | 12     |
+ * | 40001–40010 | Read Holding Registers (0x03); write: 0x06, 0x10   | 0             | 10     |
  */
 #![no_std]
 #![no_main]
