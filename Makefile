@@ -37,14 +37,15 @@ firmware: setup
 # examples/boards.rs on the other chips, as the avr-hal template builds (target avr-none,
 # -C target-cpu=CHIP), on each of their USARTs: target/chips/CHIP/avr-none/release/examples/
 # (the board's pins 0/1: USART0, the 32U4's USART1) and target/chips/CHIP-usartN/… for the
-# Mega's other USARTs. A USART is a cfg of this crate (build.rs), so only the crate rebuilds.
+# Mega's other USARTs, built first (the default's ELF is the one left in place). A USART is a
+# cfg of this crate (build.rs), so only the crate rebuilds.
 CHIPS := atmega168 atmega32u4 atmega1280 atmega2560
 MEGA_USARTS := 1 2 3
 CHIP_ELF = target/chips/$(1)/avr-none/release/examples/boards.elf
 chips: setup
 	@for chip in $(CHIPS); do \
 		usarts=""; case $$chip in atmega1280|atmega2560) usarts="$(MEGA_USARTS)";; esac; \
-		for usart in "" $$usarts; do \
+		for usart in $$usarts ""; do \
 			CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=$$chip" AVR_MODBUS_SLAVE_EXAMPLE_USART=$$usart \
 				$(CARGO) build --release -Zbuild-std=core --target avr-none --example boards \
 				--features examples,millis --target-dir target/chips/$$chip; \

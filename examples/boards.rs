@@ -139,18 +139,14 @@ impl Console {
     /// `writes N` and CR LF.
     fn print_writes(&self, writes: u16) {
         b"writes ".iter().for_each(|&b| self.write(b));
-        let mut digits = [0u8; 5];
+        let mut digits = [b'0'; 5];
         let mut n = writes;
-        let mut len = 0;
-        loop {
-            digits[len] = b'0' + (n % 10) as u8;
-            len += 1;
+        for digit in digits.iter_mut().rev() {
+            *digit = b'0' + (n % 10) as u8;
             n /= 10;
-            if n == 0 {
-                break;
-            }
         }
-        digits[..len].iter().rev().for_each(|&b| self.write(b));
+        let first = digits.iter().position(|&d| d != b'0').unwrap_or(4);
+        digits.iter().skip(first).for_each(|&b| self.write(b));
         self.write(b'\r');
         self.write(b'\n');
     }

@@ -1,38 +1,63 @@
 //! The crate as a user's firmware takes it: `fixtures/` holds a firmware crate in the
 //! avr-hal template's form (target `avr-none`, `build-std`, LTO, `panic-halt`), outside
-//! this workspace, built by `make fixtures` once against avr-device 0.8.1 (the version
-//! arduino-hal pins) and once against 0.9. Each ELF must answer FC 3 in simavr.
+//! this workspace, built by `make fixtures` against avr-device 0.8.1 (the version
+//! arduino-hal pins) and 0.9, for three of the template's boards: the Uno (USART0 on pins
+//! 0/1), the Mega 2560 with the slave on Serial1 (USART1) and the Leonardo (USART1 on pins
+//! 0/1, the `slave!` without `on`). Each ELF must answer FC 3 in simavr on its board's chip
+//! and USART.
 
 mod sim;
 
 use std::path::PathBuf;
 
 use sim::{read_request, registers_reply, Line, Rtu, ID};
+use uno_sim::Chip;
 
-/// The fixture ELF built against avr-device `version` ("0.8" or "0.9").
-fn fixture(version: &str) -> PathBuf {
+/// The fixture ELF built against avr-device `version` ("0.8" or "0.9") for `board`.
+fn fixture(board: &str, version: &str) -> PathBuf {
     let target = std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target"));
-    let name = format!("template-avr-device-{version}");
-    let elf = target.join("fixtures/avr-none/release").join(format!("{}.elf", name.replace('.', "")));
+    let name = format!("template-avr-device-{}.elf", version.replace('.', ""));
+    let elf = target.join("fixtures").join(board).join("avr-none/release").join(name);
     assert!(elf.is_file(), "{} is missing: run `make fixtures` first", elf.display());
     elf
 }
 
-/// Reads 40001–40004: the fixture sets 40001 to 0x1234 before it starts the slave.
-fn answers_fc3(version: &str) {
-    let mut rtu = Rtu::boot_elf(&fixture(version), Line::B19200_8E1, |_| {});
+/// Reads 40001–40004 on `usart`: the fixture sets 40001 to 0x1234 before it starts the slave.
+fn answers_fc3(board: &str, chip: Chip, usart: u8, version: &str) {
+    let mut rtu = Rtu::boot_elf_on(&fixture(board, version), usart, Line::B19200_8E1, |_| {});
+    assert_eq!(rtu.uno.chip(), chip, "{board}: the ELF's chip");
     let reply = rtu.ask(&read_request(ID, 0x03, 0, 4));
-    assert_eq!(reply, registers_reply(ID, 0x03, &[0x1234, 0, 0, 0]), "avr-device {version}");
+    assert_eq!(reply, registers_reply(ID, 0x03, &[0x1234, 0, 0, 0]), "{board}, avr-device {version}");
 }
 
 #[test]
-fn template_firmware_with_avr_device_0_8_answers_fc3() {
-    answers_fc3("0.8");
+fn uno_template_firmware_with_avr_device_0_8_answers_fc3() {
+    answers_fc3("uno", Chip::Atmega328p, 0, "0.8");
 }
 
 #[test]
-fn template_firmware_with_avr_device_0_9_answers_fc3() {
-    answers_fc3("0.9");
+fn uno_template_firmware_with_avr_device_0_9_answers_fc3() {
+    answers_fc3("uno", Chip::Atmega328p, 0, "0.9");
+}
+
+#[test]
+fn mega2560_template_firmware_on_serial1_with_avr_device_0_8_answers_fc3() {
+    answers_fc3("mega2560", Chip::Atmega2560, 1, "0.8");
+}
+
+#[test]
+fn mega2560_template_firmware_on_serial1_with_avr_device_0_9_answers_fc3() {
+    answers_fc3("mega2560", Chip::Atmega2560, 1, "0.9");
+}
+
+#[test]
+fn leonardo_template_firmware_with_avr_device_0_8_answers_fc3() {
+    answers_fc3("leonardo", Chip::Atmega32u4, 1, "0.8");
+}
+
+#[test]
+fn leonardo_template_firmware_with_avr_device_0_9_answers_fc3() {
+    answers_fc3("leonardo", Chip::Atmega32u4, 1, "0.9");
 }

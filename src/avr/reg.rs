@@ -133,6 +133,19 @@ pub(crate) fn free<R>(f: impl FnOnce() -> R) -> R {
     result
 }
 
+/// `value`, computed before this point: an empty `asm!` takes it in registers and, not
+/// being pure, keeps its place among the `cli` and `sei` of [`free`]. Without it the
+/// compiler may sink a computation whose result only a critical section uses into that
+/// section (it moved `millis() / 1000`, a 32-bit division of 600 cycles, between the `cli`
+/// and `sei` of `Slave::set`, holding the slave's interrupts off for 40 µs).
+#[inline(always)]
+pub(crate) fn computed(value: u16) -> u16 {
+    let mut value = value;
+    // SAFETY: an empty instruction sequence that reads and writes back one register pair.
+    unsafe { asm!("/* {0} */", inout(reg_pair) value, options(nomem, nostack, preserves_flags)) };
+    value
+}
+
 /// Enables interrupts globally.
 ///
 /// # Safety

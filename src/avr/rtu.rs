@@ -456,6 +456,8 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> S
     /// Sets a coil, input or register by its classic reference (see [`crate::Bank::set`]).
     pub fn set(&self, reference: impl IntoReference, value: u16) -> Result<(), Error> {
         let reference = reference.into_reference()?;
+        // Worked out before interrupts go off, whatever it took (`reg::computed`).
+        let value = reg::computed(value);
         self.with(|model| model.set_value(reference, value)).unwrap_or(Err(Error::NotFound))
     }
 

@@ -3,20 +3,16 @@
 
 use std::path::Path;
 
-use uno_sim::{us_to_cycles, vector, Error, Uno};
+use uno_sim::{us_to_cycles, Error, Options, Uno};
 
 use crate::modbus::Request;
 
 /// Last byte of SRAM.
 pub const RAMEND: u16 = 0x08FF;
 
-/// The slave's interrupts, in table order: (vector, name).
-pub const VECTORS: [(u8, &str); 4] = [
-    (vector::USART_RX, "USART_RX"),
-    (vector::TIMER0_COMPB, "TIMER0_COMPB (T1.5, T3.5)"),
-    (vector::USART_UDRE, "USART_UDRE"),
-    (vector::USART_TX, "USART_TX"),
-];
+/// The slave's interrupts, in table order (their vector numbers are the chip's:
+/// [`Bus::vectors`]).
+pub const VECTORS: [&str; 4] = ["USART_RX", "TIMER0_COMPB (T1.5, T3.5)", "USART_UDRE", "USART_TX"];
 
 /// Cycles spent in one interrupt handler, summed over transactions.
 #[derive(Clone, Copy, Debug, Default)]
@@ -71,13 +67,24 @@ pub struct Bus {
     idle_from: u64,
     /// Interrupt cycles per entry of [`VECTORS`] since boot.
     pub isr: [IsrTotal; VECTORS.len()],
+    /// The vector numbers of [`VECTORS`] on this chip and USART.
+    vectors: [u8; VECTORS.len()],
 }
 
 impl Bus {
     /// Loads `elf`, drives `low_pins` low (switches closed), optionally paints the free RAM
     /// above `.bss` with `paint`, and runs past the firmware's set-up and power-up silence.
     pub fn boot(elf: &Path, low_pins: &[u8], paint: Option<u8>) -> Result<Bus, Error> {
-        let mut uno = Uno::load(elf)?;
+        Bus::boot_with(elf, Options::new(), low_pins, paint)
+    }
+
+    /// [`Bus::boot`] with the master on USART `usart` of the chip the firmware names.
+    pub fn boot_on(elf: &Path, usart: u8) -> Result<Bus, Error> {
+        Bus::boot_with(elf, Options::new().usart(usart), &[], None)
+    }
+
+    fn boot_with(elf: &Path, options: Options, low_pins: &[u8], paint: Option<u8>) -> Result<Bus, Error> {
+        let mut uno = Uno::load_with(elf, options)?;
         for &pin in low_pins {
             uno.drive_pin(pin, Some(false))?;
         }
@@ -92,7 +99,9 @@ impl Bus {
         let t15 = if fixed { us_to_cycles(750) } else { cfg.char_cycles() * 3 / 2 };
         let idle_from = uno.now();
         let name = elf.file_stem().map_or_else(String::new, |s| s.to_string_lossy().into_owned());
+        let v = uno.vectors();
         Ok(Bus {
+            vectors: [v.usart_rx, v.timer0_compb, v.usart_udre, v.usart_tx],
             uno,
             name,
             char_cycles: cfg.char_cycles(),
@@ -128,7 +137,8 @@ impl Bus {
         // first run is over (the gap deadline comes a character or more earlier, and the
         // check of 256 bytes takes under 9000 cycles), so the two are told apart there.
         self.uno.run_until(t35_end - 16)?;
-        let gap_isr = self.uno.isr_stats(vector::TIMER0_COMPB).max_cycles;
+        let compare = self.vectors[1];
+        let gap_isr = self.uno.isr_stats(compare).max_cycles;
         self.add_isr_stats();
         self.uno.reset_isr_stats();
         // The longest reply (256 characters), late by at most a few ms of processing.
@@ -140,14 +150,14 @@ impl Bus {
             reply: tx.iter().map(|b| b.byte).collect(),
             turnaround: tx.first().map(|b| b.start_cycle as i64 - t35_end as i64),
             gap_isr,
-            t35_isr: self.uno.isr_stats(vector::TIMER0_COMPB).max_cycles,
+            t35_isr: self.uno.isr_stats(compare).max_cycles,
             max_gap: tx.windows(2).map(|w| w[1].start_cycle.saturating_sub(w[0].end_cycle)).max().unwrap_or(0),
         })
     }
 
     /// Adds the interrupt statistics gathered since they were last reset to the totals.
     fn add_isr_stats(&mut self) {
-        for (total, &(v, _)) in self.isr.iter_mut().zip(VECTORS.iter()) {
+        for (total, &v) in self.isr.iter_mut().zip(self.vectors.iter()) {
             let s = self.uno.isr_stats(v);
             total.entries += s.entries;
             total.cycles += s.cycles;

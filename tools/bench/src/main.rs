@@ -33,7 +33,7 @@ use std::time::Instant;
 
 use bus::{Bus, IsrTotal, Transaction, RAMEND, VECTORS};
 use modbus::{Expect, Model, Request};
-use uno_sim::{cycles_to_us, us_to_cycles, CYCLES_PER_US};
+use uno_sim::{cycles_to_us, us_to_cycles, Chip, CYCLES_PER_US};
 
 type Result<T> = std::result::Result<T, Box<dyn Error>>;
 
@@ -467,6 +467,78 @@ fn max_frame(root: &Path, log: &mut Log) -> Result<Vec<Series>> {
     Ok(out)
 }
 
+/// `examples/boards.rs` on every chip and USART (`make chips`; the ATmega328P's from `make
+/// firmware`): (chip, USART).
+const BOARDS: [(Chip, u8); 11] = [
+    (Chip::Atmega328p, 0),
+    (Chip::Atmega168, 0),
+    (Chip::Atmega32u4, 1),
+    (Chip::Atmega1280, 0),
+    (Chip::Atmega1280, 1),
+    (Chip::Atmega1280, 2),
+    (Chip::Atmega1280, 3),
+    (Chip::Atmega2560, 0),
+    (Chip::Atmega2560, 1),
+    (Chip::Atmega2560, 2),
+    (Chip::Atmega2560, 3),
+];
+/// Mixed requests per chip and USART, each after a random silence (the turnaround's spread).
+const BOARD_REQUESTS: usize = 200;
+
+/// `examples/boards.rs`'s map: sixteen_each's, with 30001 counting seconds.
+const BOARDS_MAP: Firmware = Firmware { changing: &[(30001, 1)], ..Firmware::new("boards", [16, 16, 8, 16]) };
+
+/// Where `boards` is for `chip` and `usart`: as tests/sim/mod.rs's `chip_firmware_path`.
+fn board_path(root: &Path, chip: Chip, usart: u8) -> PathBuf {
+    if chip == Chip::Atmega328p && usart == 0 {
+        return firmware_path(root, "boards");
+    }
+    let dir =
+        if usart == chip.default_usart() { chip.name().to_owned() } else { format!("{}-usart{usart}", chip.name()) };
+    root.join("target/chips").join(dir).join("avr-none/release/examples/boards.elf")
+}
+
+/// `boards` on one chip and USART: sizes, interrupt cycles over the workload and the mixed
+/// requests, and the turnaround of the mixed requests.
+struct ChipRun {
+    chip: Chip,
+    usart: u8,
+    flash: u64,
+    ram: u64,
+    isr: [IsrTotal; VECTORS.len()],
+    /// Workload requests answered right, of those sent.
+    right: usize,
+    sent: usize,
+    mixed: Series,
+}
+
+fn chip_runs(root: &Path, log: &mut Log) -> Result<Vec<ChipRun>> {
+    let mut runs = Vec::new();
+    for (chip, usart) in BOARDS {
+        let elf = board_path(root, chip, usart);
+        if !elf.is_file() {
+            log.problems.push(format!("{} is missing: run `make firmware`", elf.display()));
+            continue;
+        }
+        eprintln!("bench: boards on the {chip}, USART{usart} (workload, {BOARD_REQUESTS} mixed requests)");
+        let (flash, ram) = avr_size(&elf)?;
+        let mut bus = Bus::boot_on(&elf, usart)?;
+        let mut model = BOARDS_MAP.model();
+        let problems = log.problems.len();
+        let requests = workload(&BOARDS_MAP);
+        let what = format!("boards ({chip}, USART{usart})");
+        for req in &requests {
+            let t = bus.transact(req, 0)?;
+            log.check(&what, req, &t, &mut model);
+        }
+        let right = requests.len() - (log.problems.len() - problems);
+        let mixed_requests = mixed(&BOARDS_MAP, BOARD_REQUESTS, 0xB0A2D);
+        let mixed = Series::run_all(&mut bus, "19200 8E1", &mixed_requests, "mix", MIX_MAX_DELAY_US, &mut model, log)?;
+        runs.push(ChipRun { chip, usart, flash, ram, isr: bus.isr, right, sent: requests.len(), mixed });
+    }
+    Ok(runs)
+}
+
 fn git(root: &Path, args: &[&str]) -> Option<String> {
     let out = Command::new("git").arg("-C").arg(root).args(args).output().ok()?;
     out.status.success().then(|| String::from_utf8_lossy(&out.stdout).trim().to_owned())
@@ -488,6 +560,8 @@ struct Report {
     contract_mix: Series,
     /// Feature costs on `minimal`, then `configurable`'s total.
     features: Vec<FeatureCost>,
+    /// `boards` on every chip and USART.
+    chips: Vec<ChipRun>,
 }
 
 /// An optional feature: what it costs as measured, and what the README says.
@@ -632,6 +706,7 @@ fn measure(root: &Path, log: &mut Log) -> Result<Report> {
         mix,
         contract_mix,
         features: feature_costs(root),
+        chips: chip_runs(root, log)?,
     })
 }
 
@@ -717,6 +792,19 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
         format!("worst max {rx_max:.0} cycles ({rx_max_name})"),
         Some(rx_max <= RX_TARGET_CYCLES as f64),
     )?;
+    let chip_rx = |stat: fn(&IsrTotal) -> f64| {
+        r.chips
+            .iter()
+            .map(|c| (stat(&c.isr[0]), format!("{} USART{}", c.chip, c.usart)))
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+    };
+    if let (Some((mean, mean_on)), Some((max, max_on))) = (chip_rx(IsrTotal::mean), chip_rx(|s| s.max as f64)) {
+        row(
+            format!("every chip and USART (`boards`): USART RX interrupt ≤ {RX_TARGET_CYCLES} cycles, mean and max"),
+            format!("worst mean {mean:.1} ({mean_on}), worst max {max:.0} ({max_on}), over {} builds", r.chips.len()),
+            Some(mean <= RX_TARGET_CYCLES as f64 && max <= RX_TARGET_CYCLES as f64),
+        )?;
+    }
     let mix = &r.mix;
     let p99 = mix.percentile(TURNAROUND_PERCENTILE);
     let target_cycles = (TURNAROUND_TARGET_US * CYCLES_PER_US as f64) as i64;
@@ -808,6 +896,39 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
         writeln!(md, "| {} | {} | {} | {} | {} | {left} |", p.name, p.flash, p.ram, p.values, p.stack)?;
     }
 
+    writeln!(md, "\n## Every chip\n")?;
+    writeln!(
+        md,
+        "`examples/boards.rs` (sixteen_each's map, 30001 counting seconds, the board's LED) as `make firmware` \
+         builds it for each chip and USART, at 19200 8E1: the workload of every function code, then \
+         {BOARD_REQUESTS} mixed requests each after a random silence below {MIX_MAX_DELAY_US} µs. Interrupt \
+         cycles (response to the end of RETI) are mean / max over both; the turnaround is the reply's first \
+         start bit after T3.5 of the master's, over the mixed requests.\n"
+    )?;
+    writeln!(
+        md,
+        "| chip | USART | flash (B) | RAM (B) | USART_RX | TIMER0_COMPB | USART_UDRE | USART_TX | turnaround past \
+         T3.5: p50 / p99 / max | right |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"
+    )?;
+    for c in &r.chips {
+        write!(md, "| {} | USART{} | {} | {} |", c.chip, c.usart, c.flash, c.ram)?;
+        for s in &c.isr {
+            write!(md, " {:.1} / {} |", s.mean(), s.max)?;
+        }
+        let m = &c.mixed;
+        writeln!(
+            md,
+            " {} / {} / {} µs | {}/{} + {}/{} |",
+            us(m.median()),
+            m.percentile(TURNAROUND_PERCENTILE).map_or("–".into(), us),
+            us(m.max()),
+            c.right,
+            c.sent,
+            m.answered(),
+            m.sent
+        )?;
+    }
+
     writeln!(md, "\n## Interrupt handlers over the workload\n")?;
     let fcs: Vec<String> = workload(&FIRMWARE[1]).iter().map(label).collect();
     writeln!(
@@ -817,7 +938,7 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
         fcs.join(", ")
     )?;
     write!(md, "| firmware |")?;
-    for (_, name) in VECTORS {
+    for name in VECTORS {
         write!(md, " {name} |")?;
     }
     writeln!(md, " most interrupt time |\n|---|{}---|", "---:|".repeat(VECTORS.len()))?;
@@ -827,7 +948,7 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
             write!(md, " {:.1} / {} ({}) |", s.mean(), s.max, s.entries)?;
         }
         let total: u64 = p.isr.iter().map(|s| s.cycles).sum();
-        let (top, name) = p.isr.iter().zip(VECTORS).map(|(s, (_, n))| (s.cycles, n)).max().unwrap_or((0, ""));
+        let (top, name) = p.isr.iter().zip(VECTORS).map(|(s, n)| (s.cycles, n)).max().unwrap_or((0, ""));
         writeln!(md, " {name}: {:.0} % |", 100.0 * top as f64 / total.max(1) as f64)?;
     }
 
