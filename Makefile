@@ -35,25 +35,31 @@ firmware: setup
 	@$(MAKE) --no-print-directory chips
 
 # examples/boards.rs on the other chips, as the avr-hal template builds (target avr-none,
-# -C target-cpu=CHIP), on each of their USARTs: target/chips/CHIP/avr-none/release/examples/
-# (the board's pins 0/1: USART0, the 32U4's USART1) and target/chips/CHIP-usartN/… for the
-# Mega's other USARTs, built first (the default's ELF is the one left in place). A USART is a
-# cfg of this crate (build.rs), so only the crate rebuilds.
+# -C target-cpu=CHIP), on each of their USARTs, copied to target/chips/CHIP/avr-none/release/
+# examples/ (the board's pins 0/1: USART0, the 32U4's USART1) and target/chips/CHIP-usartN/…
+# for the Mega's other USARTs. Cargo keeps each CHIP's build apart in target/ (its flags are
+# part of it) and shares the host tools; a USART is a cfg of this crate (build.rs), so only
+# the crate rebuilds for it. Then once more with the line settings in EEPROM and ASCII
+# (target/chips/CHIP[-usartN]-settings/…) for the Mega's Serial1 and the Leonardo.
 CHIPS := atmega168 atmega32u4 atmega1280 atmega2560
 MEGA_USARTS := 1 2 3
-CHIP_ELF = target/chips/$(1)/avr-none/release/examples/boards.elf
 chips: setup
 	@for chip in $(CHIPS); do \
 		usarts=""; case $$chip in atmega1280|atmega2560) usarts="$(MEGA_USARTS)";; esac; \
-		for usart in $$usarts ""; do \
+		for usart in "" $$usarts; do \
 			CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=$$chip" AVR_MODBUS_SLAVE_EXAMPLE_USART=$$usart \
-				$(CARGO) build --release -Zbuild-std=core --target avr-none --example boards \
-				--features examples,millis --target-dir target/chips/$$chip; \
-			if [ -n "$$usart" ]; then \
-				mkdir -p target/chips/$$chip-usart$$usart/avr-none/release/examples; \
-				cp $(call CHIP_ELF,$$chip) $(call CHIP_ELF,$$chip-usart$$usart); \
-			fi; \
+				$(CARGO) build --release -Zbuild-std=core --target avr-none --example boards --features examples,millis; \
+			dir=target/chips/$$chip$${usart:+-usart$$usart}/avr-none/release/examples; \
+			mkdir -p $$dir && cp target/avr-none/release/examples/boards.elf $$dir/; \
 		done; \
+	done
+	@for build in atmega2560:1 atmega32u4:; do \
+		chip=$${build%%:*}; usart=$${build##*:}; \
+		CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=$$chip" AVR_MODBUS_SLAVE_EXAMPLE_USART=$$usart \
+			$(CARGO) build --release -Zbuild-std=core --target avr-none --example boards \
+			--features examples,millis,eeprom-settings,ascii; \
+		dir=target/chips/$$chip$${usart:+-usart$$usart}-settings/avr-none/release/examples; \
+		mkdir -p $$dir && cp target/avr-none/release/examples/boards.elf $$dir/; \
 	done
 	@.ci/sizes target/chips/*/avr-none/release/examples/boards.elf
 	@.ci/no-panic target/chips/*/avr-none/release/examples/boards.elf
@@ -71,8 +77,10 @@ fixtures: setup
 		for board in $(FIXTURE_BOARDS); do \
 			echo "fixture: $$f, $${board%%:*}"; \
 			(cd $$f && ../../.ci/cargo build --release --locked --features $${board%%:*} \
-				--config "build.rustflags = ['-C', 'target-cpu=$${board##*:}']" \
-				--target-dir ../../target/fixtures/$${board%%:*}); \
+				--config "build.rustflags = ['-C', 'target-cpu=$${board##*:}']" --target-dir ../../target/fixtures); \
+			elf=$$(sed -n 's/^name = "\(template-.*\)"$$/\1/p' $$f/Cargo.toml | head -n 1).elf; \
+			mkdir -p target/fixtures/$${board%%:*}/avr-none/release; \
+			cp target/fixtures/avr-none/release/$$elf target/fixtures/$${board%%:*}/avr-none/release/; \
 		done; \
 	done
 	@.ci/sizes target/fixtures/*/avr-none/release/template-*.elf
@@ -121,10 +129,9 @@ demo: firmware
 	demo/demo.sh
 
 # Keeps a virtual Uno running for QModMaster or any master: make serve EXAMPLE=NAME ARGS="..."
-# Another board: make serve BOARD=mega2560 USART=1 EXAMPLE=NAME runs the firmware built for its
-# chip (target/chips/CHIP[-usartN]/avr-none/release/examples/NAME.elf; the Uno's boards use
-# make firmware's) with USART (default: the board's USB serial one, USART1 on the 32U4
-# boards) on the pty.
+# Another board: make serve BOARD=mega2560 USART=1 runs examples/boards.rs as make chips built
+# it for the board's chip and that USART (default: the board's pins 0/1, USART1 on the 32U4
+# boards) on the pty; the Uno's boards run EXAMPLE as make firmware built it.
 BOARD ?= uno
 USART ?=
 SERVE_CHIP := $(strip \
@@ -136,11 +143,12 @@ SERVE_CHIP := $(strip \
 SERVE_DEFAULT_USART := $(if $(filter atmega32u4,$(SERVE_CHIP)),1,0)
 SERVE_USART := $(or $(USART),$(SERVE_DEFAULT_USART))
 SERVE_BUILD := $(SERVE_CHIP)$(if $(filter-out $(SERVE_DEFAULT_USART),$(SERVE_USART)),-usart$(SERVE_USART))
-SERVE_ELF := $(if $(filter atmega328p,$(SERVE_CHIP)),$(FIRMWARE_DIR),target/chips/$(SERVE_BUILD)/avr-none/release/examples)/$(EXAMPLE).elf
+SERVE_EXAMPLE := $(if $(filter atmega328p,$(SERVE_CHIP)),$(EXAMPLE),boards)
+SERVE_ELF := $(if $(filter atmega328p,$(SERVE_CHIP)),$(FIRMWARE_DIR),target/chips/$(SERVE_BUILD)/avr-none/release/examples)/$(SERVE_EXAMPLE).elf
 
-serve: $(if $(filter atmega328p,$(SERVE_CHIP)),firmware,setup)
+serve: $(if $(filter atmega328p,$(SERVE_CHIP)),firmware,chips)
 	@[ -n "$(SERVE_CHIP)" ] || { echo "serve: BOARD=$(BOARD)? one of uno nano promini nano168 mega2560 mega1280 leonardo promicro micro" >&2; exit 2; }
-	SERVE_BOARD=$(BOARD) SERVE_CHIP=$(SERVE_CHIP) SERVE_USART=$(SERVE_USART) SERVE_ELF=$(SERVE_ELF) demo/serve.sh $(EXAMPLE) $(ARGS)
+	SERVE_BOARD=$(BOARD) SERVE_CHIP=$(SERVE_CHIP) SERVE_USART=$(SERVE_USART) SERVE_ELF=$(SERVE_ELF) demo/serve.sh $(SERVE_EXAMPLE) $(ARGS)
 
 # mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on the virtual Uno, with answer rates.
 interop: firmware

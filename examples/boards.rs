@@ -21,7 +21,11 @@
  * application's: this firmware prints `writes N` there at 9600 8N1 each time the master
  * has written.
  *
- * Serial line: slave id 1, 19200 bps, 8 data bits, even parity, 1 stop bit (8E1).
+ * Serial line: slave id 1, 19200 bps, 8 data bits, even parity, 1 stop bit (8E1). With
+ * feature `eeprom-settings` (and `ascii`), as `make firmware` builds it once more for the
+ * Mega's USART1 and the Leonardo: the master sets the line at 40101–40105 as in
+ * `configurable` (id, baud/100, parity, stop bits, mode), kept in EEPROM bytes 0–21 and
+ * used from the next start-up on.
  *
  * | reference   | address | meaning                                          | QModMaster               |
  * |-------------|---------|--------------------------------------------------|--------------------------|
@@ -62,16 +66,26 @@ avr_modbus_slave::register_map! {
     }
 }
 
+/// The map, and with feature `eeprom-settings` the line settings at 40101–40105 beside it.
+#[cfg(not(feature = "eeprom-settings"))]
+type Model = Registers;
+#[cfg(feature = "eeprom-settings")]
+type Model = avr_modbus_slave::Configurable<Registers>;
+
+/// Where the settings live: EEPROM bytes 0–21 (feature `eeprom-settings`).
+#[cfg(feature = "eeprom-settings")]
+const SETTINGS_AT: u16 = 0;
+
 // The USART `make firmware` builds this for (AVR_MODBUS_SLAVE_EXAMPLE_USART, see build.rs);
 // in a firmware of your own, one line: `slave!(SLAVE on USART1: …)` or `slave!(SLAVE: …)`.
 #[cfg(not(any(example_usart = "1", example_usart = "2", example_usart = "3")))]
-avr_modbus_slave::slave!(SLAVE: Registers, NoPin, board::Pin);
+avr_modbus_slave::slave!(SLAVE: Model, NoPin, board::Pin);
 #[cfg(example_usart = "1")]
-avr_modbus_slave::slave!(SLAVE on USART1: Registers, NoPin, board::Pin);
+avr_modbus_slave::slave!(SLAVE on USART1: Model, NoPin, board::Pin);
 #[cfg(example_usart = "2")]
-avr_modbus_slave::slave!(SLAVE on USART2: Registers, NoPin, board::Pin);
+avr_modbus_slave::slave!(SLAVE on USART2: Model, NoPin, board::Pin);
 #[cfg(example_usart = "3")]
-avr_modbus_slave::slave!(SLAVE on USART3: Registers, NoPin, board::Pin);
+avr_modbus_slave::slave!(SLAVE on USART3: Model, NoPin, board::Pin);
 
 #[avr_device::entry]
 fn main() -> ! {
@@ -100,7 +114,14 @@ fn main() -> ! {
     let usart = dp.USART2;
     #[cfg(example_usart = "3")]
     let usart = dp.USART3;
-    if let Err(error) = SLAVE.start_with_pins(CONFIG, usart, dp.TC0, Registers::new(), NoPin, led) {
+    #[cfg(not(feature = "eeprom-settings"))]
+    let (config, model) = (CONFIG, Registers::new());
+    #[cfg(feature = "eeprom-settings")]
+    let (config, model, mut eeprom) = match settings(dp.EEPROM) {
+        Ok(started) => started,
+        Err(error) => board::halt(error),
+    };
+    if let Err(error) = SLAVE.start_with_pins(config, usart, dp.TC0, model, NoPin, led) {
         board::halt(error);
     }
     #[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3"))]
@@ -108,6 +129,8 @@ fn main() -> ! {
     let mut seen = 0;
     loop {
         SLAVE.set(30001, (millis() / 1000) as u16).ok();
+        #[cfg(feature = "eeprom-settings")]
+        SLAVE.poll_settings(&mut eeprom, SETTINGS_AT);
         let writes = SLAVE.master_writes();
         if writes != seen {
             seen = writes;
@@ -115,6 +138,14 @@ fn main() -> ! {
             console.print_writes(writes);
         }
     }
+}
+
+/// The stored line settings (the default where there are none) and the map with them.
+#[cfg(feature = "eeprom-settings")]
+fn settings(eeprom: pac::EEPROM) -> Result<(Config, Model, board::Eeprom), avr_modbus_slave::Error> {
+    let eeprom = board::Eeprom::new(eeprom)?;
+    let config = eeprom.load_config(SETTINGS_AT).unwrap_or(CONFIG);
+    Ok((config, Model::new(Registers::new(), 40101, config)?, eeprom))
 }
 
 /// USART0 as the application's own output, beside a slave on another USART: polled, 9600
