@@ -17,6 +17,8 @@ mod framer;
 mod map;
 mod model;
 mod pdu;
+#[cfg(any(target_arch = "avr", test))]
+mod peripheral;
 mod reference;
 #[cfg(feature = "eeprom-settings")]
 mod settings;

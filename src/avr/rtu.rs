@@ -19,6 +19,7 @@ use crate::engine::{Counters, EndOfFrame, Engine};
 use crate::error::Error;
 use crate::framer::MAX_FRAME;
 use crate::model::DataModel;
+use crate::peripheral::may_be_usart;
 use crate::reference::IntoReference;
 
 /// The running slave: its peripherals, protocol state with a frame buffer of `N` bytes,
@@ -217,32 +218,6 @@ fn set_mode<const N: usize>(engine: &mut Engine<N>, timer: &mut FrameTimer, conf
     timer.set_ascii(ascii, config.char_timeout_turns());
 }
 
-/// The number of the USART a PAC type is named for (`…::USART1` is 1), if it is named so:
-/// a USART other than the one `slave!` bound is a build error where the type tells, and
-/// `Error::WrongPeripheral` from `start` where it doesn't.
-const fn usart_number(type_name: &str) -> Option<u8> {
-    let name = type_name.as_bytes();
-    let mut start = name.len();
-    while start > 0 && name[start - 1] != b':' {
-        start -= 1;
-    }
-    let prefix = b"USART";
-    if name.len() - start != prefix.len() + 1 {
-        return None;
-    }
-    let mut i = 0;
-    while i < prefix.len() {
-        if name[start + i] != prefix[i] {
-            return None;
-        }
-        i += 1;
-    }
-    match name[name.len() - 1] {
-        digit @ b'0'..=b'3' => Some(digit - b'0'),
-        _ => None,
-    }
-}
-
 /// The Modbus RTU slave: declare it with [`crate::slave!`], start it with the
 /// application's USART (the one `slave!` names) and `TC0`, then read and write its data like
 /// variables.
@@ -361,9 +336,8 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> S
         T::Target: Sized,
     {
         const {
-            let named = usart_number(core::any::type_name::<P>());
             assert!(
-                named.is_none() || matches!(named, Some(n) if n == U),
+                may_be_usart(core::any::type_name::<P>(), U, Usart::<U>::BLOCK),
                 "start takes the USART that slave! names: dp.USART0 for slave!(SLAVE: …) on pins 0/1 \
                  (dp.USART1 on the ATmega32U4), dp.USARTn for slave!(SLAVE on USARTn: …)"
             );
