@@ -8,7 +8,7 @@ EXAMPLES := $(patsubst examples/%.rs,%,$(wildcard examples/*.rs))
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: help setup firmware chips fixtures sizes lint fmt-check clippy docs host-test test demo serve interop bench bench-features fuzz soak
+.PHONY: help setup firmware chips fixtures package sizes lint fmt-check clippy docs host-test test demo serve interop bench bench-features fuzz soak
 
 help:
 	@echo "make demo   - build the Uno slave and poll it on a virtual Uno"
@@ -83,7 +83,23 @@ fixtures: setup
 			cp target/fixtures/avr-none/release/$$elf target/fixtures/$${board%%:*}/avr-none/release/; \
 		done; \
 	done
+	@$(MAKE) --no-print-directory package
 	@.ci/sizes target/fixtures/*/avr-none/release/template-*.elf
+
+# The crate as it would be published (`cargo package`, no upload), unpacked, and the Uno
+# fixture built against it instead of this tree (target/fixtures/packaged/…): a file the
+# package leaves out fails here.
+PACKAGE_FIXTURE := target/package-fixture
+package: setup
+	$(CARGO) package --allow-dirty -p avr-modbus-slave 2>&1 | grep -v '^warning: ignoring \(test\|example\)'
+	@rm -rf $(PACKAGE_FIXTURE) && mkdir -p $(PACKAGE_FIXTURE)
+	@cp -r fixtures/template-avr-device-0.8/. $(PACKAGE_FIXTURE)/
+	@version=$$(sed -n 's/^version = "\(.*\)"$$/\1/p' Cargo.toml | head -n 1); \
+		sed -i "s|path = \"../..\"|path = \"../package/avr-modbus-slave-$$version\"|" $(PACKAGE_FIXTURE)/Cargo.toml; \
+		grep -q "package/avr-modbus-slave-$$version" $(PACKAGE_FIXTURE)/Cargo.toml
+	cd $(PACKAGE_FIXTURE) && ../../.ci/cargo build --release --locked --features uno --target-dir ../fixtures
+	@mkdir -p target/fixtures/packaged/avr-none/release
+	@cp target/fixtures/avr-none/release/template-avr-device-08.elf target/fixtures/packaged/avr-none/release/
 
 
 fmt-check: setup

@@ -3,8 +3,9 @@
 //! this workspace, built by `make fixtures` against avr-device 0.8.1 (the version
 //! arduino-hal pins) and 0.9, for three of the template's boards: the Uno (USART0 on pins
 //! 0/1), the Mega 2560 with the slave on Serial1 (USART1) and the Leonardo (USART1 on pins
-//! 0/1, the `slave!` without `on`). Each ELF must answer FC 3 in simavr on its board's chip
-//! and USART.
+//! 0/1, the `slave!` without `on`), and for the Uno once more against the crate as `cargo
+//! package` packs it (`make package`). Each ELF must answer FC 3 in simavr on its board's
+//! chip and USART.
 
 mod sim;
 
@@ -60,4 +61,9 @@ fn leonardo_template_firmware_with_avr_device_0_8_answers_fc3() {
 #[test]
 fn leonardo_template_firmware_with_avr_device_0_9_answers_fc3() {
     answers_fc3("leonardo", Chip::Atmega32u4, 1, "0.9");
+}
+
+#[test]
+fn uno_template_firmware_built_against_the_packaged_crate_answers_fc3() {
+    answers_fc3("packaged", Chip::Atmega328p, 0, "0.8");
 }
