@@ -63,7 +63,7 @@ macro_rules! __chip {
 }
 
 /// ATmega32U4 (Leonardo, Micro, Pro Micro): USART1 on pins 0/1 (USB is the chip's own),
-/// LED on PC7 (pin 13).
+/// LED on PC7 (pin 13 of the Leonardo and Micro; the Pro Micro has no LED there).
 #[cfg(avr_chip = "atmega32u4")]
 pub(crate) const CHIP: Chip = Chip { usarts: [None, Some(0xC8), None, None], eeprom_size: 1024, led: (0x26, 7) };
 

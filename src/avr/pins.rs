@@ -197,7 +197,7 @@ impl Pins {
 }
 
 /// The board's LED "L" (pin 13: PB5 on the Uno and Nano, PB7 on the Mega, PC7 on the
-/// Leonardo) as an output, driven low: takes its port from the application's PAC
+/// Leonardo and Micro; the Pro Micro has none there) as an output, driven low: takes its port from the application's PAC
 /// (`dp.PORTB`, or `dp.PORTC` on the Leonardo), which works on every chip the crate runs
 /// on, where [`Pins`] is the Uno's.
 pub fn led<P: Deref>(port: P) -> Result<Pin, Error>
