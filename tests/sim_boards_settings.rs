@@ -12,33 +12,15 @@ mod sim;
 
 use std::path::PathBuf;
 
-use configurable::{Board, SLOT_LEN};
-use sim::{with_crc, Line, ID};
+use configurable::{ascii_frame, Board, SLOT_LEN};
+use sim::{chip_examples_dir, with_crc, Line, ID};
 use uno_sim::{Chip, Options, Parity, Uno};
 
-/// `boards` with the settings for `chip`, the wire on `usart` (its default, or another as
-/// `-usartN`), as `make chips` leaves it.
+/// `boards` with the settings for `chip`, the wire on `usart`, as `make chips` leaves it.
 fn settings_firmware(chip: Chip, usart: u8) -> PathBuf {
-    let target = std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target"));
-    let build = if usart == chip.default_usart() { chip.name().to_owned() } else { format!("{chip}-usart{usart}") };
-    let elf = target.join("chips").join(format!("{build}-settings")).join("avr-none/release/examples/boards.elf");
+    let elf = chip_examples_dir(chip, usart, "-settings").join("boards.elf");
     assert!(elf.is_file(), "{} is missing: run `make chips` first", elf.display());
     elf
-}
-
-/// `bytes` (address and PDU) as a Modbus ASCII frame (Serial Line v1.02 §2.5.2): `:`,
-/// upper-case hex pairs with the LRC (the two's complement of the 8-bit sum), CR LF.
-fn ascii_frame(bytes: &[u8]) -> Vec<u8> {
-    let sum: u32 = bytes.iter().map(|&b| u32::from(b)).sum();
-    let lrc = ((256 - sum % 256) % 256) as u8;
-    let mut text = String::from(":");
-    for b in bytes.iter().copied().chain([lrc]) {
-        text.push_str(&format!("{b:02X}"));
-    }
-    text.push_str("\r\n");
-    text.into_bytes()
 }
 
 /// 9600 bps, 7 data bits, no parity, 2 stop bits: the new line, in ASCII.

@@ -11,7 +11,8 @@ mod configurable;
 mod sim;
 
 use configurable::{
-    assert_usart_runs, legacy_record, record, slots, write_block, Board, B9600_8N2, BLOCK, JUMPER, SLOTS_AT, SLOT_LEN,
+    ascii_frame, assert_usart_runs, legacy_record, record, slots, write_block, Board, B9600_8N2, BLOCK, JUMPER,
+    SLOTS_AT, SLOT_LEN,
 };
 use sim::{read_request, us_to_cycles, with_crc, Exchange, Line, ID};
 use uno_sim::Parity;
@@ -260,19 +261,6 @@ fn settings_written_with_the_jumper_on_are_stored() {
     let mut board = board.reset(Line::B19200_8O1);
     assert_usart_runs(&board.uno, Line::B19200_8O1);
     assert_eq!(board.read(3, 0x04, 0, 1), Some(vec![1]), "30001: EEPROM");
-}
-
-/// `bytes` (address and PDU) as a Modbus ASCII frame (Serial Line v1.02 §2.5.2): `:`,
-/// upper-case hex pairs with the LRC (the two's complement of the 8-bit sum), CR LF.
-fn ascii_frame(bytes: &[u8]) -> Vec<u8> {
-    let sum: u32 = bytes.iter().map(|&b| u32::from(b)).sum();
-    let lrc = ((256 - sum % 256) % 256) as u8;
-    let mut text = String::from(":");
-    for b in bytes.iter().copied().chain([lrc]) {
-        text.push_str(&format!("{b:02X}"));
-    }
-    text.push_str("\r\n");
-    text.into_bytes()
 }
 
 /// 19200 bps 7E1: the default line in ASCII.

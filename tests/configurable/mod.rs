@@ -177,3 +177,16 @@ pub fn assert_usart_runs(uno: &Uno, line: Line) {
     assert_eq!((cfg.data_bits, cfg.parity, cfg.stop_bits), (8, line.parity, line.stop_bits), "{cfg:?}");
     assert!(cfg.baud_error(line.baud).abs() <= 0.025, "{} bps for {}", cfg.baud(), line.name());
 }
+
+/// `bytes` (address and PDU) as a Modbus ASCII frame (Serial Line v1.02 §2.5.2): `:`,
+/// upper-case hex pairs with the LRC (the two's complement of the 8-bit sum), CR LF.
+pub fn ascii_frame(bytes: &[u8]) -> Vec<u8> {
+    let sum: u32 = bytes.iter().map(|&b| u32::from(b)).sum();
+    let lrc = ((256 - sum % 256) % 256) as u8;
+    let mut text = String::from(":");
+    for b in bytes.iter().copied().chain([lrc]) {
+        text.push_str(&format!("{b:02X}"));
+    }
+    text.push_str("\r\n");
+    text.into_bytes()
+}

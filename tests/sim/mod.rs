@@ -49,8 +49,15 @@ pub fn chip_firmware_path(chip: Chip, usart: u8, name: &str) -> PathBuf {
     if chip == Chip::Atmega328p && usart == 0 {
         return target_dir().join("avr-atmega328p/release/examples").join(elf);
     }
+    chip_examples_dir(chip, usart, "").join(elf)
+}
+
+/// The folder of the examples built for `chip` with the wire on USART`usart`, with
+/// `variant` after the build's name (`-settings`: `make chips`' build with the line
+/// settings): `chips/CHIP[-usartN]VARIANT/avr-none/release/examples`.
+pub fn chip_examples_dir(chip: Chip, usart: u8, variant: &str) -> PathBuf {
     let build = if usart == chip.default_usart() { chip.name().to_owned() } else { format!("{chip}-usart{usart}") };
-    target_dir().join("chips").join(build).join("avr-none/release/examples").join(elf)
+    target_dir().join("chips").join(format!("{build}{variant}")).join("avr-none/release/examples")
 }
 
 /// [`chip_firmware_path`], which must exist.
