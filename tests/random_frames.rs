@@ -212,11 +212,13 @@ fn event() -> impl Strategy<Value = Event> {
 /// timeouts, damaged characters and the end of a reply.
 #[cfg(feature = "ascii")]
 fn ascii_event() -> impl Strategy<Value = AsciiEvent> {
-    let requests = (mutated_request(), any::<bool>(), 0u8..8).prop_map(|(frame, lower, damage)| {
-        let mut text = model::ascii::request(&frame[..frame.len() - 2], lower);
+    let requests = (mutated_request(), any::<bool>(), 0u8..8, 1u8..=255).prop_map(|(frame, lower, damage, flip)| {
+        let frame = &frame[..frame.len() - 2];
+        let mut text = model::ascii::request(frame, lower);
         let n = text.len();
         match damage {
-            0 => text[n - 3] = if text[n - 3] == b'0' { b'1' } else { b'0' },
+            // The LRC's digits of another value.
+            0 => text[n - 4..n - 2].copy_from_slice(format!("{:02X}", model::ascii::lrc(frame) ^ flip).as_bytes()),
             1 => text.truncate(n - 2),
             _ => {}
         }

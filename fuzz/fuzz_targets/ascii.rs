@@ -11,7 +11,8 @@
 //! frames are made of, `0-9A-Fa-f:` CR LF (the opcode's high bits); 3 a byte as two hex
 //! digits (opcode bit 3: lower case); 4 the timeout; 5 a damaged character; 6 the reply
 //! sent; 7 a request (length byte, then the PDU; opcode bits 6–7 the address: this slave,
-//! broadcast, another slave; bit 3 lower case, bit 4 a wrong LRC, bit 5 no CR LF).
+//! broadcast, another slave; bit 3 lower case, bit 5 no CR LF; bit 4 a wrong LRC, the
+//! right one's bits flipped by the byte after the PDU).
 #![no_main]
 
 #[path = "../../tests/common/mod.rs"]
@@ -55,8 +56,9 @@ fn events(mut data: &[u8]) -> Vec<AsciiEvent> {
                 let mut text = request(&frame, lower);
                 let n = text.len();
                 if op & 0b1_0000 != 0 {
-                    // The LRC's digits of another value.
-                    let wrong = format!("{:02X}", lrc(&frame).wrapping_add(1));
+                    // The LRC's digits of another value: its bits flipped where the next
+                    // byte has ones (at least one).
+                    let wrong = format!("{:02X}", lrc(&frame) ^ next().unwrap_or(1).max(1));
                     text[n - 4..n - 2].copy_from_slice(wrong.as_bytes());
                 }
                 if op & 0b10_0000 != 0 {

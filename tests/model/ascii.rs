@@ -120,7 +120,9 @@ impl AsciiReceiver {
         } else if c == CR {
             (kept % 2 == 1).then_some(FrameError::Encoding)
         } else if c.is_ascii_hexdigit() {
-            ((kept + 1) / 2 > MAX_BYTES).then_some(FrameError::TooLong)
+            // Whole bytes so far: pairs of the digits, this one included.
+            let bytes = frame.text.len() / 2;
+            (bytes > MAX_BYTES).then_some(FrameError::TooLong)
         } else {
             Some(FrameError::Encoding)
         };
