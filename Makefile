@@ -132,7 +132,7 @@ host-test: setup firmware fixtures
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings,ascii --test settings_ascii
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings --doc
 	$(CARGO) test -p avr-modbus-slave --features ufmt --test ufmt
-	$(CARGO) test -p avr-modbus-slave --features device-id --test device_id --test map --test sim_device_id
+	$(CARGO) test -p avr-modbus-slave --features device-id --test device_id --test map --test sim_device_id --test random_frames
 	$(CARGO) test -p avr-modbus-slave --features ascii --test ascii --test sim_ascii --test framer --test adu --test random_frames
 	$(CARGO) test -p avr-modbus-slave --features ascii --doc
 
@@ -184,16 +184,18 @@ bench-features: setup
 		cp $(BENCH_FEATURES_DIR)/avr-atmega328p/release/examples/minimal.elf $(BENCH_FEATURES_DIR)/minimal$${f:++$$f}.elf; \
 	done
 
-# Coverage-guided fuzzing (cargo-fuzz, libFuzzer): every target under fuzz/ for FUZZ_SECONDS
-# each, with its executions, rate and findings (.ci/fuzz). Then a long seeded run of the
-# property tests that `make test` runs 2000 cases of (PROPERTY_CASES, FUZZ_SEED).
+# Coverage-guided fuzzing (cargo-fuzz, libFuzzer): every target under fuzz/ (frames, events,
+# ascii, settings; the fuzz crate builds every optional feature) for FUZZ_SECONDS each, with
+# its executions, rate and findings (.ci/fuzz). Then a long seeded run of the property tests
+# that `make test` runs 2000 cases of (PROPERTY_CASES, FUZZ_SEED), with FC 43 and ASCII.
 FUZZ_SECONDS ?= 600
 PROPERTY_CASES ?= 1000000
+FUZZ_PROPERTY_FEATURES := $(OPTIONAL),ascii,device-id
 fuzz: setup
 	@.ci/fuzz $(FUZZ_SECONDS)
 	FUZZ_CASES=$(PROPERTY_CASES) FUZZ_SEED=$${FUZZ_SEED:-$$(date +%s)} $(CARGO) test --release -p avr-modbus-slave \
-		--features $(OPTIONAL) --test random_frames -- --nocapture
-	@echo "fuzz: $(PROPERTY_CASES) cases per property, 3 properties, features $(OPTIONAL)"
+		--features $(FUZZ_PROPERTY_FEATURES) --test random_frames -- --nocapture
+	@echo "fuzz: $(PROPERTY_CASES) cases per property, 4 properties, features $(FUZZ_PROPERTY_FEATURES)"
 
 # Long mixed-request run against uno_slave at 19200 8E1 with a reference model of its bank
 # (100000: ~1400 s simulated, ~15 min wall). `make test` runs 2000.

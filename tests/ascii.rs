@@ -248,6 +248,37 @@ fn the_inter_character_timeout_drops_a_frame_in_progress() {
 }
 
 #[test]
+fn a_frame_broken_before_the_timeout_is_counted_for_its_first_fault() {
+    // As in RTU: a damaged character, then silence, is a UART error, not a gap.
+    let mut slave = ascii_slave();
+    for &c in b":1103" {
+        slave.on_char(c);
+    }
+    slave.on_error(UartError::Parity);
+    slave.on_gap_deadline();
+    assert_eq!(slave.on_end_deadline(), EndOfFrame::Dropped(FrameError::Uart));
+    let c = counters_of(&slave);
+    assert_eq!((c.frames, c.uart_errors, c.malformed), (1, 1, 0));
+    // A frame that ran past 255 bytes, then silence: too long, an overrun.
+    let mut chars = vec![b':'];
+    chars.extend([b'0'; 2 * 256]);
+    for &c in &chars {
+        slave.on_char(c);
+    }
+    slave.on_gap_deadline();
+    assert_eq!(slave.on_end_deadline(), EndOfFrame::Dropped(FrameError::TooLong));
+    let c = counters_of(&slave);
+    assert_eq!((c.frames, c.overruns, c.malformed), (2, 1, 0));
+    // A character that is not a hex digit, then silence: encoding.
+    for &c in b":11G" {
+        slave.on_char(c);
+    }
+    slave.on_gap_deadline();
+    assert_eq!(slave.on_end_deadline(), EndOfFrame::Dropped(FrameError::Encoding));
+    assert_eq!(counters_of(&slave).malformed, 1);
+}
+
+#[test]
 fn a_damaged_character_drops_its_frame_and_noise_between_frames_is_ignored() {
     let mut slave = ascii_slave();
     let mut bank = spec_bank();

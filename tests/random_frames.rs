@@ -2,12 +2,15 @@
 //! written from the spec): the slave never panics, answers only with well-formed replies,
 //! and every reply, every count and every change to the bank is what the model predicts.
 //! It runs under every feature set `make test` builds; the model knows the optional
-//! function codes when the build has them.
+//! function codes when the build has them, and with feature `ascii` a fourth property
+//! feeds an ASCII line to the slave and the model's ASCII receiver.
 
 mod common;
 mod model;
 
 use avr_modbus_slave::internal::UartError;
+#[cfg(feature = "ascii")]
+use model::ascii::{run_ascii_events, AsciiEvent};
 use model::{exchange, fixture, run_events, slave, with_crc, Event, EDGES, ID};
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -46,7 +49,7 @@ fn function() -> impl Strategy<Value = u8> {
     prop_oneof![
         8 => select(vec![0x01u8, 0x02, 0x03, 0x04, 0x05, 0x06, 0x0F, 0x10]),
         // The optional ones: exception 01 in a build without their feature.
-        3 => select(vec![0x07u8, 0x08, 0x0B, 0x11, 0x16, 0x17]),
+        3 => select(vec![0x07u8, 0x08, 0x0B, 0x11, 0x16, 0x17, 0x2B]),
         1 => any::<u8>(),
     ]
 }
@@ -72,6 +75,15 @@ fn request_pdu() -> impl Strategy<Value = Vec<u8>> {
                 };
                 pdu.extend(sub.to_be_bytes());
                 pdu.extend(data.to_be_bytes());
+                return pdu;
+            }
+            // MEI type 14 mostly; read device id codes 01–04 and others; the ids of the
+            // objects a device may have, and others.
+            0x2B => {
+                let mei = if raw % 8 == 0 { (raw >> 8) as u8 } else { 0x0E };
+                let code = [0x01, 0x02, 0x03, 0x04, 0x01, 0x02, 0x04, 0x00, 0x05, raw as u8][usize::from(qty) % 10];
+                let object = if start % 4 == 0 { start as u8 } else { (start % 9) as u8 };
+                pdu.extend([mei, code, object]);
                 return pdu;
             }
             _ => {}
@@ -195,6 +207,33 @@ fn event() -> impl Strategy<Value = Event> {
     ]
 }
 
+/// An ASCII line (feature `ascii`): characters, most of them ones a frame is made of,
+/// requests written out in either case (some with a wrong LRC, some without their CR LF),
+/// timeouts, damaged characters and the end of a reply.
+#[cfg(feature = "ascii")]
+fn ascii_event() -> impl Strategy<Value = AsciiEvent> {
+    let requests = (mutated_request(), any::<bool>(), 0u8..8, 1u8..=255).prop_map(|(frame, lower, damage, flip)| {
+        let frame = &frame[..frame.len() - 2];
+        let mut text = model::ascii::request(frame, lower);
+        let n = text.len();
+        match damage {
+            // The LRC's digits of another value.
+            0 => text[n - 4..n - 2].copy_from_slice(format!("{:02X}", model::ascii::lrc(frame) ^ flip).as_bytes()),
+            1 => text.truncate(n - 2),
+            _ => {}
+        }
+        AsciiEvent::Text(text)
+    });
+    prop_oneof![
+        6 => select(b"0123456789ABCDEFabcdef:\r\n".to_vec()).prop_map(AsciiEvent::Char),
+        1 => any::<u8>().prop_map(AsciiEvent::Char),
+        1 => Just(AsciiEvent::Timeout),
+        1 => select(vec![UartError::Parity, UartError::Framing, UartError::Overrun]).prop_map(AsciiEvent::Error),
+        2 => Just(AsciiEvent::ReplySent),
+        4 => requests,
+    ]
+}
+
 // ---- properties --------------------------------------------------------------------------
 
 /// A model check's failure as a failing test case.
@@ -233,5 +272,21 @@ proptest! {
     ) {
         let (mut bank, mut model) = fixture(salt);
         run_events(&mut slave(), &mut bank, &mut model, &events).map_err(fail)?;
+    }
+}
+
+#[cfg(feature = "ascii")]
+proptest! {
+    #![proptest_config(config())]
+
+    #[test]
+    fn random_ascii_lines_follow_the_reference_receiver_and_the_rtu_twin(
+        salt in any::<u16>(),
+        events in vec(ascii_event(), 0..40),
+    ) {
+        let (mut bank, mut model) = fixture(salt);
+        let mut slave = slave();
+        slave.set_ascii(true);
+        run_ascii_events(&mut slave, &mut bank, &mut model, &events).map_err(fail)?;
     }
 }

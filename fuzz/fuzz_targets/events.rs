@@ -2,7 +2,8 @@
 //! and end deadlines, whole requests byte by byte, processing and the end of a reply;
 //! checked against the reference receiver of Serial Line §2.5.1.1 and the model.
 //!
-//! Input: two bytes of salt, then events, each an opcode byte (its low three bits) and
+//! Input: two bytes of salt (the bank's starting values; the high byte picks the
+//! identification FC 43 reports), then events, each an opcode byte (its low three bits) and
 //! what that event needs: 0–2 a byte, 3 the gap deadline, 4 T3.5, 5 a UART error, 6 the
 //! reply sent, 7 a request (length byte, then the PDU; address and CRC added).
 #![no_main]

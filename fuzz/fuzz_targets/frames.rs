@@ -1,7 +1,9 @@
 //! Whole frames through the slave (`Engine::handle_frame`), one after another, against
-//! the reference model: replies, end of frame, counters, listen-only mode and the bank.
+//! the reference model: replies (FC 43 / MEI 14 included), end of frame, counters,
+//! listen-only mode and the bank.
 //!
-//! Input: two bytes of salt for the bank's starting values, then frames, each a length
+//! Input: two bytes of salt for the bank's starting values (the high byte picks the
+//! identification FC 43 reports, `tests/model/device_id.rs`), then frames, each a length
 //! byte `n` (255 means 300 bytes, past the 256-byte limit), a mode byte and up to `n`
 //! bytes. Mode bit 0: append a correct CRC; bit 1: address this slave; bit 2: broadcast.
 #![no_main]

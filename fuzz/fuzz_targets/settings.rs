@@ -6,9 +6,10 @@
 //! written torn to any value, it loads as the settings before the store or the new ones,
 //! never as nothing when there were settings before.
 //!
-//! Block: FC 6 and FC 16 requests in and around the block (40101–40104) through the
-//! slave: a well-formed reply; an exception changes neither the block nor the bank; a
-//! write the slave accepted holds settings it can run.
+//! Block: FC 6 and FC 16 requests in and around the block (40101–40104, and 40105, the
+//! transmission mode, with feature `ascii`) through the slave: a well-formed reply; an
+//! exception changes neither the block nor the bank; a write the slave accepted holds
+//! settings it can run.
 #![no_main]
 
 use avr_modbus_slave::internal::settings::{LineSettings, Slots, SLOTS_LEN};
@@ -16,8 +17,11 @@ use avr_modbus_slave::internal::{EndOfFrame, Engine};
 use avr_modbus_slave::{bit_bytes, Bank, Config, Configurable, Parity, SlaveId, StopBits};
 use libfuzzer_sys::fuzz_target;
 
+#[cfg(feature = "ascii")]
+use avr_modbus_slave::Mode;
+
 /// Settings from four input bytes: any id, a rate from a list the USART can make or not,
-/// any parity and stop-bit choice.
+/// any parity, stop-bit and (feature `ascii`) mode choice.
 fn settings(bytes: [u8; 4]) -> LineSettings {
     const RATES: [u32; 8] = [1200, 9600, 19_200, 57_600, 115_200, 250_000, 36_000, 4700];
     LineSettings {
@@ -25,6 +29,8 @@ fn settings(bytes: [u8; 4]) -> LineSettings {
         baud: RATES[usize::from(bytes[1]) % RATES.len()] + u32::from(bytes[2] >> 6) * 100,
         parity: [Parity::None, Parity::Even, Parity::Odd][usize::from(bytes[2] & 3) % 3],
         stop_bits: if bytes[3] & 1 == 0 { StopBits::One } else { StopBits::Two },
+        #[cfg(feature = "ascii")]
+        mode: [Mode::Rtu, Mode::Ascii, Mode::Ascii8][usize::from(bytes[3] >> 1) % 3],
     }
 }
 

@@ -229,12 +229,16 @@ impl<const N: usize> Framer<N> {
     }
 
     /// The inter-character timeout passed inside a frame: it is dropped, reported by
-    /// [`Framer::on_end_deadline`] (the caller calls it next).
+    /// [`Framer::on_end_deadline`] (the caller calls it next), for the fault that broke it
+    /// before if one did (counted once, for its first fault, as an RTU frame is), else as a
+    /// gap.
     pub(super) fn ascii_timeout(&mut self) {
-        if matches!(self.state, State::Receiving | State::Broken) {
-            self.error = Some(FrameError::Gap);
-            self.state = State::Waiting;
+        match self.state {
+            State::Receiving => self.error = Some(FrameError::Gap),
+            State::Broken => {}
+            State::Initial | State::Idle | State::Waiting | State::Busy => return,
         }
+        self.state = State::Waiting;
     }
 
     /// The length of the frame received, counted as an RTU frame's (see

@@ -9,7 +9,9 @@
 //! Application Protocol §6–7 and Serial Line §2.4–2.5. It knows the eight core function
 //! codes and, when the build has them, the optional ones: FC 22 and 23 (feature
 //! `extra-fc`), FC 7, 8, 11 and 17 with the serial-line counters and listen-only mode
-//! (feature `diagnostics`).
+//! (feature `diagnostics`), FC 43 / MEI 14 (feature `device-id`, [`device_id`]). With
+//! feature `ascii`, [`ascii`] receives characters as Serial Line §2.5.2 frames them and
+//! hands each whole frame to the same model as its RTU twin.
 #![allow(dead_code)]
 
 use std::collections::BTreeMap;
@@ -52,6 +54,10 @@ macro_rules! check_eq {
     };
 }
 
+#[cfg(feature = "ascii")]
+pub mod ascii;
+pub mod device_id;
+
 /// The bank under test: room for the runs of [`LAYOUT`].
 pub type RandomBank = Bank<16, 64, 16>;
 
@@ -81,18 +87,28 @@ pub struct Model {
     values: BTreeMap<(Table, u16), u16>,
     counts: Counters,
     listen_only: bool,
+    /// The objects FC 43 reports (none: the slave offers no identification).
+    identity: Option<&'static device_id::Identity>,
 }
 
 pub const DIAGNOSTICS: bool = cfg!(feature = "diagnostics");
 pub const EXTRA_FC: bool = cfg!(feature = "extra-fc");
+pub const DEVICE_ID: bool = cfg!(feature = "device-id");
 
 pub fn is_bits(table: Table) -> bool {
     matches!(table, Table::Coils | Table::DiscreteInputs)
 }
 
-/// A bank and its model, with starting values derived from `salt`.
+/// A bank and its model, with starting values derived from `salt`, and the
+/// identification its high byte picks ([`device_id::chosen`]), which the bank reports with
+/// feature `device-id`.
 pub fn fixture(salt: u16) -> (RandomBank, Model) {
     let mut bank = RandomBank::new();
+    let chosen = device_id::chosen(salt);
+    #[cfg(feature = "device-id")]
+    if let Some((identification, _)) = chosen {
+        bank.set_identification(identification);
+    }
     let mut model = BTreeMap::new();
     for (table, first, count) in LAYOUT {
         bank.add_range(Reference { table, address: first }, count).unwrap();
@@ -103,7 +119,8 @@ pub fn fixture(salt: u16) -> (RandomBank, Model) {
             model.insert((table, address), value);
         }
     }
-    (bank, Model { values: model, counts: Counters::new(), listen_only: false })
+    let identity = chosen.map(|(_, identity)| identity);
+    (bank, Model { values: model, counts: Counters::new(), listen_only: false, identity })
 }
 
 pub fn bump(counter: &mut u16) {
@@ -259,6 +276,7 @@ impl Model {
             // Byte count, slave id, run indicator ON; no device description here.
             0x11 if DIAGNOSTICS => Ok(vec![0x11, 0x02, ID, 0xFF]),
             0x08 if DIAGNOSTICS => self.diagnostics(pdu),
+            0x2B if DEVICE_ID => device_id::read_device_id(self.identity, pdu),
             _ => Err(1),
         }
     }
@@ -397,11 +415,12 @@ impl Model {
             bump(&mut self.counts.no_response);
             let writes = [0x05, 0x06, 0x0F, 0x10].contains(&pdu[0]) || (EXTRA_FC && [0x16, 0x17].contains(&pdu[0]));
             // Writes are carried out; reads are only parsed (and may fail), never read.
-            let diagnostic = DIAGNOSTICS && [0x07, 0x08, 0x0B, 0x11].contains(&pdu[0]);
+            let checked = (DIAGNOSTICS && [0x07, 0x08, 0x0B, 0x11].contains(&pdu[0])) || (DEVICE_ID && pdu[0] == 0x2B);
             let result = if writes {
                 self.respond(pdu).map(|_| ())
-            } else if diagnostic {
-                // Checked as the same request to this slave would be, never acted on.
+            } else if checked {
+                // Diagnostics and FC 43: checked as the same request to this slave would
+                // be, never acted on.
                 self.clone().respond(pdu).map(|_| ())
             } else {
                 Self::parse_read(pdu)
