@@ -6,7 +6,9 @@
 //! (EEPROM, jumpers) and returns an error instead.
 
 use crate::error::Error;
-use crate::timing::{BaudDivisor, CharTimes, TimerPlan, CLOCK_HZ};
+#[cfg(feature = "ascii")]
+use crate::timing::Deadline;
+use crate::timing::{rx_flag_to_end_cycles, BaudDivisor, CharTimes, TimerPlan, CLOCK_HZ};
 
 /// A slave (server) address on the serial line: 1–247.
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
@@ -87,6 +89,10 @@ pub struct Config {
     /// (1.024 ms each), as the compare interrupt counts it.
     #[cfg(feature = "ascii")]
     char_timeout: (u16, u16),
+    /// ASCII: from a character's receive flag to its end on the line, as a Timer0 deadline
+    /// (the reply waits for the LF to leave the line).
+    #[cfg(feature = "ascii")]
+    char_end: Deadline,
 }
 
 impl Config {
@@ -138,7 +144,9 @@ impl Config {
             Some(divisor) => divisor,
             None => return Err(Error::BaudError),
         };
-        let timer_plan = TimerPlan::new(CharTimes::new(baud, bits_per_char(8, parity, stop_bits)), CLOCK_HZ);
+        let times = CharTimes::new(baud, bits_per_char(8, parity, stop_bits));
+        let flag_to_end = rx_flag_to_end_cycles(divisor, matches!(stop_bits, StopBits::Two));
+        let timer_plan = TimerPlan::new(times, CLOCK_HZ, flag_to_end);
         Ok(Config {
             slave_id,
             baud,
@@ -150,6 +158,8 @@ impl Config {
             mode: Mode::Rtu,
             #[cfg(feature = "ascii")]
             char_timeout: timeout_turns(Self::ASCII_CHAR_TIMEOUT_MS),
+            #[cfg(feature = "ascii")]
+            char_end: Deadline::after_flag(flag_to_end),
         })
     }
 
@@ -261,6 +271,15 @@ impl Config {
     /// Character time and the T1.5 / T3.5 silences for this configuration.
     pub const fn char_times(&self) -> CharTimes {
         CharTimes::new(self.baud, self.bits_per_char())
+    }
+
+    /// From the USART's receive flag to the end of a character on the line (half a bit, or
+    /// one and a half with two stop bits, [`rx_flag_to_end_cycles`]) as a Timer0 deadline:
+    /// ASCII's reply waits that long after the LF's flag (feature `ascii`).
+    #[cfg(feature = "ascii")]
+    #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
+    pub(crate) const fn char_end(&self) -> Deadline {
+        self.char_end
     }
 }
 

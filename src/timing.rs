@@ -7,6 +7,11 @@
 //! value relative to the receive interrupt's one read of TCNT0 and a count of whole turns
 //! ([`Deadline`]). Nothing restarts the counter, so the milliseconds never lose a tick.
 //!
+//! The USART flags a character (RXCn) before the character has left the line: once it has
+//! sampled the first stop bit, at its middle ([`rx_flag_to_end_cycles`]). Silences on the
+//! line count from a character's end, so T3.5 adds that time to what it counts from the
+//! receive interrupt; the gap deadline, from one flag to the next, needs nothing.
+//!
 //! Everything here is `const fn` math: the AVR layer only copies the results into
 //! registers, and the host tests check the results (`tests/timing.rs`: every accepted
 //! rate and character format).
@@ -58,9 +63,10 @@ impl CharTimes {
     /// How long after the end of one received character the end of the next may come
     /// before the gap between them exceeded T1.5.
     ///
-    /// The USART reports a character when its stop bit ends, one character time after
-    /// its start bit began, so the gap on the wire is the time between two reports minus
-    /// one character.
+    /// The USART reports each character at the same point of it (the middle of its first
+    /// stop bit, [`rx_flag_to_end_cycles`] before its end), so two reports are as far apart
+    /// as the two characters' ends, and the gap on the wire is the time between them minus
+    /// one character: this deadline counts from one report to the next as it is.
     pub const fn gap_deadline_ns(&self) -> u32 {
         self.char_ns + self.t15_ns
     }
@@ -142,6 +148,24 @@ pub const fn overflow_before(tcnt: u8, overflow_pending: bool) -> bool {
     overflow_pending && tcnt != 255
 }
 
+/// CPU cycles from the USART's receive-complete flag (RXCn) to the end of the character on
+/// the line, at the bit time `divisor` makes (UBRRn and U2Xn, [`BaudDivisor::bit_cycles`]) with
+/// one stop bit, or two if `two_stop_bits`. The receiver moves a character to UDRn and sets RXCn once
+/// it has sampled the first stop bit, at the middle of that bit (ATmega328P datasheet,
+/// "Receiving Frames with 5 to 8 Data Bits": a second stop bit is ignored by the receiver),
+/// so the character ends half a bit later with one stop bit and one and a half bits later
+/// with two. A bit is a whole multiple of 8 cycles, so this is exact. The middle is the
+/// earliest the flag comes: a receiver that takes a sample or two more only makes a deadline
+/// that adds this later, never early.
+pub const fn rx_flag_to_end_cycles(divisor: BaudDivisor, two_stop_bits: bool) -> u32 {
+    let half_bit = divisor.bit_cycles() / 2;
+    if two_stop_bits {
+        3 * half_bit
+    } else {
+        half_bit
+    }
+}
+
 /// A lower bound of the time, in CPU cycles, from the USART flagging a received character
 /// (RXC0) to the receive interrupt's read of TCNT0, the first thing its handler does
 /// (`slave!` binds it): the interrupt response (4), the vector table's jump (3) and the
@@ -183,11 +207,12 @@ const fn cycles(ns: u32, clock_hz: u32) -> u32 {
 /// unknown prescaler phase (65 cycles), the rounding up to whole ticks (63) and to whole
 /// cycles and nanoseconds. A compare value equal to the count read could be left by the
 /// counter before the interrupt writes it (a whole turn late), so `low` is never 0: for
-/// those deadlines (about 1 in 256: 49 of the 39 672 checked) one edge more, up to
-/// 3 ticks + 2 cycles (194 cycles, 12.1 µs) late. Times count from the end of the character as the USART
-/// reports it; a receive interrupt held off beyond its shortest latency makes the deadline
-/// that much later, and a compare interrupt held off for more than a turn (1.024 ms), a
-/// turn later. `tests/timing.rs` checks every accepted rate and format.
+/// those deadlines (about 1 in 256: 42 of the 39 672 checked) one edge more, up to
+/// 3 ticks + 2 cycles (194 cycles, 12.1 µs) late. Times count from the USART's receive flag
+/// (RXCn; [`TimerPlan`] adds what lies between it and the character's end); a receive
+/// interrupt held off beyond its shortest latency makes the deadline that much later, and a
+/// compare interrupt held off for more than a turn (1.024 ms), a turn later.
+/// `tests/timing.rs` checks every accepted rate and format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Deadline {
     /// Added to TCNT0 as read: the compare value. Never 0.
@@ -197,10 +222,17 @@ pub struct Deadline {
 }
 
 impl Deadline {
-    /// The deadline `ns` nanoseconds after the end of a character, at most 65 536 ticks
-    /// (262 ms at 16 MHz, beyond any T3.5 at 1200 bps or more).
+    /// The deadline `ns` nanoseconds after the USART flagged a character, at most 65 536
+    /// ticks (262 ms at 16 MHz, beyond any T3.5 at 1200 bps or more).
     pub const fn new(ns: u32, clock_hz: u32) -> Self {
-        let after_read = cycles(ns, clock_hz).saturating_sub(RX_LATENCY_CYCLES + EDGE_AFTER_READ.0);
+        Self::after_flag(cycles(ns, clock_hz))
+    }
+
+    /// The deadline `cycles` CPU cycles after the USART flagged a character. (Not inlined: a
+    /// configuration computed at run time sets three deadlines with it.)
+    #[inline(never)]
+    pub const fn after_flag(cycles: u32) -> Self {
+        let after_read = cycles.saturating_sub(RX_LATENCY_CYCLES + EDGE_AFTER_READ.0);
         // Edges after the first one: the first is at least `EDGE_AFTER_READ.0` after the read.
         let mut after_first = after_read.div_ceil(TIMER0_DIVISOR);
         if after_first % 256 == 0 {
@@ -215,7 +247,7 @@ impl Deadline {
         self.turns as u32 * 256 + self.low as u32 + 1
     }
 
-    /// Earliest and latest expiry in CPU cycles after the end of the character, for a
+    /// Earliest and latest expiry in CPU cycles after the USART flagged the character, for a
     /// receive interrupt of the shortest latency.
     pub const fn expiry_cycles(self) -> (u32, u32) {
         let after_first = (self.edges() - 1) * TIMER0_DIVISOR;
@@ -224,8 +256,9 @@ impl Deadline {
 }
 
 /// Timer0 settings for the frame detector: a deadline for the inter-character gap
-/// ([`CharTimes::gap_deadline_ns`]) and one for the end of frame (T3.5), both counted from
-/// the end of the last received character, on one compare unit.
+/// ([`CharTimes::gap_deadline_ns`], from one receive flag to the next) and one for the end of
+/// frame (T3.5 after the last received character's end on the line: from its receive flag,
+/// T3.5 and [`rx_flag_to_end_cycles`]), both set by the receive interrupt, on one compare unit.
 ///
 /// The receive interrupt sets the compare value for the gap deadline (TCNT0 as read +
 /// `gap.low`). When the gap deadline passes, the compare interrupt moves the compare value
@@ -237,7 +270,7 @@ impl Deadline {
 pub struct TimerPlan {
     /// A character reported after this had a gap longer than T1.5.
     pub gap: Deadline,
-    /// T3.5 of silence, the frame is complete.
+    /// T3.5 of silence after the character's end, the frame is complete.
     pub end: Deadline,
 }
 
@@ -255,9 +288,13 @@ pub enum Passed {
 }
 
 impl TimerPlan {
-    /// The two deadlines for `times` at `clock_hz`.
-    pub const fn new(times: CharTimes, clock_hz: u32) -> Self {
-        TimerPlan { gap: Deadline::new(times.gap_deadline_ns(), clock_hz), end: Deadline::new(times.t35_ns, clock_hz) }
+    /// The two deadlines for `times` at `clock_hz`, for a USART that flags each character
+    /// `flag_to_end` CPU cycles before its end ([`rx_flag_to_end_cycles`]).
+    pub const fn new(times: CharTimes, clock_hz: u32, flag_to_end: u32) -> Self {
+        TimerPlan {
+            gap: Deadline::new(times.gap_deadline_ns(), clock_hz),
+            end: Deadline::after_flag(cycles(times.t35_ns, clock_hz) + flag_to_end),
+        }
     }
 
     /// How far the compare value moves at the gap deadline, modulo 256: from the gap
@@ -401,6 +438,16 @@ impl BaudDivisor {
         }
     }
 
+    /// CPU cycles per bit: 16 · (UBRRn + 1), or 8 · (UBRRn + 1) in double-speed mode.
+    pub const fn bit_cycles(&self) -> u32 {
+        let double_speed = (self.ubrr as u32 + 1) * 8;
+        if self.double_speed {
+            double_speed
+        } else {
+            2 * double_speed
+        }
+    }
+
     const fn candidate(baud: u32, clock_hz: u32, divider: u32, double_speed: bool) -> Option<Candidate> {
         let denominator = match divider.checked_mul(baud) {
             Some(d) if d <= u32::MAX / 2 => d,
@@ -514,17 +561,57 @@ mod tests {
         assert_eq!(clock.millis_at(255, true), 8);
     }
 
+    fn plan(baud: u32, parity: Parity, stop: StopBits) -> TimerPlan {
+        Config::new(1, baud, parity, stop).timer_plan()
+    }
+
     #[test]
     fn t35_at_19200_8e1_worked_example() {
-        let plan = TimerPlan::new(times(19_200, Parity::Even, StopBits::One), CLOCK_HZ);
-        // 2 005 209 ns = 32 083.3 → 32 084 cycles; 21 of them before the read: 32 063 =
-        // 500.98 ticks → 501 edges after the first one, which may come right after the
-        // read: 502 edges, the compare value 245 (502 − 1 − 256) past the count read, and
-        // one match of it let pass.
-        assert_eq!(plan.end, Deadline { low: 245, turns: 1 });
-        assert_eq!(plan.end.edges(), 502);
-        assert_eq!(plan.end.expiry_cycles(), (21 + 501 * 64, 21 + 65 + 501 * 64));
-        assert!(plan.end.expiry_cycles().0 >= 32_084);
+        let plan = plan(19_200, Parity::Even, StopBits::One);
+        // 2 005 209 ns = 32 083.3 → 32 084 cycles after the character's end, which comes
+        // half a bit (UBRR0 51: 416 cycles) after RXC0: 32 500 cycles after the flag; 21 of
+        // them before the read: 32 479 = 507.48 ticks → 508 edges after the first one, which
+        // may come right after the read: 509 edges, the compare value 252 (509 − 1 − 256) past
+        // the count read, and one match of it let pass.
+        assert_eq!(plan.end, Deadline { low: 252, turns: 1 });
+        assert_eq!(plan.end.edges(), 509);
+        assert_eq!(plan.end.expiry_cycles(), (21 + 508 * 64, 21 + 65 + 508 * 64));
+        assert!(plan.end.expiry_cycles().0 >= 32_084 + 416);
+    }
+
+    #[test]
+    fn the_receive_flag_comes_half_a_bit_before_the_end_or_one_and_a_half_with_two_stop_bits() {
+        // (baud, stop bits, cycles from RXCn to the character's end): UBRR0 and U2X0 as the
+        // datasheet's table 20-7 has them.
+        let table = [
+            (1200, 1, 833 * 8),      // UBRR0 832: 13 328-cycle bits
+            (1200, 2, 833 * 8 * 3),  // 19 992: beyond a turn of Timer0 (16 384)
+            (9600, 1, 104 * 8),      // 832
+            (9600, 2, 104 * 8 * 3),  // 2496: 156 µs
+            (19_200, 1, 52 * 8),     // 416: 26 µs
+            (19_200, 2, 52 * 8 * 3), // 1248: 78 µs
+            (57_600, 1, 35 * 4),     // U2X0: 280-cycle bits
+            (57_600, 2, 35 * 4 * 3), //
+            (115_200, 1, 17 * 4),    // U2X0: 136-cycle bits
+            (1_000_000, 2, 8 * 3),   // UBRR0 0: 16-cycle bits
+        ];
+        for (baud, stop, cycles) in table {
+            let divisor = BaudDivisor::new(baud, CLOCK_HZ).unwrap();
+            assert_eq!(rx_flag_to_end_cycles(divisor, stop == 2), cycles, "{baud} with {stop} stop bits");
+        }
+    }
+
+    #[test]
+    fn t35_adds_the_flag_to_end_time_and_the_gap_deadline_does_not() {
+        // The same character time and silences, one stop bit or two (8E1 and 8N2 are both
+        // 11 bits): T3.5 waits a bit longer (1248 − 416 cycles = 13 ticks) with two.
+        let (one, two) = (plan(19_200, Parity::Even, StopBits::One), plan(19_200, Parity::None, StopBits::Two));
+        assert_eq!(one.gap, two.gap);
+        assert_eq!(two.end.edges() - one.end.edges(), 13);
+        // Without the flag's lead the gap deadline is the same: it counts from flag to flag.
+        let times = times(19_200, Parity::Even, StopBits::One);
+        assert_eq!(TimerPlan::new(times, CLOCK_HZ, 0).gap, one.gap);
+        assert_eq!(TimerPlan::new(times, CLOCK_HZ, 0).end, Deadline { low: 245, turns: 1 });
     }
 
     #[test]

@@ -178,10 +178,11 @@ fn reads_tcnt0(code: &[(u32, Vec<u8>)], pc: u32) -> bool {
     })
 }
 
-/// Cycles from RXC0 to the receive interrupt's read of TCNT0, for a byte arriving at
+/// Cycles from RXC0 to the receive interrupt's read of TCNT0, for a byte flagged (RXC0) at
 /// `arrival`: the handler is stepped through up to its `in` from TCNT0.
 fn rx_latency(rtu: &mut Rtu, code: &[(u32, Vec<u8>)], arrival: u64) -> Option<u64> {
-    rtu.uno.send_byte(0x00, arrival).expect("byte scheduled");
+    let lead = rtu.uno.rx_flag_lead().expect("USART0 enabled");
+    rtu.uno.send_byte(0x00, arrival + lead).expect("byte scheduled");
     rtu.uno.run_until(arrival.saturating_sub(200)).expect("firmware runs");
     let mut entered = false;
     for _ in 0..2000 {

@@ -14,7 +14,7 @@ use configurable::{
     ascii_frame, assert_usart_runs, legacy_record, record, slots, write_block, Board, B9600_8N2, BLOCK, JUMPER,
     SLOTS_AT, SLOT_LEN,
 };
-use sim::{read_request, us_to_cycles, with_crc, Exchange, Line, ID};
+use sim::{cycles_to_us, read_request, us_to_cycles, with_crc, Exchange, Line, ID};
 use uno_sim::Parity;
 
 /// Every character of the reply lasted `char_cycles` (those of `line`), with no gap over
@@ -298,4 +298,41 @@ fn writing_1_to_40105_switches_to_ascii_on_the_same_line_and_a_reset_keeps_it() 
     board.settle(Line::B19200_8E1);
     assert_usart_runs(&board.uno, Line::B19200_8E1);
     assert_eq!(board.read(ID, 0x03, BLOCK, 5), Some(vec![1, 192, 2, 1, 0]));
+}
+
+/// ASCII with two stop bits (9600 7N2, started from a record whose stop-bits byte carries
+/// the mode): the USART flags each character a bit and a half before its last stop bit
+/// ends, and the reply's `:` still waits for the LF to leave the line, then comes within a
+/// character.
+#[test]
+fn in_ascii_with_two_stop_bits_the_reply_waits_for_the_lfs_last_stop_bit() {
+    let line = Line { data_bits: 7, ..B9600_8N2 };
+    let mut fields = vec![0x4E, 0, ID]; // magic, sequence, id
+    fields.extend_from_slice(&9600u32.to_le_bytes());
+    fields.extend_from_slice(&[0, 0x12]); // parity none; ASCII (high nibble), 2 stop bits
+    let stored = slots(&with_crc(&fields), &[]);
+    let mut board = Board::boot(line, |uno| uno.write_eeprom(SLOTS_AT, &stored).unwrap());
+    let cfg = board.uno.serial_config().expect("USART0 enabled");
+    assert!(cfg.matches(9600, 7, Parity::None, 2), "{cfg:?}");
+    let lead = board.uno.rx_flag_lead().expect("USART0 enabled");
+    assert_eq!(lead, 3 * cfg.bit_cycles / 2);
+    let request = ascii_frame(&[ID, 0x03, 0x00, 0x00, 0x00, 0x04]);
+    let (mut least, mut most) = (u64::MAX, 0);
+    for i in 0..20 {
+        // Each request a few cycles later against Timer0's ticks.
+        board.uno.run_for(37 * i).unwrap();
+        let exchange = board.exchange(&request);
+        assert_eq!(exchange.bytes(), ascii_frame(&[ID, 0x03, 0x08, 0, 0, 0, 0, 0, 0, 0, 0]), "request {i}");
+        let turnaround = exchange.turnaround().expect("a reply");
+        assert!(turnaround < board.char_cycles(), "request {i}: reply {turnaround} cycles after the LF");
+        least = least.min(turnaround);
+        most = most.max(turnaround);
+    }
+    eprintln!(
+        "ascii 9600 7N2: the reply's `:` starts {:.1}..{:.1} us after the LF's last stop bit ends, RXC0 {:.1} us \
+         before it",
+        cycles_to_us(least),
+        cycles_to_us(most),
+        cycles_to_us(lead)
+    );
 }

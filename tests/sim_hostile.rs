@@ -440,10 +440,12 @@ const PHASES: u64 = 16;
 /// Cycles between two phases.
 const PHASE_STEP: u64 = 613;
 
-/// The slave notices characters when their stop bit ends, so the character after a gap `g`
-/// arrives `g` + one character after the last: before T3.5 runs out only while `g` is below
-/// 2.5 characters. Gaps from T1.5 up to that break the frame; the slave drops it as one
-/// malformed frame, whenever in the main loop's pass the write comes.
+/// The slave notices a character half a bit before its stop bit ends (the USART's receive
+/// flag, at the stop bit's middle) and counts T3.5 from the end of the last one, so the
+/// character after a gap `g` arrives `g` + one character − half a bit after the last one's
+/// end: before T3.5 runs out only while `g` is below 2.5 characters and half a bit. Gaps
+/// from T1.5 up to that break the frame; the slave drops it as one malformed frame,
+/// whenever in the main loop's pass the write comes.
 fn gap_breaks_the_write(gap_of: impl FnOnce(&Rtu) -> u64, what: &str) {
     let mut rtu = uno_slave();
     let gap = gap_of(&rtu);
@@ -477,9 +479,9 @@ fn gap_of_t35_minus_one_character_minus_2_ticks_inside_a_write_drops_it_as_malfo
     gap_breaks_the_write(|rtu| rtu.line.t35() - rtu.char_cycles - 2 * rtu.tick, "gap T2.5 - 2 ticks");
 }
 
-/// A gap of 3 characters: the next character's stop bit ends 4 characters after the last
-/// one, after T3.5, so the slave has ended the frame already. Both halves are dropped:
-/// two frames with a bad CRC.
+/// A gap of 3 characters: the next character is flagged 4 characters less half a bit after
+/// the last one's end, after T3.5, so the slave has ended the frame already. Both halves are
+/// dropped: two frames with a bad CRC.
 #[test]
 fn gap_of_3_characters_inside_a_write_splits_it_into_two_frames_with_bad_crc() {
     let mut rtu = uno_slave();

@@ -24,6 +24,9 @@ fn driver_enable_rises_before_the_first_reply_bit_and_falls_after_the_last() {
     let (first, last) = (reply.first().unwrap().start_cycle, reply.last().unwrap().end_cycle);
     let (rose, fell) = (edges.rose.expect("DE rose"), edges.fell.expect("DE fell"));
     assert!(rose <= first, "DE rose at {rose}, after the first start bit at {first}");
+    // The driver comes on only once the request has left the line and T3.5 has passed.
+    let t35_end = watched.exchange.request_end + rtu.line.t35();
+    assert!(rose >= t35_end, "DE rose at {rose}, before T3.5 after the request's end at {t35_end}");
     assert!(fell >= last, "DE fell at {fell}, before the last stop bit ended at {last}");
     // Released promptly: within a tenth of a character after transmit complete.
     assert!(fell - last < rtu.char_cycles / 10, "DE held {} cycles past the reply", fell - last);

@@ -2,12 +2,18 @@
 //! §2.5.1.1, for every rate the crate accepts in 100 bps steps and every character format.
 //!
 //! A deadline counts from the receive interrupt's read of TCNT0 (at least
-//! `RX_LATENCY_CYCLES` after the character's end), the next tick edge coming anywhere within
-//! a tick of it; `Deadline::expiry_cycles` gives the earliest and latest cycle its compare
-//! flag can rise. Here both are checked against the exact times, worked out independently
-//! as fractions of cycles: never early, and late by less than `ACCURACY_CYCLES`, or
-//! `ACCURACY_CYCLES` and a tick for a deadline one edge later because its compare value
-//! would have been the count read.
+//! `RX_LATENCY_CYCLES` after the USART flagged the character, RXCn), the next tick edge
+//! coming anywhere within a tick of it; `Deadline::expiry_cycles` gives the earliest and
+//! latest cycle its compare flag can rise. Here both are checked against the exact times,
+//! worked out independently as fractions of cycles: never early, and late by less than
+//! `ACCURACY_CYCLES`, or `ACCURACY_CYCLES` and a tick for a deadline one edge later because
+//! its compare value would have been the count read.
+//!
+//! The USART flags a character at the middle of its first stop bit, half a bit before the
+//! character ends on the line (one and a half bits with two stop bits), at its real bit time
+//! (UBRRn, U2Xn). The gap deadline counts from one flag to the next, which are as far apart
+//! as the characters' ends; T3.5 counts from the character's end, so from the flag it is
+//! T3.5 and that half bit (or bit and a half).
 
 use avr_modbus_slave::internal::timing::{Deadline, Passed, TimerPlan, CLOCK_HZ, RX_LATENCY_CYCLES, TIMER0_DIVISOR};
 use avr_modbus_slave::{Config, Parity, StopBits};
@@ -35,7 +41,8 @@ struct Exact {
 }
 
 /// The end-of-character gap deadline (one character plus T1.5, see
-/// `CharTimes::gap_deadline_ns`) and T3.5, exactly, for `bits` bits per character.
+/// `CharTimes::gap_deadline_ns`) and T3.5, exactly, for `bits` bits per character, both
+/// from the end of a character.
 fn exact_times(baud: u32, bits: u32) -> (Exact, Exact) {
     let (baud, bits, hz) = (u128::from(baud), u128::from(bits), u128::from(CLOCK_HZ));
     let char_num = bits * hz; // / baud
@@ -90,11 +97,25 @@ fn check(deadline: Deadline, exact: Exact, what: &str) -> Late {
     Late { cycles: latest as f64 - exact.num as f64 / exact.den as f64, moved }
 }
 
+/// Cycles from the USART's receive flag, at the middle of the first stop bit, to the end of
+/// the character: (stop bits − ½) bits of the rate `config`'s UBRRn and U2Xn make.
+fn flag_to_end_cycles(config: &Config) -> u128 {
+    let divisor = config.divisor();
+    let bit = (u128::from(divisor.ubrr) + 1) * if divisor.double_speed { 8 } else { 16 };
+    let stop = match config.stop_bits() {
+        StopBits::One => 1,
+        StopBits::Two => 2,
+    };
+    bit * (2 * stop - 1) / 2
+}
+
 fn check_config(baud: u32, parity: Parity, stop_bits: StopBits) -> Option<[Late; 2]> {
     let config = Config::try_new(1, baud, parity, stop_bits).ok()?;
     let what = format!("{baud} {parity:?} {stop_bits:?}");
     let plan = config.timer_plan();
     let (gap, t35) = exact_times(baud, config.bits_per_char());
+    // From the flag: the gap deadline as it is, T3.5 after the character's end.
+    let t35 = Exact { num: t35.num + flag_to_end_cycles(&config) * t35.den, den: t35.den };
     let late = [check(plan.gap, gap, &format!("{what} gap")), check(plan.end, t35, &format!("{what} T3.5"))];
     assert!(plan.gap.edges() < plan.end.edges(), "{what}: the gap deadline comes after T3.5");
     Some(late)

@@ -67,7 +67,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
 
     /// USART RX complete: one character (or a damaged one) arrived. The interrupt handler
     /// set the silence deadlines before it got here (`timer::on_receive`), so that they
-    /// count from as close to the stop bit as can be.
+    /// count from as close to the USART's receive flag as can be.
     #[inline(always)]
     fn on_usart_rx(&mut self) {
         #[cfg(feature = "ascii")]
@@ -215,7 +215,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
 fn set_mode<const N: usize>(engine: &mut Engine<N>, timer: &mut FrameTimer, config: &Config) {
     let ascii = config.mode() != crate::config::Mode::Rtu;
     engine.set_ascii(ascii);
-    timer.set_ascii(ascii, config.char_timeout_turns());
+    timer.set_ascii(ascii, config.char_timeout_turns(), config.char_end());
 }
 
 /// The Modbus RTU slave: declare it with [`crate::slave!`], start it with the

@@ -15,6 +15,8 @@
 use core::cell::UnsafeCell;
 
 use super::reg::{OCR0B, TCCR0A, TCCR0B, TCNT0, TIFR0, TIMSK0};
+#[cfg(feature = "ascii")]
+use crate::timing::Deadline;
 pub(crate) use crate::timing::Passed;
 use crate::timing::{Schedule, TimerPlan, TIMER0_CLOCK_SELECT};
 
@@ -58,7 +60,8 @@ struct Deadlines {
 
 /// The compare interrupt's part in ASCII framing: it comes once a turn (1.024 ms) and counts
 /// the turns since the last character against the inter-character timeout, and it brings
-/// the end of a frame (or of one a `:` dropped) out of the receive interrupt at once.
+/// the end of a frame (or of one a `:` dropped) out of the receive interrupt once the
+/// character that ended it has left the line (`end`: from its receive flag to its end).
 #[cfg(feature = "ascii")]
 #[derive(Clone, Copy)]
 struct AsciiTimer {
@@ -67,8 +70,12 @@ struct AsciiTimer {
     timeout: u16,
     /// Turns since the last character (up to the timeout).
     idle: u16,
-    /// A frame's outcome is due: reported at the next compare interrupt.
+    /// A frame's outcome is due: reported at the compare match `end` sets.
     end_due: bool,
+    /// From a character's receive flag to its end on the line.
+    end: Deadline,
+    /// Matches of the compare value still to let pass before the outcome is reported.
+    end_turns: u8,
 }
 
 /// All zero until [`FrameTimer::new`] writes the plan and parks the deadlines, before any
@@ -78,7 +85,14 @@ static DEADLINES: Exclusive<Deadlines> = Exclusive(UnsafeCell::new(Deadlines {
     plan: Schedule::NONE,
     stale: 0,
     #[cfg(feature = "ascii")]
-    ascii: AsciiTimer { on: false, timeout: 0, idle: 0, end_due: false },
+    ascii: AsciiTimer {
+        on: false,
+        timeout: 0,
+        idle: 0,
+        end_due: false,
+        end: Deadline { low: 0, turns: 0 },
+        end_turns: 0,
+    },
 }));
 
 /// A character arrived: the gap deadline (and after it T3.5) counts from now, first thing
@@ -162,6 +176,10 @@ impl AsciiTimer {
     #[inline(always)]
     fn on_compare(&mut self) -> Passed {
         if self.end_due {
+            if self.end_turns != 0 {
+                self.end_turns -= 1;
+                return Passed::Nothing;
+            }
             self.end_due = false;
             return Passed::End;
         }
@@ -229,21 +247,32 @@ impl FrameTimer {
     }
 
     /// ASCII framing (feature `ascii`) with an inter-character timeout of `timeout` turns
-    /// (0: none), or RTU. Interrupts must be disabled.
+    /// (0: none), or RTU; `end`: from a character's receive flag to its end on the line.
+    /// Interrupts must be disabled.
     #[cfg(feature = "ascii")]
-    pub(crate) fn set_ascii(&mut self, on: bool, timeout: u16) {
+    pub(crate) fn set_ascii(&mut self, on: bool, timeout: u16, end: Deadline) {
         // SAFETY: called with interrupts disabled (the slave's start and its settings switch).
-        unsafe { DEADLINES.with(|d| d.ascii = AsciiTimer { on, timeout, idle: 0, end_due: false }) }
+        unsafe { DEADLINES.with(|d| d.ascii = AsciiTimer { on, timeout, idle: 0, end_due: false, end, end_turns: 0 }) }
     }
 
     /// ASCII: a frame's outcome is due (its LF came, or a `:` dropped it): the compare
-    /// interrupt reports [`Passed::End`] within two ticks. Only from the receive interrupt.
+    /// interrupt reports [`Passed::End`] once the character just received has left the line
+    /// (its receive flag came half a bit before its end, or one and a half with two stop
+    /// bits), within two ticks after that, so that a reply never starts under its stop bits.
+    /// A compare flag already set is noted, as [`Deadlines::set`] notes it. Only from the
+    /// receive interrupt.
     #[cfg(feature = "ascii")]
     #[inline(always)]
     pub(crate) fn end_now(&mut self) {
-        OCR0B.write(TCNT0.read().wrapping_add(2));
         // SAFETY: called from the receive interrupt handler, with interrupts disabled.
-        unsafe { DEADLINES.with(|d| d.ascii.end_due = true) }
+        unsafe {
+            DEADLINES.with(|d| {
+                OCR0B.write(TCNT0.read().wrapping_add(d.ascii.end.low));
+                d.stale = TIFR0.read();
+                d.ascii.end_turns = d.ascii.end.turns;
+                d.ascii.end_due = true;
+            })
+        }
     }
 
     /// Compare B fired: which deadline passed, if one did. At the gap deadline the compare
@@ -255,12 +284,12 @@ impl FrameTimer {
         // SAFETY: called from the compare interrupt handler, with interrupts disabled.
         unsafe {
             DEADLINES.with(|d| {
+                if d.was_stale() {
+                    return Passed::Nothing;
+                }
                 #[cfg(feature = "ascii")]
                 if d.ascii.on {
                     return d.ascii.on_compare();
-                }
-                if d.was_stale() {
-                    return Passed::Nothing;
                 }
                 let plan = d.plan;
                 let (passed, matches) = plan.on_match(d.matches);

@@ -216,7 +216,9 @@ pub const DIP_PRESETS: [Line; 8] = [
 /// What one request got back.
 #[derive(Clone, Debug)]
 pub struct Exchange {
-    /// Cycle at which the request's last stop bit ended.
+    /// Cycle at which the request's last stop bit ended: the true end of its last character
+    /// on the line (the chip's receiver flagged it half a bit earlier, or one and a half bits
+    /// with two stop bits; see `uno_sim::RxFlag`).
     pub request_end: u64,
     /// The reply's characters with their times on the wire (empty: no reply).
     pub reply: Vec<TxByte>,
@@ -228,9 +230,17 @@ impl Exchange {
         self.reply.iter().map(|t| t.byte).collect()
     }
 
-    /// Cycles from the request's end to the reply's first start bit.
+    /// Cycles from the request's end to the reply's first start bit. Panics if the reply
+    /// started before the request's last stop bit had ended.
     pub fn turnaround(&self) -> Option<u64> {
-        self.reply.first().map(|t| t.start_cycle - self.request_end)
+        self.reply.first().map(|t| {
+            t.start_cycle.checked_sub(self.request_end).unwrap_or_else(|| {
+                panic!(
+                    "the reply started {} cycles before the request's last stop bit ended",
+                    self.request_end - t.start_cycle
+                )
+            })
+        })
     }
 
     /// Longest idle time between two characters of the reply, in cycles.
@@ -259,6 +269,10 @@ pub struct Rtu {
 /// Simulated time the firmware gets to start up before the master's first T3.5 wait.
 const BOOT_CYCLES: u64 = us_to_cycles(2_000);
 
+/// How long a firmware may take to start Timer0: `configurable` with a stored record first
+/// computes its configuration (≈3 ms); the master then gives it 1 ms more.
+const TIMER0_START_CYCLES: u64 = us_to_cycles(20_000);
+
 /// Data-space address of TCCR0B (clock select CS02:0 in bits 2:0).
 const TCCR0B: u16 = 0x45;
 
@@ -266,7 +280,7 @@ const TCCR0B: u16 = 0x45;
 /// timer's tick in cycles and the cycle at which the instruction that started it began
 /// (simavr counts the timer from there).
 fn timer0_tick(uno: &mut Uno) -> (u64, u64) {
-    while uno.now() < BOOT_CYCLES {
+    while uno.now() < TIMER0_START_CYCLES {
         let before = uno.now();
         uno.step().expect("firmware runs");
         let divisor = match uno.read_ram(TCCR0B, 1).expect("TCCR0B")[0] & 0b111 {
@@ -280,7 +294,7 @@ fn timer0_tick(uno: &mut Uno) -> (u64, u64) {
         };
         return (divisor, before);
     }
-    panic!("the firmware did not start Timer0 within {BOOT_CYCLES} cycles");
+    panic!("the firmware did not start Timer0 within {TIMER0_START_CYCLES} cycles");
 }
 
 impl Rtu {
@@ -318,7 +332,8 @@ impl Rtu {
         let mut uno = Uno::load_with(elf, options).expect("firmware loads");
         before_reset(&mut uno);
         let (tick, timer0_started) = timer0_tick(&mut uno);
-        uno.run_until(BOOT_CYCLES).expect("firmware runs");
+        let booted = if uno.now() < BOOT_CYCLES { BOOT_CYCLES } else { uno.now() + us_to_cycles(1_000) };
+        uno.run_until(booted).expect("firmware runs");
         let usart = uno.usart();
         let char_cycles = uno.wire_char_cycles().unwrap_or_else(|| panic!("the firmware enabled USART{usart}"));
         // The slave's own power-up wait counts from its start; the master waits T3.5 from here.

@@ -37,7 +37,8 @@ impl IsrTotal {
 pub struct Transaction {
     /// The reply bytes (empty: no reply).
     pub reply: Vec<u8>,
-    /// First reply start bit minus the end of T3.5 after the request, in cycles.
+    /// First reply start bit minus the end of T3.5 after the request's true end on the line
+    /// (its last stop bit), in cycles.
     pub turnaround: Option<i64>,
     /// Longest TIMER0_COMPB run up to T3.5: the gap deadline's, which checked the frame's
     /// CRC.
@@ -57,7 +58,8 @@ pub struct Bus {
     pub char_cycles: u64,
     /// Bits per character.
     pub char_bits: u32,
-    /// T3.5 as the master counts it, cycles: 3.5 characters, 1750 µs above 19200 bps.
+    /// T3.5 as the master counts it, from the end of the request's last stop bit, cycles: 3.5
+    /// characters, 1750 µs above 19200 bps.
     pub t35: u64,
     /// T1.5, the longest silence allowed inside a frame: 1.5 characters, 750 µs above 19200 bps.
     pub t15: u64,
@@ -130,6 +132,8 @@ impl Bus {
     pub fn transact(&mut self, req: &Request, delay: u64) -> Result<Transaction, Error> {
         self.uno.reset_isr_stats();
         let start = self.idle_from.max(self.uno.now()) + delay;
+        // The end of the last character on the line: the USART flagged it earlier (uno-sim's
+        // RXC at the middle of the first stop bit), T3.5 counts from here.
         let last_end = self.uno.send_frame(&req.frame, start + self.char_cycles, 0)?;
         let t35_end = last_end + self.t35;
         // The compare interrupt runs twice for a frame: at the gap deadline, which checks

@@ -93,10 +93,12 @@ fn firmware(name: &str) -> &'static Firmware {
     FIRMWARE.iter().find(|fw| fw.name == name).expect("firmware in the table")
 }
 
-/// dip_switch presets for the turnaround: (preset, line). Pin 10 + bit is low for a 1 bit.
-const LINE_PRESETS: [(u8, &str); 3] = [(1, "9600 8E1"), (0, "19200 8E1"), (6, "115200 8E1")];
+/// dip_switch presets for the turnaround: (preset, line), one and two stop bits. Pin 10 + bit
+/// is low for a 1 bit.
+const LINE_PRESETS: [(u8, &str); 5] =
+    [(1, "9600 8E1"), (5, "9600 8N1"), (0, "19200 8E1"), (2, "19200 8N2"), (6, "115200 8E1")];
 /// Requests per line speed for the turnaround.
-const TURNAROUND_REQUESTS: usize = 10;
+const TURNAROUND_REQUESTS: usize = 20;
 /// Requests against the blocking main loop, and the most idle time added before each.
 const BUSY_REQUESTS: usize = 200;
 const BUSY_MAX_DELAY_US: u64 = 20_000;
@@ -430,6 +432,21 @@ impl Series {
         self.turnarounds.last().copied().unwrap_or(0)
     }
 
+    /// The earliest turnaround (negative: a reply that started before T3.5 had passed).
+    fn min(&self) -> Option<i64> {
+        self.turnarounds.first().copied()
+    }
+
+    /// "p50 / p99 / max" in µs.
+    fn spread(&self) -> String {
+        format!(
+            "{} / {} / {}",
+            us(self.median()),
+            self.percentile(TURNAROUND_PERCENTILE).map_or("–".into(), us),
+            us(self.max())
+        )
+    }
+
     /// The turnaround `pct` % of the requests sent came within; `None` if that many were
     /// not answered right.
     fn percentile(&self, pct: usize) -> Option<i64> {
@@ -547,7 +564,7 @@ fn git(root: &Path, args: &[&str]) -> Option<String> {
 /// Everything measured in one run.
 struct Report {
     profiles: Vec<Profile>,
-    /// FC 3 × 10 on dip_switch at three line speeds: (preset, series).
+    /// FC 3 × 10 on dip_switch at each of [`LINE_PRESETS`]: (preset, series).
     lines: Vec<(u8, Series)>,
     busy: Series,
     idle: Series,
@@ -811,19 +828,42 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
     row(
         format!(
             "uno_slave, main loop running: turnaround ≤ {TURNAROUND_TARGET_US:.0} µs past T3.5 at \
-             p{TURNAROUND_PERCENTILE} over {} mixed requests",
+             p{TURNAROUND_PERCENTILE} over {} mixed requests, none before T3.5",
             mix.sent
         ),
         format!(
-            "p50 {} µs, p{TURNAROUND_PERCENTILE} {} µs, max {} µs; {}/{} answered right",
+            "min {} µs, p50 {} µs, p{TURNAROUND_PERCENTILE} {} µs, max {} µs; {}/{} answered right",
+            mix.min().map_or("–".into(), us),
             mix.percentile(50).map_or("–".into(), us),
             p99.map_or("no reply".into(), us),
             us(mix.max()),
             mix.answered(),
             mix.sent
         ),
-        Some(p99.is_some_and(|c| c <= target_cycles)),
+        Some(p99.is_some_and(|c| c <= target_cycles) && mix.min().is_some_and(|c| c >= 0)),
     )?;
+    // Every series, every chip: the earliest reply against T3.5 from the request's end.
+    let series = r.lines.iter().map(|(p, s)| (format!("dip_switch preset {p} {}", s.line), s));
+    let series = series.chain(r.big.iter().map(|s| (format!("max_frame {}", s.line), s)));
+    let series = series.chain(
+        [
+            (&r.busy, "busy_loop"),
+            (&r.idle, "minimal"),
+            (&r.throughput, "uno_slave back to back"),
+            (&r.mix, "uno_slave mix"),
+            (&r.contract_mix, "sixteen_each mix"),
+        ]
+        .map(|(s, name)| (format!("{name} {}", s.line), s)),
+    );
+    let series = series.chain(r.chips.iter().map(|c| (format!("boards on the {} USART{}", c.chip, c.usart), &c.mixed)));
+    let earliest = series.filter_map(|(name, s)| Some((s.min()?, name))).min_by_key(|(c, _)| *c);
+    if let Some((cycles, name)) = earliest {
+        row(
+            "no reply starts before T3.5 after the request's end (every series and chip)".into(),
+            format!("earliest T3.5 {} µs ({name})", if cycles < 0 { us(cycles) } else { format!("+{}", us(cycles)) }),
+            Some(cycles >= 0),
+        )?;
+    }
     for f in &r.features {
         let (target, claim) = match &f.claim {
             Some((_, figure)) if f.total => {
@@ -903,7 +943,7 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
          builds it for each chip and USART, at 19200 8E1: the workload of every function code, then \
          {BOARD_REQUESTS} mixed requests each after a random silence below {MIX_MAX_DELAY_US} µs. Interrupt \
          cycles (response to the end of RETI) are mean / max over both; the turnaround is the reply's first \
-         start bit after T3.5 of the master's, over the mixed requests.\n"
+         start bit after T3.5 of the master's, counted from the request's true end, over the mixed requests.\n"
     )?;
     writeln!(
         md,
@@ -916,17 +956,7 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
             write!(md, " {:.1} / {} |", s.mean(), s.max)?;
         }
         let m = &c.mixed;
-        writeln!(
-            md,
-            " {} / {} / {} µs | {}/{} + {}/{} |",
-            us(m.median()),
-            m.percentile(TURNAROUND_PERCENTILE).map_or("–".into(), us),
-            us(m.max()),
-            c.right,
-            c.sent,
-            m.answered(),
-            m.sent
-        )?;
+        writeln!(md, " {} µs | {}/{} + {}/{} |", m.spread(), c.right, c.sent, m.answered(), m.sent)?;
     }
 
     writeln!(md, "\n## Interrupt handlers over the workload\n")?;
@@ -1000,15 +1030,18 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
     writeln!(md, "\n## Turnaround: first reply start bit − end of T3.5 after the request\n")?;
     writeln!(
         md,
-        "The master counts T3.5 from the last request byte's stop-bit end (3.5 characters at the Uno's actual bit \
-         rate; 1750 µs above 19200). The address byte leaves from the T3.5 interrupt, the rest after the request is \
-         processed: a processing time above one character shows as a gap after the first reply byte (Modbus allows \
-         at most T1.5).\n"
+        "The master counts T3.5 from the request's true end on the line, its last character's last stop bit (3.5 \
+         characters at the Uno's actual bit rate; 1750 µs above 19200). The simulated USART flags each character \
+         where the chip's does, at the middle of its first stop bit: half a bit before that end with one stop bit, \
+         one and a half bits with two. The address byte leaves from the T3.5 interrupt, the rest after the request \
+         is processed: a processing time above one character shows as a gap after the first reply byte (Modbus \
+         allows at most T1.5). Turnaround: p50 / p{TURNAROUND_PERCENTILE} / max, negative for a reply that \
+         started before T3.5.\n"
     )?;
     writeln!(
         md,
-        "| firmware | line | request | actual bps | T3.5 µs | answered | median µs | max µs | longest gap in reply µs \
-         (T1.5) |\n|---|---|---|---:|---:|---:|---:|---:|---:|"
+        "| firmware | line | request | actual bps | T3.5 µs | answered | turnaround µs | longest gap in reply µs \
+         (T1.5) |\n|---|---|---|---:|---:|---:|---:|---:|"
     )?;
     let rows = r.lines.iter().map(|(p, s)| (format!("dip_switch (preset {p})"), s));
     let rows = rows.chain(r.big.iter().map(|s| ("max_frame".to_owned(), s)));
@@ -1017,7 +1050,7 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
     for (firmware, s) in rows {
         writeln!(
             md,
-            "| {firmware} | {} ({} bits) | {} | {:.0} | {:.0} | {}/{} | {} | {} | {:.1} ({:.0}) |",
+            "| {firmware} | {} ({} bits) | {} | {:.0} | {:.0} | {}/{} | {} | {:.1} ({:.0}) |",
             s.line,
             s.char_bits,
             s.request,
@@ -1025,8 +1058,7 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
             cycles_to_us(s.t35),
             s.answered(),
             s.sent,
-            us(s.median()),
-            us(s.max()),
+            s.spread(),
             cycles_to_us(s.max_gap),
             cycles_to_us(s.t15)
         )?;
@@ -1058,15 +1090,17 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
         BUSY_MAX_DELAY_US / 1000,
         cycles_to_us(r.busy.span) / 1e6
     )?;
-    writeln!(md, "| firmware | requests | answered | turnaround median µs | max µs |\n|---|---:|---:|---:|---:|")?;
+    writeln!(
+        md,
+        "| firmware | requests | answered | turnaround p50 / p{TURNAROUND_PERCENTILE} / max µs |\n|---|---:|---:|---:|"
+    )?;
     for (name, s) in [("busy_loop", &r.busy), ("minimal (idle loop, reference)", &r.idle)] {
         writeln!(
             md,
-            "| {name} | {} | {:.1} % | {} | {} |",
+            "| {name} | {} | {:.1} % | {} |",
             s.sent,
             100.0 * s.answered() as f64 / s.sent as f64,
-            us(s.median()),
-            us(s.max())
+            s.spread()
         )?;
     }
 

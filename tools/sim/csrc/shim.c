@@ -7,9 +7,12 @@
  * USART, "the wire" (USARTn, whichever the caller picks), and replaces its timing:
  *
  *   - RX: bytes are written straight into the USART's receive FIFO at the cycle
- *     their stop bit ends, and RXCn is raised at that very cycle by a simavr cycle
- *     timer. simavr's own RX pump (which adds one of *its* character times and lets
- *     queued bytes be read early) is never started.
+ *     the caller gives, and RXCn is raised at that very cycle by a simavr cycle
+ *     timer. The crate gives the cycle at which the chip's receiver flags the
+ *     character: the middle of its first stop bit, half a bit (one and a half with
+ *     two stop bits) before the character ends on the line. simavr's own RX pump
+ *     (which adds one of *its* character times and lets queued bytes be read early)
+ *     is never started.
  *   - TX: every UDRn write is timed against a model of the transmit buffer + shift
  *     register using the character time the firmware configured; UDREn and TXCn are
  *     raised when the real chip would raise them. simavr's TX pump is parked.
@@ -676,7 +679,8 @@ void uno_isr_reset(uno_shim_t *s)
 }
 
 /* Schedule a received frame: `value` is the data byte, optionally ORed with
- * UART_INPUT_FE (0x8000) / UNO_INPUT_PE (0x4000); RXCn rises at cycle `at`. */
+ * UART_INPUT_FE (0x8000) / UNO_INPUT_PE (0x4000); it enters the receive buffer and
+ * RXCn rises at cycle `at` (the crate passes the middle of the first stop bit). */
 int uno_rx_push(uno_shim_t *s, uint64_t at, uint16_t value)
 {
 	avr_t *avr = s->avr;

@@ -53,16 +53,16 @@ pub enum Error {
         /// The cycle it stopped at.
         cycle: u64,
     },
-    /// A byte was scheduled to arrive before the current cycle.
+    /// A byte was scheduled whose RXCn would rise before the current cycle.
     RxInPast {
-        /// The requested arrival cycle.
+        /// The cycle at which its RXCn would rise.
         at: u64,
         /// The current cycle.
         now: u64,
     },
-    /// A byte was scheduled to arrive before a byte already scheduled.
+    /// A byte was scheduled whose RXCn would rise before a byte already scheduled.
     RxOutOfOrder {
-        /// The requested arrival cycle.
+        /// The cycle at which its RXCn would rise.
         at: u64,
     },
     /// The firmware has not enabled the wire's USART in asynchronous mode (needed to know the
@@ -133,8 +133,12 @@ impl fmt::Display for Error {
             Error::WireUsart(n) => write!(f, "USART{n} is the wire: its bytes come from take_tx"),
             Error::Load { path, reason } => write!(f, "{}: {reason}", path.display()),
             Error::Stopped { state, cycle } => write!(f, "simulated CPU stopped ({state:?}) at cycle {cycle}"),
-            Error::RxInPast { at, now } => write!(f, "byte scheduled at cycle {at}, but it is already cycle {now}"),
-            Error::RxOutOfOrder { at } => write!(f, "byte scheduled at cycle {at}, before a byte already scheduled"),
+            Error::RxInPast { at, now } => {
+                write!(f, "byte scheduled with RXC at cycle {at}, but it is already cycle {now}")
+            }
+            Error::RxOutOfOrder { at } => {
+                write!(f, "byte scheduled with RXC at cycle {at}, before a byte already scheduled")
+            }
             Error::UartNotConfigured => write!(f, "the firmware has not enabled the wire's USART (asynchronous mode)"),
             Error::BadPin(pin) => write!(f, "{pin} is not an Arduino Uno pin (0-13, A0-A5 = 14-19)"),
             Error::NoArduinoPins(chip) => write!(

@@ -44,17 +44,25 @@
 //!
 //! simavr 1.6's own USART timing is not wire-accurate: its character time always counts a parity
 //! bit, it reads the frame format only when UBRR0L is written, a received byte gets RXC0 one of its
-//! character times after it is handed over, bytes that are already queued can be read early, and
-//! UDRE0 stays clear for a whole character after every UDR0 write. This crate therefore keeps
+//! character times after it is handed over (at the end of the whole character, where the chip
+//! raises it at the middle of the first stop bit), bytes that are already queued can be read
+//! early, and UDRE0 stays clear for a whole character after every UDR0 write. This crate therefore keeps
 //! simavr's USART registers but does the timing itself (in `csrc/shim.c`):
 //!
-//! * **RX**: [`Uno::send_byte`] schedules a byte whose stop bit ends at `end_cycle`; at that cycle
-//!   the byte enters the receive buffer and RXC0 rises. The firmware sees it at the first
-//!   instruction boundary at or after `end_cycle`: exactly at `end_cycle` when the CPU sleeps,
-//!   at most 3 cycles later when it runs (an instruction takes at most 4 cycles, and the AVR also
-//!   only reacts between instructions). Never earlier. The receive buffer holds 2 bytes plus
-//!   the shift register, like the chip's; a fourth unread byte overruns (DOR0).
-//!   (On silicon, RXC0 rises half a bit earlier, when the stop bit is sampled.)
+//! * **RX**: [`Uno::send_byte`] schedules a byte whose character ends on the line (its last stop
+//!   bit over) at `end_cycle`. As on the chip, the receiver is done with it earlier: once it has
+//!   sampled the first stop bit, at that bit's middle (a second stop bit is ignored by the
+//!   receiver; ATmega328P datasheet, "Receiving Frames with 5 to 8 Data Bits"). So the byte
+//!   enters the receive buffer and RXC0 rises half a bit before `end_cycle` with one stop bit,
+//!   one and a half bits before it with two ([`Uno::rx_flag_lead`], from the bit time the
+//!   firmware configured: UBRR0 and U2X0). A firmware that counts a silence from its receive
+//!   interrupt starts that much before the character's end, as on a board. The firmware sees
+//!   RXC0 at the first instruction boundary at or after it rises: at once when the CPU sleeps,
+//!   at most 3 cycles later when it runs (an instruction takes at most 4 cycles, and the AVR
+//!   also only reacts between instructions). Never earlier. [`RxFlag::CharEnd`] raises RXC0 at
+//!   `end_cycle` instead, as simavr's own USART and earlier versions of this crate did, for a
+//!   test that needs that by name. The receive buffer holds 2 bytes plus the shift register,
+//!   like the chip's; a fourth unread byte overruns (DOR0).
 //! * **TX**: a UDR0 write lands at the end of its ST/STS instruction; if the transmitter is idle the
 //!   start bit begins then, otherwise right after the previous frame's stop bit (one byte can wait
 //!   in UDR0, like on the chip; a write while UDRE0 is clear is ignored, as on the chip). UDRE0 and
@@ -291,6 +299,14 @@ impl SerialConfig {
         self.bit_cycles * u64::from(self.char_bits())
     }
 
+    /// Cycles from the middle of the first stop bit, where the chip's receiver flags a
+    /// character (RXCn), to the end of the character on the line: half a bit with one stop
+    /// bit, one and a half bits with two. A bit is a whole even number of cycles, so this is
+    /// exact.
+    pub fn rx_flag_lead_cycles(&self) -> u64 {
+        self.bit_cycles * (2 * u64::from(self.stop_bits) - 1) / 2
+    }
+
     /// The actual baud rate (bits per second).
     pub fn baud(&self) -> f64 {
         F_CPU as f64 / self.bit_cycles as f64
@@ -380,7 +396,23 @@ static LOAD_LOCK: Mutex<()> = Mutex::new(());
 /// Cycles a sleeping CPU may skip in one [`Uno::step`] when nothing is scheduled.
 const STEP_SLEEP_LIMIT: u64 = 1000;
 
-/// Which chip to simulate and which of its USARTs is the wire (see [`Uno::load_with`]).
+/// When the wire's USART flags a received character (RXCn) and puts it in its receive buffer,
+/// against the end of the character on the line (see the crate's timing model).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum RxFlag {
+    /// As the megaAVR's receiver: at the middle of the first stop bit, once it has sampled
+    /// it; half a bit before the character's end with one stop bit, one and a half bits
+    /// before it with two ([`SerialConfig::rx_flag_lead_cycles`]). The default.
+    #[default]
+    FirstStopBit,
+    /// At the end of the whole character, as simavr's own USART does: later than the chip by
+    /// half a bit (one and a half with two stop bits). Only for a test that needs the old
+    /// behaviour, by name.
+    CharEnd,
+}
+
+/// Which chip to simulate, which of its USARTs is the wire and when that USART flags a received
+/// character (see [`Uno::load_with`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Options {
     /// The chip; `None`: the one the ELF file names (`.note.gnu.avr.deviceinfo`), or the
@@ -388,12 +420,15 @@ pub struct Options {
     pub chip: Option<Chip>,
     /// The USART the wire is on; `None`: the chip's default ([`Chip::default_usart`]).
     pub usart: Option<u8>,
+    /// When RXCn rises for a received character: the chip's moment unless a test asks for
+    /// another.
+    pub rx_flag: RxFlag,
 }
 
 impl Options {
-    /// The chip from the file, its default USART.
+    /// The chip from the file, its default USART, RXCn where the chip raises it.
     pub const fn new() -> Options {
-        Options { chip: None, usart: None }
+        Options { chip: None, usart: None, rx_flag: RxFlag::FirstStopBit }
     }
 
     /// Simulates `chip`, whatever the file names.
@@ -404,6 +439,11 @@ impl Options {
     /// Puts the wire on USART`n`.
     pub const fn usart(self, n: u8) -> Options {
         Options { usart: Some(n), ..self }
+    }
+
+    /// Raises RXCn for each received character as `flag` says.
+    pub const fn rx_flag(self, flag: RxFlag) -> Options {
+        Options { rx_flag: flag, ..self }
     }
 }
 
@@ -417,6 +457,7 @@ pub struct Uno {
     vectors: Vectors,
     symbols: Vec<Symbol>,
     tx: Vec<TxByte>,
+    rx_flag: RxFlag,
 }
 
 // SAFETY: the simavr instance behind `shim` is owned exclusively by this value and simavr keeps no
@@ -495,7 +536,7 @@ impl Uno {
             let reason = if msg.is_empty() { "simavr could not load the file".to_owned() } else { msg };
             return Err(Error::Load { path, reason });
         };
-        Ok(Uno { shim, path, chip, usart, regs, vectors, symbols, tx: Vec::new() })
+        Ok(Uno { shim, path, chip, usart, regs, vectors, symbols, tx: Vec::new(), rx_flag: options.rx_flag })
     }
 
     /// The simulated chip.
@@ -527,7 +568,8 @@ impl Uno {
     /// the cycle timers this crate's USART model runs on, so a reset reloads instead.
     pub fn reset(&mut self) -> Result<(), Error> {
         let eeprom = self.eeprom();
-        let mut fresh = Uno::load_with(&self.path, Options::new().chip(self.chip).usart(self.usart))?;
+        let options = Options::new().chip(self.chip).usart(self.usart).rx_flag(self.rx_flag);
+        let mut fresh = Uno::load_with(&self.path, options)?;
         fresh.write_eeprom(0, &eeprom)?;
         *self = fresh;
         Ok(())
@@ -660,20 +702,43 @@ impl Uno {
         self.serial_config().map(|cfg| cfg.char_cycles())
     }
 
+    /// When RXCn rises for each received character ([`Options::rx_flag`]).
+    pub fn rx_flag(&self) -> RxFlag {
+        self.rx_flag
+    }
+
+    /// Cycles by which RXCn rises before the end of a received character on the line, for the
+    /// format the firmware configured: half a bit with one stop bit, one and a half with two
+    /// ([`SerialConfig::rx_flag_lead_cycles`]); 0 with [`RxFlag::CharEnd`]. `None` while the
+    /// wire's USART is off (see [`Uno::serial_config`]).
+    pub fn rx_flag_lead(&self) -> Option<u64> {
+        let cfg = self.serial_config()?;
+        Some(match self.rx_flag {
+            RxFlag::FirstStopBit => cfg.rx_flag_lead_cycles(),
+            RxFlag::CharEnd => 0,
+        })
+    }
+
+    /// Schedules a character that ends at `end_cycle`: RXCn rises [`Uno::rx_flag_lead`] earlier
+    /// (at `end_cycle` while the USART is off).
     fn push_rx(&mut self, end_cycle: u64, value: u16) -> Result<(), Error> {
+        let flag_cycle = end_cycle.saturating_sub(self.rx_flag_lead().unwrap_or(0));
         // SAFETY: `shim` is valid and exclusively borrowed.
-        match unsafe { ffi::uno_rx_push(self.raw_mut(), end_cycle, value) } {
+        match unsafe { ffi::uno_rx_push(self.raw_mut(), flag_cycle, value) } {
             0 => Ok(()),
-            ffi::ERR_PAST => Err(Error::RxInPast { at: end_cycle, now: self.now() }),
-            ffi::ERR_ORDER => Err(Error::RxOutOfOrder { at: end_cycle }),
+            ffi::ERR_PAST => Err(Error::RxInPast { at: flag_cycle, now: self.now() }),
+            ffi::ERR_ORDER => Err(Error::RxOutOfOrder { at: flag_cycle }),
             ffi::ERR_NOMEM => Err(Error::Internal("out of memory".into())),
             other => Err(Error::Internal(format!("uno_rx_push returned {other}"))),
         }
     }
 
-    /// Schedules a byte from the bus master: its stop bit ends, and the firmware gets RXC0, at
-    /// `end_cycle` (not before; see the crate docs for the residual). Bytes must be scheduled in
-    /// time order and not in the past. Bytes arriving while RXEN0 is clear are lost.
+    /// Schedules a byte from the bus master whose character ends on the line (its last stop bit
+    /// over) at `end_cycle`. The firmware gets RXCn [`Uno::rx_flag_lead`] cycles before that, at
+    /// the middle of the first stop bit as on the chip (at `end_cycle` with [`RxFlag::CharEnd`];
+    /// not before; see the crate docs for the residual), using the format configured when the
+    /// byte is scheduled. Bytes must be scheduled in time order and their RXCn not in the past.
+    /// Bytes arriving while RXENn is clear are lost.
     pub fn send_byte(&mut self, byte: u8, end_cycle: u64) -> Result<(), Error> {
         self.push_rx(end_cycle, u16::from(byte))
     }
@@ -689,7 +754,8 @@ impl Uno {
 
     /// Schedules `bytes` at the configured character time: the first ends at `first_end_cycle`,
     /// each next one `gap_cycles` of idle line after the previous one (0 = back to back).
-    /// Returns the end cycle of the last byte.
+    /// Returns the end cycle of the last byte (its end on the line: each byte's RXCn rises
+    /// earlier, as [`Uno::send_byte`] says).
     pub fn send_frame(&mut self, bytes: &[u8], first_end_cycle: u64, gap_cycles: u64) -> Result<u64, Error> {
         let char_cycles = self.wire_char_cycles().ok_or(Error::UartNotConfigured)?;
         let step = char_cycles.saturating_add(gap_cycles);

@@ -66,7 +66,7 @@ fn unsupported_chips_and_missing_usarts_are_errors() {
     assert!(matches!(Uno::load_with(&mega, Options::new().usart(4)), Err(Error::NoSuchUsart { usart: 4, .. })));
 }
 
-/// The echo firmware on `chip`, wire on USART`usart`: RXCn exactly at the stop bit's end, the
+/// The echo firmware on `chip`, wire on USART`usart`: RXCn exactly at the stop bit's middle, the
 /// chip's wake-up response, a back-to-back frame echoed at the exact character time, and
 /// nothing on the chip's other USARTs.
 fn echo_is_exact(chip: Chip, usart: u8) {
@@ -76,8 +76,9 @@ fn echo_is_exact(chip: Chip, usart: u8) {
     let rx_vector = uno.vectors().usart_rx;
     let wake = 2 * chip.interrupt_response_cycles();
 
-    let at = uno.now() + 20_000;
-    uno.send_byte(0x42, at).unwrap();
+    let end = uno.now() + 20_000;
+    let at = end - HALF_BIT;
+    uno.send_byte(0x42, end).unwrap();
     uno.run_until(at - 1).unwrap();
     assert!(rx_log(&uno).is_empty(), "{what}: byte delivered early");
     let entered = loop {
@@ -100,9 +101,9 @@ fn echo_is_exact(chip: Chip, usart: u8) {
     let echo = uno.run_until_tx_idle(2 * CHAR, last_end + 20 * CHAR).unwrap();
     assert_eq!(echo.iter().map(|t| t.byte).collect::<Vec<_>>(), request, "{what}");
     for (i, t) in echo.iter().enumerate() {
-        let rx_end = first_end + i as u64 * CHAR;
+        let rx_flag = first_end + i as u64 * CHAR - HALF_BIT;
         assert_eq!(t.end_cycle - t.start_cycle, CHAR, "{what}");
-        assert!(t.start_cycle > rx_end && t.start_cycle < rx_end + LATENCY, "{what}: byte {i}: {t:?}");
+        assert!(t.start_cycle > rx_flag && t.start_cycle < rx_flag + LATENCY, "{what}: byte {i}: {t:?}");
     }
     // sleeping firmware, identical path for every byte: the echo keeps the wire's spacing
     for pair in echo.windows(2) {

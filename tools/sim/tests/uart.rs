@@ -1,10 +1,11 @@
-//! USART0 timing: received bytes reach the firmware exactly when their stop bit ends,
+//! USART0 timing: received bytes reach the firmware exactly when the chip's receiver flags
+//! them, at the middle of the first stop bit (or, asked by name, at the character's end),
 //! transmitted bytes are timestamped with the real character time.
 
 mod common;
 
 use common::*;
-use uno_sim::{reg, vector, Error, LineError, Parity, TxByte, Uno};
+use uno_sim::{reg, vector, Error, LineError, Options, Parity, RxFlag, SerialConfig, TxByte, Uno};
 
 const RXC0: u8 = 0x80;
 const TXC0: u8 = 0x40;
@@ -60,22 +61,73 @@ fn usart_off_until_the_firmware_enables_it() {
 }
 
 #[test]
-fn rx_is_seen_exactly_at_stop_bit_end_when_sleeping() {
+fn rx_is_seen_exactly_at_the_middle_of_the_stop_bit_when_sleeping() {
     let mut uno = boot(MODE_SLEEP);
+    assert_eq!(uno.rx_flag(), RxFlag::FirstStopBit);
+    assert_eq!(uno.rx_flag_lead(), Some(HALF_BIT));
     for k in 0..8u64 {
-        let at = uno.now() + 20_000 + 97 * k;
-        uno.send_byte(0x30 + k as u8, at).unwrap();
+        let end = uno.now() + 20_000 + 97 * k;
+        let at = end - HALF_BIT;
+        uno.send_byte(0x30 + k as u8, end).unwrap();
         uno.run_until(at - 1).unwrap();
         assert_eq!(rx_log(&uno).len() as u64, k, "byte delivered early");
         assert_eq!(ucsr0a(&uno) & RXC0, 0, "RXC0 set early");
         assert_eq!(uno.isr_stats(vector::USART_RX).entries, k);
-        // wake-up at `at` plus the 8-cycle interrupt response from sleep
+        // wake-up at the middle of the stop bit plus the 8-cycle interrupt response from sleep
         assert_eq!(step_to_rx_isr(&mut uno, at + 1000), at + 8);
-        let echo = uno.run_until_tx_idle(CHAR, at + 10 * CHAR).unwrap();
+        let echo = uno.run_until_tx_idle(CHAR, end + 10 * CHAR).unwrap();
         assert_eq!(echo.len(), 1);
         assert_eq!(echo[0].byte, 0x30 + k as u8);
         assert!(echo[0].start_cycle > at && echo[0].start_cycle < at + LATENCY, "echo at {echo:?}, byte at {at}");
     }
+}
+
+#[test]
+fn with_two_stop_bits_rx_is_flagged_a_bit_and_a_half_before_the_end() {
+    let mut uno = boot(MODE_SLEEP);
+    // 8E2: UPM01, USBS0, UCSZ01:0 (written raw: the simulator times from the registers).
+    uno.write_ram(reg::UCSR0C, &[0x20 | 0x08 | 0x06]).unwrap();
+    assert_eq!(uno.serial_config().unwrap().stop_bits, 2);
+    assert_eq!(uno.rx_flag_lead(), Some(3 * HALF_BIT));
+    let end = uno.now() + 20_000;
+    let at = end - 3 * HALF_BIT;
+    uno.send_byte(0x5A, end).unwrap();
+    uno.run_until(at - 1).unwrap();
+    assert_eq!(ucsr0a(&uno) & RXC0, 0, "RXC0 set early");
+    assert_eq!(step_to_rx_isr(&mut uno, at + 1000), at + 8);
+    uno.run_for(LATENCY).unwrap();
+    assert_eq!(rx_log(&uno), [(0x5A, 0)]);
+}
+
+#[test]
+fn rx_flag_lead_is_half_a_bit_or_one_and_a_half_from_ubrr_and_u2x() {
+    // (UCSR0A, UCSR0C, UBRR0L, UBRR0H) -> cycles before the character's end
+    let cases = [
+        (0x00, 0x06, 51, 0, 416),         // 19200 8N1: 832-cycle bits
+        (0x00, 0x0E, 103, 0, 2496),       // 9600 8N2: 1.5 × 1664
+        (0x02, 0x06, 16, 0, 68),          // 115200 with U2X0: 136-cycle bits
+        (0x02, 0x2E, 34, 0, 420),         // 57600 8E2 with U2X0: 1.5 × 280
+        (0x00, 0x0E, 0x40, 0x03, 19_992), // 1200 8N2: UBRR0 832, 1.5 × 13 328
+    ];
+    for (a, c, l, h, lead) in cases {
+        let cfg = SerialConfig::from_registers(a, 0x18, c, l, h);
+        assert_eq!(cfg.rx_flag_lead_cycles(), lead, "{cfg:?}");
+    }
+}
+
+/// The old behaviour, by name: RXC0 at the end of the whole character, as simavr's own USART.
+#[test]
+fn rx_flag_at_char_end_is_seen_exactly_when_the_stop_bit_ends() {
+    let mut uno = ready(Uno::load_with(echo_elf(), Options::new().rx_flag(RxFlag::CharEnd)).unwrap(), MODE_SLEEP);
+    assert_eq!(uno.rx_flag_lead(), Some(0));
+    let at = uno.now() + 20_000;
+    uno.send_byte(0x42, at).unwrap();
+    uno.run_until(at - 1).unwrap();
+    assert_eq!(ucsr0a(&uno) & RXC0, 0, "RXC0 set early");
+    assert_eq!(step_to_rx_isr(&mut uno, at + 1000), at + 8);
+    // a reset keeps the choice
+    uno.reset().unwrap();
+    assert_eq!(uno.rx_flag(), RxFlag::CharEnd);
 }
 
 #[test]
@@ -84,7 +136,7 @@ fn rx_is_seen_within_an_instruction_when_running() {
     let mut seen = Vec::new();
     for k in 0..40u64 {
         let at = uno.now() + 30_000 + 13 * k;
-        uno.send_byte(k as u8, at).unwrap();
+        uno.send_byte(k as u8, at + HALF_BIT).unwrap();
         uno.run_until(at - 20).unwrap();
         // RXC0 shows at the end of the instruction running at `at` (+0..3), then 4 cycles response
         let entered = loop {
@@ -117,9 +169,9 @@ fn back_to_back_frame_is_echoed_with_char_time_spacing() {
     assert_eq!(uno.pending_rx(), 0);
     assert_eq!(echo.iter().map(|t| t.byte).collect::<Vec<_>>(), request);
     for (i, t) in echo.iter().enumerate() {
-        let rx_end = first_end + i as u64 * CHAR;
+        let rx_flag = first_end + i as u64 * CHAR - HALF_BIT;
         assert_eq!(t.end_cycle - t.start_cycle, CHAR);
-        assert!(t.start_cycle > rx_end && t.start_cycle < rx_end + LATENCY, "byte {i}: {t:?}, rx end {rx_end}");
+        assert!(t.start_cycle > rx_flag && t.start_cycle < rx_flag + LATENCY, "byte {i}: {t:?}, RXC0 at {rx_flag}");
         if i > 0 {
             assert!(t.start_cycle >= echo[i - 1].end_cycle, "frames overlap: {echo:?}");
         }
@@ -156,7 +208,8 @@ fn transmit_buffer_queues_one_byte_behind_the_shift_register() {
         tx.extend(uno.take_tx());
     }
     assert_eq!(tx.iter().map(|t| t.byte).collect::<Vec<_>>(), [1, 1, 2, 2, 3, 3, 4, 4]);
-    assert!(tx[0].start_cycle > first_end && tx[0].start_cycle < first_end + LATENCY);
+    let rx_flag = first_end - HALF_BIT;
+    assert!(tx[0].start_cycle > rx_flag && tx[0].start_cycle < rx_flag + LATENCY);
     for pair in tx.windows(2) {
         assert_eq!(pair[1].start_cycle, pair[0].end_cycle, "{tx:?}");
         assert_eq!(pair[1].end_cycle - pair[1].start_cycle, CHAR);
@@ -227,9 +280,11 @@ fn scheduling_errors() {
     let mut uno = boot(MODE_SLEEP);
     let now = uno.now();
     assert!(matches!(uno.send_byte(1, now - 1), Err(Error::RxInPast { .. })));
+    // a character ending within half a bit from now would have been flagged already
+    assert!(matches!(uno.send_byte(1, now + HALF_BIT - 1), Err(Error::RxInPast { at, .. }) if at == now - 1));
     uno.send_byte(1, now + 5000).unwrap();
-    assert!(matches!(uno.send_byte(2, now + 4000), Err(Error::RxOutOfOrder { at }) if at == now + 4000));
-    assert!(matches!(uno.send_frame(&[3, 4], now + 100, 0), Err(Error::RxOutOfOrder { .. })));
+    assert!(matches!(uno.send_byte(2, now + 4000), Err(Error::RxOutOfOrder { at }) if at == now + 4000 - HALF_BIT));
+    assert!(matches!(uno.send_frame(&[3, 4], now + 1000, 0), Err(Error::RxOutOfOrder { .. })));
     assert_eq!(uno.pending_rx(), 1);
     uno.cancel_rx();
     assert_eq!(uno.pending_rx(), 0);

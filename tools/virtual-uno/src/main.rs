@@ -181,7 +181,7 @@ fn pins_line(uno: &Uno, watch: &[u8]) -> String {
 }
 
 fn run(args: &args::Args) -> Result<(), String> {
-    let options = Options { chip: args.chip, usart: args.usart };
+    let options = Options { chip: args.chip, usart: args.usart, ..Options::new() };
     let mut uno = Uno::load_with(&args.elf, options).map_err(|e| e.to_string())?;
     let (chip, usart) = (uno.chip(), uno.usart());
     let watch = match &args.watch {

@@ -1,8 +1,10 @@
 //! The serial wire between the pty and the simulated USART (USART0 on the Uno), in simulated time.
 //!
 //! Master to Uno: each byte's stop bit ends one character time after the previous byte's, or
-//! after the byte reached us if that is later; a master whose line settings differ from the
-//! firmware's delivers its bytes with the framing or parity error a real UART would see.
+//! after the byte reached us if that is later (the simulated USART flags it half a bit before,
+//! one and a half bits with two stop bits, as the chip's does); a master whose line settings
+//! differ from the firmware's delivers its bytes with the framing or parity error a real UART
+//! would see.
 //! Uno to master: a byte goes to the pty once its stop bit has ended.
 
 use std::collections::VecDeque;
@@ -54,8 +56,11 @@ impl Wire {
             (Some(fw), None) => fw.char_cycles(),
             _ => master.char_cycles().max(1),
         };
+        // The USART flags a byte before its end: never before now, however short the master's
+        // characters are beside the firmware's bits.
+        let lead = uno.rx_flag_lead().unwrap_or(0);
         for &byte in bytes {
-            let end = self.last_rx_end.max(uno.now()) + char_cycles;
+            let end = (self.last_rx_end.max(uno.now()) + char_cycles).max(uno.now() + lead);
             match error {
                 None => uno.send_byte(byte, end)?,
                 Some(e) => uno.send_byte_with_error(byte, end, e)?,

@@ -24,6 +24,8 @@ pub const MODE_8N1_LATE: u8 = 5;
 pub const RX_VECTOR_ADDR: u32 = 18 * 4;
 /// 19200 baud 8E1 at 16 MHz: UBRR0 = 51, 832 cycles per bit, 11 bits.
 pub const CHAR: u64 = 832 * 11;
+/// Half a bit at 19200 baud: RXC0 rises this much before a character's end (8E1, one stop bit).
+pub const HALF_BIT: u64 = 832 / 2;
 
 /// Compiles `source` for `mcu` with the `-D` definitions `defines` into `out`.
 pub fn compile(source: &Path, mcu: &str, defines: &[String], out: &Path) {
