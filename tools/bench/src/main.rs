@@ -607,10 +607,13 @@ impl FeatureCost {
 /// or with `total`, the "N B in all" figure.
 fn readme_claim(root: &Path, feature: &str, total: bool) -> Option<(String, i64)> {
     let readme = std::fs::read_to_string(root.join("README.md")).ok()?;
-    let row = readme.lines().find(|l| l.starts_with(&format!("| `{feature}` |")))?;
-    let cell = row.trim_end().trim_end_matches('|').rsplit('|').next()?.trim().to_owned();
-    let figure = if total { figure_before(&cell, " B in all")? } else { signed_figure(&cell)? };
-    Some((cell, figure))
+    // The first row of a table for the feature whose last cell has a figure (other tables,
+    // QModMaster's for one, name the `ascii` example in their first column too).
+    readme.lines().filter(|l| l.starts_with(&format!("| `{feature}` |"))).find_map(|row| {
+        let cell = row.trim_end().trim_end_matches('|').rsplit('|').next()?.trim().to_owned();
+        let figure = if total { figure_before(&cell, " B in all")? } else { signed_figure(&cell)? };
+        Some((cell, figure))
+    })
 }
 
 /// The number (digits, spaces as thousands separators) that ends right before `suffix`.
