@@ -10,8 +10,49 @@
 use crate::config::Config;
 use crate::error::Error;
 use crate::pdu::device_id::Identification;
-use crate::pdu::Exception;
+use crate::pdu::{Exception, MAX_READ_BITS, MAX_READ_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS};
 use crate::reference::{Reference, Table};
+
+const fn min(a: u32, b: u32) -> u32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+const fn max(a: u32, b: u32) -> u32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The frame buffer ([`DataModel::FRAME`]) of a model whose longest runs of addresses (a
+/// request reads or writes inside one) hold `coils`, `inputs` (discrete inputs),
+/// `input_registers` and `holding` values: the longest request or reply of a request it
+/// accepts, address and CRC included. FC 1 and 2 reply with the longest run of bits, FC 3
+/// and 4 with the longest run of registers (up to 2000 bits and 125 registers); FC 15 and
+/// 16 write the longest run of coils and holding registers (up to 1968 and 123); FC 1–6
+/// requests and FC 5 and 6 replies take 8 bytes. 256 with features `diagnostics`,
+/// `extra-fc` and `device-id`, whose requests echo, read and write more, or whose replies
+/// run to 253 bytes. [`crate::register_map!`] passes its longest runs, [`crate::Bank`] its
+/// capacity.
+pub(crate) const fn frame_for(coils: u32, inputs: u32, input_registers: u32, holding: u32) -> usize {
+    if cfg!(any(feature = "diagnostics", feature = "extra-fc", feature = "device-id")) {
+        return crate::framer::MAX_FRAME;
+    }
+    // Address, function code, byte count, data, CRC.
+    let bits_read = min(max(coils, inputs), MAX_READ_BITS as u32);
+    let registers_read = min(max(input_registers, holding), MAX_READ_REGISTERS as u32);
+    let read = max(5 + bits_read.div_ceil(8), 5 + 2 * registers_read);
+    // Address, function code, start, quantity, byte count, data, CRC.
+    let coils_written = min(coils, MAX_WRITE_COILS as u32);
+    let registers_written = min(holding, MAX_WRITE_REGISTERS as u32);
+    let written = max(9 + coils_written.div_ceil(8), 9 + 2 * registers_written);
+    max(crate::framer::MIN_CAPACITY as u32, max(read, written)) as usize
+}
 
 /// Which way a request moves values between the PDU and a [`DataModel`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -29,11 +70,12 @@ pub trait DataModel {
     /// requests are still answered as the spec says (the engine keeps their first bytes;
     /// a longer request or reply can only belong to one the model refuses). 256, the
     /// longest RTU frame, unless the model knows better: [`crate::register_map!`] works it
-    /// out from its ranges. Features `diagnostics` and `extra-fc` need 256.
+    /// out from its ranges, [`crate::Bank`] from its capacity. Features `diagnostics`,
+    /// `extra-fc` and `device-id` need 256.
     const FRAME: usize = crate::framer::MAX_FRAME;
 
     /// True when every request whose addresses all exist fits [`DataModel::FRAME`], as
-    /// [`crate::register_map!`] works it out: a request too long for the frame buffer then
+    /// [`crate::register_map!`] and [`crate::Bank`] work it out: a request too long for the frame buffer then
     /// has a missing address, and gets exception 02 without a lookup. False, the default,
     /// asks [`DataModel::has_range`] (02 for a missing address, else 04).
     #[doc(hidden)]
