@@ -47,19 +47,14 @@ fn main() -> ! {
     #[allow(unsafe_code)]
     let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
     let mut bank = Registers::new();
-    if let Err(error) = bank.add_range(1, 16) {
-        board::halt(error);
-    }
-    if let Err(error) = bank.add_range(10001, 16) {
-        board::halt(error);
-    }
-    if let Err(error) = bank.add_range(30001, 8) {
-        board::halt(error);
-    }
-    if let Err(error) = bank.add_range(40001, 16) {
-        board::halt(error);
-    }
-    if let Err(error) = SLAVE.start(CONFIG, dp.USART0, dp.TC0, bank) {
+    // An error (an address added twice, no room left) adds nothing and is reported; the
+    // ranges after it are still tried.
+    let added = bank
+        .add_range(1, 16)
+        .and(bank.add_range(10001, 16))
+        .and(bank.add_range(30001, 8))
+        .and(bank.add_range(40001, 16));
+    if let Err(error) = added.and_then(|()| SLAVE.start(CONFIG, dp.USART0, dp.TC0, bank)) {
         board::halt(error);
     }
     #[allow(clippy::empty_loop)]

@@ -5,19 +5,22 @@
 //! Values are stored as [`crate::register_map!`] stores them ([`Values`]), in address
 //! order: registers big-endian (2 bytes each), coils and discrete inputs packed 8 to a byte.
 //! Addresses are described by *runs*: maximal ranges of consecutive addresses of one table,
-//! 5 bytes each on AVR (table, first and last address), in the order they were made.
-//! Adding an address next to a run extends it and joins it to the following run when the
-//! gap closes, so 40001–40100 added one by one, in any order, end as one run. A lookup walks
-//! the runs with the compile-time map's test ([`Span::index`]) and counts the values of
-//! those below; a range the master asks for is valid exactly when it lies inside one run.
+//! 5 bytes each on AVR (table, first and last address), in no particular order. Adding an
+//! address next to a run extends it and joins it to the following run when the gap closes,
+//! so 40001–40100 added one by one, in any order, end as one run. A lookup walks the runs
+//! with the compile-time map's test ([`Span::index`]) and counts the values of those below;
+//! a range the master asks for is valid exactly when it lies inside one run. Beside the runs,
+//! 12 bytes: their count and, for each kind of value (bits; registers), how many are in use
+//! and the highest address.
 //!
 //! # Adding
-//! Each kind of value (bits; registers) keeps its count and its highest address (7 bytes
-//! each). A range above that, as a firmware adds its map in address order, is checked and
-//! added with a few compares and stores made in place ([`Bank::add_range`]): with constant
-//! references and a new bank they are worked out while the firmware compiles, as
-//! `register_map!`'s lookups are. Any other range goes through one walk over the runs that
-//! checks it, then one move of the values above it ([`Values::open`]).
+//! A range above every address of its kind, as a firmware adds its map in address order,
+//! is a new run at the end and its values go after all others of its kind: a few compares
+//! and stores, made where [`Bank::add_range`] is called. Constant references added to a new
+//! bank one call after another (`examples/sixteen_each_bank.rs`) are worked out while the
+//! firmware compiles, as `register_map!`'s are: what is left is the stores of the runs.
+//! Any other range goes to [`Bank::insert`]: one walk over the runs that checks it, then
+//! one move of the values above it ([`Values::open`]), nothing per address.
 //!
 //! Capacity is fixed by three const parameters: `RUNS` runs, `REGS` registers (input and
 //! holding together) and `BIT_BYTES` bytes of bits (coils and discrete inputs together;
@@ -55,6 +58,12 @@ impl Run {
     fn len(self) -> usize {
         usize::from(self.last - self.start) + 1
     }
+
+    /// True when the run overlaps `start..=last` of `table` or touches it.
+    fn meets(self, table: Table, start: u16, last: u16) -> bool {
+        // Saturated, 65535 + 1 compares as 65536 would with any address.
+        self.table == table && self.start <= last.saturating_add(1) && start <= self.last.saturating_add(1)
+    }
 }
 
 /// One kind of value, bits (coils and discrete inputs) or registers (input and holding),
@@ -87,9 +96,9 @@ impl Kind {
     }
 }
 
-/// The runs in use and both kinds: what [`Bank::add_range`] reads and writes, as one copy
-/// (a copy of a new bank's zeros is known while the firmware compiles where a load of one
-/// field may not be).
+/// The runs in use and both kinds: what [`Bank::add_range`] reads and writes, and does so
+/// as one copy. The compiler follows a copy of a new bank's zeros through a row of calls
+/// where it may not follow the loads of single fields, and then folds them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Tally {
     runs: usize,
@@ -176,10 +185,10 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
 
     /// Adds `count` consecutive addresses from `first`: all of them, or none on error.
     ///
-    /// Inlined: a range above every address of its kind in use, and not next to the
-    /// highest (the common case, a map added in address order), is a new run made with a few
-    /// compares and stores, which with constant references on a new bank are done while the
-    /// firmware compiles. Any other range calls the general insertion.
+    /// Inlined: a range above every address of its kind in use and not next to the highest
+    /// (a map added in address order) is a new run made here with a few compares and
+    /// stores, which constant references on a new bank fold away; any other range is one
+    /// call, which moves the values above it at once.
     #[inline(always)]
     pub fn add_range(&mut self, first: impl IntoReference, count: u16) -> Result<(), Error> {
         let Reference { table, address: start } = first.into_reference()?;
@@ -213,32 +222,29 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     }
 
     /// [`Bank::add_range`] of `start..=last` of `table` below or next to the highest
-    /// address of its kind in use: one walk over the runs checks it before anything changes; then the
-    /// values of its kind above it move up at once, and it joins the runs it touches or
-    /// takes a new one.
+    /// address of its kind in use: one walk over the runs checks it before anything
+    /// changes; then the values of its kind above it move up at once, and it joins the runs
+    /// it touches or takes a new one.
     #[inline(never)]
     fn insert(&mut self, table: Table, start: u16, last: u16) -> Result<(), Error> {
         let k = kind(table);
-        // The values of its kind below it (where its own go), and the runs that end just
-        // below it and start just above it (`RUNS`: none).
-        let (mut rank, mut before, mut after) = (0, RUNS, RUNS);
-        for (i, run) in self.used().iter().enumerate() {
+        // The values of its kind below it (where its own go), the runs of its table it
+        // meets (touches or overlaps) and the run they make with it.
+        let (mut rank, mut meets, mut joined) = (0, 0, Run { table, start, last });
+        for run in self.runs.iter().take(self.tally.runs) {
             if kind(run.table) != k {
                 continue;
             }
             if (run.table as u8) < (table as u8) || (run.table == table && run.last < start) {
                 rank += run.len();
             }
-            if run.table == table {
+            if run.meets(table, start, last) {
                 if run.start <= last && start <= run.last {
                     return Err(Error::Duplicate);
                 }
-                if start.checked_sub(1) == Some(run.last) {
-                    before = i;
-                }
-                if run.start.checked_sub(1) == Some(last) {
-                    after = i;
-                }
+                meets += 1;
+                joined.start = joined.start.min(run.start);
+                joined.last = joined.last.max(run.last);
             }
         }
         let used = self.tally.kinds[k].used;
@@ -246,49 +252,32 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         if used + count > self.capacity(table) {
             return Err(full(table));
         }
-        // The run it becomes with those it touches: in place of the one it follows, or of
-        // the one it precedes, or a new one.
-        let mut joined = Run { table, start, last };
-        let mut slot = self.tally.runs;
-        if let Some(run) = self.runs.get(after) {
-            joined.last = run.last;
-            slot = after;
-        }
-        if let Some(run) = self.runs.get(before) {
-            joined.start = run.start;
-            slot = before;
-        }
-        if slot >= RUNS {
+        if self.tally.runs + 1 - meets > RUNS {
             return Err(Error::RunsFull);
         }
 
         self.values.open(table.is_bits(), rank, used, count);
-        let tally = &mut self.tally;
-        let top = &mut tally.kinds[k];
+        let top = &mut self.tally.kinds[k];
         if top.is_below(table, start) {
             (top.table, top.last) = (table, last);
         }
         top.used = used + count;
-        if let Some(run) = self.runs.get_mut(slot) {
-            *run = joined;
-        }
-        if slot == tally.runs {
-            tally.runs += 1;
-        } else if slot == before && after < RUNS {
-            // It joined two runs: the last run takes the place of the second.
-            tally.runs -= 1;
-            if let Some(&moved) = self.runs.get(self.tally.runs) {
-                if let Some(run) = self.runs.get_mut(after) {
-                    *run = moved;
+        // The runs it meets leave, the others close up, and the run they make goes last.
+        let mut kept = 0;
+        for i in 0..self.tally.runs {
+            let run = self.runs.get(i).copied().unwrap_or(Run::EMPTY);
+            if !run.meets(table, start, last) {
+                if let Some(slot) = self.runs.get_mut(kept) {
+                    *slot = run;
                 }
+                kept += 1;
             }
         }
+        if let Some(slot) = self.runs.get_mut(kept) {
+            *slot = joined;
+        }
+        self.tally.runs = kept + 1;
         Ok(())
-    }
-
-    /// The runs in use, in the order they were made (their values are in address order).
-    fn used(&self) -> &[Run] {
-        self.runs.get(..self.tally.runs).unwrap_or(&[])
     }
 
     /// Storage index of `start` when `start..start + qty` (`qty` ≥ 1) all exist (in one

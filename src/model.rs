@@ -75,9 +75,9 @@ pub trait DataModel {
     const FRAME: usize = crate::framer::MAX_FRAME;
 
     /// True when every request whose addresses all exist fits [`DataModel::FRAME`], as
-    /// [`crate::register_map!`] and [`crate::Bank`] work it out: a request too long for the frame buffer then
-    /// has a missing address, and gets exception 02 without a lookup. False, the default,
-    /// asks [`DataModel::has_range`] (02 for a missing address, else 04).
+    /// [`crate::register_map!`] and [`crate::Bank`] work it out: a request too long for
+    /// the frame buffer then has a missing address, and gets exception 02 without a lookup.
+    /// False, the default, asks [`DataModel::has_range`] (02 for a missing address, else 04).
     #[doc(hidden)]
     const FRAME_HOLDS_ALL: bool = false;
 

@@ -1,6 +1,7 @@
 //! The value storage both register maps share (the build-time `register_map!` and the
-//! run-time `Bank`): registers as two bytes, coils and discrete inputs packed 8 to a byte, LSB
-//! first, and the copies between them and the PDU, Application Protocol v1.1b3 §6.1–6.12.
+//! run-time `Bank`, each holding a [`Values`]): registers as two bytes, coils and discrete
+//! inputs packed 8 to a byte, LSB first, and the copies between them and the PDU,
+//! Application Protocol v1.1b3 §6.1–6.12.
 //!
 //! A register is kept as it travels, big-endian ([`Word`]): FC 3, 4, 6 and 16 copy bytes,
 //! and only the application's `get` and `set` convert.
@@ -264,8 +265,9 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
     /// Makes room for `n` values at storage index `at` of the bits (`bits`) or the
     /// registers, of which `used` are in use (`used + n` fit): the values from `at` on
     /// move `n` up, and the `n` from `at` read 0. What a [`crate::Bank`] does when it adds
-    /// addresses that sort before others, at start-up: two copies from a copy of the
-    /// storage, with the copies the requests use (the `n` zeros come from past its end).
+    /// addresses below others of their kind, at start-up: two copies out of a copy of that
+    /// storage on the stack (its bytes of bits, or two bytes a register), with the copies the
+    /// requests use; the `n` zeros come from past the used values.
     pub(crate) fn open(&mut self, bits: bool, at: usize, used: usize, n: usize) {
         if at >= used {
             return;
