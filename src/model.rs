@@ -34,8 +34,8 @@ const fn max(a: u32, b: u32) -> u32 {
 /// `input_registers` and `holding` values: the longest request or reply of a request it
 /// accepts, address and CRC included. FC 1 and 2 reply with the longest run of bits, FC 3
 /// and 4 with the longest run of registers (up to 2000 bits and 125 registers); FC 15 and
-/// 16 write the longest run of coils and holding registers (up to 1968 and 123); FC 1–6
-/// requests and FC 5 and 6 replies take 8 bytes. 256 with features `diagnostics`,
+/// 16 write the longest run of coils and holding registers (up to 1968 and 123); and
+/// never less than [`ONE_VALUE_FRAME`]. 256 with features `diagnostics`,
 /// `extra-fc` and `device-id`, whose requests echo, read and write more, or whose replies
 /// run to 253 bytes. [`crate::register_map!`] passes its longest runs, [`crate::Bank`] its
 /// capacity.
@@ -51,8 +51,16 @@ pub(crate) const fn frame_for(coils: u32, inputs: u32, input_registers: u32, hol
     let coils_written = min(coils, MAX_WRITE_COILS as u32);
     let registers_written = min(holding, MAX_WRITE_REGISTERS as u32);
     let written = max(9 + coils_written.div_ceil(8), 9 + 2 * registers_written);
-    max(crate::framer::MIN_CAPACITY as u32, max(read, written)) as usize
+    max(ONE_VALUE_FRAME as u32, max(read, written)) as usize
 }
+
+/// The smallest frame buffer [`frame_for`] gives: FC 16 writing one register, 11 bytes (FC
+/// 1–6 take 8, FC 15 writing one coil 10). A request of one value, to any address, then
+/// fits, and never takes the framer's path for bytes past the buffer, which costs the
+/// receive interrupt about 30 cycles more a byte: a master polling one value at a time
+/// keeps every byte of it on the fast path, whatever the map.
+pub(crate) const ONE_VALUE_FRAME: usize = 11;
+const _: () = assert!(ONE_VALUE_FRAME >= crate::framer::MIN_CAPACITY);
 
 /// Which way a request moves values between the PDU and a [`DataModel`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -66,12 +74,12 @@ pub enum Access {
 /// The application's data as the master sees it.
 pub trait DataModel {
     /// Bytes of the frame buffer the slave needs for this model: the longest request it
-    /// accepts and the longest reply it sends, address and CRC included (8 to 256). Longer
-    /// requests are still answered as the spec says (the engine keeps their first bytes;
-    /// a longer request or reply can only belong to one the model refuses). 256, the
-    /// longest RTU frame, unless the model knows better: [`crate::register_map!`] works it
-    /// out from its ranges, [`crate::Bank`] from its capacity. Features `diagnostics`,
-    /// `extra-fc` and `device-id` need 256.
+    /// accepts and the longest reply it sends, address and CRC included (8 to 256; the maps
+    /// give 11 or more). Longer requests are still answered as the spec says (the engine
+    /// keeps their first bytes; a longer request or reply can only belong to one the model
+    /// refuses). 256, the longest RTU frame, unless the model knows better:
+    /// [`crate::register_map!`] works it out from its ranges, [`crate::Bank`] from its
+    /// capacity. Features `diagnostics`, `extra-fc` and `device-id` need 256.
     const FRAME: usize = crate::framer::MAX_FRAME;
 
     /// True when every request whose addresses all exist fits [`DataModel::FRAME`], as

@@ -109,9 +109,10 @@ fn runs_longer_than_one_request_are_bounded_by_the_spec_limits() {
 }
 
 #[test]
-fn fc5_and_fc6_frames_are_the_smallest_buffer() {
-    // FC 15 × 3: 10 bytes; FC 1–6 requests: 8.
-    assert_eq!(<FewCoils as DataModel>::FRAME, if SIZED { 10 } else { 256 });
+fn a_request_of_one_value_always_fits_the_buffer() {
+    // FC 15 × 3 is 10 bytes, FC 1–6 requests 8; FC 16 writing one register, 11, sets the
+    // floor, though the map has no register.
+    assert_eq!(<FewCoils as DataModel>::FRAME, if SIZED { 11 } else { 256 });
 }
 
 #[test]
@@ -120,8 +121,8 @@ fn a_bank_sizes_its_buffer_from_its_capacity() {
     assert_eq!(CONTRACT_BANK, if SIZED { 57 } else { 256 });
     // FC 16 × 64 registers: 9 + 128.
     assert_eq!(<common::TestBank as DataModel>::FRAME, if SIZED { 137 } else { 256 });
-    // Four coils at most: FC 15 × 4, 10 bytes.
-    assert_eq!(<Bank<1, 0, { bit_bytes(4) }> as DataModel>::FRAME, if SIZED { 10 } else { 256 });
+    // Four coils at most: FC 15 × 4, 10 bytes; every request of one value fits in 11.
+    assert_eq!(<Bank<1, 0, { bit_bytes(4) }> as DataModel>::FRAME, if SIZED { 11 } else { 256 });
     // Past the spec's limits the capacity no longer matters.
     assert_eq!(<common::FullBank as DataModel>::FRAME, if SIZED { 255 } else { 256 });
     assert_eq!(<Bank<1, 4000, { bit_bytes(60000) }> as DataModel>::FRAME, if SIZED { 255 } else { 256 });
