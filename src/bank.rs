@@ -2,51 +2,114 @@
 //! the application adds the addresses it uses, in any order, and gets and sets them.
 //!
 //! # Layout and RAM
-//! Values are stored in address order, registers big-endian (2 bytes each) and coils and
-//! discrete inputs packed 8 to a byte. Addresses are described by *runs*: maximal ranges of
-//! consecutive addresses of one table, 7 bytes each on AVR (table, first and last address,
-//! offset of the first value). Adding an address next to a run extends it and joins it to
-//! the following run when the gap closes, so 40001–40100 added one by one, in any order,
-//! end as one run. Lookups are a binary search over the runs, O(log runs); a range the
-//! master asks for is valid exactly when it lies inside one run.
+//! Values are stored as [`crate::register_map!`] stores them ([`Values`]), in address
+//! order: registers big-endian (2 bytes each), coils and discrete inputs packed 8 to a byte.
+//! Addresses are described by *runs*: maximal ranges of consecutive addresses of one table,
+//! 5 bytes each on AVR (table, first and last address), in no particular order. Adding an
+//! address next to a run extends it and joins it to the following run when the gap closes,
+//! so 40001–40100 added one by one, in any order, end as one run. A lookup walks the runs
+//! with the compile-time map's test ([`Span::index`]) and counts the values of those below;
+//! a range the master asks for is valid exactly when it lies inside one run. Beside the runs,
+//! 12 bytes: their count and, for each kind of value (bits; registers), how many are in use
+//! and the highest address.
+//!
+//! # Adding
+//! A range above every address of its kind, as a firmware adds its map in address order,
+//! is a new run at the end and its values go after all others of its kind: a few compares
+//! and stores, made where [`Bank::add_range`] is called. Constant references added to a new
+//! bank one call after another (`examples/sixteen_each_bank.rs`) are worked out while the
+//! firmware compiles, as `register_map!`'s are: what is left is the stores of the runs.
+//! Any other range goes to [`Bank::insert`]: one walk over the runs that checks it, then
+//! one move of the values above it ([`Values::open`]), nothing per address.
 //!
 //! Capacity is fixed by three const parameters: `RUNS` runs, `REGS` registers (input and
 //! holding together) and `BIT_BYTES` bytes of bits (coils and discrete inputs together;
 //! [`bit_bytes`] converts a count of bits). Adding past capacity, a duplicate or a bad
-//! reference is an error that changes nothing.
+//! reference is an error that changes nothing. No run can be longer than the capacity, so
+//! the slave's frame buffer is sized from it ([`DataModel::FRAME`]), as `register_map!`
+//! sizes its own from its ranges.
 
 use crate::error::Error;
-use crate::model::{Access, DataModel};
+use crate::map::Span;
+use crate::model::{frame_for, Access, DataModel};
 #[cfg(feature = "device-id")]
 use crate::pdu::device_id::Identification;
 use crate::pdu::Exception;
 use crate::reference::{IntoReference, Reference, Table};
-use crate::storage;
+use crate::storage::Values;
 
 /// Bytes needed for `bits` coils and discrete inputs: use as `Bank<R, W, { bit_bytes(32) }>`.
 pub const fn bit_bytes(bits: usize) -> usize {
     bits.div_ceil(8)
 }
 
+/// A maximal range of consecutive addresses of one table, `start..=last`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Run {
     table: Table,
     start: u16,
     last: u16,
-    /// Index of the value of `start` in the register or bit storage.
-    offset: u16,
 }
 
 impl Run {
-    const EMPTY: Run = Run { table: Table::Coils, start: 0, last: 0, offset: 0 };
+    const EMPTY: Run = Run { table: Table::Coils, start: 0, last: 0 };
 
-    fn len(&self) -> usize {
+    /// How many values the run holds.
+    fn len(self) -> usize {
         usize::from(self.last - self.start) + 1
     }
 
-    fn key(&self) -> (Table, u16) {
-        (self.table, self.start)
+    /// True when the run overlaps `start..=last` of `table` or touches it.
+    fn meets(self, table: Table, start: u16, last: u16) -> bool {
+        // Saturated, 65535 + 1 compares as 65536 would with any address.
+        self.table == table && self.start <= last.saturating_add(1) && start <= self.last.saturating_add(1)
     }
+}
+
+/// One kind of value, bits (coils and discrete inputs) or registers (input and holding),
+/// as [`Bank::add_range`] needs it: how many are in use and, when some are, the highest
+/// address.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Kind {
+    used: usize,
+    /// The table and address of the highest.
+    table: Table,
+    last: u16,
+}
+
+impl Kind {
+    const EMPTY: Kind = Kind { used: 0, table: Table::Coils, last: 0 };
+
+    /// True when `start` of `table` (of this kind) lies above every address in use.
+    #[inline(always)]
+    fn is_below(self, table: Table, start: u16) -> bool {
+        self.used == 0 || (self.table as u8) < (table as u8) || (self.table == table && self.last < start)
+    }
+
+    /// True when `start` of `table` (of this kind) lies above every address in use, and
+    /// not just above the highest: a range from there is a run of its own.
+    #[inline(always)]
+    fn is_apart_below(self, table: Table, start: u16) -> bool {
+        self.used == 0
+            || (self.table as u8) < (table as u8)
+            || (self.table == table && u32::from(self.last) + 1 < u32::from(start))
+    }
+}
+
+/// The runs in use and both kinds: what [`Bank::add_range`] reads and writes, and does so
+/// as one copy. The compiler follows a copy of a new bank's zeros through a row of calls
+/// where it may not follow the loads of single fields, and then folds them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Tally {
+    runs: usize,
+    /// Bits, then registers.
+    kinds: [Kind; 2],
+}
+
+/// [`Tally::kinds`]'s index for a table: 0 bits, 1 registers.
+#[inline(always)]
+fn kind(table: Table) -> usize {
+    usize::from(!table.is_bits())
 }
 
 /// A range of coils or holding registers the master may read but not write.
@@ -83,22 +146,12 @@ impl Protected {
 #[derive(Clone, Debug)]
 pub struct Bank<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize = 0> {
     runs: [Run; RUNS],
-    run_count: usize,
-    registers: [storage::Word; REGS],
-    register_count: usize,
-    bits: [u8; BIT_BYTES],
-    bit_count: usize,
-    master_writes: u16,
+    tally: Tally,
+    values: Values<REGS, BIT_BYTES>,
     #[cfg(feature = "write-protect")]
     protected: [Protected; PROTECTED],
     #[cfg(feature = "write-protect")]
     protected_count: usize,
-    #[cfg(feature = "diagnostics")]
-    exception_status: u8,
-    #[cfg(feature = "diagnostics")]
-    device_info: &'static [u8],
-    #[cfg(feature = "device-id")]
-    identification: Option<&'static Identification>,
 }
 
 impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize> Default
@@ -116,22 +169,12 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     pub const fn new() -> Self {
         Bank {
             runs: [Run::EMPTY; RUNS],
-            run_count: 0,
-            registers: [[0; 2]; REGS],
-            register_count: 0,
-            bits: [0; BIT_BYTES],
-            bit_count: 0,
-            master_writes: 0,
+            tally: Tally { runs: 0, kinds: [Kind::EMPTY, Kind::EMPTY] },
+            values: Values::new(),
             #[cfg(feature = "write-protect")]
             protected: [Protected::EMPTY; PROTECTED],
             #[cfg(feature = "write-protect")]
             protected_count: 0,
-            #[cfg(feature = "diagnostics")]
-            exception_status: 0,
-            #[cfg(feature = "diagnostics")]
-            device_info: &[],
-            #[cfg(feature = "device-id")]
-            identification: None,
         }
     }
 
@@ -141,132 +184,118 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     }
 
     /// Adds `count` consecutive addresses from `first`: all of them, or none on error.
+    ///
+    /// Inlined: a range above every address of its kind in use and not next to the highest
+    /// (a map added in address order) is a new run made here with a few compares and
+    /// stores, which constant references on a new bank fold away; any other range is one
+    /// call, which moves the values above it at once.
+    #[inline(always)]
     pub fn add_range(&mut self, first: impl IntoReference, count: u16) -> Result<(), Error> {
-        let first = first.into_reference()?;
-        let (table, start) = (first.table, first.address);
-        let last = match count.checked_sub(1).and_then(|n| start.checked_add(n)) {
-            Some(last) => last,
-            None => return Err(Error::BadRange),
-        };
-        // The run the new range would follow, and the one it would precede.
-        let runs = self.used();
-        let at = runs.partition_point(|r| r.key() < (table, start));
-        let before = at.checked_sub(1).and_then(|i| runs.get(i)).copied().filter(|r| r.table == table);
-        let after = runs.get(at).copied().filter(|r| r.table == table);
-        if before.is_some_and(|r| r.last >= start) || after.is_some_and(|r| r.start <= last) {
-            return Err(Error::Duplicate);
+        let Reference { table, address: start } = first.into_reference()?;
+        let last = count.checked_sub(1).and_then(|n| start.checked_add(n)).ok_or(Error::BadRange)?;
+        let k = kind(table);
+        let mut tally = self.tally;
+        let top = tally.kinds[k];
+        if !top.is_apart_below(table, start) {
+            return self.insert(table, start, last);
         }
-        let joins_before = before.filter(|r| r.last.checked_add(1) == Some(start));
-        let joins_after = after.filter(|r| last.checked_add(1) == Some(r.start));
-        let n = usize::from(count);
-        if table.is_bits() {
-            if self.bit_count + n > BIT_BYTES * 8 {
-                return Err(Error::BitsFull);
-            }
-        } else if self.register_count + n > REGS {
-            return Err(Error::RegistersFull);
+        let used = top.used + usize::from(count);
+        if used > self.capacity(table) {
+            return Err(full(table));
         }
-        if joins_before.is_none() && joins_after.is_none() && self.run_count == RUNS {
-            return Err(Error::RunsFull);
-        }
-
-        // Storage position: right after the values of the same kind that sort before.
-        let position = runs
-            .get(..at)
-            .unwrap_or(&[])
-            .iter()
-            .rev()
-            .find(|r| r.table.is_bits() == table.is_bits())
-            .map_or(0, |r| usize::from(r.offset) + r.len());
-        self.open_storage(table.is_bits(), position, n);
-        for run in self.runs.iter_mut().take(self.run_count).skip(at) {
-            if run.table.is_bits() == table.is_bits() {
-                run.offset += count;
-            }
-        }
-
-        match (joins_before, joins_after) {
-            (Some(b), Some(a)) => {
-                self.replace_run(at - 1, Run { last: a.last, ..b });
-                self.remove_run(at);
-            }
-            (Some(b), None) => self.replace_run(at - 1, Run { last, ..b }),
-            (None, Some(a)) => self.replace_run(at, Run { start, offset: position as u16, ..a }),
-            (None, None) => self.insert_run(at, Run { table, start, last, offset: position as u16 }),
-        }
+        let slot = self.runs.get_mut(tally.runs).ok_or(Error::RunsFull)?;
+        *slot = Run { table, start, last };
+        tally.runs += 1;
+        tally.kinds[k] = Kind { used, table, last };
+        self.tally = tally;
         Ok(())
     }
 
-    /// The runs in use.
-    fn used(&self) -> &[Run] {
-        self.runs.get(..self.run_count).unwrap_or(&[])
-    }
-
-    fn replace_run(&mut self, at: usize, run: Run) {
-        if let Some(slot) = self.runs.get_mut(at) {
-            *slot = run;
-        }
-    }
-
-    fn insert_run(&mut self, at: usize, run: Run) {
-        for i in (at..self.run_count).rev() {
-            if let Some(&moved) = self.runs.get(i) {
-                self.replace_run(i + 1, moved);
-            }
-        }
-        self.replace_run(at, run);
-        self.run_count += 1;
-    }
-
-    fn remove_run(&mut self, at: usize) {
-        for i in at + 1..self.run_count {
-            if let Some(&moved) = self.runs.get(i) {
-                self.replace_run(i - 1, moved);
-            }
-        }
-        self.run_count -= 1;
-    }
-
-    /// Makes room for `n` zeroed values at `position` of the register or bit storage.
-    fn open_storage(&mut self, bits: bool, position: usize, n: usize) {
-        if bits {
-            for i in (position..self.bit_count).rev() {
-                let v = self.bit(i);
-                self.set_bit(i + n, v);
-            }
-            for i in position..position + n {
-                self.set_bit(i, false);
-            }
-            self.bit_count += n;
+    /// How many values of `table`'s kind the bank holds.
+    #[inline(always)]
+    fn capacity(&self, table: Table) -> usize {
+        if table.is_bits() {
+            BIT_BYTES * 8
         } else {
-            for i in (position..self.register_count).rev() {
-                let v = self.registers.get(i).copied().unwrap_or_default();
-                if let Some(slot) = self.registers.get_mut(i + n) {
-                    *slot = v;
-                }
-            }
-            for slot in self.registers.iter_mut().skip(position).take(n) {
-                *slot = [0; 2];
-            }
-            self.register_count += n;
+            REGS
         }
     }
 
-    fn bit(&self, i: usize) -> bool {
-        storage::bit(&self.bits, i)
+    /// [`Bank::add_range`] of `start..=last` of `table` below or next to the highest
+    /// address of its kind in use: one walk over the runs checks it before anything
+    /// changes; then the values of its kind above it move up at once, and it joins the runs
+    /// it touches or takes a new one.
+    #[inline(never)]
+    fn insert(&mut self, table: Table, start: u16, last: u16) -> Result<(), Error> {
+        let k = kind(table);
+        // The values of its kind below it (where its own go), the runs of its table it
+        // meets (touches or overlaps) and the run they make with it.
+        let (mut rank, mut meets, mut joined) = (0, 0, Run { table, start, last });
+        for run in self.runs.iter().take(self.tally.runs) {
+            if kind(run.table) != k {
+                continue;
+            }
+            if (run.table as u8) < (table as u8) || (run.table == table && run.last < start) {
+                rank += run.len();
+            }
+            if run.meets(table, start, last) {
+                if run.start <= last && start <= run.last {
+                    return Err(Error::Duplicate);
+                }
+                meets += 1;
+                joined.start = joined.start.min(run.start);
+                joined.last = joined.last.max(run.last);
+            }
+        }
+        let used = self.tally.kinds[k].used;
+        let count = usize::from(last - start) + 1;
+        if used + count > self.capacity(table) {
+            return Err(full(table));
+        }
+        if self.tally.runs + 1 - meets > RUNS {
+            return Err(Error::RunsFull);
+        }
+
+        self.values.open(table.is_bits(), rank, used, count);
+        let top = &mut self.tally.kinds[k];
+        if top.is_below(table, start) {
+            (top.table, top.last) = (table, last);
+        }
+        top.used = used + count;
+        // The runs it meets leave, the others close up, and the run they make goes last.
+        let mut kept = 0;
+        for i in 0..self.tally.runs {
+            let run = self.runs.get(i).copied().unwrap_or(Run::EMPTY);
+            if !run.meets(table, start, last) {
+                if let Some(slot) = self.runs.get_mut(kept) {
+                    *slot = run;
+                }
+                kept += 1;
+            }
+        }
+        if let Some(slot) = self.runs.get_mut(kept) {
+            *slot = joined;
+        }
+        self.tally.runs = kept + 1;
+        Ok(())
     }
 
-    fn set_bit(&mut self, i: usize, on: bool) {
-        storage::set_bit(&mut self.bits, i, on);
-    }
-
-    /// Storage index of `start` when `start..start + qty` all exist (in one run).
+    /// Storage index of `start` when `start..start + qty` (`qty` ≥ 1) all exist (in one
+    /// run): the values of its kind below `start`.
     fn locate(&self, table: Table, start: u16, qty: u16) -> Option<usize> {
-        let last = start.checked_add(qty.checked_sub(1)?)?;
-        let runs = self.used();
-        let i = runs.partition_point(|r| r.key() <= (table, start)).checked_sub(1)?;
-        let run = *runs.get(i)?;
-        (run.table == table && last <= run.last).then(|| usize::from(run.offset) + usize::from(start - run.start))
+        let (mut rank, mut found) = (0, false);
+        for run in self.runs.iter().take(self.tally.runs) {
+            if kind(run.table) != kind(table) {
+                continue;
+            }
+            if (run.table as u8) < (table as u8) || (run.table == table && run.last < start) {
+                rank += run.len();
+            } else if let Some(at) = Span::run(run.table, run.start, run.last).index(table, start, qty) {
+                rank += at;
+                found = true;
+            }
+        }
+        found.then_some(rank)
     }
 
     /// True if the address was added.
@@ -277,20 +306,14 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     /// The value: a register's word, or 0/1 for a coil or discrete input.
     pub fn get(&self, reference: impl IntoReference) -> Result<u16, Error> {
         let Reference { table, address } = reference.into_reference()?;
-        let i = self.locate(table, address, 1).ok_or(Error::NotFound)?;
-        Ok(if table.is_bits() { u16::from(self.bit(i)) } else { storage::word(&self.registers, i) })
+        self.values.get(table, self.locate(table, address, 1))
     }
 
     /// Sets the value: a register's word, or for a coil or discrete input on when non-zero.
     pub fn set(&mut self, reference: impl IntoReference, value: u16) -> Result<(), Error> {
         let Reference { table, address } = reference.into_reference()?;
-        let i = self.locate(table, address, 1).ok_or(Error::NotFound)?;
-        if table.is_bits() {
-            self.set_bit(i, value != 0);
-        } else {
-            storage::set_word(&mut self.registers, i, value);
-        }
-        Ok(())
+        let at = self.locate(table, address, 1);
+        self.values.set(table, at, value)
     }
 
     #[cfg(feature = "write-protect")]
@@ -324,40 +347,65 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         false
     }
 
+    /// Storage index of a master write's first value, or exception 02 when an address is
+    /// missing or read-only.
+    fn writable(&self, table: Table, start: u16, qty: u16) -> Option<usize> {
+        self.locate(table, start, qty).filter(|_| !self.is_protected(table, start, qty))
+    }
+
     /// How many write requests from the master have succeeded (wrapping): compare with
     /// an earlier reading to learn cheaply whether coils or holding registers changed.
     pub fn master_writes(&self) -> u16 {
-        self.master_writes
+        self.values.master_writes()
     }
 
     /// Sets the eight status bits FC 7 (Read Exception Status) reports.
     #[cfg(feature = "diagnostics")]
     pub fn set_exception_status(&mut self, bits: u8) {
-        self.exception_status = bits;
+        self.values.set_exception_status(bits);
     }
 
     /// Sets the device description FC 17 (0x11, Report Server ID) reports.
     #[cfg(feature = "diagnostics")]
     pub fn set_device_info(&mut self, info: &'static [u8]) {
-        self.device_info = info;
+        self.values.set_device_info(info);
     }
 
     /// Sets the objects FC 43 / MEI 14 (Read Device Identification) reports: see
     /// [`crate::identification!`].
     #[cfg(feature = "device-id")]
     pub fn set_identification(&mut self, identification: &'static Identification) {
-        self.identification = Some(identification);
+        self.values.set_identification(identification);
     }
 
     /// Contiguous runs in use (at most `RUNS`).
     pub fn runs(&self) -> usize {
-        self.run_count
+        self.tally.runs
+    }
+}
+
+/// The error for no room for more values of `table`'s kind.
+fn full(table: Table) -> Error {
+    if table.is_bits() {
+        Error::BitsFull
+    } else {
+        Error::RegistersFull
     }
 }
 
 impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize> DataModel
     for Bank<RUNS, REGS, BIT_BYTES, PROTECTED>
 {
+    /// Sized from the capacity: no run holds more than `BIT_BYTES × 8` bits or `REGS`
+    /// registers.
+    const FRAME: usize = {
+        // Past 2000 bits and 125 registers, every request's limit, the count matters no more.
+        let bits = if BIT_BYTES < 0x1000 { BIT_BYTES as u32 * 8 } else { 0x8000 };
+        let registers = if REGS < 0x1000 { REGS as u32 } else { 0x1000 };
+        frame_for(bits, bits, registers, registers)
+    };
+    const FRAME_HOLDS_ALL: bool = true;
+
     fn has_range(&self, table: Table, start: u16, qty: u16) -> bool {
         self.locate(table, start, qty).is_some()
     }
@@ -371,22 +419,20 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     }
 
     fn master_writes(&self) -> u16 {
-        self.master_writes
+        self.values.master_writes()
     }
 
-    #[cfg(feature = "diagnostics")]
     fn exception_status(&self) -> u8 {
-        self.exception_status
+        self.values.exception_status()
     }
 
-    #[cfg(feature = "diagnostics")]
     fn device_info(&self) -> &[u8] {
-        self.device_info
+        self.values.device_info()
     }
 
     #[cfg(feature = "device-id")]
     fn identification(&self) -> Option<&Identification> {
-        self.identification
+        self.values.identification()
     }
 
     fn transfer(
@@ -397,52 +443,30 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         qty: u16,
         data: &mut [u8],
     ) -> Result<(), Exception> {
-        let first = self.locate(table, start, qty).ok_or(Exception::IllegalDataAddress)?;
-        if access == Access::Write {
-            if self.is_protected(table, start, qty) {
-                return Err(Exception::IllegalDataAddress);
-            }
-            self.master_writes = self.master_writes.wrapping_add(1);
-        }
-        if table.is_bits() {
-            storage::transfer_bits(&mut self.bits, first, qty, data, access);
-        } else {
-            storage::transfer_words(&mut self.registers, first, data, access);
-        }
-        Ok(())
+        let at = match access {
+            Access::Read => self.locate(table, start, qty),
+            Access::Write => self.writable(table, start, qty),
+        };
+        self.values.transfer(access, table, at, qty, data)
     }
 
     fn read_bits(&self, table: Table, start: u16, qty: u16, out: &mut [u8]) -> Result<(), Exception> {
-        let first = self.locate(table, start, qty).ok_or(Exception::IllegalDataAddress)?;
-        storage::read_bits(&self.bits, first, qty, out);
-        Ok(())
+        self.values.read_bits(self.locate(table, start, qty), qty, out)
     }
 
     fn read_registers(&self, table: Table, start: u16, out: &mut [u8]) -> Result<(), Exception> {
         let qty = u16::try_from(out.len() / 2).map_err(|_| Exception::IllegalDataValue)?;
-        let first = self.locate(table, start, qty).ok_or(Exception::IllegalDataAddress)?;
-        storage::read_words(&self.registers, first, out);
-        Ok(())
+        self.values.read_words(self.locate(table, start, qty), out)
     }
 
     fn write_coils(&mut self, start: u16, qty: u16, packed: &[u8]) -> Result<(), Exception> {
-        let first = self.locate(Table::Coils, start, qty).ok_or(Exception::IllegalDataAddress)?;
-        if self.is_protected(Table::Coils, start, qty) {
-            return Err(Exception::IllegalDataAddress);
-        }
-        storage::write_bits(&mut self.bits, first, qty, packed);
-        self.master_writes = self.master_writes.wrapping_add(1);
-        Ok(())
+        let at = self.writable(Table::Coils, start, qty);
+        self.values.write_bits(at, qty, packed)
     }
 
     fn write_registers(&mut self, start: u16, values: &[u8]) -> Result<(), Exception> {
         let qty = u16::try_from(values.len() / 2).map_err(|_| Exception::IllegalDataValue)?;
-        let first = self.locate(Table::HoldingRegisters, start, qty).ok_or(Exception::IllegalDataAddress)?;
-        if self.is_protected(Table::HoldingRegisters, start, qty) {
-            return Err(Exception::IllegalDataAddress);
-        }
-        storage::write_words(&mut self.registers, first, values);
-        self.master_writes = self.master_writes.wrapping_add(1);
-        Ok(())
+        let at = self.writable(Table::HoldingRegisters, start, qty);
+        self.values.write_words(at, values)
     }
 }

@@ -59,7 +59,8 @@ pub mod internal {
 
     /// The compile-time register map's parts, for [`crate::register_map!`].
     pub mod map {
-        pub use crate::map::{Layout, Span, Values};
+        pub use crate::map::{Layout, Span};
+        pub use crate::storage::Values;
     }
     /// FC 43 / MEI 14: what [`crate::identification!`] expands to.
     pub mod device_id {

@@ -9,12 +9,7 @@
 //! (40001–40004 and 40005–40008) are stored side by side, so the master reads across them
 //! as across one range.
 
-use crate::error::Error;
-use crate::model::Access;
-use crate::pdu::device_id::Identification;
-use crate::pdu::{Exception, MAX_READ_BITS, MAX_READ_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS};
 use crate::reference::{Reference, Table};
-use crate::storage;
 
 /// One declared range, as the lookup needs it.
 #[doc(hidden)]
@@ -47,22 +42,6 @@ const fn decode(range: (u32, u32)) -> (Table, u16, u16) {
 /// and then address order.
 const fn sorts_before(a: (Table, u16), b: (Table, u16)) -> bool {
     (a.0 as u8) < (b.0 as u8) || ((a.0 as u8) == (b.0 as u8) && a.1 < b.1)
-}
-
-const fn min(a: u32, b: u32) -> u32 {
-    if a < b {
-        a
-    } else {
-        b
-    }
-}
-
-const fn max(a: u32, b: u32) -> u32 {
-    if a > b {
-        a
-    } else {
-        b
-    }
 }
 
 /// The register map's layout, worked out while the firmware compiles.
@@ -131,29 +110,15 @@ impl Layout {
     }
 
     /// The frame buffer the map needs ([`crate::DataModel::FRAME`]): the longest request
-    /// or reply of a request it accepts, address and CRC included. FC 1 and 2 reply with
-    /// the longest run of bits, FC 3 and 4 with the longest run of registers (up to 2000
-    /// bits and 125 registers); FC 15 and 16 write the longest run of coils and holding
-    /// registers (up to 1968 and 123); FC 1–6 requests and FC 5 and 6 replies take 8 bytes.
-    /// 256 with features `diagnostics`, `extra-fc` and `device-id`, whose requests echo,
-    /// read and write more, or whose replies run to 253 bytes.
+    /// or reply of a request it accepts, address and CRC included, from its longest runs of
+    /// addresses of each table (see [`crate::model::frame_for`]).
     pub const fn frame(ranges: &[(u32, u32)]) -> usize {
-        if cfg!(any(feature = "diagnostics", feature = "extra-fc", feature = "device-id")) {
-            return crate::framer::MAX_FRAME;
-        }
-        let (coils, inputs) =
-            (Self::longest_run(ranges, Table::Coils), Self::longest_run(ranges, Table::DiscreteInputs));
-        let (input_registers, holding) =
-            (Self::longest_run(ranges, Table::InputRegisters), Self::longest_run(ranges, Table::HoldingRegisters));
-        // Address, function code, byte count, data, CRC.
-        let bits_read = min(max(coils, inputs), MAX_READ_BITS as u32);
-        let registers_read = min(max(input_registers, holding), MAX_READ_REGISTERS as u32);
-        let read = max(5 + bits_read.div_ceil(8), 5 + 2 * registers_read);
-        // Address, function code, start, quantity, byte count, data, CRC.
-        let coils_written = min(coils, MAX_WRITE_COILS as u32);
-        let registers_written = min(holding, MAX_WRITE_REGISTERS as u32);
-        let written = max(9 + coils_written.div_ceil(8), 9 + 2 * registers_written);
-        max(crate::framer::MIN_CAPACITY as u32, max(read, written)) as usize
+        crate::model::frame_for(
+            Self::longest_run(ranges, Table::Coils),
+            Self::longest_run(ranges, Table::DiscreteInputs),
+            Self::longest_run(ranges, Table::InputRegisters),
+            Self::longest_run(ranges, Table::HoldingRegisters),
+        )
     }
 
     /// The span of the range of `ranges` that starts at classic reference `first`.
@@ -192,6 +157,13 @@ impl Layout {
 }
 
 impl Span {
+    /// A range `start..=last` of `table` with no other range following it without a gap,
+    /// its first value at storage index 0: a [`crate::Bank`]'s run.
+    #[inline(always)]
+    pub(crate) fn run(table: Table, start: u16, last: u16) -> Self {
+        Span { table, start, last, reach: last, offset: 0 }
+    }
+
     /// The storage index of `start` when `start..start + qty` (`qty` ≥ 1) all exist and
     /// `start` lies in this range.
     #[inline(always)]
@@ -200,172 +172,6 @@ impl Span {
             return None;
         }
         Some(usize::from(self.offset) + usize::from(start - self.start))
-    }
-}
-
-/// The values of a register map: what [`crate::register_map!`] wraps.
-#[doc(hidden)]
-#[derive(Clone, Debug)]
-pub struct Values<const WORDS: usize, const BIT_BYTES: usize> {
-    words: [storage::Word; WORDS],
-    bits: [u8; BIT_BYTES],
-    master_writes: u16,
-    #[cfg(feature = "diagnostics")]
-    exception_status: u8,
-    #[cfg(feature = "diagnostics")]
-    device_info: &'static [u8],
-    #[cfg(feature = "device-id")]
-    identification: Option<&'static Identification>,
-}
-
-impl<const WORDS: usize, const BIT_BYTES: usize> Default for Values<WORDS, BIT_BYTES> {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
-    /// Every value 0.
-    pub const fn new() -> Self {
-        Values {
-            words: [[0; 2]; WORDS],
-            bits: [0; BIT_BYTES],
-            master_writes: 0,
-            #[cfg(feature = "diagnostics")]
-            exception_status: 0,
-            #[cfg(feature = "diagnostics")]
-            device_info: &[],
-            #[cfg(feature = "device-id")]
-            identification: None,
-        }
-    }
-
-    /// The value at storage index `at` of `table`'s kind.
-    #[inline(always)]
-    pub fn get(&self, table: Table, at: Option<usize>) -> Result<u16, Error> {
-        let i = at.ok_or(Error::NotFound)?;
-        Ok(if table.is_bits() { u16::from(storage::bit(&self.bits, i)) } else { storage::word(&self.words, i) })
-    }
-
-    /// Sets the value at storage index `at` of `table`'s kind.
-    #[inline(always)]
-    pub fn set(&mut self, table: Table, at: Option<usize>, value: u16) -> Result<(), Error> {
-        let i = at.ok_or(Error::NotFound)?;
-        if table.is_bits() {
-            storage::set_bit(&mut self.bits, i, value != 0);
-        } else {
-            storage::set_word(&mut self.words, i, value);
-        }
-        Ok(())
-    }
-
-    /// FC 1–6, 15 and 16: `qty` values of `table`'s kind from storage index `at` moved
-    /// between the map and `data` (see [`crate::DataModel::transfer`]); a write counts as a
-    /// master write.
-    pub fn transfer(
-        &mut self,
-        access: Access,
-        table: Table,
-        at: Option<usize>,
-        qty: u16,
-        data: &mut [u8],
-    ) -> Result<(), Exception> {
-        let i = at.ok_or(Exception::IllegalDataAddress)?;
-        if table.is_bits() {
-            storage::transfer_bits(&mut self.bits, i, qty, data, access);
-        } else {
-            storage::transfer_words(&mut self.words, i, data, access);
-        }
-        if access == Access::Write {
-            self.master_writes = self.master_writes.wrapping_add(1);
-        }
-        Ok(())
-    }
-
-    /// FC 1 / 2: `qty` bits from storage index `at`, packed LSB first.
-    pub fn read_bits(&self, at: Option<usize>, qty: u16, out: &mut [u8]) -> Result<(), Exception> {
-        storage::read_bits(&self.bits, at.ok_or(Exception::IllegalDataAddress)?, qty, out);
-        Ok(())
-    }
-
-    /// FC 3 / 4: `out.len() / 2` registers from storage index `at`, big-endian.
-    pub fn read_words(&self, at: Option<usize>, out: &mut [u8]) -> Result<(), Exception> {
-        storage::read_words(&self.words, at.ok_or(Exception::IllegalDataAddress)?, out);
-        Ok(())
-    }
-
-    /// FC 5 / 15: `qty` coils from storage index `at`, packed LSB first.
-    pub fn write_bits(&mut self, at: Option<usize>, qty: u16, packed: &[u8]) -> Result<(), Exception> {
-        storage::write_bits(&mut self.bits, at.ok_or(Exception::IllegalDataAddress)?, qty, packed);
-        self.master_writes = self.master_writes.wrapping_add(1);
-        Ok(())
-    }
-
-    /// FC 6 / 16: registers from storage index `at`, big-endian.
-    pub fn write_words(&mut self, at: Option<usize>, values: &[u8]) -> Result<(), Exception> {
-        storage::write_words(&mut self.words, at.ok_or(Exception::IllegalDataAddress)?, values);
-        self.master_writes = self.master_writes.wrapping_add(1);
-        Ok(())
-    }
-
-    /// Successful master writes so far, wrapping.
-    #[inline(always)]
-    pub fn master_writes(&self) -> u16 {
-        self.master_writes
-    }
-
-    /// FC 7's status bits (0 without feature `diagnostics`).
-    #[inline(always)]
-    pub fn exception_status(&self) -> u8 {
-        #[cfg(feature = "diagnostics")]
-        return self.exception_status;
-        #[cfg(not(feature = "diagnostics"))]
-        0
-    }
-
-    /// FC 17's device description (empty without feature `diagnostics`).
-    #[inline(always)]
-    pub fn device_info(&self) -> &[u8] {
-        #[cfg(feature = "diagnostics")]
-        return self.device_info;
-        #[cfg(not(feature = "diagnostics"))]
-        &[]
-    }
-
-    /// Sets FC 7's status bits (nothing without feature `diagnostics`).
-    pub fn set_exception_status(&mut self, bits: u8) {
-        #[cfg(feature = "diagnostics")]
-        {
-            self.exception_status = bits;
-        }
-        let _ = bits;
-    }
-
-    /// Sets FC 17's device description (nothing without feature `diagnostics`).
-    pub fn set_device_info(&mut self, info: &'static [u8]) {
-        #[cfg(feature = "diagnostics")]
-        {
-            self.device_info = info;
-        }
-        let _ = info;
-    }
-
-    /// FC 43's objects (none without feature `device-id`).
-    #[inline(always)]
-    pub fn identification(&self) -> Option<&'static Identification> {
-        #[cfg(feature = "device-id")]
-        return self.identification;
-        #[cfg(not(feature = "device-id"))]
-        None
-    }
-
-    /// Sets FC 43's objects (nothing without feature `device-id`).
-    pub fn set_identification(&mut self, identification: &'static Identification) {
-        #[cfg(feature = "device-id")]
-        {
-            self.identification = Some(identification);
-        }
-        let _ = identification;
     }
 }
 

@@ -10,8 +10,57 @@
 use crate::config::Config;
 use crate::error::Error;
 use crate::pdu::device_id::Identification;
-use crate::pdu::Exception;
+use crate::pdu::{Exception, MAX_READ_BITS, MAX_READ_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS};
 use crate::reference::{Reference, Table};
+
+const fn min(a: u32, b: u32) -> u32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+const fn max(a: u32, b: u32) -> u32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The frame buffer ([`DataModel::FRAME`]) of a model whose longest runs of addresses (a
+/// request reads or writes inside one) hold `coils`, `inputs` (discrete inputs),
+/// `input_registers` and `holding` values: the longest request or reply of a request it
+/// accepts, address and CRC included. FC 1 and 2 reply with the longest run of bits, FC 3
+/// and 4 with the longest run of registers (up to 2000 bits and 125 registers); FC 15 and
+/// 16 write the longest run of coils and holding registers (up to 1968 and 123); and
+/// never less than [`ONE_VALUE_FRAME`]. 256 with features `diagnostics`,
+/// `extra-fc` and `device-id`, whose requests echo, read and write more, or whose replies
+/// run to 253 bytes. [`crate::register_map!`] passes its longest runs, [`crate::Bank`] its
+/// capacity.
+pub(crate) const fn frame_for(coils: u32, inputs: u32, input_registers: u32, holding: u32) -> usize {
+    if cfg!(any(feature = "diagnostics", feature = "extra-fc", feature = "device-id")) {
+        return crate::framer::MAX_FRAME;
+    }
+    // Address, function code, byte count, data, CRC.
+    let bits_read = min(max(coils, inputs), MAX_READ_BITS as u32);
+    let registers_read = min(max(input_registers, holding), MAX_READ_REGISTERS as u32);
+    let read = max(5 + bits_read.div_ceil(8), 5 + 2 * registers_read);
+    // Address, function code, start, quantity, byte count, data, CRC.
+    let coils_written = min(coils, MAX_WRITE_COILS as u32);
+    let registers_written = min(holding, MAX_WRITE_REGISTERS as u32);
+    let written = max(9 + coils_written.div_ceil(8), 9 + 2 * registers_written);
+    max(ONE_VALUE_FRAME as u32, max(read, written)) as usize
+}
+
+/// The smallest frame buffer [`frame_for`] gives: FC 16 writing one register, 11 bytes (FC
+/// 1–6 take 8, FC 15 writing one coil 10). A request of one value, to any address, then
+/// fits, and never takes the framer's path for bytes past the buffer, which costs the
+/// receive interrupt about 30 cycles more a byte: a master polling one value at a time
+/// keeps every byte of it on the fast path, whatever the map.
+pub(crate) const ONE_VALUE_FRAME: usize = 11;
+const _: () = assert!(ONE_VALUE_FRAME >= crate::framer::MIN_CAPACITY);
 
 /// Which way a request moves values between the PDU and a [`DataModel`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -25,17 +74,18 @@ pub enum Access {
 /// The application's data as the master sees it.
 pub trait DataModel {
     /// Bytes of the frame buffer the slave needs for this model: the longest request it
-    /// accepts and the longest reply it sends, address and CRC included (8 to 256). Longer
-    /// requests are still answered as the spec says (the engine keeps their first bytes;
-    /// a longer request or reply can only belong to one the model refuses). 256, the
-    /// longest RTU frame, unless the model knows better: [`crate::register_map!`] works it
-    /// out from its ranges. Features `diagnostics` and `extra-fc` need 256.
+    /// accepts and the longest reply it sends, address and CRC included (8 to 256; the maps
+    /// give 11 or more). Longer requests are still answered as the spec says (the engine
+    /// keeps their first bytes; a longer request or reply can only belong to one the model
+    /// refuses). 256, the longest RTU frame, unless the model knows better:
+    /// [`crate::register_map!`] works it out from its ranges, [`crate::Bank`] from its
+    /// capacity. Features `diagnostics`, `extra-fc` and `device-id` need 256.
     const FRAME: usize = crate::framer::MAX_FRAME;
 
     /// True when every request whose addresses all exist fits [`DataModel::FRAME`], as
-    /// [`crate::register_map!`] works it out: a request too long for the frame buffer then
-    /// has a missing address, and gets exception 02 without a lookup. False, the default,
-    /// asks [`DataModel::has_range`] (02 for a missing address, else 04).
+    /// [`crate::register_map!`] and [`crate::Bank`] work it out: a request too long for
+    /// the frame buffer then has a missing address, and gets exception 02 without a lookup.
+    /// False, the default, asks [`DataModel::has_range`] (02 for a missing address, else 04).
     #[doc(hidden)]
     const FRAME_HOLDS_ALL: bool = false;
 

@@ -1,11 +1,16 @@
 //! The value storage both register maps share (the build-time `register_map!` and the
-//! run-time `Bank`): registers as two bytes, coils and discrete inputs packed 8 to a byte, LSB
-//! first, and the copies between them and the PDU, Application Protocol v1.1b3 §6.1–6.12.
+//! run-time `Bank`, each holding a [`Values`]): registers as two bytes, coils and discrete
+//! inputs packed 8 to a byte, LSB first, and the copies between them and the PDU,
+//! Application Protocol v1.1b3 §6.1–6.12.
 //!
 //! A register is kept as it travels, big-endian ([`Word`]): FC 3, 4, 6 and 16 copy bytes,
 //! and only the application's `get` and `set` convert.
 
+use crate::error::Error;
 use crate::model::Access;
+use crate::pdu::device_id::Identification;
+use crate::pdu::Exception;
+use crate::reference::Table;
 
 /// A register's value, big-endian (high byte first), as on the wire.
 pub(crate) type Word = [u8; 2];
@@ -181,5 +186,214 @@ pub(crate) fn transfer_words(words: &mut [Word], first: usize, data: &mut [u8], 
     match access {
         Access::Read => pairs.for_each(|(slot, pair)| pair.copy_from_slice(slot)),
         Access::Write => pairs.for_each(|(slot, pair)| slot.copy_from_slice(pair)),
+    }
+}
+
+/// The values of a register map: what [`crate::register_map!`] wraps, and what a
+/// [`crate::Bank`] keeps beside its runs.
+#[doc(hidden)]
+#[derive(Clone, Debug)]
+pub struct Values<const WORDS: usize, const BIT_BYTES: usize> {
+    words: [Word; WORDS],
+    bits: [u8; BIT_BYTES],
+    master_writes: u16,
+    #[cfg(feature = "diagnostics")]
+    exception_status: u8,
+    #[cfg(feature = "diagnostics")]
+    device_info: &'static [u8],
+    #[cfg(feature = "device-id")]
+    identification: Option<&'static Identification>,
+}
+
+impl<const WORDS: usize, const BIT_BYTES: usize> Default for Values<WORDS, BIT_BYTES> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
+    /// Every value 0.
+    pub const fn new() -> Self {
+        Values {
+            words: [[0; 2]; WORDS],
+            bits: [0; BIT_BYTES],
+            master_writes: 0,
+            #[cfg(feature = "diagnostics")]
+            exception_status: 0,
+            #[cfg(feature = "diagnostics")]
+            device_info: &[],
+            #[cfg(feature = "device-id")]
+            identification: None,
+        }
+    }
+
+    /// The value at storage index `i` of the bits (`bits`: 0 or 1) or the registers, 0
+    /// past the end.
+    #[inline(always)]
+    fn value(&self, bits: bool, i: usize) -> u16 {
+        if bits {
+            u16::from(bit(&self.bits, i))
+        } else {
+            word(&self.words, i)
+        }
+    }
+
+    /// Sets the value at storage index `i` of the bits (on when `value` is not 0) or the
+    /// registers; nothing past the end.
+    #[inline(always)]
+    fn put(&mut self, bits: bool, i: usize, value: u16) {
+        if bits {
+            set_bit(&mut self.bits, i, value != 0);
+        } else {
+            set_word(&mut self.words, i, value);
+        }
+    }
+
+    /// The value at storage index `at` of `table`'s kind.
+    #[inline(always)]
+    pub fn get(&self, table: Table, at: Option<usize>) -> Result<u16, Error> {
+        Ok(self.value(table.is_bits(), at.ok_or(Error::NotFound)?))
+    }
+
+    /// Sets the value at storage index `at` of `table`'s kind.
+    #[inline(always)]
+    pub fn set(&mut self, table: Table, at: Option<usize>, value: u16) -> Result<(), Error> {
+        self.put(table.is_bits(), at.ok_or(Error::NotFound)?, value);
+        Ok(())
+    }
+
+    /// Makes room for `n` values at storage index `at` of the bits (`bits`) or the
+    /// registers, of which `used` are in use (`used + n` fit): the values from `at` on
+    /// move `n` up, and the `n` from `at` read 0. What a [`crate::Bank`] does when it adds
+    /// addresses below others of their kind, at start-up: two copies out of a copy of that
+    /// storage on the stack (its bytes of bits, or two bytes a register), with the copies the
+    /// requests use; the `n` zeros come from past the used values.
+    pub(crate) fn open(&mut self, bits: bool, at: usize, used: usize, n: usize) {
+        if at >= used {
+            return;
+        }
+        let moved = used - at;
+        if bits {
+            let old = self.bits;
+            copy_bits(&old, at, &mut self.bits, at + n, moved as u16);
+            copy_bits(&old, used, &mut self.bits, at, n as u16);
+        } else {
+            let old = self.words;
+            if let (Some(to), Some(from)) = (self.words.get_mut(at + n..used + n), old.get(at..used)) {
+                to.copy_from_slice(from);
+            }
+            if let (Some(to), Some(from)) = (self.words.get_mut(at..at + n), old.get(used..used + n)) {
+                to.copy_from_slice(from);
+            }
+        }
+    }
+
+    /// FC 1–6, 15 and 16: `qty` values of `table`'s kind from storage index `at` moved
+    /// between the map and `data` (see [`crate::DataModel::transfer`]); a write counts as a
+    /// master write.
+    pub fn transfer(
+        &mut self,
+        access: Access,
+        table: Table,
+        at: Option<usize>,
+        qty: u16,
+        data: &mut [u8],
+    ) -> Result<(), Exception> {
+        let i = at.ok_or(Exception::IllegalDataAddress)?;
+        if table.is_bits() {
+            transfer_bits(&mut self.bits, i, qty, data, access);
+        } else {
+            transfer_words(&mut self.words, i, data, access);
+        }
+        if access == Access::Write {
+            self.master_writes = self.master_writes.wrapping_add(1);
+        }
+        Ok(())
+    }
+
+    /// FC 1 / 2: `qty` bits from storage index `at`, packed LSB first.
+    pub fn read_bits(&self, at: Option<usize>, qty: u16, out: &mut [u8]) -> Result<(), Exception> {
+        read_bits(&self.bits, at.ok_or(Exception::IllegalDataAddress)?, qty, out);
+        Ok(())
+    }
+
+    /// FC 3 / 4: `out.len() / 2` registers from storage index `at`, big-endian.
+    pub fn read_words(&self, at: Option<usize>, out: &mut [u8]) -> Result<(), Exception> {
+        read_words(&self.words, at.ok_or(Exception::IllegalDataAddress)?, out);
+        Ok(())
+    }
+
+    /// FC 5 / 15: `qty` coils from storage index `at`, packed LSB first.
+    pub fn write_bits(&mut self, at: Option<usize>, qty: u16, packed: &[u8]) -> Result<(), Exception> {
+        write_bits(&mut self.bits, at.ok_or(Exception::IllegalDataAddress)?, qty, packed);
+        self.master_writes = self.master_writes.wrapping_add(1);
+        Ok(())
+    }
+
+    /// FC 6 / 16: registers from storage index `at`, big-endian.
+    pub fn write_words(&mut self, at: Option<usize>, values: &[u8]) -> Result<(), Exception> {
+        write_words(&mut self.words, at.ok_or(Exception::IllegalDataAddress)?, values);
+        self.master_writes = self.master_writes.wrapping_add(1);
+        Ok(())
+    }
+
+    /// Successful master writes so far, wrapping.
+    #[inline(always)]
+    pub fn master_writes(&self) -> u16 {
+        self.master_writes
+    }
+
+    /// FC 7's status bits (0 without feature `diagnostics`).
+    #[inline(always)]
+    pub fn exception_status(&self) -> u8 {
+        #[cfg(feature = "diagnostics")]
+        return self.exception_status;
+        #[cfg(not(feature = "diagnostics"))]
+        0
+    }
+
+    /// FC 17's device description (empty without feature `diagnostics`).
+    #[inline(always)]
+    pub fn device_info(&self) -> &[u8] {
+        #[cfg(feature = "diagnostics")]
+        return self.device_info;
+        #[cfg(not(feature = "diagnostics"))]
+        &[]
+    }
+
+    /// Sets FC 7's status bits (nothing without feature `diagnostics`).
+    pub fn set_exception_status(&mut self, bits: u8) {
+        #[cfg(feature = "diagnostics")]
+        {
+            self.exception_status = bits;
+        }
+        let _ = bits;
+    }
+
+    /// Sets FC 17's device description (nothing without feature `diagnostics`).
+    pub fn set_device_info(&mut self, info: &'static [u8]) {
+        #[cfg(feature = "diagnostics")]
+        {
+            self.device_info = info;
+        }
+        let _ = info;
+    }
+
+    /// FC 43's objects (none without feature `device-id`).
+    #[inline(always)]
+    pub fn identification(&self) -> Option<&'static Identification> {
+        #[cfg(feature = "device-id")]
+        return self.identification;
+        #[cfg(not(feature = "device-id"))]
+        None
+    }
+
+    /// Sets FC 43's objects (nothing without feature `device-id`).
+    pub fn set_identification(&mut self, identification: &'static Identification) {
+        #[cfg(feature = "device-id")]
+        {
+            self.identification = Some(identification);
+        }
+        let _ = identification;
     }
 }

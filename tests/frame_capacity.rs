@@ -6,7 +6,7 @@
 mod common;
 
 use avr_modbus_slave::internal::{EndOfFrame, Engine, FrameError, Framer};
-use avr_modbus_slave::{Counters, DataModel, SlaveId};
+use avr_modbus_slave::{bit_bytes, Bank, Counters, DataModel, SlaveId};
 use common::{exception_reply, with_crc, ID};
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -59,6 +59,31 @@ avr_modbus_slave::register_map! {
 const SIXTEEN: usize = <Sixteen as DataModel>::FRAME;
 const TOUCHING: usize = <Touching as DataModel>::FRAME;
 
+/// `examples/sixteen_each_bank.rs`'s bank: room for 4 runs, 24 registers and 32 bits.
+type ContractBank = Bank<4, 24, { bit_bytes(32) }>;
+const CONTRACT_BANK: usize = <ContractBank as DataModel>::FRAME;
+
+/// The contract's map in a bank, added as the example adds it.
+fn contract_bank() -> ContractBank {
+    let mut bank = ContractBank::new();
+    for (first, count) in [(1, 16), (10001, 16), (30001, 8), (40001, 16)] {
+        bank.add_range(first, count).unwrap();
+    }
+    bank
+}
+
+/// `Touching`'s ranges in a bank with room for 8 more registers and bits, added in
+/// reverse order: the runs join as they are added.
+type TouchingBank = Bank<8, 19, { bit_bytes(16) }>;
+
+fn touching_bank() -> TouchingBank {
+    let mut bank = TouchingBank::new();
+    for (first, count) in [(30001, 2), (1, 4), (5, 4), (40010, 1), (40001, 4), (40005, 4)] {
+        bank.add_range(first, count).unwrap();
+    }
+    bank
+}
+
 /// Without the optional function codes, which need 256 bytes.
 const SIZED: bool = !cfg!(any(feature = "diagnostics", feature = "extra-fc"));
 
@@ -84,14 +109,23 @@ fn runs_longer_than_one_request_are_bounded_by_the_spec_limits() {
 }
 
 #[test]
-fn fc5_and_fc6_frames_are_the_smallest_buffer() {
-    // FC 15 × 3: 10 bytes; FC 1–6 requests: 8.
-    assert_eq!(<FewCoils as DataModel>::FRAME, if SIZED { 10 } else { 256 });
+fn a_request_of_one_value_always_fits_the_buffer() {
+    // FC 15 × 3 is 10 bytes, FC 1–6 requests 8; FC 16 writing one register, 11, sets the
+    // floor, though the map has no register.
+    assert_eq!(<FewCoils as DataModel>::FRAME, if SIZED { 11 } else { 256 });
 }
 
 #[test]
-fn a_bank_keeps_the_256_byte_buffer() {
-    assert_eq!(<common::TestBank as DataModel>::FRAME, 256);
+fn a_bank_sizes_its_buffer_from_its_capacity() {
+    // No run is longer than the bank's registers or bits: FC 16 × 24 is 9 + 48 bytes.
+    assert_eq!(CONTRACT_BANK, if SIZED { 57 } else { 256 });
+    // FC 16 × 64 registers: 9 + 128.
+    assert_eq!(<common::TestBank as DataModel>::FRAME, if SIZED { 137 } else { 256 });
+    // Four coils at most: FC 15 × 4, 10 bytes; every request of one value fits in 11.
+    assert_eq!(<Bank<1, 0, { bit_bytes(4) }> as DataModel>::FRAME, if SIZED { 11 } else { 256 });
+    // Past the spec's limits the capacity no longer matters.
+    assert_eq!(<common::FullBank as DataModel>::FRAME, if SIZED { 255 } else { 256 });
+    assert_eq!(<Bank<1, 4000, { bit_bytes(60000) }> as DataModel>::FRAME, if SIZED { 255 } else { 256 });
 }
 
 #[test]
@@ -142,6 +176,21 @@ fn both(frame: &[u8]) -> Outcome {
         outcome = Some(small);
     }
     outcome.unwrap()
+}
+
+/// `frame` sent to the contract's bank with its sized buffer and with 256 bytes: the
+/// outcomes must be the same, and the same as `Sixteen`'s. Returns it.
+fn both_banks(frame: &[u8]) -> Outcome {
+    let map = both(frame);
+    for gap in [false, true] {
+        let (mut small_bank, mut full_bank) = (contract_bank(), contract_bank());
+        let small = deliver(&mut slave::<CONTRACT_BANK>(), &mut small_bank, frame, gap);
+        let full = deliver(&mut slave::<256>(), &mut full_bank, frame, gap);
+        assert_eq!(small, full, "{}-byte frame, gap deadline {gap}", frame.len());
+        assert_eq!(small, map, "{}-byte frame, gap deadline {gap}: the bank and the map", frame.len());
+        assert_eq!(format!("{small_bank:?}"), format!("{full_bank:?}"));
+    }
+    map
 }
 
 /// FC 16 at `start` for `qty` registers with byte count `count` and `data` data bytes.
@@ -297,6 +346,79 @@ fn frames_of_256_bytes_are_answered_and_of_257_are_overruns() {
     assert_eq!(counters.overruns, 1);
 }
 
+// ---- a bank's buffer, sized from its capacity ---------------------------------------------
+
+#[test]
+fn a_bank_answers_fc16_of_100_registers_with_illegal_data_address() {
+    let frame = fc16(ID, 0, 100, 200, 200);
+    assert!(frame.len() > CONTRACT_BANK || !SIZED);
+    let (end, reply, counters) = both_banks(&frame);
+    assert_eq!(end, EndOfFrame::Reply);
+    assert_eq!(reply, exception_reply(0x10, 0x02));
+    assert_eq!((counters.messages, counters.exceptions), (1, 1));
+}
+
+#[test]
+fn a_bank_answers_long_requests_as_the_spec_says() {
+    // Byte count unlike the quantity, fewer data bytes than it says: 03.
+    assert_eq!(both_banks(&fc16(ID, 0x0100, 100, 199, 199)).1, exception_reply(0x10, 0x03));
+    assert_eq!(both_banks(&fc16(ID, 0x0100, 100, 200, 199)).1, exception_reply(0x10, 0x03));
+    // Past 65535: 02.
+    assert_eq!(both_banks(&fc16(ID, 0xFFD0, 100, 200, 200)).1, exception_reply(0x10, 0x02));
+    // Reads whose reply would not fit: 02.
+    assert_eq!(both_banks(&with_crc(&[ID, 0x03, 0x00, 0x00, 0x00, 0x7D])).1, exception_reply(0x03, 0x02));
+    assert_eq!(both_banks(&with_crc(&[ID, 0x01, 0x00, 0x00, 0x07, 0xD0])).1, exception_reply(0x01, 0x02));
+    // Unknown function with long data: 01.
+    let mut frame = vec![ID, 0x41];
+    frame.extend([0x55; 150]);
+    assert_eq!(both_banks(&with_crc(&frame)).1, exception_reply(0x41, 0x01));
+}
+
+#[test]
+fn a_long_frame_with_a_bad_crc_to_a_bank_is_dropped_and_counted() {
+    let mut frame = fc16(ID, 0x0100, 100, 200, 200);
+    *frame.last_mut().unwrap() ^= 0x01;
+    let (end, reply, counters) = both_banks(&frame);
+    assert_eq!(end, EndOfFrame::Dropped(FrameError::BadCrc));
+    assert!(reply.is_empty());
+    assert_eq!((counters.frames, counters.crc_errors, counters.messages), (1, 1, 0));
+}
+
+#[test]
+fn a_long_broadcast_to_a_bank_is_refused_in_silence() {
+    let (end, reply, counters) = both_banks(&fc16(0, 0x0100, 100, 200, 200));
+    assert_eq!(end, EndOfFrame::Broadcast);
+    assert!(reply.is_empty());
+    assert_eq!((counters.broadcasts, counters.exceptions, counters.replies), (1, 1, 0));
+}
+
+#[test]
+fn the_longest_write_a_bank_accepts_fits_and_is_answered() {
+    let (end, reply, _) = both_banks(&fc16(ID, 0, 16, 32, 32));
+    assert_eq!(end, EndOfFrame::Reply);
+    assert_eq!(reply, with_crc(&[ID, 0x10, 0x00, 0x00, 0x00, 0x10]));
+}
+
+#[test]
+fn a_bank_full_to_capacity_answers_its_longest_requests() {
+    // 24 holding registers in one run: FC 16 × 24 is the whole buffer, FC 3 × 24 nearly.
+    type Full = Bank<1, 24, { bit_bytes(0) }>;
+    let mut bank = Full::new();
+    bank.add_range(40001, 24).unwrap();
+    let mut slave = slave::<{ <Full as DataModel>::FRAME }>();
+    let write = fc16(ID, 0, 24, 48, 48);
+    assert!(write.len() == <Full as DataModel>::FRAME || !SIZED);
+    let (end, reply, _) = deliver(&mut slave, &mut bank, &write, false);
+    assert_eq!((end, reply), (EndOfFrame::Reply, with_crc(&[ID, 0x10, 0x00, 0x00, 0x00, 0x18])));
+    let (_, reply, _) = deliver(&mut slave, &mut bank, &with_crc(&[ID, 0x03, 0x00, 0x00, 0x00, 0x18]), false);
+    let mut expected = vec![ID, 0x03, 48];
+    expected.extend((0..48).map(|i| i as u8));
+    assert_eq!(reply, with_crc(&expected));
+    // One more register is a missing address, and its request one byte too long: 02.
+    let (_, reply, _) = deliver(&mut slave, &mut bank, &fc16(ID, 0, 25, 50, 50), false);
+    assert_eq!(reply, exception_reply(0x10, 0x02));
+}
+
 // ---- the framer on its own ---------------------------------------------------------------
 
 fn framer_after(frame: &[u8], gap: bool) -> (Framer<8>, Option<Result<usize, FrameError>>) {
@@ -440,5 +562,13 @@ proptest! {
         same_outcomes::<SIXTEEN, _>(&Sixteen::new(), &frames)?;
         same_outcomes::<TOUCHING, _>(&Touching::new(), &frames)?;
         same_outcomes::<{ <FewCoils as DataModel>::FRAME }, _>(&FewCoils::new(), &frames)?;
+    }
+
+    #[test]
+    fn a_bank_sized_buffer_answers_random_frames_as_256_bytes_do(
+        frames in vec((frame(), any::<bool>()), 1..6),
+    ) {
+        same_outcomes::<CONTRACT_BANK, _>(&contract_bank(), &frames)?;
+        same_outcomes::<{ <TouchingBank as DataModel>::FRAME }, _>(&touching_bank(), &frames)?;
     }
 }

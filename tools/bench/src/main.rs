@@ -1,9 +1,10 @@
 //! `make bench`: figures for the example firmware, measured on the ELF files in simavr
 //! (through `uno-sim`, cycle-exact USART timing) and with `avr-size`.
 //!
-//! First the targets of the size issue, each measured and marked met or not: the
-//! `sixteen_each` contract (flash, RAM, every function code answered right) beside the
-//! Arduino libraries' figures, `minimal`'s flash, the USART RX interrupt's cycles, the
+//! First the targets of the size issues, each measured and marked met or not: the
+//! `sixteen_each` contract (flash, RAM, every function code answered right) with its map
+//! fixed at build time and from a run-time `Bank` (`sixteen_each_bank`), beside the Arduino
+//! libraries' figures, `minimal`'s flash, the USART RX interrupt's cycles, the
 //! turnaround of `uno_slave` over 1000 mixed requests while its main loop reads and writes
 //! registers, and what each optional feature costs against the README's claim.
 //!
@@ -76,7 +77,7 @@ impl Firmware {
     }
 }
 
-const FIRMWARE: [Firmware; 6] = [
+const FIRMWARE: [Firmware; 7] = [
     Firmware { changing: &[(40002, 2)], ..Firmware::new("minimal", [0, 0, 0, 4]) },
     Firmware {
         changing: &[(10001, 4), (30001, 12)],
@@ -87,6 +88,7 @@ const FIRMWARE: [Firmware; 6] = [
     Firmware { changing: &[(10001, 2)], ..Firmware::new("lab_lights", [0, 2, 0, 0]) },
     Firmware { changing: &[(10001, 3), (30001, 1)], ..Firmware::new("dip_switch", [16, 3, 1, 10]) },
     Firmware::new("sixteen_each", [16, 16, 8, 16]),
+    Firmware::new("sixteen_each_bank", [16, 16, 8, 16]),
 ];
 
 fn firmware(name: &str) -> &'static Firmware {
@@ -111,10 +113,12 @@ const THROUGHPUT_REQUESTS: usize = 100;
 /// added before each (so that they meet the main loop at every point of its pass).
 const MIX_REQUESTS: usize = 1000;
 const MIX_MAX_DELAY_US: u64 = 2_000;
-/// Mixed requests against `sixteen_each`, checked byte for byte.
+/// Mixed requests against `sixteen_each` and `sixteen_each_bank`, checked byte for byte.
 const CONTRACT_MIX_REQUESTS: usize = 200;
+/// The contract's two firmware: its map fixed at build time, and from a run-time `Bank`.
+const CONTRACTS: [&str; 2] = ["sixteen_each", "sixteen_each_bank"];
 
-/// Targets from the size issue.
+/// Targets from the size issues (the same for the contract from a `Bank`).
 const CONTRACT_FLASH_TARGET: u64 = 3000;
 const CONTRACT_RAM_TARGET: u64 = 330;
 const MINIMAL_FLASH_TARGET: u64 = 2048;
@@ -573,8 +577,8 @@ struct Report {
     big: Vec<Series>,
     /// `uno_slave`, mixed requests while its main loop runs.
     mix: Series,
-    /// `sixteen_each`, mixed requests.
-    contract_mix: Series,
+    /// `sixteen_each` and `sixteen_each_bank` ([`CONTRACTS`]), mixed requests.
+    contract_mix: Vec<Series>,
     /// Feature costs on `minimal`, then `configurable`'s total.
     features: Vec<FeatureCost>,
     /// `boards` on every chip and USART.
@@ -708,12 +712,15 @@ fn measure(root: &Path, log: &mut Log) -> Result<Report> {
     let requests = mixed(uno, MIX_REQUESTS, 0x0D0);
     let mix = Series::run_all(&mut bus, "19200 8E1", &requests, "mix", MIX_MAX_DELAY_US, &mut uno.model(), log)?;
 
-    eprintln!("bench: sixteen_each ({CONTRACT_MIX_REQUESTS} mixed requests)");
-    let contract = firmware("sixteen_each");
-    let mut bus = Bus::boot(&firmware_path(root, contract.name), &[], None)?;
-    let requests = mixed(contract, CONTRACT_MIX_REQUESTS, 0x16);
-    let contract_mix =
-        Series::run_all(&mut bus, "19200 8E1", &requests, "mix", MIX_MAX_DELAY_US, &mut contract.model(), log)?;
+    let mut contract_mix = Vec::new();
+    for name in CONTRACTS {
+        eprintln!("bench: {name} ({CONTRACT_MIX_REQUESTS} mixed requests)");
+        let contract = firmware(name);
+        let mut bus = Bus::boot(&firmware_path(root, contract.name), &[], None)?;
+        let requests = mixed(contract, CONTRACT_MIX_REQUESTS, 0x16);
+        let mut model = contract.model();
+        contract_mix.push(Series::run_all(&mut bus, "19200 8E1", &requests, "mix", MIX_MAX_DELAY_US, &mut model, log)?);
+    }
 
     Ok(Report {
         profiles,
@@ -764,32 +771,33 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
         writeln!(md, "| {target} | {measured} | {} |", met.map_or("–", met_text))
     };
 
-    let contract = profile("sixteen_each");
-    row(
-        format!("sixteen_each: flash (text+data) ≤ {CONTRACT_FLASH_TARGET} B"),
-        contract.map_or("not built".into(), |p| format!("{} B", p.flash)),
-        contract.map(|p| p.flash <= CONTRACT_FLASH_TARGET),
-    )?;
-    row(
-        format!("sixteen_each: static RAM (data+bss) ≤ {CONTRACT_RAM_TARGET} B"),
-        contract.map_or("not built".into(), |p| format!("{} B", p.ram)),
-        contract.map(|p| p.ram <= CONTRACT_RAM_TARGET),
-    )?;
-    let cm = &r.contract_mix;
-    let wrong_fcs = log.failed_fcs("sixteen_each");
-    row(
-        "sixteen_each: answers FC 1, 2, 3, 4, 5, 6, 15, 16 right (byte for byte)".into(),
-        format!(
-            "workload {}/{} right, {} mixed requests {}/{} right; function codes with a wrong or missing reply: {}",
-            contract.map_or(0, |p| p.right),
-            contract.map_or(0, |p| p.sent),
-            cm.sent,
-            cm.answered(),
-            cm.sent,
-            if wrong_fcs.is_empty() { "none".into() } else { wrong_fcs.join(", ") }
-        ),
-        contract.map(|p| p.right == p.sent && cm.answered() == cm.sent && wrong_fcs.is_empty()),
-    )?;
+    for (name, cm) in CONTRACTS.into_iter().zip(&r.contract_mix) {
+        let contract = profile(name);
+        row(
+            format!("{name}: flash (text+data) ≤ {CONTRACT_FLASH_TARGET} B"),
+            contract.map_or("not built".into(), |p| format!("{} B", p.flash)),
+            contract.map(|p| p.flash <= CONTRACT_FLASH_TARGET),
+        )?;
+        row(
+            format!("{name}: static RAM (data+bss) ≤ {CONTRACT_RAM_TARGET} B"),
+            contract.map_or("not built".into(), |p| format!("{} B", p.ram)),
+            contract.map(|p| p.ram <= CONTRACT_RAM_TARGET),
+        )?;
+        let wrong_fcs = log.failed_fcs(name);
+        row(
+            format!("{name}: answers FC 1, 2, 3, 4, 5, 6, 15, 16 right (byte for byte)"),
+            format!(
+                "workload {}/{} right, {} mixed requests {}/{} right; function codes with a wrong or missing reply: {}",
+                contract.map_or(0, |p| p.right),
+                contract.map_or(0, |p| p.sent),
+                cm.sent,
+                cm.answered(),
+                cm.sent,
+                if wrong_fcs.is_empty() { "none".into() } else { wrong_fcs.join(", ") }
+            ),
+            contract.map(|p| p.right == p.sent && cm.answered() == cm.sent && wrong_fcs.is_empty()),
+        )?;
+    }
     let minimal = profile("minimal");
     row(
         format!("minimal: flash ≤ {MINIMAL_FLASH_TARGET} B"),
@@ -895,9 +903,11 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
     for (library, flash, ram) in LIBRARIES {
         writeln!(md, "| {library} | {flash} | {ram} |")?;
     }
-    match contract {
-        Some(p) => writeln!(md, "| this crate (sixteen_each, measured) | {} | {} B |", p.flash, p.ram)?,
-        None => writeln!(md, "| this crate (sixteen_each) | not built | not built |")?,
+    for (name, map) in CONTRACTS.into_iter().zip(["`register_map!`, fixed at build time", "a run-time `Bank`"]) {
+        match profile(name) {
+            Some(p) => writeln!(md, "| this crate ({name}: {map}; measured) | {} | {} B |", p.flash, p.ram)?,
+            None => writeln!(md, "| this crate ({name}: {map}) | not built | not built |")?,
+        }
     }
 
     writeln!(md, "\n### Optional features against the README\n")?;
@@ -1048,7 +1058,7 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
     )?;
     let rows = r.lines.iter().map(|(p, s)| (format!("dip_switch (preset {p})"), s));
     let rows = rows.chain(r.big.iter().map(|s| ("max_frame".to_owned(), s)));
-    let mixed = [(&r.mix, "uno_slave (main loop running)"), (&r.contract_mix, "sixteen_each")];
+    let mixed = [(&r.mix, "uno_slave (main loop running)")].into_iter().chain(r.contract_mix.iter().zip(CONTRACTS));
     let rows = rows.chain(mixed.map(|(s, name)| (name.to_owned(), s)));
     for (firmware, s) in rows {
         writeln!(
@@ -1070,10 +1080,10 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
     writeln!(
         md,
         "\nmix: the eight function codes on random ranges of the firmware's tables with random values \
-         ({MIX_REQUESTS} to uno_slave, {CONTRACT_MIX_REQUESTS} to sixteen_each), each after 0–{} ms of extra silence.",
+         ({MIX_REQUESTS} to uno_slave, {CONTRACT_MIX_REQUESTS} to sixteen_each and to sixteen_each_bank), each after 0–{} ms of extra silence.",
         MIX_MAX_DELAY_US / 1000
     )?;
-    let all = r.lines.iter().map(|(_, s)| s).chain(&r.big).chain([&r.busy, &r.idle, tp, &r.mix, &r.contract_mix]);
+    let all = r.lines.iter().map(|(_, s)| s).chain(&r.big).chain([&r.busy, &r.idle, tp, &r.mix]).chain(&r.contract_mix);
     let worst = all.max_by(|a, b| (a.max_gap * b.t15).cmp(&(b.max_gap * a.t15))).unwrap_or(tp);
     writeln!(
         md,
