@@ -862,10 +862,11 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
             (&r.idle, "minimal"),
             (&r.throughput, "uno_slave back to back"),
             (&r.mix, "uno_slave mix"),
-            (&r.contract_mix, "sixteen_each mix"),
         ]
         .map(|(s, name)| (format!("{name} {}", s.line), s)),
     );
+    let series =
+        series.chain(r.contract_mix.iter().zip(CONTRACTS).map(|(s, name)| (format!("{name} mix {}", s.line), s)));
     let series = series.chain(r.chips.iter().map(|c| (format!("boards on the {} USART{}", c.chip, c.usart), &c.mixed)));
     let earliest = series.filter_map(|(name, s)| Some((s.min()?, name))).min_by_key(|(c, _)| *c);
     if let Some((cycles, name)) = earliest {
