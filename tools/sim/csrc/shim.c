@@ -20,6 +20,11 @@
  * The chip's other USARTs run as simavr models them; the bytes they transmit are
  * collected (without timing) so that a test can read, e.g., debug output.
  *
+ * Resets keep the clock running: an external reset (the board's RESET pin, which
+ * a USB-serial board pulses when a program opens its port) and a watchdog reset
+ * restart the core at its reset address (0, or the bootloader's with BOOTRST) with
+ * MCUSR telling why, as the chip does, and drop what was on the wire.
+ *
  * It also adds the AVR's interrupt response time (4 cycles, or 5 with a 3-byte
  * program counter; twice that when waking from sleep), which simavr 1.6 leaves out,
  * and keeps per-vector ISR statistics.
@@ -137,6 +142,11 @@ typedef struct uno_shim {
 	int reti_pending;
 	uint8_t reti_vec;
 	uint64_t reti_start;
+
+	/* resets after the first start: how many, and MCUSR's cause bits of the last one */
+	void (*core_run)(avr_t *avr); /* simavr's run function; the watchdog swaps it to reset */
+	uint64_t resets;
+	uint8_t reset_cause;
 
 	/* externally driven inputs per port 'A'..'L' */
 	uint8_t ext_mask[PORTS], ext_value[PORTS];
@@ -451,6 +461,38 @@ static void post_step(uno_shim_t *s, int dor_before, unsigned read_before)
 	}
 }
 
+/* MCUSR, the same data address on every chip simulated here */
+#define R_MCUSR 0x54
+#define MCUSR_WDRF 0x08
+
+/* Not the transmitter "to allow printf", as simavr enables it at reset: the chip does not. */
+static void uarts_off(avr_t *avr)
+{
+	for (avr_io_t *io = avr->io_port; io; io = io->next)
+		if (!strcmp(io->kind, "uart"))
+			avr_regbit_clear(avr, ((avr_uart_t *)io)->txen);
+}
+
+/* A reset of the core that keeps the clock, the flash, the EEPROM and SRAM (the chip
+ * clears only its I/O registers), with `cause` ORed into MCUSR. Characters on the wire
+ * in either direction are lost; the statistics stay. */
+static void chip_reset(uno_shim_t *s, uint8_t cause)
+{
+	avr_t *avr = s->avr;
+	uint64_t cycle = avr->cycle;
+	avr_reset(avr); /* drops every cycle timer: the RX schedule and the TX model go too */
+	avr->cycle = cycle;
+	uarts_off(avr);
+	avr->data[R_MCUSR] |= cause;
+	s->reset_cause = avr->data[R_MCUSR];
+	s->resets++;
+	s->rx_head = s->rx_len = 0;
+	s->tx_active = s->tx_buf_full = s->tx_written = 0;
+	s->isr_depth = 0;
+	s->reti_pending = 0;
+	s->was_sleeping = 0;
+}
+
 static void step_once(uno_shim_t *s)
 {
 	avr_t *avr = s->avr;
@@ -469,6 +511,10 @@ static void step_once(uno_shim_t *s)
 		s->isr[vec].cycles += avr->cycle - c0 - s->entry_added;
 	finish_reti(s);
 	post_step(s, dor_before, read_before);
+	/* simavr's watchdog fired with WDE set: it swapped avr->run for its reset, which
+	 * would drop this shim's timers; reset here instead (its I/O reset sets WDRF). */
+	if (avr->run != s->core_run)
+		chip_reset(s, 0);
 }
 
 /* ------------------------------------------------------------------------- */
@@ -476,8 +522,8 @@ static void step_once(uno_shim_t *s)
 
 void uno_free(uno_shim_t *s);
 
-/* Loads the ELF file at `path` into a fresh `mcu` (simavr's core name) at 16 MHz
- * and makes USART`usart` the wire; its UCSRnA must be at `base` (the caller's
+/* Loads the ELF file at `path` (NULL: none, the flash erased) into a fresh `mcu`
+ * (simavr's core name) at 16 MHz and makes USART`usart` the wire; its UCSRnA must be at `base` (the caller's
  * table, checked against simavr's core). `response`: interrupt response cycles. */
 uno_shim_t *uno_new(const char *path, const char *mcu, int usart, uint16_t base, uint32_t response, char *err,
 		    size_t errlen)
@@ -499,7 +545,7 @@ uno_shim_t *uno_new(const char *path, const char *mcu, int usart, uint16_t base,
 		free(s);
 		return NULL;
 	}
-	if (elf_read_firmware(path, f) != 0) {
+	if (path && elf_read_firmware(path, f) != 0) {
 		snprintf(err, errlen, "simavr could not read the ELF file%s%s", last_error[0] ? ": " : "",
 			 last_error);
 		goto fail;
@@ -510,7 +556,7 @@ uno_shim_t *uno_new(const char *path, const char *mcu, int usart, uint16_t base,
 		goto fail;
 	}
 	avr_init(s->avr);
-	if (!f->flash || f->flashsize == 0) {
+	if (path && (!f->flash || f->flashsize == 0)) {
 		snprintf(err, errlen, "the ELF file has no code for flash");
 		goto fail;
 	}
@@ -525,13 +571,15 @@ uno_shim_t *uno_new(const char *path, const char *mcu, int usart, uint16_t base,
 		goto fail;
 	}
 	f->frequency = 16000000;
-	avr_load_firmware(s->avr, f);
+	if (path)
+		avr_load_firmware(s->avr, f);
 
 	avr_t *avr = s->avr;
 	avr->frequency = 16000000;
 	avr->vcc = avr->avcc = avr->aref = 5000;
 	avr->log = LOG_ERROR;
 	avr->sleep = sleep_exact;
+	s->core_run = avr->run;
 	s->response = response;
 	s->uart_name = (char)('0' + usart);
 	s->base = base;
@@ -878,4 +926,46 @@ int uno_eeprom_write(uno_shim_t *s, uint32_t offset, const uint8_t *in, uint32_t
 	avr_eeprom_desc_t d = { .ee = (uint8_t *)in, .offset = (uint16_t)offset, .size = len };
 	avr_ioctl(s->avr, AVR_IOCTL_EEPROM_SET, &d);
 	return UNO_OK;
+}
+
+uint32_t uno_flash_size(const uno_shim_t *s)
+{
+	return (uint32_t)s->avr->flashend + 1;
+}
+
+/* Copy `len` flash bytes from byte address `offset` to `out`. */
+int uno_flash_read(const uno_shim_t *s, uint32_t offset, uint8_t *out, uint32_t len)
+{
+	if ((uint64_t)offset + len > uno_flash_size(s))
+		return UNO_ERR_ARG;
+	memcpy(out, s->avr->flash + offset, len);
+	return UNO_OK;
+}
+
+/* Program `len` flash bytes at byte address `offset` (as a programmer would). */
+int uno_flash_write(uno_shim_t *s, uint32_t offset, const uint8_t *in, uint32_t len)
+{
+	if ((uint64_t)offset + len > uno_flash_size(s))
+		return UNO_ERR_ARG;
+	memcpy(s->avr->flash + offset, in, len);
+	return UNO_OK;
+}
+
+/* Where the core starts after a reset: 0, or the boot section's start (BOOTRST). */
+void uno_set_reset_address(uno_shim_t *s, uint32_t byte_address)
+{
+	s->avr->reset_pc = byte_address;
+}
+
+/* An external or power-on reset: `cause` is MCUSR's bits for it (PORF 1, EXTRF 2). */
+void uno_reset(uno_shim_t *s, uint8_t cause)
+{
+	chip_reset(s, cause);
+}
+
+/* Resets since the simulation started, and MCUSR right after the last one. */
+uint64_t uno_resets(const uno_shim_t *s, uint8_t *cause)
+{
+	*cause = s->reset_cause;
+	return s->resets;
 }

@@ -113,6 +113,20 @@ pub enum Error {
         /// Bytes to write.
         len: usize,
     },
+    /// A flash access past its end.
+    FlashOutOfRange {
+        /// First byte address.
+        addr: usize,
+        /// Length of the access.
+        len: usize,
+    },
+    /// An Intel HEX file could not be used.
+    BadHex {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
     /// The simulator failed internally (e.g. out of memory).
     Internal(String),
 }
@@ -153,6 +167,10 @@ impl fmt::Display for Error {
             Error::EepromOutOfRange { addr, len } => {
                 write!(f, "{len} bytes at 0x{addr:03x} are past the end of the EEPROM")
             }
+            Error::FlashOutOfRange { addr, len } => {
+                write!(f, "{len} bytes at 0x{addr:05x} are past the end of the flash")
+            }
+            Error::BadHex { path, reason } => write!(f, "{}: {reason}", path.display()),
             Error::UnknownSymbol(name) => write!(f, "no symbol `{name}` in the firmware"),
             Error::NotInRam(name) => write!(f, "symbol `{name}` is not in the data space"),
             Error::SymbolTooSmall { name, size, len } => {

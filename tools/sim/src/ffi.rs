@@ -82,6 +82,12 @@ extern "C" {
     pub(crate) fn uno_pin_drive(s: *mut Shim, port: c_char, bit: c_int, level: c_int) -> c_int;
     pub(crate) fn uno_adc_set(s: *mut Shim, channel: c_int, millivolts: u32) -> c_int;
     pub(crate) fn uno_set_aref(s: *mut Shim, millivolts: u32);
+    pub(crate) fn uno_flash_size(s: *const Shim) -> u32;
+    pub(crate) fn uno_flash_read(s: *const Shim, offset: u32, out: *mut u8, len: u32) -> c_int;
+    pub(crate) fn uno_flash_write(s: *mut Shim, offset: u32, bytes: *const u8, len: u32) -> c_int;
+    pub(crate) fn uno_set_reset_address(s: *mut Shim, byte_address: u32);
+    pub(crate) fn uno_reset(s: *mut Shim, cause: u8);
+    pub(crate) fn uno_resets(s: *const Shim, cause: *mut u8) -> u64;
     pub(crate) fn uno_eeprom_size(s: *const Shim) -> u32;
     pub(crate) fn uno_eeprom_read(s: *mut Shim, offset: u32, out: *mut u8, len: u32) -> c_int;
     pub(crate) fn uno_eeprom_write(s: *mut Shim, offset: u32, bytes: *const u8, len: u32) -> c_int;

@@ -84,6 +84,7 @@ mod chip;
 mod elf;
 mod error;
 mod ffi;
+pub mod hex;
 mod pins;
 
 use std::ffi::{c_char, c_int, CStr, CString};
@@ -411,6 +412,34 @@ pub enum RxFlag {
     CharEnd,
 }
 
+/// Why the chip reset: MCUSR's flags.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResetCause {
+    /// Power applied (PORF).
+    PowerOn,
+    /// The RESET pin pulled low (EXTRF): the reset button, or DTR on a USB-serial board.
+    External,
+    /// The watchdog timed out (WDRF), e.g. a bootloader leaving for the application.
+    Watchdog,
+}
+
+impl ResetCause {
+    const fn mcusr_bit(self) -> u8 {
+        match self {
+            ResetCause::PowerOn => 0x01,
+            ResetCause::External => 0x02,
+            ResetCause::Watchdog => 0x08,
+        }
+    }
+
+    /// The cause MCUSR names (the watchdog first, as it is set last).
+    fn from_mcusr(mcusr: u8) -> Option<ResetCause> {
+        [ResetCause::Watchdog, ResetCause::External, ResetCause::PowerOn]
+            .into_iter()
+            .find(|cause| mcusr & cause.mcusr_bit() != 0)
+    }
+}
+
 /// Which chip to simulate, which of its USARTs is the wire and when that USART flags a received
 /// character (see [`Uno::load_with`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -505,22 +534,38 @@ impl Uno {
             (None, None) => Chip::Atmega328p,
             (None, Some(name)) => Chip::from_name(&name).ok_or(Error::UnsupportedChip { path: path.clone(), name })?,
         };
+        Uno::create(Some(path), chip, elf::symbols(&bytes), options)
+    }
+
+    /// A chip with its flash erased (every byte 0xFF) and no program, as it comes from the
+    /// factory: the chip `options` names (else an ATmega328P), the wire on its USART. Program it
+    /// with [`Uno::write_flash`]; [`Uno::reset`] (which reloads a file) is not for it.
+    pub fn erased(options: Options) -> Result<Uno, Error> {
+        Uno::create(None, options.chip.unwrap_or(Chip::Atmega328p), Vec::new(), options)
+    }
+
+    fn create(path: Option<PathBuf>, chip: Chip, symbols: Vec<Symbol>, options: Options) -> Result<Uno, Error> {
         let usart = options.usart.unwrap_or(chip.default_usart());
         let no_such = Error::NoSuchUsart { chip, usart };
         let (regs, vectors) = chip.usart_regs(usart).zip(chip.vectors(usart)).ok_or(no_such)?;
-        let symbols = elf::symbols(&bytes);
-        let c_path = CString::new(path.as_os_str().as_bytes())
-            .map_err(|_| Error::BadElf { path: path.clone(), reason: "path contains a NUL byte".into() })?;
+        let c_path = match &path {
+            Some(path) => Some(CString::new(path.as_os_str().as_bytes()).map_err(|_| Error::BadElf {
+                path: path.clone(),
+                reason: "path contains a NUL byte".into(),
+            })?),
+            None => None,
+        };
         let c_mcu = CString::new(chip.name()).map_err(|_| Error::Internal("chip name with a NUL byte".into()))?;
         let response = u32::try_from(chip.interrupt_response_cycles()).unwrap_or(4);
 
         let mut err = [0 as c_char; 256];
         let raw = {
             let _guard = LOAD_LOCK.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-            // SAFETY: `c_path` and `c_mcu` are NUL-terminated, `err` is writable for its full length.
+            // SAFETY: `c_path` (if any) and `c_mcu` are NUL-terminated, `err` is writable for its
+            // full length.
             unsafe {
                 ffi::uno_new(
-                    c_path.as_ptr(),
+                    c_path.as_ref().map_or(std::ptr::null(), |p| p.as_ptr()),
                     c_mcu.as_ptr(),
                     c_int::from(usart),
                     regs.ucsra,
@@ -530,6 +575,7 @@ impl Uno {
                 )
             }
         };
+        let path = path.unwrap_or_default();
         let Some(shim) = NonNull::new(raw) else {
             // SAFETY: `uno_new` always NUL-terminates `err` within its length.
             let msg = unsafe { CStr::from_ptr(err.as_ptr()) }.to_string_lossy().into_owned();
@@ -972,6 +1018,81 @@ impl Uno {
             0 => Ok(()),
             _ => Err(Error::EepromOutOfRange { addr, len: bytes.len() }),
         }
+    }
+
+    /// The flash's size in bytes (32 KiB on the Uno).
+    pub fn flash_size(&self) -> usize {
+        // SAFETY: `shim` is valid for the lifetime of `self`.
+        unsafe { ffi::uno_flash_size(self.raw()) as usize }
+    }
+
+    /// The whole flash, as a programmer would read it back.
+    pub fn flash(&self) -> Vec<u8> {
+        let mut bytes = vec![0xFF; self.flash_size()];
+        // SAFETY: `shim` is valid; `bytes` is writable for the whole flash, the range the
+        // shim checks.
+        unsafe { ffi::uno_flash_read(self.raw(), 0, bytes.as_mut_ptr(), bytes.len() as u32) };
+        bytes
+    }
+
+    /// Programs `bytes` at flash byte address `addr`, as an ISP programmer would (the running
+    /// program is not told; reset it to start what was written).
+    pub fn write_flash(&mut self, addr: usize, bytes: &[u8]) -> Result<(), Error> {
+        let out_of_range = Error::FlashOutOfRange { addr, len: bytes.len() };
+        let (Ok(offset), Ok(len)) = (u32::try_from(addr), u32::try_from(bytes.len())) else {
+            return Err(out_of_range);
+        };
+        // SAFETY: `shim` is valid and exclusively borrowed; `bytes` is readable for `len`
+        // bytes; the shim checks the range.
+        match unsafe { ffi::uno_flash_write(self.raw_mut(), offset, bytes.as_ptr(), len) } {
+            0 => Ok(()),
+            _ => Err(out_of_range),
+        }
+    }
+
+    /// Programs a bootloader from an Intel HEX file into the boot section it was linked for
+    /// and makes the chip start there at every reset, as the BOOTRST fuse of a board with a
+    /// bootloader does. Returns that address. The section must start 256 B to 8 KiB below the
+    /// top of the flash (a power of two), as the chips' BOOTSZ fuses allow.
+    pub fn install_bootloader(&mut self, path: &Path) -> Result<u32, Error> {
+        let bad = |reason: String| Error::BadHex { path: path.to_owned(), reason };
+        let text = std::fs::read_to_string(path).map_err(|source| Error::Io { path: path.to_owned(), source })?;
+        let chunks = hex::parse(&text).map_err(bad)?;
+        let start = chunks.iter().map(|c| c.addr).min().ok_or_else(|| bad("holds no data".into()))?;
+        let below_top = (self.flash_size() as u64).saturating_sub(u64::from(start));
+        if !(below_top.is_power_of_two() && (256..=8192).contains(&below_top)) {
+            return Err(bad(format!(
+                "starts at 0x{start:05x}, not at a boot section of the {}'s {} KiB flash",
+                self.chip,
+                self.flash_size() / 1024
+            )));
+        }
+        for chunk in &chunks {
+            self.write_flash(chunk.addr as usize, &chunk.bytes)?;
+        }
+        // SAFETY: `shim` is valid and exclusively borrowed.
+        unsafe { ffi::uno_set_reset_address(self.raw_mut(), start) };
+        Ok(start)
+    }
+
+    /// Resets the chip with the clock running on: its RESET pin pulled low
+    /// ([`ResetCause::External`], what a USB-serial board's DTR does) or power applied
+    /// ([`ResetCause::PowerOn`]). The core starts at its reset address (0, or the bootloader's
+    /// after [`Uno::install_bootloader`]) with MCUSR telling why; I/O registers start over;
+    /// flash, EEPROM, SRAM, pins driven from outside and [`Uno::now`] stay; characters on the
+    /// wire are lost. A watchdog reset happens on its own ([`Uno::resets`] counts it).
+    pub fn hard_reset(&mut self, cause: ResetCause) {
+        // SAFETY: `shim` is valid and exclusively borrowed.
+        unsafe { ffi::uno_reset(self.raw_mut(), cause.mcusr_bit()) }
+    }
+
+    /// Resets since the simulation started ([`Uno::hard_reset`] and the watchdog's), and the
+    /// cause of the last one, read from MCUSR as the chip set it.
+    pub fn resets(&self) -> (u64, Option<ResetCause>) {
+        let mut mcusr = 0u8;
+        // SAFETY: `shim` is valid for the lifetime of `self`; `mcusr` is writable.
+        let count = unsafe { ffi::uno_resets(self.raw(), &mut mcusr) };
+        (count, ResetCause::from_mcusr(mcusr))
     }
 
     /// The firmware's symbol table (empty for a stripped file).

@@ -9,17 +9,29 @@ use crate::control::Command;
 /// Usage text for `--help` and errors.
 pub const USAGE: &str = "\
 usage: virtual-uno [OPTIONS] FIRMWARE.elf
+       virtual-uno --bootloader FILE.hex --state DIR [OPTIONS] [FIRMWARE.elf]
 
 Runs the firmware on a simulated Arduino Uno (simavr, 16 MHz) paced to real time, with
 USART0 on a pseudo-terminal: open the printed /dev/pts/N (or the --link) with any Modbus
 master, at the firmware's baud rate and frame format. A firmware built for another chip
 (ATmega168, 32U4, 1280, 2560) runs on that chip, its serial line on --usart.
 
+With --bootloader it is a whole board: the chip starts the bootloader at every reset, and
+a program opening the port resets it, as DTR does on a real Uno or Mega, so avrdude (and
+ravedude, `cargo run`) flash it through the port. --state keeps its flash and EEPROM in a
+directory, as a chip keeps them unplugged; without a FIRMWARE.elf it runs what DIR holds.
+
 options:
   --link PATH      make PATH a symlink to the pty (removed on exit), e.g. /tmp/ttyUNO
   --chip NAME      the chip: atmega328p, atmega168, atmega32u4, atmega1280, atmega2560
                    (default: the one the ELF file names, else atmega328p)
   --usart N        the USART on the pty (default: USART0, on the ATmega32U4 USART1)
+  --bootloader F   program the bootloader in Intel HEX file F into its boot section and
+                   start it at every reset (BOOTRST); opening the port resets the board
+  --no-auto-reset  opening the port does not reset the board (a real board with a 10 uF
+                   capacitor from RESET to GND); the default without --bootloader
+  --state DIR      keep the flash (DIR/flash.bin) and EEPROM (DIR/eeprom.bin) across resets
+                   and restarts; a FIRMWARE.elf given replaces the program, as a programmer
   --pin N=0|1|z    drive input pin N low, high, or release it, from the start (repeatable)
   --adc A0=MV      put MV millivolts (0-5000) on an analog input from the start (repeatable)
   --control PATH   read commands from PATH, a FIFO (created if missing, then removed)
@@ -35,13 +47,20 @@ commands (stdin or --control), one per line:
   pin 6 0 | pin 6 1 | pin 6 z    drive or release an input pin
   adc A0 2500                    set an analog input, in mV
   pins                           print the watched pins now
+  reset                          press the reset button
 ";
 
 /// What the command line asked for.
 #[derive(Debug)]
 pub struct Args {
-    /// The firmware.
-    pub elf: PathBuf,
+    /// The firmware; `None`: what `--state` holds, else erased flash.
+    pub elf: Option<PathBuf>,
+    /// `--bootloader`.
+    pub bootloader: Option<PathBuf>,
+    /// Reset when a program opens the port: with `--bootloader`, unless `--no-auto-reset`.
+    pub auto_reset: bool,
+    /// `--state`.
+    pub state: Option<PathBuf>,
     /// `--link`.
     pub link: Option<PathBuf>,
     /// `--chip`.
@@ -71,7 +90,10 @@ pub fn default_watch(chip: Chip) -> Vec<u8> {
 /// `Err(None)` for `--help`, `Err(Some(message))` for a mistake.
 pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<String>> {
     let mut args = Args {
-        elf: PathBuf::new(),
+        elf: None,
+        bootloader: None,
+        auto_reset: true,
+        state: None,
         link: None,
         chip: None,
         usart: None,
@@ -92,13 +114,20 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
             "--adc" => args.initial.push(Command::parse_adc_option(&value()?).map_err(Some)?),
             "--control" => args.control = Some(value()?.into()),
             "--no-stdin" => args.stdin = false,
+            "--bootloader" => args.bootloader = Some(value()?.into()),
+            "--no-auto-reset" => args.auto_reset = false,
+            "--state" => args.state = Some(value()?.into()),
             "--watch" => args.watch = Some(parse_watch(&value()?).map_err(Some)?),
             w if w.starts_with('-') => return Err(Some(format!("unknown option {w}"))),
             _ if elf.is_some() => return Err(Some(format!("one firmware file only (got {word} too)"))),
             _ => elf = Some(PathBuf::from(word)),
         }
     }
-    args.elf = elf.ok_or_else(|| Some("no firmware file given".to_owned()))?;
+    if elf.is_none() && args.bootloader.is_none() && args.state.is_none() {
+        return Err(Some("no firmware file given".to_owned()));
+    }
+    args.elf = elf;
+    args.auto_reset &= args.bootloader.is_some();
     Ok(args)
 }
 
@@ -126,7 +155,8 @@ mod tests {
     #[test]
     fn options_and_firmware() {
         let a = parse(words("--link /tmp/ttyUNO --pin 10=0 --adc A0=2500 fw.elf --watch 13,2")).unwrap();
-        assert_eq!(a.elf, PathBuf::from("fw.elf"));
+        assert_eq!(a.elf, Some(PathBuf::from("fw.elf")));
+        assert!(!a.auto_reset, "no auto-reset without a bootloader");
         assert_eq!(a.link, Some(PathBuf::from("/tmp/ttyUNO")));
         assert_eq!(a.initial, vec![Command::Pin(10, Some(false)), Command::Adc(0, 2500)]);
         assert_eq!(a.watch, Some(vec![13, 2]));
@@ -142,6 +172,15 @@ mod tests {
         assert_eq!(parse(words("--usart 4 fw.elf")).unwrap_err(), Some("--usart: `4` is not 0, 1, 2 or 3".into()));
         assert_eq!(default_watch(Chip::Atmega168), [13, 2, 3, 4, 5]);
         assert!(default_watch(Chip::Atmega32u4).is_empty());
+    }
+
+    #[test]
+    fn a_board_with_a_bootloader_resets_when_the_port_opens() {
+        let a = parse(words("--bootloader boot.hex --state dir")).unwrap();
+        assert_eq!((a.elf, a.auto_reset), (None, true));
+        assert_eq!(a.state, Some(PathBuf::from("dir")));
+        let a = parse(words("--bootloader boot.hex --no-auto-reset fw.elf")).unwrap();
+        assert_eq!((a.elf, a.auto_reset), (Some(PathBuf::from("fw.elf")), false));
     }
 
     #[test]

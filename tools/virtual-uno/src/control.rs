@@ -6,6 +6,7 @@
 //! pin 6 z        release pin 6 (reads its pull-up, or low)
 //! adc A0 2500    put 2500 mV on A0 (also `adc 0 2500`)
 //! pins           print the watched output pins now
+//! reset          press the reset button (the board restarts, through its bootloader if it has one)
 //! ```
 //!
 //! The start-up options use the same values: `--pin 6=0`, `--adc A0=2500`.
@@ -21,10 +22,12 @@ pub enum Command {
     Adc(u8, u32),
     /// Print the watched pins.
     ShowPins,
+    /// Press the reset button.
+    Reset,
 }
 
 /// Usage of the commands, for error messages.
-pub const USAGE: &str = "commands: pin N 0|1|z, adc A0..A5 MV, pins";
+pub const USAGE: &str = "commands: pin N 0|1|z, adc A0..A5 MV, pins, reset";
 
 impl Command {
     /// Parses one command line; `Ok(None)` for a blank line or a `#` comment.
@@ -36,6 +39,7 @@ impl Command {
             ["pin", pin, level] => Ok(Some(Command::Pin(parse_pin(pin)?, parse_level(level)?))),
             ["adc", channel, mv] => Ok(Some(Command::Adc(parse_channel(channel)?, parse_mv(mv)?))),
             ["pins"] => Ok(Some(Command::ShowPins)),
+            ["reset"] => Ok(Some(Command::Reset)),
             _ => Err(format!("cannot understand `{}` ({USAGE})", line.trim())),
         }
     }
@@ -57,6 +61,10 @@ impl Command {
         match self {
             Command::Pin(pin, level) => uno.drive_pin(pin, level),
             Command::Adc(channel, mv) => uno.set_analog_mv(channel, mv),
+            Command::Reset => {
+                uno.hard_reset(uno_sim::ResetCause::External);
+                Ok(())
+            }
             Command::ShowPins => Ok(()),
         }
     }

@@ -11,11 +11,21 @@
 //! virtual-uno --link /tmp/ttyUNO target/avr-atmega328p/release/examples/uno_slave.elf
 //! mbpoll -m rtu -b 19200 -P even -a 1 -t 3 -c 5 -1 /tmp/ttyUNO
 //! ```
+//!
+//! With `--bootloader` it is a whole board, flashed through its port like a real one (see
+//! `dtr` for the auto-reset and `state` for the flash and EEPROM kept in files):
+//!
+//! ```text
+//! virtual-uno --link /tmp/ttyUNO --bootloader optiboot_atmega328.hex --state target/board/uno
+//! RAVEDUDE_PORT=/tmp/ttyUNO cargo run --release
+//! ```
 
 mod args;
 mod control;
+mod dtr;
 mod line;
 mod pty;
+mod state;
 mod wire;
 
 use std::fs::{File, OpenOptions};
@@ -30,11 +40,13 @@ use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
 use nix::sys::signal::{SigSet, Signal};
 use nix::sys::signalfd::{SfdFlags, SignalFd};
 use nix::sys::stat::Mode;
-use uno_sim::{Options, Uno, CYCLES_PER_US};
+use uno_sim::{Options, ResetCause, Uno, CYCLES_PER_US};
 
 use control::Command;
+use dtr::Dtr;
 use line::Settings;
 use pty::{Link, Pty};
+use state::State;
 use wire::Wire;
 
 /// Simulated time run per loop turn, at most (1 ms).
@@ -43,6 +55,8 @@ const SLICE_CYCLES: u64 = 1_000 * CYCLES_PER_US;
 const LAG_WARN: Duration = Duration::from_millis(20);
 /// How often falling behind is reported, at most.
 const LAG_REPORT_EVERY: Duration = Duration::from_secs(5);
+/// How often `--state` is written back if it changed (and at every reset and on exit).
+const SAVE_EVERY: Duration = Duration::from_millis(500);
 
 fn main() -> ExitCode {
     let args = match args::parse(std::env::args().skip(1)) {
@@ -180,10 +194,58 @@ fn pins_line(uno: &Uno, watch: &[u8]) -> String {
     format!("pins: {}", states.join(" "))
 }
 
+/// Why the board reset, as `reset:` lines say it.
+fn reset_line(cause: Option<ResetCause>, bootloader: bool) -> String {
+    let then = if bootloader { "the bootloader starts" } else { "the program starts again" };
+    match cause {
+        Some(ResetCause::PowerOn) => format!("reset: power-on; {then}"),
+        Some(ResetCause::External) => format!("reset: RESET pin (DTR: a program opened the port, or `reset`); {then}"),
+        Some(ResetCause::Watchdog) => "reset: watchdog; the program starts".to_owned(),
+        None => "reset".to_owned(),
+    }
+}
+
+/// The chip with its program: the firmware file, else what `--state` holds (else erased),
+/// and the bootloader on top.
+fn board(args: &args::Args, options: Options) -> Result<(Uno, Option<State>), String> {
+    let mut uno = match &args.elf {
+        Some(elf) => Uno::load_with(elf, options),
+        None => Uno::erased(options),
+    }
+    .map_err(|e| e.to_string())?;
+    let state = match &args.state {
+        Some(dir) => Some(State::open(dir, &mut uno, args.elf.is_some())?),
+        None => None,
+    };
+    if let Some(hex) = &args.bootloader {
+        let before = uno.flash();
+        let start = uno.install_bootloader(hex).map_err(|e| e.to_string())?;
+        let program = program_bytes(&before[..start as usize]);
+        if args.elf.is_some() && before[start as usize..].iter().any(|&b| b != 0xFF) {
+            return Err(format!("the firmware reaches into the boot section at 0x{start:05x}"));
+        }
+        println!("bootloader: {} at 0x{start:05x}, started at every reset", hex.display());
+        match program {
+            0 => println!("program: none (flash erased): flash one through the port"),
+            n => println!("program: {n} bytes"),
+        }
+    }
+    Ok((uno, state))
+}
+
+/// How far the program reaches: up to its last byte that is not erased (0xFF).
+fn program_bytes(flash: &[u8]) -> usize {
+    flash.iter().rposition(|&b| b != 0xFF).map_or(0, |i| i + 1)
+}
+
 fn run(args: &args::Args) -> Result<(), String> {
     let options = Options { chip: args.chip, usart: args.usart, ..Options::new() };
-    let mut uno = Uno::load_with(&args.elf, options).map_err(|e| e.to_string())?;
+    let (mut uno, mut state) = board(args, options)?;
     let (chip, usart) = (uno.chip(), uno.usart());
+    let whole_board = args.bootloader.is_some() || state.is_some();
+    if whole_board {
+        uno.hard_reset(ResetCause::PowerOn);
+    }
     let watch = match &args.watch {
         Some(pins) if !pins.is_empty() && !chip.has_uno_pinout() => {
             return Err(format!("--watch: pin numbers are the Uno's; the {chip} has none of them"));
@@ -214,6 +276,13 @@ fn run(args: &args::Args) -> Result<(), String> {
         }
         None => None,
     };
+    let mut dtr = match args.auto_reset {
+        true => Some(Dtr::watch(pty.path()).map_err(|e| format!("cannot watch {} for opens: {e}", pty.path().display()))?),
+        false => None,
+    };
+    if dtr.is_some() {
+        println!("auto-reset: opening the port resets the board, as DTR does on a real one");
+    }
     let (_fifo, control) = match &args.control {
         Some(path) => {
             let (fifo, source) = ControlFifo::open(path)?;
@@ -233,6 +302,12 @@ fn run(args: &args::Args) -> Result<(), String> {
     let mut pins = String::new();
     let (mut lag_total, mut lag_window, mut lag_reported) = (Duration::ZERO, Duration::ZERO, None::<Instant>);
     let mut buf = [0u8; 1024];
+    let (mut resets, _) = uno.resets();
+    if whole_board {
+        println!("{}", reset_line(Some(ResetCause::PowerOn), args.bootloader.is_some()));
+    }
+    let mut saved = Instant::now();
+    let mut stopped = false;
 
     loop {
         // Wait for input until the next slice is due (not at all if the simulation is behind).
@@ -243,6 +318,10 @@ fn run(args: &args::Args) -> Result<(), String> {
             PollTimeout::from(u8::try_from(cycles_to_duration(SLICE_CYCLES - behind).as_millis().max(1)).unwrap_or(1))
         };
         let mut fds = vec![PollFd::new(signal_fd.as_fd(), PollFlags::POLLIN), PollFd::new(pty.fd(), PollFlags::POLLIN)];
+        if let Some(dtr) = &dtr {
+            fds.push(PollFd::new(dtr.fd(), PollFlags::POLLIN));
+        }
+        let first_source = fds.len();
         fds.extend(sources.iter().filter(|s| s.open).map(|s| PollFd::new(s.file.as_fd(), PollFlags::POLLIN)));
         match poll(&mut fds, timeout) {
             Ok(_) | Err(nix::errno::Errno::EINTR) => {}
@@ -266,19 +345,46 @@ fn run(args: &args::Args) -> Result<(), String> {
         }
         let open: Vec<usize> = (0..sources.len()).filter(|&i| sources[i].open).collect();
         for (k, i) in open.into_iter().enumerate() {
-            if ready[2 + k] {
+            if ready[first_source + k] {
                 for line in sources[i].read_lines() {
                     execute(&mut uno, &line, &watch);
                 }
             }
         }
 
+        if dtr.as_mut().is_some_and(Dtr::raised) {
+            uno.hard_reset(ResetCause::External);
+        }
+
         // Run up to the wall clock, one slice at most, then pass on what the firmware sent.
+        // A whole board whose program stopped waits for a reset, as a hung chip does.
         let due = clock.due();
-        if due > uno.now() {
-            uno.run_until(due.min(uno.now() + SLICE_CYCLES)).map_err(|e| e.to_string())?;
+        if due > uno.now() && !stopped {
+            match uno.run_until(due.min(uno.now() + SLICE_CYCLES)) {
+                Err(e @ uno_sim::Error::Stopped { .. }) if whole_board => {
+                    println!("stopped: {e}; the board waits for a reset");
+                    stopped = true;
+                }
+                other => other.map_err(|e| e.to_string())?,
+            }
+        }
+        if stopped {
+            clock = Clock::new(uno.now());
         }
         wire.transmit(&mut uno, &mut pty).map_err(|e| format!("writing the pty: {e}"))?;
+
+        let (now_resets, cause) = uno.resets();
+        if now_resets != resets {
+            resets = now_resets;
+            println!("{}", reset_line(cause, args.bootloader.is_some()));
+            if stopped {
+                stopped = false;
+                clock = Clock::new(uno.now());
+            }
+            save(&mut state, &uno, &mut saved)?;
+        } else if saved.elapsed() >= SAVE_EVERY {
+            save(&mut state, &uno, &mut saved)?;
+        }
 
         let now_serial = uno.serial_config().map(|cfg| Settings::of_firmware(&cfg));
         if now_serial != serial {
@@ -317,6 +423,7 @@ fn run(args: &args::Args) -> Result<(), String> {
         }
     }
 
+    save(&mut state, &uno, &mut saved)?;
     let (rx, tx) = wire.counts();
     eprintln!(
         "virtual-uno: stopped after {:.1} s simulated; {rx} bytes received, {tx} sent; {} ms behind real time in all",
@@ -324,4 +431,13 @@ fn run(args: &args::Args) -> Result<(), String> {
         lag_total.as_millis()
     );
     Ok(())
+}
+
+/// Writes `--state` back if it changed.
+fn save(state: &mut Option<State>, uno: &Uno, saved: &mut Instant) -> Result<(), String> {
+    *saved = Instant::now();
+    match state {
+        Some(state) => state.save(uno).map_err(|e| format!("saving the board's state: {e}")),
+        None => Ok(()),
+    }
 }
