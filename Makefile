@@ -8,10 +8,11 @@ EXAMPLES := $(patsubst examples/%.rs,%,$(wildcard examples/*.rs))
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: help setup firmware chips fixtures package sizes lint fmt-check clippy docs host-test test demo serve interop bench bench-features fuzz soak
+.PHONY: help setup bootloaders firmware chips fixtures package sizes lint fmt-check clippy docs host-test test demo serve interop bench bench-features fuzz soak
 
 help:
-	@echo "make demo   - build the Uno slave and poll it on a virtual Uno"
+	@echo "make demo   - flash the Uno slave with cargo run (ravedude, avrdude, optiboot) on a virtual Uno, and poll it"
+	@echo "           (BOARD=mega2560: a virtual Mega 2560 and its stk500v2 bootloader)"
 	@echo "make serve EXAMPLE=uno_slave - keep a virtual Uno running for QModMaster or any master"
 	@echo "           (BOARD=mega2560 USART=1: another board's chip, built under target/chips/)"
 	@echo "make test   - set up, lint, build every firmware, run all tests"
@@ -123,7 +124,7 @@ docs: setup
 
 lint: fmt-check clippy docs
 
-host-test: setup firmware fixtures
+host-test: setup firmware fixtures bootloaders
 	$(CARGO) test --workspace --exclude virtual-uno
 	$(CARGO) test -p virtual-uno --bins
 	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL) --lib --test optional_functions --test exceptions --test adu --test framer --test bank --test map --test random_frames
@@ -140,9 +141,16 @@ test: lint firmware host-test interop
 
 EXAMPLE ?= uno_slave
 
-# The firmware on a virtual Uno (simavr on a pseudo-terminal), polled by mbpoll.
-demo: firmware
-	demo/demo.sh
+# The boards' bootloaders for the virtual boards (target/bootloaders): the Uno's optiboot
+# built from Debian's arduino-core-avr source, the Mega 2560's stk500v2 as it ships.
+bootloaders: setup
+	@.ci/bootloaders
+
+# A virtual Uno (simavr on a pseudo-terminal, optiboot at every reset) flashed with
+# `cargo run --release` in demo/uno, the avr-hal template's form (ravedude -> avrdude ->
+# the bootloader), then polled by mbpoll. BOARD=mega2560: a virtual Mega 2560, demo/mega2560.
+demo: setup bootloaders
+	demo/demo.sh $(if $(filter uno,$(BOARD)),uno,$(BOARD))
 
 # Keeps a virtual Uno running for QModMaster or any master: make serve EXAMPLE=NAME ARGS="..."
 # Another board: make serve BOARD=mega2560 USART=1 runs examples/boards.rs as make chips built
@@ -167,7 +175,7 @@ serve: $(if $(filter atmega328p,$(SERVE_CHIP)),firmware,chips)
 	SERVE_BOARD=$(BOARD) SERVE_CHIP=$(SERVE_CHIP) SERVE_USART=$(SERVE_USART) SERVE_ELF=$(SERVE_ELF) demo/serve.sh $(SERVE_EXAMPLE) $(ARGS)
 
 # mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on the virtual Uno, with answer rates.
-interop: firmware
+interop: firmware bootloaders
 	$(CARGO) test -p virtual-uno --test interop -- --nocapture --test-threads=1
 
 bench: setup firmware bench-features

@@ -473,6 +473,27 @@ static void uarts_off(avr_t *avr)
 			avr_regbit_clear(avr, ((avr_uart_t *)io)->txen);
 }
 
+/* avr_reset zeroes PINx but leaves the pin IRQs at their old levels, and simavr passes
+ * on only a change of level: a pull-up switched on again would never reach PINx. Start
+ * every pin IRQ at 0, as PINx now reads, then drive the pins driven from outside again. */
+static void pins_after_reset(uno_shim_t *s)
+{
+	avr_t *avr = s->avr;
+	for (avr_io_t *io = avr->io_port; io; io = io->next) {
+		if (strcmp(io->kind, "port"))
+			continue;
+		avr_ioport_t *p = (avr_ioport_t *)io;
+		for (int bit = 0; bit < 8; bit++)
+			p->io.irq[bit].value = 0;
+		int i = p->name - 'A';
+		if (i < 0 || i >= PORTS)
+			continue;
+		for (int bit = 0; bit < 8; bit++)
+			if (s->ext_mask[i] & (1 << bit))
+				avr_raise_irq(p->io.irq + bit, (s->ext_value[i] >> bit) & 1);
+	}
+}
+
 /* A reset of the core that keeps the clock, the flash, the EEPROM and SRAM (the chip
  * clears only its I/O registers), with `cause` ORed into MCUSR. Characters on the wire
  * in either direction are lost; the statistics stay. */
@@ -483,6 +504,7 @@ static void chip_reset(uno_shim_t *s, uint8_t cause)
 	avr_reset(avr); /* drops every cycle timer: the RX schedule and the TX model go too */
 	avr->cycle = cycle;
 	uarts_off(avr);
+	pins_after_reset(s);
 	avr->data[R_MCUSR] |= cause;
 	s->reset_cause = avr->data[R_MCUSR];
 	s->resets++;
