@@ -11,6 +11,7 @@
 //! libmodbus-dev and a C compiler, and the Python in `$INTEROP_PYTHON` (target/python: Debian's
 //! python3 with python3-pymodbus, python3-serial-asyncio and minimalmodbus).
 
+use std::ffi::OsStr;
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -60,8 +61,22 @@ struct VirtualUno {
 impl VirtualUno {
     /// Starts `firmware` with `options` and waits until its USART0 is configured.
     fn start(firmware: &Path, options: &[&str]) -> VirtualUno {
+        let tag = firmware.file_stem().unwrap().to_string_lossy().into_owned();
+        VirtualUno::spawn(&tag, options.iter().map(|o| o.as_ref()).chain([firmware.as_os_str()]), "serial: ")
+    }
+
+    /// Starts a whole Uno: optiboot (`make bootloaders`), its flash and EEPROM in `state`,
+    /// the program `firmware` if given (else what `state` holds); waits for its power-on.
+    fn board(state: &Path, firmware: Option<&Path>) -> VirtualUno {
+        let boot = workspace().join("target/bootloaders/optiboot_atmega328.hex");
+        assert!(boot.is_file(), "{} is missing: run make bootloaders first", boot.display());
+        let args = [OsStr::new("--bootloader"), boot.as_os_str(), OsStr::new("--state"), state.as_os_str()];
+        VirtualUno::spawn("board", args.into_iter().chain(firmware.map(Path::as_os_str)), "reset: power-on")
+    }
+
+    fn spawn<'a>(tag: &str, args: impl IntoIterator<Item = &'a OsStr>, ready: &str) -> VirtualUno {
         let dir = std::env::temp_dir();
-        let tag = format!("vuno-{}-{}", std::process::id(), firmware.file_stem().unwrap().to_string_lossy());
+        let tag = format!("vuno-{}-{tag}", std::process::id());
         let (link, control) = (dir.join(format!("{tag}.tty")), dir.join(format!("{tag}.ctl")));
         let mut child = Command::new(env!("CARGO_BIN_EXE_virtual-uno"))
             .arg("--link")
@@ -69,8 +84,7 @@ impl VirtualUno {
             .arg("--control")
             .arg(&control)
             .args(["--no-stdin"])
-            .args(options)
-            .arg(firmware)
+            .args(args)
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
@@ -81,7 +95,7 @@ impl VirtualUno {
         collect(child.stderr.take().unwrap(), log.clone());
         let uno = VirtualUno { child, link, control, log };
         let deadline = Instant::now() + Duration::from_secs(10);
-        while !uno.log().contains("serial: ") {
+        while !uno.log().contains(ready) {
             assert!(Instant::now() < deadline, "virtual-uno did not start:\n{}", uno.log());
             thread::sleep(Duration::from_millis(20));
         }
@@ -94,6 +108,25 @@ impl VirtualUno {
 
     fn log(&self) -> String {
         self.log.lock().unwrap().clone()
+    }
+
+    /// Waits up to `limit` for `pattern` in the output after its first `from` bytes; the
+    /// position just past it.
+    fn wait_for(&self, pattern: &str, from: usize, limit: Duration) -> usize {
+        let deadline = Instant::now() + limit;
+        loop {
+            let log = self.log();
+            if let Some(at) = log.get(from..).and_then(|rest| rest.find(pattern)) {
+                return from + at + pattern.len();
+            }
+            assert!(Instant::now() < deadline, "no `{pattern}` from the virtual board in {limit:?}:\n{log}");
+            thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// How many times the board reset because its port was opened.
+    fn port_resets(&self) -> usize {
+        self.log().matches("reset: RESET pin").count()
     }
 
     /// Sends a command (`pin 6 0`) and gives the firmware time to see it.
@@ -156,8 +189,13 @@ fn transcript(master: &str, uno: &VirtualUno) -> String {
 
 /// `mbpoll -m rtu -b 19200 -P even -1 ARGS PORT VALUES`: its output.
 fn mbpoll(uno: &VirtualUno, args: &str, values: &str) -> String {
+    mbpoll_at(uno, "-b 19200 -P even", args, values)
+}
+
+/// `mbpoll -m rtu LINE -o 1 -1 ARGS PORT VALUES`: its output.
+fn mbpoll_at(uno: &VirtualUno, line: &str, args: &str, values: &str) -> String {
     let mut cmd = Command::new("mbpoll");
-    cmd.args("-m rtu -b 19200 -P even -o 1 -1".split(' ')).args(args.split_whitespace());
+    cmd.args("-m rtu -o 1 -1".split(' ')).args(line.split_whitespace()).args(args.split_whitespace());
     cmd.arg(uno.port()).args(values.split_whitespace());
     let (_, out) = run(&mut cmd, Duration::from_secs(10));
     format!("$ mbpoll {args} {} {values}\n{out}", uno.port())
@@ -414,4 +452,105 @@ fn a_missing_or_bad_firmware_is_one_line_and_a_failure() {
         assert_eq!(err.lines().count(), 1, "not one line: {err}");
         assert!(err.starts_with("virtual-uno: ") && err.contains(&*path.to_string_lossy()), "{err}");
     }
+}
+
+// ------------------------------------------------------------------------------------------
+// A whole board: optiboot at every reset, a reset when the port opens, flash and EEPROM kept
+
+/// A fresh directory for a board's `--state`.
+fn fresh_state(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("vuno-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+/// Flashes `elf` through the board's bootloader with avrdude, as ravedude runs it for an Uno.
+fn avrdude(uno: &VirtualUno, elf: &Path) -> String {
+    let mut cmd = Command::new("avrdude");
+    cmd.args(["-c", "arduino", "-p", "atmega328p", "-b", "115200", "-D", "-P", uno.port(), "-U"])
+        .arg(format!("flash:w:{}:e", elf.display()));
+    let (ok, out) = run(&mut cmd, Duration::from_secs(60));
+    assert!(ok && out.contains("bytes of flash verified"), "avrdude failed\n{}", transcript(&out, uno));
+    out
+}
+
+/// Opens the port as a master that keeps it open does, and waits for the reset that causes
+/// and for the program to configure `line` after the bootloader.
+fn hold_port(uno: &VirtualUno, line: &str) -> std::fs::File {
+    let from = uno.log().len();
+    let port = std::fs::OpenOptions::new().read(true).write(true).open(uno.port()).expect("open the port");
+    let at = uno.wait_for("reset: RESET pin", from, Duration::from_secs(2));
+    let at = uno.wait_for("reset: watchdog", at, Duration::from_secs(5));
+    uno.wait_for(&format!("serial: {line}"), at, Duration::from_secs(2));
+    port
+}
+
+#[test]
+fn opening_the_port_resets_the_board_into_optiboot_unless_it_is_open_already() {
+    let _one = serialise();
+    let state = fresh_state("auto-reset");
+    let uno = VirtualUno::board(&state, Some(&firmware("uno_slave")));
+    // power-on: optiboot leaves it to the program at once
+    uno.wait_for("serial: 19200 8E1", 0, Duration::from_secs(2));
+    assert_eq!(uno.port_resets(), 0);
+
+    // A master that opens the port for each poll resets the board each time, and its request
+    // reaches the bootloader, which has the line for the next 1.4 s.
+    let out = mbpoll(&uno, "-a 1 -t 4 -r 1 -c 2", "");
+    assert!(out.contains("Connection timed out"), "{}", transcript(&out, &uno));
+    assert_eq!(uno.port_resets(), 1);
+
+    // One that keeps it open resets it once; further opens beside it don't.
+    let port = hold_port(&uno, "19200 8E1");
+    assert_eq!(uno.port_resets(), 2);
+    for _ in 0..3 {
+        let out = mbpoll(&uno, "-a 1 -t 4 -r 1 -c 2", "");
+        assert_eq!(mbpoll_values(&out), [500, 512], "{}", transcript(&out, &uno));
+    }
+    assert_eq!(uno.port_resets(), 2, "{}", uno.log());
+
+    // Closed, then opened again: a reset again.
+    drop(port);
+    let out = mbpoll(&uno, "-a 1 -t 4 -r 1 -c 2", "");
+    assert!(out.contains("Connection timed out"), "{}", transcript(&out, &uno));
+    assert_eq!(uno.port_resets(), 3);
+}
+
+#[test]
+fn configurable_keeps_its_line_settings_in_eeprom_across_a_reflash_and_a_restart() {
+    let _one = serialise();
+    let state = fresh_state("eeprom");
+    let configurable = firmware("configurable");
+    let new_line = "-b 9600 -P none -s 2";
+    {
+        let uno = VirtualUno::board(&state, None);
+        assert!(uno.log().contains("program: none (flash erased)"), "{}", uno.log());
+        let log = avrdude(&uno, &configurable);
+        let port = hold_port(&uno, "19200 8E1");
+        let out = mbpoll(&uno, "-a 1 -t 3 -r 1", "");
+        assert_eq!(mbpoll_values(&out), [0], "the compiled-in default\n{}", transcript(&(log + &out), &uno));
+        // slave 7, 9600 baud, no parity, 2 stop bits, RTU: answered, then in force and stored
+        let out = mbpoll(&uno, "-a 1 -t 4 -r 101", "7 96 0 2 0");
+        assert!(out.contains("Written 5 references"), "{}", transcript(&out, &uno));
+        uno.wait_for("serial: 9600 8N2", 0, Duration::from_secs(2));
+        thread::sleep(Duration::from_millis(1200)); // the EEPROM write, then --state's
+        drop(port);
+
+        // Flashing again through the bootloader leaves the EEPROM alone.
+        let log = avrdude(&uno, &configurable);
+        let _port = hold_port(&uno, "9600 8N2");
+        let out = mbpoll_at(&uno, new_line, "-a 7 -t 3 -r 1", "");
+        assert_eq!(mbpoll_values(&out), [1], "settings from EEPROM\n{}", transcript(&(log + &out), &uno));
+    }
+    let eeprom = std::fs::read(state.join("eeprom.bin")).unwrap();
+    assert_eq!(eeprom.len(), 1024);
+    assert!(eeprom[..22].iter().any(|&b| b != 0xFF));
+
+    // A new virtual board on the same state: the flash and the EEPROM are still there.
+    let uno = VirtualUno::board(&state, None);
+    assert!(!uno.log().contains("program: none"), "{}", uno.log());
+    uno.wait_for("serial: 9600 8N2", 0, Duration::from_secs(2));
+    let _port = hold_port(&uno, "9600 8N2");
+    let out = mbpoll_at(&uno, new_line, "-a 7 -t 3 -r 1", "");
+    assert_eq!(mbpoll_values(&out), [1], "{}", transcript(&out, &uno));
 }
