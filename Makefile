@@ -8,7 +8,7 @@ EXAMPLES := $(patsubst examples/%.rs,%,$(wildcard examples/*.rs))
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: help setup bootloaders firmware chips fixtures package sizes lint fmt-check clippy docs host-test test demo serve interop bench bench-features fuzz soak
+.PHONY: help setup bootloaders demos firmware chips fixtures package sizes lint fmt-check clippy docs host-test test demo serve interop bench bench-features fuzz soak
 
 help:
 	@echo "make demo   - flash the Uno slave with cargo run (ravedude, avrdude, optiboot) on a virtual Uno, and poll it"
@@ -137,7 +137,13 @@ host-test: setup firmware fixtures bootloaders
 	$(CARGO) test -p avr-modbus-slave --features ascii --test ascii --test sim_ascii --test framer --test adu --test random_frames
 	$(CARGO) test -p avr-modbus-slave --features ascii --doc
 
-test: lint firmware host-test interop
+test: lint firmware host-test interop demos
+
+# make demo for both boards, as a user runs it: flashed with cargo run through the
+# bootloader, then polled.
+demos: setup bootloaders
+	demo/demo.sh uno
+	demo/demo.sh mega2560
 
 EXAMPLE ?= uno_slave
 

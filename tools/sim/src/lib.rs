@@ -549,10 +549,10 @@ impl Uno {
         let no_such = Error::NoSuchUsart { chip, usart };
         let (regs, vectors) = chip.usart_regs(usart).zip(chip.vectors(usart)).ok_or(no_such)?;
         let c_path = match &path {
-            Some(path) => Some(CString::new(path.as_os_str().as_bytes()).map_err(|_| Error::BadElf {
-                path: path.clone(),
-                reason: "path contains a NUL byte".into(),
-            })?),
+            Some(path) => Some(
+                CString::new(path.as_os_str().as_bytes())
+                    .map_err(|_| Error::BadElf { path: path.clone(), reason: "path contains a NUL byte".into() })?,
+            ),
             None => None,
         };
         let c_mcu = CString::new(chip.name()).map_err(|_| Error::Internal("chip name with a NUL byte".into()))?;

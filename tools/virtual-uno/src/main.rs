@@ -277,7 +277,9 @@ fn run(args: &args::Args) -> Result<(), String> {
         None => None,
     };
     let mut dtr = match args.auto_reset {
-        true => Some(Dtr::watch(pty.path()).map_err(|e| format!("cannot watch {} for opens: {e}", pty.path().display()))?),
+        true => {
+            Some(Dtr::watch(pty.path()).map_err(|e| format!("cannot watch {} for opens: {e}", pty.path().display()))?)
+        }
         false => None,
     };
     if dtr.is_some() {
