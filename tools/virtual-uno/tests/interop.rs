@@ -59,7 +59,8 @@ struct VirtualUno {
 }
 
 impl VirtualUno {
-    /// Starts `firmware` with `options` and waits until its USART0 is configured.
+    /// Starts `firmware` with `options` and waits until its USART0 is configured: the
+    /// firmware alone, without a bootloader, so opening the port does not reset it.
     fn start(firmware: &Path, options: &[&str]) -> VirtualUno {
         let tag = firmware.file_stem().unwrap().to_string_lossy().into_owned();
         VirtualUno::spawn(&tag, options.iter().map(|o| o.as_ref()).chain([firmware.as_os_str()]), "serial: ")
@@ -457,11 +458,28 @@ fn a_missing_or_bad_firmware_is_one_line_and_a_failure() {
 // ------------------------------------------------------------------------------------------
 // A whole board: optiboot at every reset, a reset when the port opens, flash and EEPROM kept
 
-/// A fresh directory for a board's `--state`.
-fn fresh_state(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vuno-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
+/// A fresh directory for a board's `--state`, removed when dropped.
+struct State(PathBuf);
+
+impl State {
+    fn fresh(name: &str) -> State {
+        let dir = std::env::temp_dir().join(format!("vuno-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        State(dir)
+    }
+}
+
+impl std::ops::Deref for State {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for State {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
 }
 
 /// Flashes `elf` through the board's bootloader with avrdude, as ravedude runs it for an Uno.
@@ -488,7 +506,7 @@ fn hold_port(uno: &VirtualUno, line: &str) -> std::fs::File {
 #[test]
 fn opening_the_port_resets_the_board_into_optiboot_unless_it_is_open_already() {
     let _one = serialise();
-    let state = fresh_state("auto-reset");
+    let state = State::fresh("auto-reset");
     let uno = VirtualUno::board(&state, Some(&firmware("uno_slave")));
     // power-on: optiboot leaves it to the program at once
     uno.wait_for("serial: 19200 8E1", 0, Duration::from_secs(2));
@@ -519,7 +537,7 @@ fn opening_the_port_resets_the_board_into_optiboot_unless_it_is_open_already() {
 #[test]
 fn configurable_keeps_its_line_settings_in_eeprom_across_a_reflash_and_a_restart() {
     let _one = serialise();
-    let state = fresh_state("eeprom");
+    let state = State::fresh("eeprom");
     let configurable = firmware("configurable");
     let new_line = "-b 9600 -P none -s 2";
     {
