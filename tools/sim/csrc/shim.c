@@ -463,9 +463,8 @@ static void post_step(uno_shim_t *s, int dor_before, unsigned read_before)
 
 /* MCUSR, the same data address on every chip simulated here */
 #define R_MCUSR 0x54
-#define MCUSR_WDRF 0x08
 
-/* Not the transmitter "to allow printf", as simavr enables it at reset: the chip does not. */
+/* simavr enables every transmitter at reset "to allow printf"; the chip does not. */
 static void uarts_off(avr_t *avr)
 {
 	for (avr_io_t *io = avr->io_port; io; io = io->next)
@@ -614,8 +613,6 @@ uno_shim_t *uno_new(const char *path, const char *mcu, int usart, uint16_t base,
 		avr_ioctl(avr, AVR_IOCTL_UART_GET_FLAGS(u->name), &flags);
 		flags &= ~(uint32_t)(AVR_UART_FLAG_POLL_SLEEP | AVR_UART_FLAG_STDIO);
 		avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS(u->name), &flags);
-		/* simavr enables the transmitter at reset "to allow printf"; the chip does not */
-		avr_regbit_clear(avr, u->txen);
 		avr_irq_t *output = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ(u->name), UART_IRQ_OUTPUT);
 		if (u->name == s->uart_name) {
 			s->uart = u;
@@ -624,6 +621,7 @@ uno_shim_t *uno_new(const char *path, const char *mcu, int usart, uint16_t base,
 			avr_irq_register_notify(output, other_output_irq, &s->out[u->name - '0']);
 		}
 	}
+	uarts_off(avr);
 	if (!s->uart) {
 		snprintf(err, errlen, "simavr's %s core has no USART%d", mcu, usart);
 		goto fail;

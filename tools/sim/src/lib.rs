@@ -610,8 +610,8 @@ impl Uno {
     /// starts over: registers, SRAM, pins driven from outside, pending serial input, the
     /// interrupt statistics and the clock ([`Uno::now`] is 0 again).
     ///
-    /// simavr's own `avr_reset` also keeps the EEPROM, but it zeroes the clock and drops
-    /// the cycle timers this crate's USART model runs on, so a reset reloads instead.
+    /// [`Uno::hard_reset`] is the chip's own reset instead: the clock, SRAM and the pins
+    /// driven from outside stay.
     pub fn reset(&mut self) -> Result<(), Error> {
         let eeprom = self.eeprom();
         let options = Options::new().chip(self.chip).usart(self.usart).rx_flag(self.rx_flag);

@@ -304,10 +304,8 @@ fn run(args: &args::Args) -> Result<(), String> {
     let mut pins = String::new();
     let (mut lag_total, mut lag_window, mut lag_reported) = (Duration::ZERO, Duration::ZERO, None::<Instant>);
     let mut buf = [0u8; 1024];
-    let (mut resets, _) = uno.resets();
-    if whole_board {
-        println!("{}", reset_line(Some(ResetCause::PowerOn), args.bootloader.is_some()));
-    }
+    // The power-on reset of a whole board is reported by the loop's first turn, as the others.
+    let mut resets = 0;
     let mut saved = Instant::now();
     let mut stopped = false;
 
@@ -379,10 +377,7 @@ fn run(args: &args::Args) -> Result<(), String> {
         if now_resets != resets {
             resets = now_resets;
             println!("{}", reset_line(cause, args.bootloader.is_some()));
-            if stopped {
-                stopped = false;
-                clock = Clock::new(uno.now());
-            }
+            stopped = false;
             save(&mut state, &uno, &mut saved)?;
         } else if saved.elapsed() >= SAVE_EVERY {
             save(&mut state, &uno, &mut saved)?;
