@@ -49,7 +49,7 @@ grep -q '^reset: power-on' "$log" || { cat "$log" >&2; die "the virtual $name di
 # since LINE PATTERN: waits up to 5 s for PATTERN in the board's output after line LINE.
 since() {
   for _ in $(seq 50); do
-    tail -n +"$1" "$log" | grep -q "$2" && return 0
+    grep -q "$2" <<<"$(tail -n +"$1" "$log")" && return 0
     sleep 0.1
   done
   return 1

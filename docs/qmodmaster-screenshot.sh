@@ -111,7 +111,7 @@ run=$work/run
 rm -rf "$run"
 mkdir -p "$run"
 start env -C "$run" LANG=C.UTF-8 LC_ALL=C.UTF-8 XDG_RUNTIME_DIR="$run" "$app" >"$run/app.log" 2>&1
-main=$(timeout 20 xdotool search --sync --name '^Modbus Master$' | head -n 1) || die "QModMaster did not open"
+main=$(timeout 20 xdotool search --sync --name '^Modbus Master$' | sed -n 1p) || die "QModMaster did not open"
 xdotool windowsize "$main" 640 400
 sleep 1
 
@@ -135,7 +135,7 @@ done
 
 # The bus monitor records only while it is open: opened first, under the main window.
 click "${toolbar_bus_monitor[@]}"
-monitor=$(timeout 10 xdotool search --sync --name '^Bus Monitor$' | head -n 1) || die "no bus monitor"
+monitor=$(timeout 10 xdotool search --sync --name '^Bus Monitor$' | sed -n 1p) || die "no bus monitor"
 xdotool windowmove "$monitor" 0 420 windowsize "$monitor" 1280 300
 sleep 0.5
 
