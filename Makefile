@@ -41,7 +41,9 @@ firmware: setup
 # for the Mega's other USARTs. Cargo keeps each CHIP's build apart in target/ (its flags are
 # part of it) and shares the host tools; a USART is a cfg of this crate (build.rs), so only
 # the crate rebuilds for it. Then once more with the line settings in EEPROM and ASCII
-# (target/chips/CHIP[-usartN]-settings/…) for the Mega's Serial1 and the Leonardo.
+# (target/chips/CHIP[-usartN]-settings/…) for the Mega's Serial1 and the Leonardo. Last, the
+# contract (sixteen_each, sixteen_each_bank) for the ATmega328P the same way, into
+# target/chips/atmega328p/…: make bench's flash in the template's form.
 CHIPS := atmega168 atmega32u4 atmega1280 atmega2560
 MEGA_USARTS := 1 2 3
 chips: setup
@@ -64,6 +66,12 @@ chips: setup
 	done
 	@.ci/sizes target/chips/*/avr-none/release/examples/boards.elf
 	@.ci/no-panic target/chips/*/avr-none/release/examples/boards.elf
+	@CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega328p" $(CARGO) build --release -Zbuild-std=core \
+		--target avr-none --example sixteen_each --example sixteen_each_bank --features examples
+	@mkdir -p target/chips/atmega328p/avr-none/release/examples && \
+		cp target/avr-none/release/examples/sixteen_each.elf target/avr-none/release/examples/sixteen_each_bank.elf \
+		target/chips/atmega328p/avr-none/release/examples/
+	@.ci/sizes target/chips/atmega328p/avr-none/release/examples/*.elf
 
 sizes: firmware
 
