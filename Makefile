@@ -43,7 +43,8 @@ firmware: setup
 # the crate rebuilds for it. Then once more with the line settings in EEPROM and ASCII
 # (target/chips/CHIP[-usartN]-settings/…) for the Mega's Serial1 and the Leonardo. Last, the
 # contract (sixteen_each, sixteen_each_bank) for the ATmega328P the same way, into
-# target/chips/atmega328p/…: make bench's flash in the template's form.
+# target/chips/atmega328p/…: make bench's flash in the template's form; and boards for an
+# 8 MHz ATmega328P (feature clock-8mhz, the Pro Mini 3.3 V) into target/chips/atmega328p-8mhz/.
 CHIPS := atmega168 atmega32u4 atmega1280 atmega2560
 MEGA_USARTS := 1 2 3
 chips: setup
@@ -72,6 +73,12 @@ chips: setup
 		cp target/avr-none/release/examples/sixteen_each.elf target/avr-none/release/examples/sixteen_each_bank.elf \
 		target/chips/atmega328p/avr-none/release/examples/
 	@.ci/sizes target/chips/atmega328p/avr-none/release/examples/*.elf
+	@CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega328p" $(CARGO) build --release -Zbuild-std=core \
+		--target avr-none --example boards --features examples,millis,clock-8mhz
+	@mkdir -p target/chips/atmega328p-8mhz/avr-none/release/examples && \
+		cp target/avr-none/release/examples/boards.elf target/chips/atmega328p-8mhz/avr-none/release/examples/
+	@.ci/sizes target/chips/atmega328p-8mhz/avr-none/release/examples/boards.elf
+	@.ci/no-panic target/chips/atmega328p-8mhz/avr-none/release/examples/boards.elf
 
 sizes: firmware
 
@@ -121,6 +128,7 @@ clippy: setup
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL),device-id -- -D warnings
 	$(CARGO) clippy -p avr-modbus-slave --all-targets --features ascii -- -D warnings
+	$(CARGO) clippy -p avr-modbus-slave --all-targets --features clock-8mhz,ascii -- -D warnings
 	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples,millis,ascii,device-id,$(OPTIONAL),eeprom-settings,ufmt -- -D warnings
@@ -144,6 +152,7 @@ host-test: setup firmware fixtures bootloaders
 	$(CARGO) test -p avr-modbus-slave --features device-id --test device_id --test map --test sim_device_id --test random_frames
 	$(CARGO) test -p avr-modbus-slave --features ascii --test ascii --test sim_ascii --test framer --test adu --test random_frames
 	$(CARGO) test -p avr-modbus-slave --features ascii --doc
+	$(CARGO) test -p avr-modbus-slave --features clock-8mhz,ascii --lib --test timing
 
 test: lint firmware host-test interop demos
 

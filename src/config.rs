@@ -8,6 +8,8 @@
 use crate::error::Error;
 #[cfg(feature = "ascii")]
 use crate::timing::Deadline;
+#[cfg(feature = "ascii")]
+use crate::timing::TURN_US;
 use crate::timing::{rx_flag_to_end_cycles, BaudDivisor, CharTimes, TimerPlan, CLOCK_HZ};
 
 /// A slave (server) address on the serial line: 1–247.
@@ -86,7 +88,7 @@ pub struct Config {
     #[cfg(feature = "ascii")]
     mode: Mode,
     /// ASCII's inter-character timeout in milliseconds (0: none), and in Timer0 turns
-    /// (1.024 ms each), as the compare interrupt counts it.
+    /// ([`TURN_US`] each), as the compare interrupt counts it.
     #[cfg(feature = "ascii")]
     char_timeout: (u16, u16),
     /// ASCII: from a character's receive flag to its end on the line, as a Timer0 deadline
@@ -98,7 +100,7 @@ pub struct Config {
 impl Config {
     /// Slowest supported rate.
     pub const MIN_BAUD: u32 = 1200;
-    /// Fastest supported rate (16 MHz / 16).
+    /// Fastest supported rate (16 MHz / 16; at 8 MHz with double speed).
     pub const MAX_BAUD: u32 = 1_000_000;
 
     /// The serial-line spec's default: 19200 bps, 8 data bits, even parity, 1 stop bit.
@@ -192,8 +194,8 @@ impl Config {
 
     /// The same configuration with another ASCII inter-character timeout, in milliseconds
     /// (feature `ascii`): a frame inside which the line stays silent that long is dropped
-    /// and counted as malformed. 0 waits for ever. Timed to a millisecond or so: Timer0
-    /// turns of 1.024 ms, counted from the last character.
+    /// and counted as malformed. 0 waits for ever. Timed to a turn of Timer0 or so (1.024 ms,
+    /// 2.048 ms at 8 MHz), counted from the last character.
     #[cfg(feature = "ascii")]
     pub const fn with_char_timeout(self, milliseconds: u16) -> Self {
         Config { char_timeout: timeout_turns(milliseconds), ..self }
@@ -211,7 +213,7 @@ impl Config {
         self.char_timeout.0
     }
 
-    /// ASCII's inter-character timeout in Timer0 turns of 1.024 ms, 0 for none.
+    /// ASCII's inter-character timeout in Timer0 turns ([`TURN_US`]), 0 for none.
     #[cfg(feature = "ascii")]
     #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
     pub(crate) const fn char_timeout_turns(&self) -> u16 {
@@ -283,11 +285,11 @@ impl Config {
     }
 }
 
-/// Timer0 turns (1.024 ms each) for an ASCII timeout of `milliseconds`, rounded up: the
-/// pair kept in [`Config`].
+/// Timer0 turns ([`TURN_US`]: 1.024 ms, 2.048 ms at 8 MHz) for an ASCII timeout of
+/// `milliseconds`, rounded up: the pair kept in [`Config`].
 #[cfg(feature = "ascii")]
 const fn timeout_turns(milliseconds: u16) -> (u16, u16) {
-    let turns = (milliseconds as u32 * 1000).div_ceil(1024);
+    let turns = (milliseconds as u32 * 1000).div_ceil(TURN_US);
     (milliseconds, turns as u16)
 }
 
@@ -334,7 +336,9 @@ mod tests {
         assert_eq!(Config::try_new(1, 1199, Parity::Even, StopBits::One), Err(Error::Baud));
         assert_eq!(Config::try_new(1, 1_000_001, Parity::Even, StopBits::One), Err(Error::Baud));
         assert!(Config::try_new(1, 1200, Parity::Even, StopBits::One).is_ok());
-        assert!(Config::try_new(1, 115_200, Parity::None, StopBits::One).is_ok());
+        // 115 200 is 3.5 % off at 8 MHz (feature clock-8mhz), beyond what is accepted.
+        let at_115200 = Config::try_new(1, 115_200, Parity::None, StopBits::One);
+        assert_eq!(at_115200.is_ok(), CLOCK_HZ == 16_000_000, "{at_115200:?}");
         assert_eq!(Config::try_new(1, 230_400, Parity::None, StopBits::One), Err(Error::BaudError));
     }
 
@@ -352,5 +356,18 @@ mod tests {
         assert_eq!(bits(Parity::None, StopBits::Two), 11);
         assert_eq!(bits(Parity::Odd, StopBits::One), 11);
         assert_eq!(bits(Parity::Even, StopBits::Two), 12);
+    }
+
+    #[cfg(feature = "ascii")]
+    #[test]
+    fn ascii_timeout_is_whole_timer0_turns_rounded_up() {
+        // A turn is 1.024 ms at 16 MHz, 2.048 ms at 8 MHz (feature clock-8mhz).
+        let turns = |ms| Config::new(1, 9600, Parity::Even, StopBits::One).with_char_timeout(ms).char_timeout_turns();
+        let per_turn = TURN_US;
+        assert_eq!(u32::from(turns(1000)), (1_000_000u32).div_ceil(per_turn)); // 977 or 489
+        assert_eq!(turns(0), 0);
+        assert_eq!(turns(1), 1);
+        assert_eq!(u32::from(turns(65_535)), (65_535_000u32).div_ceil(per_turn));
+        assert_eq!(turns(1000), if CLOCK_HZ == 16_000_000 { 977 } else { 489 });
     }
 }

@@ -12,7 +12,8 @@ pub enum Error {
     SlaveId,
     /// A baud rate outside [`crate::Config::MIN_BAUD`]–[`crate::Config::MAX_BAUD`].
     Baud,
-    /// A baud rate the 16 MHz USART can't make within 2.5 %.
+    /// A baud rate the USART can't make within 2.5 % at the CPU clock (16 MHz, or 8 MHz with
+    /// feature `clock-8mhz`).
     BaudError,
     /// A classic reference outside 00001–09999, 10001–19999, 30001–39999, 40001–49999.
     BadReference,
@@ -43,7 +44,7 @@ impl Error {
         match self {
             Error::SlaveId => "slave id must be 1-247",
             Error::Baud => "baud rate must be 1200-1000000",
-            Error::BaudError => "baud rate more than 2.5% off at 16 MHz",
+            Error::BaudError => "baud rate more than 2.5% off at the CPU clock",
             Error::BadReference => "not a classic reference (00001, 10001, 30001, 40001 ...)",
             Error::NotFound => "address not in the bank",
             Error::Duplicate => "address added twice",

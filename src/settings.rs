@@ -17,7 +17,7 @@
 //!   A write builds a candidate from the settings with the written registers replaced (so
 //!   FC 06 on one register changes just that setting) and checks it as
 //!   [`Config::try_new`](crate::Config::try_new) would ([`LineSettings::is_runnable`]): anything the slave can't
-//!   run (an unknown code, a rate the 16 MHz USART can't make) is answered with exception
+//!   run (an unknown code, a rate the USART can't make at the CPU clock) is answered with exception
 //!   03 (Illegal Data Value) and changes nothing. A baud register written with the value it already reads keeps the exact rate,
 //!   so rates that are not a multiple of 100 survive a write of the whole block.
 //!   [`Configurable`] wraps any [`DataModel`](crate::DataModel) with such a block; the slave applies a valid

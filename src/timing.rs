@@ -16,8 +16,10 @@
 //! registers, and the host tests check the results (`tests/timing.rs`: every accepted
 //! rate and character format).
 
-/// The Uno's CPU clock.
-pub const CLOCK_HZ: u32 = 16_000_000;
+/// The CPU clock the crate is built for: 16 MHz (Uno, Nano, Mega, Leonardo, Pro Mini 5 V),
+/// or 8 MHz with feature `clock-8mhz` (SparkFun Pro Mini 3.3 V, Pro Micro 3.3 V). Every
+/// baud divisor, silence and millisecond is worked out from it while the firmware compiles.
+pub const CLOCK_HZ: u32 = if cfg!(feature = "clock-8mhz") { 8_000_000 } else { 16_000_000 };
 
 /// Above this rate the spec fixes T1.5 = 750 µs and T3.5 = 1750 µs.
 pub const FIXED_TIMES_ABOVE_BAUD: u32 = 19_200;
@@ -73,24 +75,31 @@ impl CharTimes {
 }
 
 /// Timer0's clock divider, the same at every baud rate: clk/64, a tick of 4 µs at 16 MHz and
-/// an overflow every 1.024 ms, as in Arduino's core. A tick is small beside the silences
-/// (T1.5 is 750 µs or more), the overflow interrupt that keeps [`Uptime`] runs about 980
-/// times a second, and the longest deadline (T3.5 at 1200 bps with 12-bit characters,
-/// 35 ms) is 35 counter turns, which the compare interrupts count in a byte.
+/// an overflow every 1.024 ms, as in Arduino's core (8 µs and 2.048 ms at 8 MHz). A tick is
+/// small beside the silences (T1.5 is 750 µs or more), the overflow interrupt that keeps
+/// [`Uptime`] runs about 980 times a second, and the longest deadline (T3.5 at 1200 bps with
+/// 12-bit characters, 35 ms) is 35 counter turns, which the compare interrupts count in a
+/// byte.
 pub const TIMER0_DIVISOR: u32 = 64;
 
 /// The clock-select bits CS02:0 of TCCR0B for [`TIMER0_DIVISOR`].
 pub const TIMER0_CLOCK_SELECT: u8 = 0b011;
 
-/// Timer0 ticks in a millisecond at [`CLOCK_HZ`]: 250.
+/// Timer0 ticks in a millisecond at [`CLOCK_HZ`]: 250 (125 at 8 MHz).
 pub const TICKS_PER_MS: u32 = CLOCK_HZ / TIMER0_DIVISOR / 1000;
 const _: () = assert!(TICKS_PER_MS * TIMER0_DIVISOR * 1000 == CLOCK_HZ, "a millisecond must be whole ticks");
+const _: () = assert!(TICKS_PER_MS <= 256, "a turn of Timer0 must be a millisecond or more");
+
+/// A turn of Timer0 (256 ticks) in microseconds: 1024 (2048 at 8 MHz).
+pub const TURN_US: u32 = 256 * TIMER0_DIVISOR / (CLOCK_HZ / 1_000_000);
+const _: () = assert!(TURN_US * (CLOCK_HZ / 1_000_000) == 256 * TIMER0_DIVISOR, "a turn must be whole microseconds");
 
 /// Milliseconds since Timer0 started, kept by its overflow interrupt as Arduino's core
 /// keeps `millis()`: a turn of the counter is 256 ticks, one millisecond and 6 ticks
-/// (1.024 ms), so each overflow adds a millisecond and carries the 6 ticks into `fract`.
-/// Nothing is rounded away: `millis · 250 + fract` is always the number of ticks counted
-/// (modulo 2³² milliseconds), so the clock never drifts from Timer0.
+/// (1.024 ms; at 8 MHz two milliseconds and 6 ticks), so each overflow adds the whole
+/// milliseconds and carries the 6 ticks into `fract`. Nothing is rounded away:
+/// `millis · TICKS_PER_MS + fract` is always the number of ticks counted (modulo 2³²
+/// milliseconds), so the clock never drifts from Timer0.
 ///
 /// `repr(C)`: the simulator tests read it from the firmware's RAM (`millis` little-endian
 /// at offset 0, `fract` at 4; the AVR aligns nothing).
@@ -99,7 +108,7 @@ const _: () = assert!(TICKS_PER_MS * TIMER0_DIVISOR * 1000 == CLOCK_HZ, "a milli
 pub struct Uptime {
     /// Whole milliseconds, wrapping after 2³² (49.7 days).
     pub millis: u32,
-    /// Ticks past the last whole millisecond: 0–249.
+    /// Ticks past the last whole millisecond: below [`TICKS_PER_MS`].
     pub fract: u8,
 }
 
@@ -107,12 +116,16 @@ impl Uptime {
     /// Timer0 just started.
     pub const ZERO: Uptime = Uptime { millis: 0, fract: 0 };
 
-    /// Ticks of a turn beyond its whole millisecond.
-    const TURN_SPARE_TICKS: u8 = (256 - TICKS_PER_MS) as u8;
+    /// Whole milliseconds in a turn of the counter: 1 (2 at 8 MHz).
+    const TURN_MS: u32 = 256 / TICKS_PER_MS;
+    /// Ticks of a turn beyond its whole milliseconds: 6 at 16 and 8 MHz.
+    const TURN_SPARE_TICKS: u8 = (256 % TICKS_PER_MS) as u8;
 
-    /// The clock after one more overflow.
+    /// The clock after one more overflow. `fract` and the spare ticks are both below
+    /// [`TICKS_PER_MS`], and a turn holds a whole millisecond or more, so their sum stays
+    /// below 256.
     pub const fn after_overflow(self) -> Self {
-        let mut millis = self.millis.wrapping_add(1);
+        let mut millis = self.millis.wrapping_add(Self::TURN_MS);
         let mut fract = self.fract + Self::TURN_SPARE_TICKS;
         if fract >= TICKS_PER_MS as u8 {
             fract -= TICKS_PER_MS as u8;
@@ -123,14 +136,15 @@ impl Uptime {
 
     /// Whole milliseconds at the moment TCNT0 read `tcnt`, the overflow flag (TOV0, read
     /// after TCNT0) being `overflow_pending` (see [`overflow_before`]): the ticks counted
-    /// divided by 250, rounded down, so the result is never ahead of Timer0 and less than a
-    /// millisecond behind it.
+    /// divided by [`TICKS_PER_MS`], rounded down, so the result is never ahead of Timer0 and
+    /// less than a millisecond behind it.
     pub const fn millis_at(self, tcnt: u8, overflow_pending: bool) -> u32 {
         let mut ticks = self.fract as u16 + tcnt as u16;
         if overflow_before(tcnt, overflow_pending) {
             ticks += 256;
         }
-        // At most 249 + 255 + 256 ticks: up to three more milliseconds, no division.
+        // At most 249 + 255 + 256 ticks: up to three more milliseconds (five at 8 MHz), no
+        // division.
         let mut millis = self.millis;
         while ticks >= TICKS_PER_MS as u16 {
             ticks -= TICKS_PER_MS as u16;
@@ -480,6 +494,11 @@ mod tests {
     use super::*;
     use crate::{Config, Parity, StopBits};
 
+    /// The tests that name a clock: the Uno's. Those built on [`Config`] follow [`CLOCK_HZ`]
+    /// and are the 16 MHz build's (feature `clock-8mhz` has its own).
+    const MHZ16: u32 = 16_000_000;
+    const MHZ8: u32 = 8_000_000;
+
     fn times(baud: u32, parity: Parity, stop: StopBits) -> CharTimes {
         Config::new(1, baud, parity, stop).char_times()
     }
@@ -509,13 +528,13 @@ mod tests {
     #[test]
     fn above_19200_t15_and_t35_are_fixed() {
         for baud in [19_201, 38_400, 57_600, 115_200, 250_000, 1_000_000] {
-            for parity in [Parity::None, Parity::Even] {
-                let t = times(baud, parity, StopBits::One);
+            for bits in [10, 11] {
+                let t = CharTimes::new(baud, bits);
                 assert_eq!((t.t15_ns, t.t35_ns), (750_000, 1_750_000), "{baud}");
             }
         }
-        assert_eq!(times(115_200, Parity::None, StopBits::One).char_ns, 86_806);
-        assert_eq!(times(115_200, Parity::Even, StopBits::One).char_ns, 95_487);
+        assert_eq!(CharTimes::new(115_200, 10).char_ns, 86_806);
+        assert_eq!(CharTimes::new(115_200, 11).char_ns, 95_487);
     }
 
     #[test]
@@ -525,35 +544,42 @@ mod tests {
     }
 
     #[test]
-    fn uptime_adds_1024_us_per_overflow_without_drift() {
+    fn uptime_adds_a_turn_per_overflow_without_drift() {
+        // 250 ticks a millisecond at 16 MHz (a turn is 1.024 ms), 125 at 8 MHz (2.048 ms).
+        assert_eq!(TICKS_PER_MS, CLOCK_HZ / 64_000);
         let mut clock = Uptime::ZERO;
         for turn in 1..=1_000_000_u64 {
             clock = clock.after_overflow();
-            // millis · 250 + fract = 256 ticks per turn, exactly.
-            assert_eq!(u64::from(clock.millis) * 250 + u64::from(clock.fract), turn * 256, "turn {turn}");
+            assert!(u32::from(clock.fract) < TICKS_PER_MS);
+            // millis · ticks a millisecond + fract = 256 ticks per turn, exactly.
+            let ticks = u64::from(clock.millis) * u64::from(TICKS_PER_MS) + u64::from(clock.fract);
+            assert_eq!(ticks, turn * 256, "turn {turn}");
         }
-        // 125 turns are 128 ms exactly.
+        // 125 turns are 128 ms exactly at 16 MHz, 256 ms at 8 MHz.
         let mut clock = Uptime::ZERO;
         for _ in 0..125 {
             clock = clock.after_overflow();
         }
-        assert_eq!(clock, Uptime { millis: 128, fract: 0 });
+        assert_eq!(clock, Uptime { millis: 125 * TURN_US / 1000, fract: 0 });
     }
 
     #[test]
     fn uptime_wraps_after_2_to_the_32_ms() {
-        let clock = Uptime { millis: u32::MAX, fract: 249 };
-        assert_eq!(clock.after_overflow(), Uptime { millis: 1, fract: 5 });
+        let clock = Uptime { millis: u32::MAX, fract: TICKS_PER_MS as u8 - 1 };
+        // One turn and the 6 spare ticks: 1 ms and 5 ticks past 0 at 16 MHz, 2 ms at 8.
+        assert_eq!(clock.after_overflow(), Uptime { millis: Uptime::TURN_MS, fract: 5 });
         assert_eq!(clock.millis_at(1, false), 0);
     }
 
+    #[cfg(not(feature = "clock-8mhz"))]
     #[test]
     fn millis_at_rounds_down_and_counts_a_pending_overflow() {
         let clock = Uptime { millis: 7, fract: 200 };
         assert_eq!(clock.millis_at(49, false), 7); // 249 ticks past 7 ms
         assert_eq!(clock.millis_at(50, false), 8); // 250
         assert_eq!(clock.millis_at(255, false), 8); // 455
-                                                    // An overflow not yet counted: 200 + 3 + 256 = 459 ticks.
+
+        // An overflow not yet counted: 200 + 3 + 256 = 459 ticks.
         assert_eq!(clock.millis_at(3, true), 8);
         // Most there can be: 249 + 254 + 256 = 759 ticks, three more milliseconds.
         assert_eq!(Uptime { millis: 7, fract: 249 }.millis_at(254, true), 10);
@@ -561,10 +587,25 @@ mod tests {
         assert_eq!(clock.millis_at(255, true), 8);
     }
 
+    #[cfg(feature = "clock-8mhz")]
+    #[test]
+    fn millis_at_8_mhz_counts_125_ticks_a_millisecond() {
+        let clock = Uptime { millis: 7, fract: 100 };
+        assert_eq!(clock.millis_at(24, false), 7); // 124 ticks past 7 ms
+        assert_eq!(clock.millis_at(25, false), 8); // 125
+        assert_eq!(clock.millis_at(255, false), 9); // 355
+
+        // Most there can be: 124 + 254 + 256 = 634 ticks, five more milliseconds.
+        assert_eq!(Uptime { millis: 7, fract: 124 }.millis_at(254, true), 12);
+        assert_eq!(clock.millis_at(255, true), 9);
+    }
+
+    #[cfg(not(feature = "clock-8mhz"))]
     fn plan(baud: u32, parity: Parity, stop: StopBits) -> TimerPlan {
         Config::new(1, baud, parity, stop).timer_plan()
     }
 
+    #[cfg(not(feature = "clock-8mhz"))]
     #[test]
     fn t35_at_19200_8e1_worked_example() {
         let plan = plan(19_200, Parity::Even, StopBits::One);
@@ -596,11 +637,12 @@ mod tests {
             (1_000_000, 2, 8 * 3),   // UBRR0 0: 16-cycle bits
         ];
         for (baud, stop, cycles) in table {
-            let divisor = BaudDivisor::new(baud, CLOCK_HZ).unwrap();
+            let divisor = BaudDivisor::new(baud, MHZ16).unwrap();
             assert_eq!(rx_flag_to_end_cycles(divisor, stop == 2), cycles, "{baud} with {stop} stop bits");
         }
     }
 
+    #[cfg(not(feature = "clock-8mhz"))]
     #[test]
     fn t35_adds_the_flag_to_end_time_and_the_gap_deadline_does_not() {
         // The same character time and silences, one stop bit or two (8E1 and 8N2 are both
@@ -610,8 +652,8 @@ mod tests {
         assert_eq!(two.end.edges() - one.end.edges(), 13);
         // Without the flag's lead the gap deadline is the same: it counts from flag to flag.
         let times = times(19_200, Parity::Even, StopBits::One);
-        assert_eq!(TimerPlan::new(times, CLOCK_HZ, 0).gap, one.gap);
-        assert_eq!(TimerPlan::new(times, CLOCK_HZ, 0).end, Deadline { low: 245, turns: 1 });
+        assert_eq!(TimerPlan::new(times, MHZ16, 0).gap, one.gap);
+        assert_eq!(TimerPlan::new(times, MHZ16, 0).end, Deadline { low: 245, turns: 1 });
     }
 
     #[test]
@@ -619,10 +661,10 @@ mod tests {
         // 256 · 64 cycles after the read's earliest first edge: 256 edges after it, which
         // would be a compare value of the count read itself.
         let ns = (RX_LATENCY_CYCLES + 256 * TIMER0_DIVISOR) * 1000 / 16;
-        let deadline = Deadline::new(ns, CLOCK_HZ);
+        let deadline = Deadline::new(ns, MHZ16);
         assert_eq!(deadline, Deadline { low: 1, turns: 1 });
         // A tick sooner: 255 edges after the first.
-        assert_eq!(Deadline::new(ns - 4000, CLOCK_HZ), Deadline { low: 255, turns: 0 });
+        assert_eq!(Deadline::new(ns - 4000, MHZ16), Deadline { low: 255, turns: 0 });
     }
 
     #[test]
@@ -642,19 +684,55 @@ mod tests {
             (1_000_000, 0, false, 0),
         ];
         for (baud, ubrr, double_speed, error_ppm) in table {
-            let d = BaudDivisor::new(baud, CLOCK_HZ).unwrap();
-            assert_eq!(
-                (d.ubrr, d.double_speed, d.error_ppm(baud, CLOCK_HZ)),
-                (ubrr, double_speed, error_ppm),
-                "{baud}"
-            );
+            let d = BaudDivisor::new(baud, MHZ16).unwrap();
+            assert_eq!((d.ubrr, d.double_speed, d.error_ppm(baud, MHZ16)), (ubrr, double_speed, error_ppm), "{baud}");
         }
     }
 
     #[test]
     fn baud_with_more_than_2_5_percent_error_is_refused() {
-        assert_eq!(BaudDivisor::new(300_000, CLOCK_HZ), None);
-        assert_eq!(BaudDivisor::new(230_400, CLOCK_HZ), None);
-        assert_eq!(BaudDivisor::new(0, CLOCK_HZ), None);
+        assert_eq!(BaudDivisor::new(300_000, MHZ16), None);
+        assert_eq!(BaudDivisor::new(230_400, MHZ16), None);
+        assert_eq!(BaudDivisor::new(0, MHZ16), None);
+    }
+
+    #[test]
+    fn baud_divisors_at_8_mhz_match_the_datasheet_table() {
+        // (baud, UBRR0, U2X0, error in ppm): ATmega328P datasheet table 20-5 at 8 MHz; 57 600
+        // only at double speed, 115 200 not at all (−3.5 %).
+        let table = [
+            (1200, 416, false, -799),
+            (9600, 51, false, 1_602),
+            (14_400, 34, false, -7_936),
+            (19_200, 25, false, 1_602),
+            (28_800, 34, true, -7_936),
+            (38_400, 12, false, 1_602),
+            (57_600, 16, true, 21_241),
+            (76_800, 12, true, 1_602),
+            (250_000, 1, false, 0),
+            (1_000_000, 0, true, 0),
+        ];
+        for (baud, ubrr, double_speed, error_ppm) in table {
+            let d = BaudDivisor::new(baud, MHZ8).unwrap();
+            assert_eq!((d.ubrr, d.double_speed, d.error_ppm(baud, MHZ8)), (ubrr, double_speed, error_ppm), "{baud}");
+        }
+        assert_eq!(BaudDivisor::new(115_200, MHZ8), None);
+        assert_eq!(BaudDivisor::new(230_400, MHZ8), None);
+    }
+
+    #[cfg(feature = "clock-8mhz")]
+    #[test]
+    fn t35_at_19200_8e1_at_8_mhz_worked_example() {
+        let plan = Config::new(1, 19_200, Parity::Even, StopBits::One).timer_plan();
+        // 2 005 209 ns = 16 041.7 → 16 042 cycles after the character's end, which comes
+        // half a bit (UBRR0 25: 416-cycle bits) after RXC0: 16 250 cycles after the flag; 21
+        // of them before the read: 16 229 = 253.58 ticks → 254 edges after the first one,
+        // which may come right after the read: 255 edges, the compare value 254 past the
+        // count read, within the turn.
+        assert_eq!(plan.end, Deadline { low: 254, turns: 0 });
+        assert_eq!(plan.end.expiry_cycles(), (21 + 254 * 64, 21 + 65 + 254 * 64));
+        assert!(plan.end.expiry_cycles().0 >= 16_042 + 208);
+        assert_eq!(TURN_US, 2048);
+        assert_eq!(TICKS_PER_MS, 125);
     }
 }

@@ -1,7 +1,7 @@
 //! Arduino's `millis()` on Timer0's overflow interrupt (feature `millis`), ATmega328P
 //! datasheet §15.9: Timer0 runs at clk/64 for the silence detector (`super::timer`), and
-//! overflows every 256 ticks (1.024 ms); the interrupt counts the milliseconds
-//! ([`Uptime`]). Without the feature the overflow interrupt stays off and none of this is
+//! overflows every 256 ticks (1.024 ms, 2.048 ms at 8 MHz); the interrupt counts the
+//! milliseconds ([`Uptime`]). Without the feature the overflow interrupt stays off and none of this is
 //! in the firmware.
 
 use core::cell::UnsafeCell;
@@ -22,9 +22,9 @@ struct Clock {
 
 static CLOCK: Exclusive<Clock> = Exclusive(UnsafeCell::new(Clock { uptime: Uptime::ZERO }));
 
-/// Milliseconds since the slave started: Timer0's ticks counted so far divided by 250,
-/// rounded down, so never ahead of true time and less than a millisecond behind it (0
-/// before the start). Interrupts are off for a few cycles while it reads.
+/// Milliseconds since the slave started: Timer0's ticks counted so far divided by 250 (125
+/// at 8 MHz), rounded down, so never ahead of true time and less than a millisecond behind
+/// it (0 before the start). Interrupts are off for a few cycles while it reads.
 pub(crate) fn millis() -> u32 {
     let (uptime, tcnt, overflow) = reg::free(|| {
         // TCNT0 first: an overflow flag set after it is recognised by the 255 read.
@@ -36,7 +36,7 @@ pub(crate) fn millis() -> u32 {
     uptime.millis_at(tcnt, overflow)
 }
 
-/// TIMER0_OVF: Timer0 overflowed (every 1.024 ms), the clock moves on. Bound here rather
+/// TIMER0_OVF: Timer0 overflowed (every 1.024 ms, 2.048 at 8 MHz), the clock moves on. Bound here rather
 /// than by [`crate::slave!`]: it touches nothing of the slave's, and a firmware without
 /// the feature has no handler at all (the interrupt stays off).
 #[export_name = crate::__chip!(vector TIMER0_OVF)]

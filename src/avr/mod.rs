@@ -42,7 +42,7 @@ pub mod board {
 
 /// Milliseconds since the slave started, wrapping after 49.7 days: Arduino's `millis()`
 /// (feature `millis`), kept by Timer0, which the slave owns and runs freely at clk/64 (an
-/// overflow interrupt every 1.024 ms). Never ahead of true time and less than a millisecond
+/// overflow interrupt every 1.024 ms, 2.048 ms at 8 MHz). Never ahead of true time and less than a millisecond
 /// behind it, with no drift beyond the crystal's; 0 before [`Slave::start`]. Compare times
 /// with `wrapping_sub`, as on Arduino: `millis().wrapping_sub(since) >= 500`.
 #[cfg(feature = "millis")]

@@ -58,10 +58,11 @@ struct Deadlines {
     ascii: AsciiTimer,
 }
 
-/// The compare interrupt's part in ASCII framing: it comes once a turn (1.024 ms) and counts
-/// the turns since the last character against the inter-character timeout, and it brings
-/// the end of a frame (or of one a `:` dropped) out of the receive interrupt once the
-/// character that ended it has left the line (`end`: from its receive flag to its end).
+/// The compare interrupt's part in ASCII framing: it comes once a turn (1.024 ms, 2.048 ms
+/// at 8 MHz) and counts the turns since the last character against the inter-character
+/// timeout, and it brings the end of a frame (or of one a `:` dropped) out of the receive
+/// interrupt once the character that ended it has left the line (`end`: from its receive
+/// flag to its end).
 #[cfg(feature = "ascii")]
 #[derive(Clone, Copy)]
 struct AsciiTimer {

@@ -145,7 +145,7 @@ impl LineSettings {
     }
 
     /// True exactly when [`LineSettings::to_config`] succeeds: slave id 1–247, a rate from
-    /// [`Config::MIN_BAUD`] to [`Config::MAX_BAUD`] that the 16 MHz USART makes within
+    /// [`Config::MIN_BAUD`] to [`Config::MAX_BAUD`] that the USART makes at the CPU clock within
     /// [`BaudDivisor::MAX_ERROR_PPM`] at normal or double speed. Only the divisor search
     /// (two 32-bit divisions and a few 64-bit products), not the timer plan: cheap enough
     /// for the interrupt that answers the write.

@@ -1,0 +1,122 @@
+//! The slave built for an 8 MHz board (feature `clock-8mhz`: the SparkFun Pro Mini and Pro
+//! Micro 3.3 V): `examples/boards.rs` for an 8 MHz ATmega328P (`make chips`), slave 1 at
+//! 19200 8E1, run in simavr.
+//!
+//! The simulated chip runs at 16 MHz. A chip does everything in cycles of its own clock, so
+//! the 8 MHz firmware on it behaves as on an 8 MHz board with time running twice as fast:
+//! every check here is in cycles, worked out at 8 MHz. The master sends at the firmware's
+//! own bit time (416 cycles: 19 231 bps at 8 MHz); the silences are 19200 8E1's T1.5 and
+//! T3.5 (Serial Line v1.02 §2.5.1.1) at 8 MHz; a second is 8 000 000 cycles. The 16 MHz build
+//! fails each check: its bit is 832 cycles, its T3.5 32 084 cycles, its second twice as long.
+
+mod sim;
+
+use sim::{
+    chip_examples_dir, read_request, registers_reply, with_crc, write_register_request, Exchange, Line, Rtu, ID,
+};
+use uno_sim::Chip;
+
+/// Cycles of the board's clock per microsecond.
+const CYCLES_PER_US: u64 = 8;
+
+/// 19200 8E1: bits per character.
+const CHAR_BITS: u64 = 11;
+
+/// `n` halves of a nominal 19200 bps character at 8 MHz, in cycles, rounded up.
+fn half_chars(n: u64) -> u64 {
+    (n * CHAR_BITS * 8_000_000).div_ceil(2 * 19_200)
+}
+
+/// T1.5 and T3.5 of 19200 8E1 at 8 MHz, in cycles: 6875 and 16 042.
+fn t15() -> u64 {
+    half_chars(3)
+}
+
+fn t35() -> u64 {
+    half_chars(7)
+}
+
+fn boot() -> Rtu {
+    let elf = chip_examples_dir(Chip::Atmega328p, 0, "-8mhz").join("boards.elf");
+    assert!(elf.is_file(), "{} is missing: run `make chips` first", elf.display());
+    // The master's own waits (T3.5 before each request, the time it gives a reply) are those
+    // of 19200 8E1 at 16 MHz: twice the 8 MHz board's, so never too short.
+    Rtu::boot_elf(&elf, Line::B19200_8E1, |_| {})
+}
+
+/// Sends `request` with the gaps `gaps` (cycles of silence before each character) and
+/// collects what comes back.
+fn send_with_gaps(rtu: &mut Rtu, request: &[u8], gaps: &[u64]) -> Exchange {
+    let mut end = rtu.first_end_after_silence(0) - rtu.char_cycles;
+    for (byte, gap) in request.iter().zip(gaps) {
+        end = rtu.send_at(&[*byte], end + gap + rtu.char_cycles, 0);
+    }
+    rtu.receive(end)
+}
+
+#[test]
+fn the_line_is_19200_8e1_at_8_mhz() {
+    let rtu = boot();
+    // UBRR0 25, normal speed: 16 · 26 = 416 cycles a bit, 19 231 bps at 8 MHz (+0.16 %).
+    assert_eq!(rtu.char_cycles, CHAR_BITS * 416, "the firmware's character");
+    assert_eq!(rtu.tick, 64, "Timer0 at clk/64");
+}
+
+#[test]
+fn replies_start_t35_after_the_request_and_within_50_us_of_it() {
+    let mut rtu = boot();
+    let fc6 = write_register_request(ID, 0, 0xBEEF);
+    assert_eq!(rtu.ask(&fc6), fc6, "FC 6 echoes");
+    let request = read_request(ID, 0x03, 0, 2);
+    let reply = registers_reply(ID, 0x03, &[0xBEEF, 0]);
+    let mut turnarounds = Vec::new();
+    for offset in 0..32 {
+        // Each request ends at another phase of Timer0's 64-cycle tick.
+        let first_end = rtu.first_end_after_silence(offset * 7 + offset * offset * 131);
+        let end = rtu.send_at(&request, first_end, 0);
+        let exchange = rtu.receive(end);
+        assert_eq!(exchange.bytes(), reply, "FC 3");
+        turnarounds.push(exchange.turnaround().expect("a reply"));
+    }
+    let (earliest, latest) = (turnarounds.iter().min().unwrap(), turnarounds.iter().max().unwrap());
+    assert!(*earliest >= t35(), "a reply started {earliest} cycles after the request, T3.5 is {}", t35());
+    // Within 400 cycles of T3.5, as at 16 MHz (25 µs there: Timer0's ticks are 64 cycles
+    // and the interrupts take the same cycles at any clock): 50 µs at 8 MHz.
+    assert!(
+        *latest <= t35() + 50 * CYCLES_PER_US,
+        "a reply started {latest} cycles after the request, T3.5 is {}",
+        t35()
+    );
+    eprintln!("8 MHz: reply − T3.5 from {} to {} cycles", earliest - t35(), latest - t35());
+}
+
+#[test]
+fn a_gap_over_t15_drops_the_frame_and_one_under_it_does_not() {
+    let mut rtu = boot();
+    let request = read_request(ID, 0x03, 1, 1);
+    let answer = registers_reply(ID, 0x03, &[0]);
+    // Before the last character: T1.5 less 300 cycles (two ticks and more of the detector's
+    // slack), then T1.5 and half a character, still short of T3.5.
+    let mut gaps = vec![0; request.len()];
+    *gaps.last_mut().unwrap() = t15() - 300;
+    assert_eq!(send_with_gaps(&mut rtu, &request, &gaps).bytes(), answer, "a gap under T1.5");
+    *gaps.last_mut().unwrap() = t15() + half_chars(1);
+    assert!(t15() + half_chars(1) < t35());
+    let exchange = send_with_gaps(&mut rtu, &request, &gaps);
+    assert!(exchange.reply.is_empty(), "a gap over T1.5: the slave answered {:02X?}", exchange.bytes());
+    assert_eq!(rtu.ask(&request), answer, "the next request");
+    assert_eq!(rtu.ask(&with_crc(&[ID, 0x07])), with_crc(&[ID, 0x87, 0x01]), "exception 01");
+}
+
+#[test]
+fn the_clock_counts_8_000_000_cycles_a_second() {
+    let mut rtu = boot();
+    // 2.1 s of the board's time, then 30001 (`millis() / 1000`) says 2; at 16 MHz it would
+    // say 1.
+    rtu.uno.run_for(21 * 800_000).expect("firmware runs");
+    let read_at = rtu.uno.now();
+    let reply = rtu.ask(&read_request(ID, 0x04, 0, 1));
+    let seconds = read_at / 8_000_000;
+    assert_eq!(seconds, 2, "ran {read_at} cycles");
+    assert_eq!(reply, registers_reply(ID, 0x04, &[seconds as u16]), "30001 after {read_at} cycles");
+}
