@@ -683,9 +683,15 @@ mod tests {
             (500_000, 1, false, 0),
             (1_000_000, 0, false, 0),
         ];
-        for (baud, ubrr, double_speed, error_ppm) in table {
-            let d = BaudDivisor::new(baud, MHZ16).unwrap();
-            assert_eq!((d.ubrr, d.double_speed, d.error_ppm(baud, MHZ16)), (ubrr, double_speed, error_ppm), "{baud}");
+        check_divisors(MHZ16, &table);
+    }
+
+    /// Each (baud, UBRR0, U2X0, error in ppm) of `table` at `clock_hz`.
+    fn check_divisors(clock_hz: u32, table: &[(u32, u16, bool, i32)]) {
+        for &(baud, ubrr, double_speed, error_ppm) in table {
+            let d = BaudDivisor::new(baud, clock_hz).unwrap();
+            let found = (d.ubrr, d.double_speed, d.error_ppm(baud, clock_hz));
+            assert_eq!(found, (ubrr, double_speed, error_ppm), "{baud} at {clock_hz} Hz");
         }
     }
 
@@ -712,10 +718,7 @@ mod tests {
             (250_000, 1, false, 0),
             (1_000_000, 0, true, 0),
         ];
-        for (baud, ubrr, double_speed, error_ppm) in table {
-            let d = BaudDivisor::new(baud, MHZ8).unwrap();
-            assert_eq!((d.ubrr, d.double_speed, d.error_ppm(baud, MHZ8)), (ubrr, double_speed, error_ppm), "{baud}");
-        }
+        check_divisors(MHZ8, &table);
         assert_eq!(BaudDivisor::new(115_200, MHZ8), None);
         assert_eq!(BaudDivisor::new(230_400, MHZ8), None);
     }
