@@ -44,7 +44,8 @@ firmware: setup
 # (target/chips/CHIP[-usartN]-settings/…) for the Mega's Serial1 and the Leonardo. Last, the
 # contract (sixteen_each, sixteen_each_bank) for the ATmega328P the same way, into
 # target/chips/atmega328p/…: make bench's flash in the template's form; and boards for an
-# 8 MHz ATmega328P (feature clock-8mhz, the Pro Mini 3.3 V) into target/chips/atmega328p-8mhz/.
+# 8 MHz ATmega328P and ATmega32U4 (feature clock-8mhz, the Pro Mini and Pro Micro 3.3 V) into
+# target/chips/CHIP-8mhz/.
 CHIPS := atmega168 atmega32u4 atmega1280 atmega2560
 MEGA_USARTS := 1 2 3
 chips: setup
@@ -73,12 +74,14 @@ chips: setup
 		cp target/avr-none/release/examples/sixteen_each.elf target/avr-none/release/examples/sixteen_each_bank.elf \
 		target/chips/atmega328p/avr-none/release/examples/
 	@.ci/sizes target/chips/atmega328p/avr-none/release/examples/*.elf
-	@CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega328p" $(CARGO) build --release -Zbuild-std=core \
-		--target avr-none --example boards --features examples,millis,clock-8mhz
-	@mkdir -p target/chips/atmega328p-8mhz/avr-none/release/examples && \
-		cp target/avr-none/release/examples/boards.elf target/chips/atmega328p-8mhz/avr-none/release/examples/
-	@.ci/sizes target/chips/atmega328p-8mhz/avr-none/release/examples/boards.elf
-	@.ci/no-panic target/chips/atmega328p-8mhz/avr-none/release/examples/boards.elf
+	@for chip in atmega328p atmega32u4; do \
+		CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=$$chip" $(CARGO) build --release -Zbuild-std=core \
+			--target avr-none --example boards --features examples,millis,clock-8mhz; \
+		dir=target/chips/$$chip-8mhz/avr-none/release/examples; \
+		mkdir -p $$dir && cp target/avr-none/release/examples/boards.elf $$dir/; \
+	done
+	@.ci/sizes target/chips/*-8mhz/avr-none/release/examples/boards.elf
+	@.ci/no-panic target/chips/*-8mhz/avr-none/release/examples/boards.elf
 
 sizes: firmware
 

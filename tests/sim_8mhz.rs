@@ -1,6 +1,6 @@
 //! The slave built for an 8 MHz board (feature `clock-8mhz`: the SparkFun Pro Mini and Pro
-//! Micro 3.3 V): `examples/boards.rs` for an 8 MHz ATmega328P (`make chips`), slave 1 at
-//! 19200 8E1, run in simavr.
+//! Micro 3.3 V): `examples/boards.rs` for an 8 MHz ATmega328P and ATmega32U4 (`make chips`),
+//! slave 1 at 19200 8E1 on the board's pins 0/1, run in simavr.
 //!
 //! The simulated chip runs at 16 MHz. A chip does everything in cycles of its own clock, so
 //! the 8 MHz firmware on it behaves as on an 8 MHz board with time running twice as fast:
@@ -36,12 +36,17 @@ fn t35() -> u64 {
     half_chars(7)
 }
 
-fn boot() -> Rtu {
-    let elf = chip_examples_dir(Chip::Atmega328p, 0, "-8mhz").join("boards.elf");
+/// The 8 MHz boards: the Pro Mini's chip (USART0) and the Pro Micro's (USART1).
+const BOARDS: [(Chip, u8); 2] = [(Chip::Atmega328p, 0), (Chip::Atmega32u4, 1)];
+
+fn boot(chip: Chip, usart: u8) -> Rtu {
+    let elf = chip_examples_dir(chip, usart, "-8mhz").join("boards.elf");
     assert!(elf.is_file(), "{} is missing: run `make chips` first", elf.display());
     // The master's own waits (T3.5 before each request, the time it gives a reply) are those
     // of 19200 8E1 at 16 MHz: twice the 8 MHz board's, so never too short.
-    Rtu::boot_elf(&elf, Line::B19200_8E1, |_| {})
+    let rtu = Rtu::boot_elf_on(&elf, usart, Line::B19200_8E1, |_| {});
+    assert_eq!(rtu.uno.chip(), chip, "{} names another chip", elf.display());
+    rtu
 }
 
 /// Sends `request` with the gaps `gaps` (cycles of silence before each character) and
@@ -56,67 +61,75 @@ fn send_with_gaps(rtu: &mut Rtu, request: &[u8], gaps: &[u64]) -> Exchange {
 
 #[test]
 fn the_line_is_19200_8e1_at_8_mhz() {
-    let rtu = boot();
-    // UBRR0 25, normal speed: 16 · 26 = 416 cycles a bit, 19 231 bps at 8 MHz (+0.16 %).
-    assert_eq!(rtu.char_cycles, CHAR_BITS * 416, "the firmware's character");
-    assert_eq!(rtu.tick, 64, "Timer0 at clk/64");
+    for (chip, usart) in BOARDS {
+        let rtu = boot(chip, usart);
+        // UBRRn 25, normal speed: 16 · 26 = 416 cycles a bit, 19 231 bps at 8 MHz (+0.16 %).
+        assert_eq!(rtu.char_cycles, CHAR_BITS * 416, "{chip}: the firmware's character");
+        assert_eq!(rtu.tick, 64, "{chip}: Timer0 at clk/64");
+    }
 }
 
 #[test]
 fn replies_start_t35_after_the_request_and_within_50_us_of_it() {
-    let mut rtu = boot();
-    let fc6 = write_register_request(ID, 0, 0xBEEF);
-    assert_eq!(rtu.ask(&fc6), fc6, "FC 6 echoes");
-    let request = read_request(ID, 0x03, 0, 2);
-    let reply = registers_reply(ID, 0x03, &[0xBEEF, 0]);
-    let mut turnarounds = Vec::new();
-    for offset in 0..32 {
-        // Each request ends at another phase of Timer0's 64-cycle tick.
-        let first_end = rtu.first_end_after_silence(offset * 7 + offset * offset * 131);
-        let end = rtu.send_at(&request, first_end, 0);
-        let exchange = rtu.receive(end);
-        assert_eq!(exchange.bytes(), reply, "FC 3");
-        turnarounds.push(exchange.turnaround().expect("a reply"));
+    for (chip, usart) in BOARDS {
+        let mut rtu = boot(chip, usart);
+        let fc6 = write_register_request(ID, 0, 0xBEEF);
+        assert_eq!(rtu.ask(&fc6), fc6, "{chip}: FC 6 echoes");
+        let request = read_request(ID, 0x03, 0, 2);
+        let reply = registers_reply(ID, 0x03, &[0xBEEF, 0]);
+        let mut turnarounds = Vec::new();
+        for offset in 0..32 {
+            // Each request ends at another phase of Timer0's 64-cycle tick.
+            let first_end = rtu.first_end_after_silence(offset * 7 + offset * offset * 131);
+            let end = rtu.send_at(&request, first_end, 0);
+            let exchange = rtu.receive(end);
+            assert_eq!(exchange.bytes(), reply, "{chip}: FC 3");
+            turnarounds.push(exchange.turnaround().expect("a reply"));
+        }
+        let (earliest, latest) = (turnarounds.iter().min().unwrap(), turnarounds.iter().max().unwrap());
+        assert!(*earliest >= t35(), "{chip}: a reply started {earliest} cycles after the request, T3.5 is {}", t35());
+        // Within 400 cycles of T3.5, as at 16 MHz (25 µs there: Timer0's ticks are 64 cycles
+        // and the interrupts take the same cycles at any clock): 50 µs at 8 MHz.
+        assert!(
+            *latest <= t35() + 50 * CYCLES_PER_US,
+            "{chip}: a reply started {latest} cycles after the request, T3.5 is {}",
+            t35()
+        );
+        eprintln!("{chip} at 8 MHz: reply − T3.5 from {} to {} cycles", earliest - t35(), latest - t35());
     }
-    let (earliest, latest) = (turnarounds.iter().min().unwrap(), turnarounds.iter().max().unwrap());
-    assert!(*earliest >= t35(), "a reply started {earliest} cycles after the request, T3.5 is {}", t35());
-    // Within 400 cycles of T3.5, as at 16 MHz (25 µs there: Timer0's ticks are 64 cycles
-    // and the interrupts take the same cycles at any clock): 50 µs at 8 MHz.
-    assert!(
-        *latest <= t35() + 50 * CYCLES_PER_US,
-        "a reply started {latest} cycles after the request, T3.5 is {}",
-        t35()
-    );
-    eprintln!("8 MHz: reply − T3.5 from {} to {} cycles", earliest - t35(), latest - t35());
 }
 
 #[test]
 fn a_gap_over_t15_drops_the_frame_and_one_under_it_does_not() {
-    let mut rtu = boot();
-    let request = read_request(ID, 0x03, 1, 1);
-    let answer = registers_reply(ID, 0x03, &[0]);
-    // Before the last character: T1.5 less 300 cycles (two ticks and more of the detector's
-    // slack), then T1.5 and half a character, still short of T3.5.
-    let mut gaps = vec![0; request.len()];
-    *gaps.last_mut().unwrap() = t15() - 300;
-    assert_eq!(send_with_gaps(&mut rtu, &request, &gaps).bytes(), answer, "a gap under T1.5");
-    *gaps.last_mut().unwrap() = t15() + half_chars(1);
-    assert!(t15() + half_chars(1) < t35());
-    let exchange = send_with_gaps(&mut rtu, &request, &gaps);
-    assert!(exchange.reply.is_empty(), "a gap over T1.5: the slave answered {:02X?}", exchange.bytes());
-    assert_eq!(rtu.ask(&request), answer, "the next request");
-    assert_eq!(rtu.ask(&with_crc(&[ID, 0x07])), with_crc(&[ID, 0x87, 0x01]), "exception 01");
+    for (chip, usart) in BOARDS {
+        let mut rtu = boot(chip, usart);
+        let request = read_request(ID, 0x03, 1, 1);
+        let answer = registers_reply(ID, 0x03, &[0]);
+        // Before the last character: T1.5 less 300 cycles (two ticks and more of the detector's
+        // slack), then T1.5 and half a character, still short of T3.5.
+        let mut gaps = vec![0; request.len()];
+        *gaps.last_mut().unwrap() = t15() - 300;
+        assert_eq!(send_with_gaps(&mut rtu, &request, &gaps).bytes(), answer, "{chip}: a gap under T1.5");
+        *gaps.last_mut().unwrap() = t15() + half_chars(1);
+        assert!(t15() + half_chars(1) < t35());
+        let exchange = send_with_gaps(&mut rtu, &request, &gaps);
+        assert!(exchange.reply.is_empty(), "{chip}: a gap over T1.5: the slave answered {:02X?}", exchange.bytes());
+        assert_eq!(rtu.ask(&request), answer, "{chip}: the next request");
+        assert_eq!(rtu.ask(&with_crc(&[ID, 0x07])), with_crc(&[ID, 0x87, 0x01]), "{chip}: exception 01");
+    }
 }
 
 #[test]
 fn the_clock_counts_8_000_000_cycles_a_second() {
-    let mut rtu = boot();
-    // 2.1 s of the board's time, then 30001 (`millis() / 1000`) says 2; at 16 MHz it would
-    // say 1.
-    rtu.uno.run_for(21 * 800_000).expect("firmware runs");
-    let read_at = rtu.uno.now();
-    let reply = rtu.ask(&read_request(ID, 0x04, 0, 1));
-    let seconds = read_at / 8_000_000;
-    assert_eq!(seconds, 2, "ran {read_at} cycles");
-    assert_eq!(reply, registers_reply(ID, 0x04, &[seconds as u16]), "30001 after {read_at} cycles");
+    for (chip, usart) in BOARDS {
+        let mut rtu = boot(chip, usart);
+        // 2.1 s of the board's time, then 30001 (`millis() / 1000`) says 2; at 16 MHz it would
+        // say 1.
+        rtu.uno.run_for(21 * 800_000).expect("firmware runs");
+        let read_at = rtu.uno.now();
+        let reply = rtu.ask(&read_request(ID, 0x04, 0, 1));
+        let seconds = read_at / 8_000_000;
+        assert_eq!(seconds, 2, "{chip}: ran {read_at} cycles");
+        assert_eq!(reply, registers_reply(ID, 0x04, &[seconds as u16]), "{chip}: 30001 after {read_at} cycles");
+    }
 }
