@@ -35,9 +35,10 @@ firmware: setup
 	@.ci/no-panic $(FIRMWARE)
 	@$(MAKE) --no-print-directory chips
 
-# examples/boards.rs on the other chips, as the avr-hal template builds (target avr-none,
-# -C target-cpu=CHIP), on each of their USARTs, copied to target/chips/CHIP/avr-none/release/
-# examples/ (the board's pins 0/1: USART0, the 32U4's USART1) and target/chips/CHIP-usartN/…
+# examples/boards.rs on the other chips, as the avr-hal template builds (.ci/chip-build:
+# target avr-none, -C target-cpu=CHIP), on each of their USARTs, copied to
+# target/chips/CHIP/avr-none/release/examples/ (the board's pins 0/1: USART0, the 32U4's
+# USART1) and target/chips/CHIP-usartN/…
 # for the Mega's other USARTs. Cargo keeps each CHIP's build apart in target/ (its flags are
 # part of it) and shares the host tools; a USART is a cfg of this crate (build.rs), so only
 # the crate rebuilds for it. Then once more with the line settings in EEPROM and ASCII
@@ -52,36 +53,20 @@ chips: setup
 	@for chip in $(CHIPS); do \
 		usarts=""; case $$chip in atmega1280|atmega2560) usarts="$(MEGA_USARTS)";; esac; \
 		for usart in "" $$usarts; do \
-			CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=$$chip" AVR_MODBUS_SLAVE_EXAMPLE_USART=$$usart \
-				$(CARGO) build --release -Zbuild-std=core --target avr-none --example boards --features examples,millis; \
-			dir=target/chips/$$chip$${usart:+-usart$$usart}/avr-none/release/examples; \
-			mkdir -p $$dir && cp target/avr-none/release/examples/boards.elf $$dir/; \
+			.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart} examples,millis boards || exit 1; \
 		done; \
 	done
 	@for build in atmega2560:1 atmega32u4:; do \
 		chip=$${build%%:*}; usart=$${build##*:}; \
-		CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=$$chip" AVR_MODBUS_SLAVE_EXAMPLE_USART=$$usart \
-			$(CARGO) build --release -Zbuild-std=core --target avr-none --example boards \
-			--features examples,millis,eeprom-settings,ascii; \
-		dir=target/chips/$$chip$${usart:+-usart$$usart}-settings/avr-none/release/examples; \
-		mkdir -p $$dir && cp target/avr-none/release/examples/boards.elf $$dir/; \
+		.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart}-settings \
+			examples,millis,eeprom-settings,ascii boards || exit 1; \
 	done
-	@.ci/sizes target/chips/*/avr-none/release/examples/boards.elf
-	@.ci/no-panic target/chips/*/avr-none/release/examples/boards.elf
-	@CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega328p" $(CARGO) build --release -Zbuild-std=core \
-		--target avr-none --example sixteen_each --example sixteen_each_bank --features examples
-	@mkdir -p target/chips/atmega328p/avr-none/release/examples && \
-		cp target/avr-none/release/examples/sixteen_each.elf target/avr-none/release/examples/sixteen_each_bank.elf \
-		target/chips/atmega328p/avr-none/release/examples/
-	@.ci/sizes target/chips/atmega328p/avr-none/release/examples/*.elf
+	@.ci/chip-build atmega328p "" atmega328p examples sixteen_each sixteen_each_bank
 	@for chip in atmega328p atmega32u4; do \
-		CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=$$chip" $(CARGO) build --release -Zbuild-std=core \
-			--target avr-none --example boards --features examples,millis,clock-8mhz; \
-		dir=target/chips/$$chip-8mhz/avr-none/release/examples; \
-		mkdir -p $$dir && cp target/avr-none/release/examples/boards.elf $$dir/; \
+		.ci/chip-build $$chip "" $$chip-8mhz examples,millis,clock-8mhz boards || exit 1; \
 	done
-	@.ci/sizes target/chips/*-8mhz/avr-none/release/examples/boards.elf
-	@.ci/no-panic target/chips/*-8mhz/avr-none/release/examples/boards.elf
+	@.ci/sizes target/chips/*/avr-none/release/examples/*.elf
+	@.ci/no-panic target/chips/*/avr-none/release/examples/*.elf
 
 sizes: firmware
 
