@@ -6,11 +6,9 @@
 //! (EEPROM, jumpers) and returns an error instead.
 
 use crate::error::Error;
-#[cfg(feature = "ascii")]
-use crate::timing::Deadline;
-#[cfg(feature = "ascii")]
-use crate::timing::TURN_US;
 use crate::timing::{rx_flag_to_end_cycles, BaudDivisor, CharTimes, TimerPlan, CLOCK_HZ};
+#[cfg(feature = "ascii")]
+use crate::timing::{Deadline, TURN_US};
 
 /// A slave (server) address on the serial line: 1–247.
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]

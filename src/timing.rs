@@ -77,9 +77,9 @@ impl CharTimes {
 /// Timer0's clock divider, the same at every baud rate: clk/64, a tick of 4 µs at 16 MHz and
 /// an overflow every 1.024 ms, as in Arduino's core (8 µs and 2.048 ms at 8 MHz). A tick is
 /// small beside the silences (T1.5 is 750 µs or more), the overflow interrupt that keeps
-/// [`Uptime`] runs about 980 times a second, and the longest deadline (T3.5 at 1200 bps with
-/// 12-bit characters, 35 ms) is 35 counter turns, which the compare interrupts count in a
-/// byte.
+/// [`Uptime`] runs about 980 times a second (490 at 8 MHz), and the longest deadline (T3.5 at
+/// 1200 bps with 12-bit characters, 35 ms) is 35 counter turns (18 at 8 MHz), which the
+/// compare interrupts count in a byte.
 pub const TIMER0_DIVISOR: u32 = 64;
 
 /// The clock-select bits CS02:0 of TCCR0B for [`TIMER0_DIVISOR`].
@@ -225,7 +225,8 @@ const fn cycles(ns: u32, clock_hz: u32) -> u32 {
 /// 3 ticks + 2 cycles (194 cycles, 12.1 µs) late. Times count from the USART's receive flag
 /// (RXCn; [`TimerPlan`] adds what lies between it and the character's end); a receive
 /// interrupt held off beyond its shortest latency makes the deadline that much later, and a
-/// compare interrupt held off for more than a turn (1.024 ms), a turn later.
+/// compare interrupt held off for more than a turn (1.024 ms, 2.048 ms at 8 MHz), a turn
+/// later.
 /// `tests/timing.rs` checks every accepted rate and format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Deadline {
@@ -237,7 +238,7 @@ pub struct Deadline {
 
 impl Deadline {
     /// The deadline `ns` nanoseconds after the USART flagged a character, at most 65 536
-    /// ticks (262 ms at 16 MHz, beyond any T3.5 at 1200 bps or more).
+    /// ticks (262 ms at 16 MHz, 524 ms at 8 MHz, beyond any T3.5 at 1200 bps or more).
     pub const fn new(ns: u32, clock_hz: u32) -> Self {
         Self::after_flag(cycles(ns, clock_hz))
     }
