@@ -40,8 +40,6 @@ type Result<T> = std::result::Result<T, Box<dyn Error>>;
 
 /// Where `make firmware` puts the ELF files, relative to the workspace.
 const FIRMWARE_DIR: &str = "target/avr-atmega328p/release/examples";
-/// Where `make firmware` puts the contract built as the avr-hal template builds it.
-const TEMPLATE_DIR: &str = "target/chips/atmega328p/avr-none/release/examples";
 /// Slave id of every example (lab_lights: button box, pin 12 open).
 const ID: u8 = 1;
 
@@ -303,7 +301,12 @@ fn firmware_path(root: &Path, name: &str) -> PathBuf {
 /// `name` as the avr-hal template builds it for the Uno (target `avr-none`, `build-std`;
 /// `make firmware` puts it there): its (flash, static RAM), or `None` if not built.
 fn template_size(root: &Path, name: &str) -> Option<(u64, u64)> {
-    avr_size(&root.join(TEMPLATE_DIR).join(format!("{name}.elf"))).ok()
+    avr_size(&chip_build_path(root, Chip::Atmega328p.name(), name)).ok()
+}
+
+/// Example `name` of `make chips`' build `build` (`CHIP`, `CHIP-usartN`; `.ci/chip-build`).
+fn chip_build_path(root: &Path, build: &str, name: &str) -> PathBuf {
+    root.join("target/chips").join(build).join("avr-none/release/examples").join(format!("{name}.elf"))
 }
 
 /// (flash = text + data, static RAM = data + bss) from `avr-size`.
@@ -524,7 +527,7 @@ fn board_path(root: &Path, chip: Chip, usart: u8) -> PathBuf {
     }
     let dir =
         if usart == chip.default_usart() { chip.name().to_owned() } else { format!("{}-usart{usart}", chip.name()) };
-    root.join("target/chips").join(dir).join("avr-none/release/examples/boards.elf")
+    chip_build_path(root, &dir, "boards")
 }
 
 /// `boards` on one chip and USART: sizes, interrupt cycles over the workload and the mixed
