@@ -49,13 +49,10 @@ fn boot(chip: Chip, usart: u8) -> Rtu {
     rtu
 }
 
-/// Sends `request` with the gaps `gaps` (cycles of silence before each character) and
-/// collects what comes back.
-fn send_with_gaps(rtu: &mut Rtu, request: &[u8], gaps: &[u64]) -> Exchange {
-    let mut end = rtu.first_end_after_silence(0) - rtu.char_cycles;
-    for (byte, gap) in request.iter().zip(gaps) {
-        end = rtu.send_at(&[*byte], end + gap + rtu.char_cycles, 0);
-    }
+/// Sends `request` with `gap` idle cycles before its last character and collects what comes
+/// back.
+fn send_with_last_gap(rtu: &mut Rtu, request: &[u8], gap: u64) -> Exchange {
+    let end = rtu.send_with_gap(request, request.len() - 1, gap);
     rtu.receive(end)
 }
 
@@ -107,12 +104,10 @@ fn a_gap_over_t15_drops_the_frame_and_one_under_it_does_not() {
         let answer = registers_reply(ID, 0x03, &[0]);
         // Before the last character: T1.5 less 300 cycles (two ticks and more of the detector's
         // slack), then T1.5 and half a character, still short of T3.5.
-        let mut gaps = vec![0; request.len()];
-        *gaps.last_mut().unwrap() = t15() - 300;
-        assert_eq!(send_with_gaps(&mut rtu, &request, &gaps).bytes(), answer, "{chip}: a gap under T1.5");
-        *gaps.last_mut().unwrap() = t15() + half_chars(1);
+        let under = send_with_last_gap(&mut rtu, &request, t15() - 300);
+        assert_eq!(under.bytes(), answer, "{chip}: a gap under T1.5");
         assert!(t15() + half_chars(1) < t35());
-        let exchange = send_with_gaps(&mut rtu, &request, &gaps);
+        let exchange = send_with_last_gap(&mut rtu, &request, t15() + half_chars(1));
         assert!(exchange.reply.is_empty(), "{chip}: a gap over T1.5: the slave answered {:02X?}", exchange.bytes());
         assert_eq!(rtu.ask(&request), answer, "{chip}: the next request");
         assert_eq!(rtu.ask(&with_crc(&[ID, 0x07])), with_crc(&[ID, 0x87, 0x01]), "{chip}: exception 01");

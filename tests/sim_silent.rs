@@ -516,14 +516,6 @@ fn frames_with_a_bad_crc_are_silent_and_counted_by_fc8_sub0c() {
     );
 }
 
-/// Schedules `frame` with `gap` cycles of idle line after byte `index`; returns the end of
-/// its last character.
-fn send_with_gap(rtu: &mut Rtu, frame: &[u8], index: usize, gap: u64) -> u64 {
-    let first_end = rtu.first_end_after_silence(2 * rtu.tick);
-    let head_end = rtu.send_at(&frame[..=index], first_end, 0);
-    rtu.send_at(&frame[index + 1..], head_end + gap + rtu.char_cycles, 0)
-}
-
 #[test]
 fn frames_broken_by_a_gap_over_t15_are_silent_and_counted_as_bus_messages() {
     let mut rtu = configurable();
@@ -533,7 +525,8 @@ fn frames_broken_by_a_gap_over_t15_are_silent_and_counted_as_bus_messages() {
     // before it, past T1.5 and before T3.5, so the frame is broken but not ended.
     let gap = 2 * rtu.char_cycles;
     for frame in [write_register_request(ID, 0, 0x1234), force_listen_only()] {
-        let end = send_with_gap(&mut rtu, &frame, 2, gap);
+        // `gap` cycles of idle line after byte 2.
+        let end = rtu.send_with_gap(&frame, 3, gap);
         assert_silent(&rtu.watch(end, &[DRIVER_ENABLE, LED], window), &format!("{frame:02X?} with a gap"));
     }
     answered(&mut rtu, &read_holding(), &registers_reply(ID, 0x03, &ZERO_REGISTERS), "FC 3");

@@ -52,11 +52,9 @@ fn four_zeros() -> Vec<u8> {
 }
 
 /// Sends `frame` after T3.5 of silence with `gap` idle cycles between its bytes
-/// `split - 1` and `split`; the rest back to back. Returns what came back.
+/// `split - 1` and `split` ([`Rtu::send_with_gap`]). Returns what came back.
 fn send_with_gap(rtu: &mut Rtu, frame: &[u8], split: usize, gap: u64) -> Exchange {
-    let first_end = rtu.first_end_after_silence(2 * rtu.tick);
-    let head_end = rtu.send_at(&frame[..split], first_end, 0);
-    let end = rtu.send_at(&frame[split..], head_end + gap + rtu.char_cycles, 0);
+    let end = rtu.send_with_gap(frame, split, gap);
     rtu.receive(end)
 }
 

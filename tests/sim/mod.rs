@@ -374,6 +374,15 @@ impl Rtu {
         self.send_at(bytes, first_end, 0)
     }
 
+    /// Schedules `frame` after T3.5 (+ two ticks) of silence, its first `split` bytes back to
+    /// back, then `gap` idle cycles, then the rest back to back; returns the end of the last
+    /// character.
+    pub fn send_with_gap(&mut self, frame: &[u8], split: usize, gap: u64) -> u64 {
+        let first_end = self.first_end_after_silence(2 * self.tick);
+        let head_end = self.send_at(&frame[..split], first_end, 0);
+        self.send_at(&frame[split..], head_end + gap + self.char_cycles, 0)
+    }
+
     /// Sends `request` after T3.5 of silence and collects the reply (see [`Rtu::receive`]).
     pub fn exchange(&mut self, request: &[u8]) -> Exchange {
         let end = self.send(request);
