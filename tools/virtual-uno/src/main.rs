@@ -276,13 +276,10 @@ fn run(args: &args::Args) -> Result<(), String> {
         }
         None => None,
     };
-    let mut dtr = match args.auto_reset {
-        true => {
-            Some(Dtr::watch(pty.path()).map_err(|e| format!("cannot watch {} for opens: {e}", pty.path().display()))?)
-        }
-        false => None,
-    };
-    if dtr.is_some() {
+    let mut dtr = None;
+    if args.auto_reset {
+        let opens = |e| format!("cannot watch {} for opens: {e}", pty.path().display());
+        dtr = Some(Dtr::watch(pty.path()).map_err(opens)?);
         println!("auto-reset: opening the port resets the board, as DTR does on a real one");
     }
     let (_fifo, control) = match &args.control {
