@@ -95,12 +95,12 @@ fixtures: setup
 # package leaves out fails here.
 PACKAGE_FIXTURE := target/package-fixture
 package: setup
-	$(CARGO) package --allow-dirty -p avr-modbus-slave 2>&1 | grep -v '^warning: ignoring \(test\|example\)'
+	$(CARGO) package --allow-dirty -p avr-modbus 2>&1 | grep -v '^warning: ignoring \(test\|example\)'
 	@rm -rf $(PACKAGE_FIXTURE) && mkdir -p $(PACKAGE_FIXTURE)
 	@cp -r fixtures/template-avr-device-0.8/. $(PACKAGE_FIXTURE)/
 	@version=$$(sed -n 's/^version = "\(.*\)"$$/\1/p' Cargo.toml | head -n 1); \
-		sed -i "s|path = \"../..\"|path = \"../package/avr-modbus-slave-$$version\"|" $(PACKAGE_FIXTURE)/Cargo.toml; \
-		grep -q "package/avr-modbus-slave-$$version" $(PACKAGE_FIXTURE)/Cargo.toml
+		sed -i "s|path = \"../..\"|path = \"../package/avr-modbus-$$version\"|" $(PACKAGE_FIXTURE)/Cargo.toml; \
+		grep -q "package/avr-modbus-$$version" $(PACKAGE_FIXTURE)/Cargo.toml
 	cd $(PACKAGE_FIXTURE) && ../../.ci/cargo build --release --locked --features uno --target-dir ../fixtures
 	@mkdir -p target/fixtures/packaged/avr-none/release
 	@cp target/fixtures/avr-none/release/template-avr-device-08.elf target/fixtures/packaged/avr-none/release/
@@ -114,16 +114,16 @@ OPTIONAL := diagnostics,extra-fc,write-protect
 
 clippy: setup
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
-	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL),device-id -- -D warnings
-	$(CARGO) clippy -p avr-modbus-slave --all-targets --features ascii -- -D warnings
-	$(CARGO) clippy -p avr-modbus-slave --all-targets --features clock-8mhz,ascii -- -D warnings
-	$(CARGO) clippy -p avr-modbus-slave --all-targets --features $(OPTIONAL),eeprom-settings,ufmt -- -D warnings
+	$(CARGO) clippy -p avr-modbus --all-targets --features $(OPTIONAL),device-id -- -D warnings
+	$(CARGO) clippy -p avr-modbus --all-targets --features ascii -- -D warnings
+	$(CARGO) clippy -p avr-modbus --all-targets --features clock-8mhz,ascii -- -D warnings
+	$(CARGO) clippy -p avr-modbus --all-targets --features $(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples,millis,ascii,device-id,$(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 
 docs: setup
-	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings,ufmt,device-id,ascii
-	RUSTDOCFLAGS="-D warnings -C target-cpu=atmega328p" $(CARGO) doc --no-deps -p avr-modbus-slave --release \
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus --features $(OPTIONAL),eeprom-settings,ufmt,device-id,ascii
+	RUSTDOCFLAGS="-D warnings -C target-cpu=atmega328p" $(CARGO) doc --no-deps -p avr-modbus --release \
 		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings,ufmt,millis,ascii
 
 lint: fmt-check clippy docs
@@ -131,16 +131,16 @@ lint: fmt-check clippy docs
 host-test: setup firmware fixtures bootloaders
 	$(CARGO) test --workspace --exclude virtual-uno
 	$(CARGO) test -p virtual-uno --bins
-	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL) --lib --test optional_functions --test exceptions --test adu --test framer --test bank --test map --test random_frames
-	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings --test settings --test settings_slots --test random_frames \
+	$(CARGO) test -p avr-modbus --features $(OPTIONAL) --lib --test optional_functions --test exceptions --test adu --test framer --test bank --test map --test random_frames
+	$(CARGO) test -p avr-modbus --features $(OPTIONAL),eeprom-settings --test settings --test settings_slots --test random_frames \
 		--test sim_configurable --test sim_settings_reset --test sim_silent --test sim_diagnostics
-	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings,ascii --test settings_ascii
-	$(CARGO) test -p avr-modbus-slave --features $(OPTIONAL),eeprom-settings --doc
-	$(CARGO) test -p avr-modbus-slave --features ufmt --test ufmt
-	$(CARGO) test -p avr-modbus-slave --features device-id --test device_id --test map --test sim_device_id --test random_frames
-	$(CARGO) test -p avr-modbus-slave --features ascii --test ascii --test sim_ascii --test framer --test adu --test random_frames
-	$(CARGO) test -p avr-modbus-slave --features ascii --doc
-	$(CARGO) test -p avr-modbus-slave --features clock-8mhz,ascii --lib --test timing
+	$(CARGO) test -p avr-modbus --features $(OPTIONAL),eeprom-settings,ascii --test settings_ascii
+	$(CARGO) test -p avr-modbus --features $(OPTIONAL),eeprom-settings --doc
+	$(CARGO) test -p avr-modbus --features ufmt --test ufmt
+	$(CARGO) test -p avr-modbus --features device-id --test device_id --test map --test sim_device_id --test random_frames
+	$(CARGO) test -p avr-modbus --features ascii --test ascii --test sim_ascii --test framer --test adu --test random_frames
+	$(CARGO) test -p avr-modbus --features ascii --doc
+	$(CARGO) test -p avr-modbus --features clock-8mhz,ascii --lib --test timing
 
 test: lint firmware host-test interop demos
 
@@ -212,7 +212,7 @@ PROPERTY_CASES ?= 1000000
 FUZZ_PROPERTY_FEATURES := $(OPTIONAL),ascii,device-id
 fuzz: setup
 	@.ci/fuzz $(FUZZ_SECONDS)
-	FUZZ_CASES=$(PROPERTY_CASES) FUZZ_SEED=$${FUZZ_SEED:-$$(date +%s)} $(CARGO) test --release -p avr-modbus-slave \
+	FUZZ_CASES=$(PROPERTY_CASES) FUZZ_SEED=$${FUZZ_SEED:-$$(date +%s)} $(CARGO) test --release -p avr-modbus \
 		--features $(FUZZ_PROPERTY_FEATURES) --test random_frames -- --nocapture
 	@echo "fuzz: $(PROPERTY_CASES) cases per property, 4 properties, features $(FUZZ_PROPERTY_FEATURES)"
 
@@ -220,4 +220,4 @@ fuzz: setup
 # (100000: ~1400 s simulated, ~15 min wall). `make test` runs 2000.
 SOAK_TRANSACTIONS ?= 100000
 soak: setup firmware
-	SOAK_TRANSACTIONS=$(SOAK_TRANSACTIONS) $(CARGO) test --release -p avr-modbus-slave --test sim_soak -- --nocapture
+	SOAK_TRANSACTIONS=$(SOAK_TRANSACTIONS) $(CARGO) test --release -p avr-modbus --test sim_soak -- --nocapture

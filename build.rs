@@ -6,7 +6,7 @@
 //! `src/avr/chip.rs`; a chip the crate has no table for stops the build there, naming the
 //! chips it supports. Host builds get no `avr_chip` at all.
 //!
-//! For this repository's examples only (feature `examples`): `AVR_MODBUS_SLAVE_EXAMPLE_USART=N`
+//! For this repository's examples only (feature `examples`): `AVR_MODBUS_EXAMPLE_USART=N`
 //! sets `cfg(example_usart = "N")`, the USART `examples/boards.rs` serves on, so that
 //! `make firmware` builds it for each USART without rebuilding anything but this crate.
 
@@ -17,7 +17,7 @@ const CHIPS: [&str; 5] = ["atmega328p", "atmega168", "atmega32u4", "atmega1280",
 
 fn main() {
     println!("cargo::rerun-if-changed=build.rs");
-    println!("cargo::rerun-if-env-changed=AVR_MODBUS_SLAVE_EXAMPLE_USART");
+    println!("cargo::rerun-if-env-changed=AVR_MODBUS_EXAMPLE_USART");
     let mut chips = CHIPS.map(|chip| format!("\"{chip}\"")).join(", ");
     chips.push_str(", \"unsupported\"");
     println!("cargo::rustc-check-cfg=cfg(avr_chip, values({chips}))");
@@ -34,10 +34,10 @@ fn main() {
         other => {
             println!("cargo::rustc-cfg=avr_chip=\"unsupported\"");
             let seen = other.unwrap_or_else(|| format!("no -C target-cpu, target {target}"));
-            println!("cargo::rustc-env=AVR_MODBUS_SLAVE_CPU={seen}");
+            println!("cargo::rustc-env=AVR_MODBUS_CPU={seen}");
         }
     }
-    if let Ok(usart) = env::var("AVR_MODBUS_SLAVE_EXAMPLE_USART") {
+    if let Ok(usart) = env::var("AVR_MODBUS_EXAMPLE_USART") {
         println!("cargo::rustc-cfg=example_usart=\"{usart}\"");
     }
 }

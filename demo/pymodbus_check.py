@@ -142,7 +142,7 @@ def ascii_board(client, args):
 # What examples/configurable.rs identifies itself as (its header's table); 0x02 is the crate's
 # version, read from Cargo.toml.
 CONFIGURABLE_OBJECTS = {
-    0x00: b"avr-modbus-slave",
+    0x00: b"avr-modbus",
     0x01: b"configurable",
     0x04: b"Uno Modbus slave with stored settings",
     0x05: b"Arduino Uno (ATmega328P)",

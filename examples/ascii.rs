@@ -30,18 +30,18 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::board::{self, Adc, Pins};
-use avr_modbus_slave::{Config, Parity, StopBits};
+use avr_modbus::board::{self, Adc, Pins};
+use avr_modbus::{Config, Parity, StopBits};
 use panic_halt as _;
 
 const CONFIG: Config = Config::ascii(1, 9600, Parity::Even, StopBits::One);
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// The table above.
     struct Registers { 1..=4, 10001..=10004, 30001..=30009, 40001..=40008 }
 }
 
-avr_modbus_slave::slave!(SLAVE: Registers);
+avr_modbus::slave!(SLAVE: Registers);
 
 #[avr_device::entry]
 fn main() -> ! {

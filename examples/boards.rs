@@ -39,7 +39,7 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::{board, millis, Config, NoPin, Parity, StopBits};
+use avr_modbus::{board, millis, Config, NoPin, Parity, StopBits};
 use panic_halt as _;
 
 // The chip's peripherals, as the build's `-C target-cpu` chose the chip (build.rs).
@@ -56,7 +56,7 @@ use avr_device::atmega32u4 as pac;
 
 const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// The contract's map: 16 coils, 16 discrete inputs, 8 input and 16 holding registers.
     struct Registers {
         1..=16,
@@ -70,22 +70,22 @@ avr_modbus_slave::register_map! {
 #[cfg(not(feature = "eeprom-settings"))]
 type Model = Registers;
 #[cfg(feature = "eeprom-settings")]
-type Model = avr_modbus_slave::Configurable<Registers>;
+type Model = avr_modbus::Configurable<Registers>;
 
 /// Where the settings live: EEPROM bytes 0–21 (feature `eeprom-settings`).
 #[cfg(feature = "eeprom-settings")]
 const SETTINGS_AT: u16 = 0;
 
-// The USART `make firmware` builds this for (AVR_MODBUS_SLAVE_EXAMPLE_USART, see build.rs);
+// The USART `make firmware` builds this for (AVR_MODBUS_EXAMPLE_USART, see build.rs);
 // in a firmware of your own, one line: `slave!(SLAVE on USART1: …)` or `slave!(SLAVE: …)`.
 #[cfg(not(any(example_usart = "1", example_usart = "2", example_usart = "3")))]
-avr_modbus_slave::slave!(SLAVE: Model, NoPin, board::Pin);
+avr_modbus::slave!(SLAVE: Model, NoPin, board::Pin);
 #[cfg(example_usart = "1")]
-avr_modbus_slave::slave!(SLAVE on USART1: Model, NoPin, board::Pin);
+avr_modbus::slave!(SLAVE on USART1: Model, NoPin, board::Pin);
 #[cfg(example_usart = "2")]
-avr_modbus_slave::slave!(SLAVE on USART2: Model, NoPin, board::Pin);
+avr_modbus::slave!(SLAVE on USART2: Model, NoPin, board::Pin);
 #[cfg(example_usart = "3")]
-avr_modbus_slave::slave!(SLAVE on USART3: Model, NoPin, board::Pin);
+avr_modbus::slave!(SLAVE on USART3: Model, NoPin, board::Pin);
 
 #[avr_device::entry]
 fn main() -> ! {
@@ -142,7 +142,7 @@ fn main() -> ! {
 
 /// The stored line settings (the default where there are none) and the map with them.
 #[cfg(feature = "eeprom-settings")]
-fn settings(eeprom: pac::EEPROM) -> Result<(Config, Model, board::Eeprom), avr_modbus_slave::Error> {
+fn settings(eeprom: pac::EEPROM) -> Result<(Config, Model, board::Eeprom), avr_modbus::Error> {
     let eeprom = board::Eeprom::new(eeprom)?;
     let config = eeprom.load_config(SETTINGS_AT).unwrap_or(CONFIG);
     Ok((config, Model::new(Registers::new(), 40101, config)?, eeprom))

@@ -25,7 +25,7 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::{board, Config, Parity, StopBits};
+use avr_modbus::{board, Config, Parity, StopBits};
 use panic_halt as _;
 
 const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
@@ -33,12 +33,12 @@ const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 /// 500 ms at 16 MHz.
 const BLOCK_CYCLES: u32 = 8_000_000;
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// The pass counter and four holding registers.
     struct Registers { 30001, 40001..=40004 }
 }
 
-avr_modbus_slave::slave!(SLAVE: Registers);
+avr_modbus::slave!(SLAVE: Registers);
 
 #[avr_device::entry]
 fn main() -> ! {

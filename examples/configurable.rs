@@ -57,7 +57,7 @@
  *
  * | id   | object             | value                                  |
  * |------|--------------------|----------------------------------------|
- * | 0x00 | VendorName         | avr-modbus-slave                       |
+ * | 0x00 | VendorName         | avr-modbus                       |
  * | 0x01 | ProductCode        | configurable                           |
  * | 0x02 | MajorMinorRevision | the crate's version (0.1.0)            |
  * | 0x04 | ProductName        | Uno Modbus slave with stored settings  |
@@ -67,8 +67,8 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::board::{self, Eeprom, Pin, Pins};
-use avr_modbus_slave::{Config, Configurable, Error, Parity, StopBits};
+use avr_modbus::board::{self, Eeprom, Pin, Pins};
+use avr_modbus::{Config, Configurable, Error, Parity, StopBits};
 use panic_halt as _;
 
 /// The compiled-in default, and what the jumper forces.
@@ -85,10 +85,10 @@ const FROM_DEFAULT: u16 = 0;
 const FROM_EEPROM: u16 = 1;
 const FROM_JUMPER: u16 = 2;
 
-avr_modbus_slave::identification! {
+avr_modbus::identification! {
     /// What FC 43 / MEI 14 tells a master: the objects in the table above.
     static IDENTITY = {
-        vendor_name: "avr-modbus-slave",
+        vendor_name: "avr-modbus",
         product_code: "configurable",
         major_minor_revision: env!("CARGO_PKG_VERSION"),
         product_name: "Uno Modbus slave with stored settings",
@@ -96,14 +96,14 @@ avr_modbus_slave::identification! {
     };
 }
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// The table above, without the settings block (`Configurable` adds it).
     struct Map { 1..=8, 30001..=30003, 40001..=40004 }
 }
 
 type Registers = Configurable<Map>;
 
-avr_modbus_slave::slave!(SLAVE: Registers, Pin, Pin);
+avr_modbus::slave!(SLAVE: Registers, Pin, Pin);
 
 /// Reads the jumper and the EEPROM, builds the register map and starts the slave.
 fn start(dp: avr_device::atmega328p::Peripherals) -> Result<Eeprom, Error> {
@@ -122,7 +122,7 @@ fn start(dp: avr_device::atmega328p::Peripherals) -> Result<Eeprom, Error> {
 
     let mut bank = Map::new();
     bank.set(30001, source)?;
-    bank.set_device_info(b"avr-modbus-slave configurable");
+    bank.set_device_info(b"avr-modbus configurable");
     bank.set_identification(&IDENTITY);
     let model = Configurable::new(bank, SETTINGS_BLOCK, config)?;
     let driver_enable = pins.d10.into_output();

@@ -38,8 +38,8 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::board::{self, Pins};
-use avr_modbus_slave::{Config, Error, Parity, StopBits};
+use avr_modbus::board::{self, Pins};
+use avr_modbus::{Config, Error, Parity, StopBits};
 use panic_halt as _;
 
 const PRESETS: [Config; 8] = [
@@ -53,12 +53,12 @@ const PRESETS: [Config; 8] = [
     Config::new(1, 1_200, Parity::Even, StopBits::One),
 ];
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// The table above.
     struct Registers { 1..=16, 10001..=10003, 30001, 40001..=40010 }
 }
 
-avr_modbus_slave::slave!(SLAVE: Registers);
+avr_modbus::slave!(SLAVE: Registers);
 
 fn start(dp: avr_device::atmega328p::Peripherals) -> Result<(), Error> {
     let pins = Pins::new(dp.PORTB, dp.PORTC, dp.PORTD)?;

@@ -35,8 +35,8 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::board::{self, Pin, Pins};
-use avr_modbus_slave::{bit_bytes, Bank, Config, Error, Parity, SlaveId, StopBits};
+use avr_modbus::board::{self, Pin, Pins};
+use avr_modbus::{bit_bytes, Bank, Config, Error, Parity, SlaveId, StopBits};
 use panic_halt as _;
 
 const BUTTON_BOX: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
@@ -47,7 +47,7 @@ const LIGHT_TOWER: SlaveId = match SlaveId::new(2) {
 
 type Bits = Bank<1, 0, { bit_bytes(4) }>;
 
-avr_modbus_slave::slave!(SLAVE: Bits, Pin, Pin);
+avr_modbus::slave!(SLAVE: Bits, Pin, Pin);
 
 #[avr_device::entry]
 fn main() -> ! {

@@ -23,19 +23,19 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::board::{self, Pins};
-use avr_modbus_slave::{Config, Error, Parity, StopBits};
+use avr_modbus::board::{self, Pins};
+use avr_modbus::{Config, Error, Parity, StopBits};
 use panic_halt as _;
 
 const SLOW: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 const FAST: Config = Config::new(1, 115_200, Parity::Even, StopBits::One);
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// 125 holding registers: the longest read.
     struct Registers { 40001..=40125 }
 }
 
-avr_modbus_slave::slave!(SLAVE: Registers);
+avr_modbus::slave!(SLAVE: Registers);
 
 fn start(dp: avr_device::atmega328p::Peripherals) -> Result<(), Error> {
     let pins = Pins::new(dp.PORTB, dp.PORTC, dp.PORTD)?;

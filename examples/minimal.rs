@@ -23,17 +23,17 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::{board, Config, Parity, StopBits};
+use avr_modbus::{board, Config, Parity, StopBits};
 use panic_halt as _;
 
 const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// Four holding registers.
     struct Registers { 40001..=40004 }
 }
 
-avr_modbus_slave::slave!(SLAVE: Registers);
+avr_modbus::slave!(SLAVE: Registers);
 
 #[avr_device::entry]
 fn main() -> ! {

@@ -30,7 +30,7 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::{bit_bytes, board, Bank, Config, Parity, StopBits};
+use avr_modbus::{bit_bytes, board, Bank, Config, Parity, StopBits};
 use panic_halt as _;
 
 const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
@@ -39,7 +39,7 @@ const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 /// 32 bits (16 coils, 16 discrete inputs).
 type Registers = Bank<4, 24, { bit_bytes(32) }>;
 
-avr_modbus_slave::slave!(SLAVE: Registers);
+avr_modbus::slave!(SLAVE: Registers);
 
 #[avr_device::entry]
 fn main() -> ! {

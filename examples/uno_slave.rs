@@ -37,18 +37,18 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus_slave::board::{self, Adc, Pins};
-use avr_modbus_slave::{millis, Config, Error, Parity, StopBits};
+use avr_modbus::board::{self, Adc, Pins};
+use avr_modbus::{millis, Config, Error, Parity, StopBits};
 use panic_halt as _;
 
 const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// The table above.
     struct Registers { 1..=5, 10001..=10004, 30001..=30012, 40001..=40010 }
 }
 
-avr_modbus_slave::slave!(SLAVE: Registers);
+avr_modbus::slave!(SLAVE: Registers);
 
 fn registers() -> Result<Registers, Error> {
     let mut bank = Registers::new();

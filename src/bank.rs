@@ -135,7 +135,7 @@ impl Protected {
 /// feature `write-protect`).
 ///
 /// ```
-/// use avr_modbus_slave::{Bank, bit_bytes};
+/// use avr_modbus::{Bank, bit_bytes};
 /// let mut bank: Bank<4, 8, { bit_bytes(16) }> = Bank::new();
 /// bank.add(40001).unwrap();
 /// bank.add_range(30001, 3).unwrap();

@@ -112,13 +112,13 @@ impl Config {
     /// A configuration for a constant: invalid values stop the build.
     ///
     /// ```
-    /// use avr_modbus_slave::{Config, Parity, StopBits};
+    /// use avr_modbus::{Config, Parity, StopBits};
     /// const CONFIG: Config = Config::new(17, 9600, Parity::None, StopBits::Two);
     /// assert_eq!(CONFIG.slave_id().get(), 17);
     /// ```
     ///
     /// ```compile_fail
-    /// use avr_modbus_slave::{Config, Parity, StopBits};
+    /// use avr_modbus::{Config, Parity, StopBits};
     /// const CONFIG: Config = Config::new(248, 9600, Parity::None, StopBits::Two);
     /// ```
     ///
@@ -174,7 +174,7 @@ impl Config {
     /// [`Config::new`]; [`Config::with_mode`] turns a run-time configuration into an ASCII one.
     ///
     /// ```
-    /// use avr_modbus_slave::{Config, Mode, Parity, StopBits};
+    /// use avr_modbus::{Config, Mode, Parity, StopBits};
     /// const CONFIG: Config = Config::ascii(1, 9600, Parity::Even, StopBits::One);
     /// assert_eq!((CONFIG.mode(), CONFIG.bits_per_char()), (Mode::Ascii, 10));
     /// ```

@@ -34,8 +34,21 @@ pub enum Error {
     /// A peripheral handed to the crate is not the one asked for (another `USART` or
     /// timer, say).
     WrongPeripheral,
-    /// The slave was started already.
+    /// The slave or master was started already.
     AlreadyStarted,
+    /// The master has a request under way (feature `master`).
+    Busy,
+    /// A request's quantity outside the spec's limits: 1–2000 coils or inputs read,
+    /// 1–125 registers read, 1–1968 coils or 1–123 registers written (1–121 by FC 23).
+    Quantity,
+    /// A read sent to the broadcast address 0: no slave answers a broadcast.
+    Broadcast,
+    /// A raw request's function code outside 1–127.
+    Function,
+    /// A request, or the longest reply it can get, does not fit the master's buffer.
+    TooLong,
+    /// The master was not started.
+    NotStarted,
 }
 
 impl Error {
@@ -54,7 +67,13 @@ impl Error {
             Error::BitsFull => "bank has no room for more bits (BIT_BYTES)",
             Error::ProtectionsFull => "bank has no room for another protected range",
             Error::WrongPeripheral => "wrong peripheral",
-            Error::AlreadyStarted => "slave started twice",
+            Error::AlreadyStarted => "started twice",
+            Error::Busy => "a request is under way",
+            Error::Quantity => "quantity outside the spec's limits",
+            Error::Broadcast => "a read can't be broadcast",
+            Error::Function => "function code must be 1-127",
+            Error::TooLong => "request or reply longer than the buffer",
+            Error::NotStarted => "not started",
         }
     }
 }

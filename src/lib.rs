@@ -15,6 +15,8 @@ mod engine;
 mod error;
 mod framer;
 mod map;
+#[cfg(feature = "master")]
+pub mod master;
 mod model;
 mod pdu;
 #[cfg(any(target_arch = "avr", test))]

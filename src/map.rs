@@ -183,7 +183,7 @@ impl Span {
 /// [`crate::Bank`] does.
 ///
 /// ```
-/// avr_modbus_slave::register_map! {
+/// avr_modbus::register_map! {
 ///     /// The contract map: 16 coils, 16 inputs, 8 input and 16 holding registers.
 ///     pub struct Registers {
 ///         00001..=00016,
@@ -195,7 +195,7 @@ impl Span {
 /// let mut map = Registers::new();
 /// map.set(40001, 1500).unwrap();
 /// assert_eq!(map.get(40001), Ok(1500));
-/// assert_eq!(map.get(40017), Err(avr_modbus_slave::Error::NotFound));
+/// assert_eq!(map.get(40017), Err(avr_modbus::Error::NotFound));
 /// # #[cfg(not(feature = "diagnostics"))] // which keeps FC 7 and 17 data beside the values
 /// assert_eq!(core::mem::size_of::<Registers>(), 2 * 24 + 4 + 2);
 /// ```
@@ -204,7 +204,7 @@ impl Span {
 /// the build:
 ///
 /// ```compile_fail
-/// avr_modbus_slave::register_map! {
+/// avr_modbus::register_map! {
 ///     struct Overlapping { 40001..=40010, 40005 }
 /// }
 /// let _ = Overlapping::new();

@@ -3,8 +3,8 @@
 
 mod common;
 
-use avr_modbus_slave::internal::{EndOfFrame, FrameError};
-use avr_modbus_slave::{Reference, SlaveId, Table};
+use avr_modbus::internal::{EndOfFrame, FrameError};
+use avr_modbus::{Reference, SlaveId, Table};
 use common::{ask, exception_reply, reference_crc, slave, snapshot, spec_bank, to_slave, with_crc, ID};
 
 // ---- the CRC used by these tests --------------------------------------------------------
@@ -20,7 +20,7 @@ fn reference_crc_matches_the_spec_check_values() {
 fn crate_crc_agrees_with_the_reference_crc() {
     let bytes: Vec<u8> = (0..=255u8).collect();
     for len in [0, 1, 2, 7, 100, 256] {
-        assert_eq!(avr_modbus_slave::internal::crc16(&bytes[..len]), reference_crc(&bytes[..len]), "{len} bytes");
+        assert_eq!(avr_modbus::internal::crc16(&bytes[..len]), reference_crc(&bytes[..len]), "{len} bytes");
     }
 }
 
@@ -192,8 +192,8 @@ fn a_frame_for_another_slave_is_not_answered_or_executed() {
 #[test]
 fn every_valid_slave_id_answers_only_its_own_address() {
     for id in [1u8, 2, 100, 246, 247] {
-        let mut slave: avr_modbus_slave::internal::Engine =
-            avr_modbus_slave::internal::Engine::new(SlaveId::new(id).unwrap());
+        let mut slave: avr_modbus::internal::Engine =
+            avr_modbus::internal::Engine::new(SlaveId::new(id).unwrap());
         let mut bank = spec_bank();
         let mine = with_crc(&[id, 0x03, 0x00, 0x00, 0x00, 0x01]);
         let theirs = with_crc(&[id % 247 + 1, 0x03, 0x00, 0x00, 0x00, 0x01]);

@@ -5,9 +5,9 @@
 
 mod common;
 
-use avr_modbus_slave::internal::ascii::{encoded_char, encoded_len, hex_digit, hex_value, lrc, MAX_CHARS};
-use avr_modbus_slave::internal::{EndOfFrame, Engine, FrameError, UartError};
-use avr_modbus_slave::{Config, Counters, Mode, Parity, SlaveId, StopBits};
+use avr_modbus::internal::ascii::{encoded_char, encoded_len, hex_digit, hex_value, lrc, MAX_CHARS};
+use avr_modbus::internal::{EndOfFrame, Engine, FrameError, UartError};
+use avr_modbus::{Config, Counters, Mode, Parity, SlaveId, StopBits};
 use common::{read_pdu, spec_bank, write_multiple_pdu, TestBank, ID};
 use proptest::prelude::*;
 
@@ -348,12 +348,12 @@ fn both_modes(pdu: &[u8], address: u8) -> (Outcome, Outcome) {
     let ascii_end = ascii.handle_frame(&ascii_frame(&frame), &mut ascii_bank);
     let ascii_reply = ascii.reply().get(..ascii.reply().len().saturating_sub(1)).unwrap_or(&[]).to_vec();
     assert_eq!(
-        common::snapshot(&rtu_bank, avr_modbus_slave::Table::HoldingRegisters, 0, 120),
-        common::snapshot(&ascii_bank, avr_modbus_slave::Table::HoldingRegisters, 0, 120)
+        common::snapshot(&rtu_bank, avr_modbus::Table::HoldingRegisters, 0, 120),
+        common::snapshot(&ascii_bank, avr_modbus::Table::HoldingRegisters, 0, 120)
     );
     assert_eq!(
-        common::snapshot(&rtu_bank, avr_modbus_slave::Table::Coils, 0, 200),
-        common::snapshot(&ascii_bank, avr_modbus_slave::Table::Coils, 0, 200)
+        common::snapshot(&rtu_bank, avr_modbus::Table::Coils, 0, 200),
+        common::snapshot(&ascii_bank, avr_modbus::Table::Coils, 0, 200)
     );
     ((rtu_end, rtu_reply, rtu.counters()), (ascii_end, ascii_reply, ascii.counters()))
 }
@@ -411,7 +411,7 @@ proptest! {
         sealed.push(lrc(&bytes));
         let text: Vec<u8> = (0..encoded_len(sealed.len())).map(|i| encoded_char(&sealed, i)).collect();
         prop_assert_eq!(&text, &ascii_frame(&bytes));
-        let mut framer = avr_modbus_slave::internal::Framer::<256>::new();
+        let mut framer = avr_modbus::internal::Framer::<256>::new();
         framer.set_ascii(true);
         let due = text.iter().map(|&c| framer.on_char(c)).filter(|&d| d).count();
         prop_assert_eq!(due, 1);
@@ -422,7 +422,7 @@ proptest! {
         let mut changed = text.clone();
         prop_assume!(changed[i] != to && !(changed[i].is_ascii_hexdigit() && to.is_ascii_hexdigit() && changed[i].eq_ignore_ascii_case(&to)));
         changed[i] = to;
-        let mut framer = avr_modbus_slave::internal::Framer::<256>::new();
+        let mut framer = avr_modbus::internal::Framer::<256>::new();
         framer.set_ascii(true);
         let mut outcome = None;
         for &c in &changed {

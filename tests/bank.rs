@@ -4,7 +4,7 @@
 
 mod common;
 
-use avr_modbus_slave::{bit_bytes, Bank, Error, Reference, Table};
+use avr_modbus::{bit_bytes, Bank, Error, Reference, Table};
 use common::{ask, exception_reply, slave, to_slave, with_crc, ID};
 
 type Small = Bank<4, 8, { bit_bytes(16) }>;
@@ -487,7 +487,7 @@ fn application_sets_do_not_count_as_master_writes() {
 #[cfg(feature = "write-protect")]
 mod protection {
     use super::common::{ask, exception_reply, slave, to_slave};
-    use avr_modbus_slave::{Bank, Error};
+    use avr_modbus::{Bank, Error};
 
     type Guarded = Bank<4, 8, 1, 2>;
 

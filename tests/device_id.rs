@@ -6,11 +6,11 @@ mod common;
 
 use common::{exception_reply, exchange};
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     struct Registers { 40001..=40004 }
 }
 
-avr_modbus_slave::identification! {
+avr_modbus::identification! {
     /// The objects of the spec's example (§6.21): the basic ones.
     static SPEC = {
         vendor_name: "Company identification",
@@ -19,7 +19,7 @@ avr_modbus_slave::identification! {
     };
 }
 
-fn map(identification: &'static avr_modbus_slave::Identification) -> Registers {
+fn map(identification: &'static avr_modbus::Identification) -> Registers {
     let mut map = Registers::new();
     map.set_identification(identification);
     map
@@ -33,10 +33,10 @@ fn request(code: u8, object: u8) -> [u8; 4] {
 #[cfg(feature = "device-id")]
 mod answered {
     use super::*;
-    use avr_modbus_slave::internal::EndOfFrame;
+    use avr_modbus::internal::EndOfFrame;
     use common::{ask, slave, with_crc};
 
-    avr_modbus_slave::identification! {
+    avr_modbus::identification! {
         /// Basic and regular objects, ProductName (04) left out.
         static REGULAR = {
             vendor_name: "Acme",
@@ -51,7 +51,7 @@ mod answered {
     /// Seven objects of 60 bytes: 434 bytes of objects, more than one reply holds.
     const SIXTY: &str = "abcdefghijklmnopqrstuvwxyzabcdefghijklmnopqrstuvwxyzabcdefgh";
 
-    avr_modbus_slave::identification! {
+    avr_modbus::identification! {
         static LONG = {
             vendor_name: SIXTY,
             product_code: SIXTY,

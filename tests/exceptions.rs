@@ -4,8 +4,8 @@
 
 mod common;
 
-use avr_modbus_slave::internal::{pdu, Access, Request};
-use avr_modbus_slave::{Exception, Reference, Table};
+use avr_modbus::internal::{pdu, Access, Request};
+use avr_modbus::{Exception, Reference, Table};
 use common::{
     exception_reply, exchange, full_bank, read_pdu, slave, snapshot, spec_bank, to_slave, with_crc, write_multiple_pdu,
     Failing,
@@ -733,7 +733,7 @@ fn exceptions_are_counted() {
 /// A data model where every address of every table exists (and reads 0).
 struct Everything;
 
-impl avr_modbus_slave::DataModel for Everything {
+impl avr_modbus::DataModel for Everything {
     fn has_range(&self, _: Table, _: u16, _: u16) -> bool {
         true
     }

@@ -5,15 +5,15 @@
 
 mod common;
 
-use avr_modbus_slave::internal::{EndOfFrame, Engine, FrameError, Framer};
-use avr_modbus_slave::{bit_bytes, Bank, Counters, DataModel, SlaveId};
+use avr_modbus::internal::{EndOfFrame, Engine, FrameError, Framer};
+use avr_modbus::{bit_bytes, Bank, Counters, DataModel, SlaveId};
 use common::{exception_reply, with_crc, ID};
 use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::sample::select;
 use proptest::test_runner::{RngAlgorithm, RngSeed};
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// `examples/sixteen_each.rs`'s map.
     #[derive(Clone, Debug)]
     struct Sixteen {
@@ -24,7 +24,7 @@ avr_modbus_slave::register_map! {
     }
 }
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// Ranges that touch (runs of 8 coils and 8 holding registers) beside holes.
     #[derive(Clone, Debug)]
     struct Touching {
@@ -38,7 +38,7 @@ avr_modbus_slave::register_map! {
     }
 }
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// Runs longer than one request may cover: the spec's limits bound the buffer.
     #[derive(Clone, Debug)]
     struct Long {
@@ -48,7 +48,7 @@ avr_modbus_slave::register_map! {
     }
 }
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// Three coils only.
     #[derive(Clone, Debug)]
     struct FewCoils {

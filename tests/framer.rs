@@ -4,7 +4,7 @@
 
 mod common;
 
-use avr_modbus_slave::internal::{EndOfFrame, Engine, FrameError, Framer, UartError};
+use avr_modbus::internal::{EndOfFrame, Engine, FrameError, Framer, UartError};
 use common::{spec_bank, to_slave, with_crc, TestBank, ID};
 
 /// A read of holding registers 40001–40002: answered `ID 03 04 00 00 00 00 CRC`.

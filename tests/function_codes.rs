@@ -4,7 +4,7 @@
 
 mod common;
 
-use avr_modbus_slave::Reference;
+use avr_modbus::Reference;
 use common::{ask, slave, spec_bank, with_crc, ID};
 
 #[test]

@@ -4,13 +4,13 @@
 
 mod common;
 
-use avr_modbus_slave::{Bank, DataModel, Error, Reference, Table};
+use avr_modbus::{Bank, DataModel, Error, Reference, Table};
 use common::{bit_of, exchange, spec_bank, with_crc, TestBank, ID};
 use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::test_runner::{RngAlgorithm, RngSeed};
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// `common::spec_bank`'s addresses in classic references, declared out of order.
     struct SpecMap {
         40113,
@@ -25,7 +25,7 @@ avr_modbus_slave::register_map! {
     }
 }
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// Ranges that touch, declared apart and backwards.
     struct Touching {
         40005..=40008,
@@ -37,7 +37,7 @@ avr_modbus_slave::register_map! {
     }
 }
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// The ends of the classic references, and one coil and one discrete input at the same
     /// address.
     struct Edges {
@@ -75,7 +75,7 @@ fn spec_map() -> SpecMap {
 fn footprint<M>(values: usize) -> usize {
     let beside = 2
         + if cfg!(feature = "diagnostics") { 1 + core::mem::size_of::<&[u8]>() } else { 0 }
-        + if cfg!(feature = "device-id") { core::mem::size_of::<&avr_modbus_slave::Identification>() } else { 0 };
+        + if cfg!(feature = "device-id") { core::mem::size_of::<&avr_modbus::Identification>() } else { 0 };
     (values + beside).next_multiple_of(core::mem::align_of::<M>())
 }
 

@@ -5,9 +5,9 @@
 mod common;
 
 #[allow(unused_imports)] // only the feature-gated modules use it
-use avr_modbus_slave::internal::EndOfFrame;
+use avr_modbus::internal::EndOfFrame;
 #[allow(unused_imports)]
-use avr_modbus_slave::{Bank, Reference};
+use avr_modbus::{Bank, Reference};
 #[allow(unused_imports)]
 use common::{ask, exception_reply, slave, to_slave, with_crc, ID};
 
@@ -137,8 +137,8 @@ mod extra {
         // One byte longer than an ADU can carry: the PDU layer on its own.
         let mut pdu = request.clone();
         assert_eq!(
-            avr_modbus_slave::internal::pdu::extra::respond(&mut pdu, request.len(), &mut bank(), true),
-            Err(avr_modbus_slave::Exception::IllegalDataValue)
+            avr_modbus::internal::pdu::extra::respond(&mut pdu, request.len(), &mut bank(), true),
+            Err(avr_modbus::Exception::IllegalDataValue)
         );
     }
 
@@ -166,7 +166,7 @@ mod diagnostics {
         to_slave(&[0x03, 0x00, 0x00, 0x00, 0x01])
     }
 
-    fn counter(slave: &mut avr_modbus_slave::internal::Engine, bank: &mut Registers, sub: u8) -> u16 {
+    fn counter(slave: &mut avr_modbus::internal::Engine, bank: &mut Registers, sub: u8) -> u16 {
         let reply = ask(slave, bank, &to_slave(&[0x08, 0x00, sub, 0x00, 0x00]));
         assert_eq!(reply[..4], [ID, 0x08, 0x00, sub]);
         u16::from_be_bytes([reply[4], reply[5]])
@@ -187,7 +187,7 @@ mod diagnostics {
         bad[7] ^= 0xFF;
         assert_eq!(
             slave.handle_frame(&bad, &mut bank),
-            EndOfFrame::Dropped(avr_modbus_slave::internal::FrameError::BadCrc)
+            EndOfFrame::Dropped(avr_modbus::internal::FrameError::BadCrc)
         );
         slave.handle_frame(&with_crc(&[0x00, 0x06, 0x00, 0x00, 0x00, 0x07]), &mut bank); // broadcast
         slave.handle_frame(&with_crc(&[0x22, 0x03, 0x00, 0x00, 0x00, 0x01]), &mut bank); // other slave
@@ -225,7 +225,7 @@ mod diagnostics {
         let restart = to_slave(&[0x08, 0x00, 0x01, 0x00, 0x00]);
         assert_eq!(slave.handle_frame(&restart, &mut bank), EndOfFrame::Silent, "restart is not answered");
         assert!(!slave.is_listen_only());
-        assert_eq!(slave.counters(), avr_modbus_slave::Counters::new(), "restart clears the counters");
+        assert_eq!(slave.counters(), avr_modbus::Counters::new(), "restart clears the counters");
         assert_eq!(ask(&mut slave, &mut bank, &read_1()), to_slave(&[0x03, 0x02, 0x00, 0x00]));
     }
 
@@ -309,7 +309,7 @@ mod diagnostics {
         for data in [0x00, 0xFF] {
             let restart = to_slave(&[0x08, 0x00, 0x01, data, 0x00]);
             assert_eq!(ask(&mut slave, &mut bank, &restart), restart);
-            assert_eq!(slave.counters(), avr_modbus_slave::Counters::new());
+            assert_eq!(slave.counters(), avr_modbus::Counters::new());
         }
     }
 

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use avr_modbus_slave::{Bank, Error, Reference, Table};
+use avr_modbus::{Bank, Error, Reference, Table};
 use proptest::collection::vec;
 use proptest::prelude::*;
 use proptest::sample::select;

@@ -8,7 +8,7 @@
 mod common;
 mod model;
 
-use avr_modbus_slave::internal::UartError;
+use avr_modbus::internal::UartError;
 #[cfg(feature = "ascii")]
 use model::ascii::{run_ascii_events, AsciiEvent};
 use model::{exchange, fixture, run_events, slave, with_crc, Event, EDGES, ID};

@@ -7,10 +7,10 @@
 
 mod common;
 
-use avr_modbus_slave::internal::settings::{
+use avr_modbus::internal::settings::{
     decode, decode_legacy, encode, Configurable, Record, LEGACY_LEN, LEGACY_MAGIC,
 };
-use avr_modbus_slave::{bit_bytes, Bank, Config, DataModel, Mode, Parity, StopBits};
+use avr_modbus::{bit_bytes, Bank, Config, DataModel, Mode, Parity, StopBits};
 use common::{ask, exception_reply, read_pdu, slave, to_slave, with_crc, write_multiple_pdu, ID};
 
 const DEFAULT: Config = Config::new(ID, 19_200, Parity::Even, StopBits::One);

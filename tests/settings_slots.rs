@@ -7,11 +7,11 @@
 
 mod common;
 
-use avr_modbus_slave::internal::settings::{
+use avr_modbus::internal::settings::{
     decode, encode, is_newer, Newest, Record, Slot, Slots, Write, LEGACY_MAGIC, MAGIC, MAX_WRITES, RECORD_LEN,
     SLOTS_LEN,
 };
-use avr_modbus_slave::{Config, Parity, StopBits};
+use avr_modbus::{Config, Parity, StopBits};
 use common::reference_crc;
 
 const DEFAULT: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);

@@ -11,7 +11,7 @@ mod sim;
 
 use std::time::Instant;
 
-use avr_modbus_slave::internal::timing::{Uptime, RX_LATENCY_CYCLES, TICKS_PER_MS, TIMER0_DIVISOR};
+use avr_modbus::internal::timing::{Uptime, RX_LATENCY_CYCLES, TICKS_PER_MS, TIMER0_DIVISOR};
 use sim::{read_request, registers_reply, Line, Rng, Rtu, ID};
 use uno_sim::{vector, Uno, F_CPU};
 
@@ -35,7 +35,7 @@ impl ClockInRam {
         let find = |suffix: &str| {
             uno.symbols()
                 .iter()
-                .find(|s| s.name.ends_with(suffix) && s.name.contains("avr_modbus_slave"))
+                .find(|s| s.name.ends_with(suffix) && s.name.contains("avr_modbus"))
                 .map(|s| (s.addr as u16, s.size))
         };
         if let Some((addr, size)) = find("5clock5CLOCK") {

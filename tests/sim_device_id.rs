@@ -4,7 +4,7 @@
 //! with `lpm`. Requests are sent on the wire, replies compared byte for byte with frames
 //! whose CRC the test computes itself.
 //!
-//! The firmware's objects (its header): 00 "avr-modbus-slave", 01 "configurable",
+//! The firmware's objects (its header): 00 "avr-modbus", 01 "configurable",
 //! 02 the crate's version, 04 "Uno Modbus slave with stored settings",
 //! 05 "Arduino Uno (ATmega328P)"; no 03 and no 06.
 
@@ -16,7 +16,7 @@ mod sim;
 
 use sim::{exception_reply, read_request, registers_reply, with_crc, Line, Rtu, ID};
 
-const VENDOR_NAME: &[u8] = b"avr-modbus-slave";
+const VENDOR_NAME: &[u8] = b"avr-modbus";
 const PRODUCT_CODE: &[u8] = b"configurable";
 const REVISION: &[u8] = env!("CARGO_PKG_VERSION").as_bytes();
 const PRODUCT_NAME: &[u8] = b"Uno Modbus slave with stored settings";

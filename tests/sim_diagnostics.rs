@@ -8,7 +8,7 @@
 //!
 //! The firmware's map: coils 00001–00008, input registers 30001–30003, holding registers
 //! 40001–40004 and the settings block 40101–40104 (left alone here); device info
-//! "avr-modbus-slave configurable"; no exception status bits. FC 8/04, which is never
+//! "avr-modbus configurable"; no exception status bits. FC 8/04, which is never
 //! answered, is in `sim_silent.rs`.
 
 // The firmware is built with these features (see `make firmware`); `make host-test` runs
@@ -336,7 +336,7 @@ fn fc17_reports_the_slave_id_run_indicator_and_device_info() {
         ID,   // slave address
         0x11, // function: report server id
     ]);
-    let info = b"avr-modbus-slave configurable";
+    let info = b"avr-modbus configurable";
     let mut reply = vec![
         ID,                   // slave address
         0x11,                 // function

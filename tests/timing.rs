@@ -15,8 +15,8 @@
 //! as the characters' ends; T3.5 counts from the character's end, so from the flag it is
 //! T3.5 and that half bit (or bit and a half).
 
-use avr_modbus_slave::internal::timing::{Deadline, Passed, TimerPlan, CLOCK_HZ, RX_LATENCY_CYCLES, TIMER0_DIVISOR};
-use avr_modbus_slave::{Config, Parity, StopBits};
+use avr_modbus::internal::timing::{Deadline, Passed, TimerPlan, CLOCK_HZ, RX_LATENCY_CYCLES, TIMER0_DIVISOR};
+use avr_modbus::{Config, Parity, StopBits};
 
 /// The documented accuracy: a deadline passes less than 130 cycles (8.1 µs) after the
 /// exact time: the unknown phase of the prescaler (a tick and a cycle of slack), the

@@ -2,7 +2,7 @@
 //! `ufmt::uDebug` and print like `core::fmt::Debug` would.
 #![cfg(feature = "ufmt")]
 
-use avr_modbus_slave::{Config, Counters, Error, Exception, Parity, Reference, SlaveId, StopBits, Table};
+use avr_modbus::{Config, Counters, Error, Exception, Parity, Reference, SlaveId, StopBits, Table};
 use ufmt::{uDebug, uWrite};
 
 /// A `uWrite` into a `String`, standing in for a serial port.

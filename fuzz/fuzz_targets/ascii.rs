@@ -20,7 +20,7 @@ mod common;
 #[path = "../../tests/model/mod.rs"]
 mod model;
 
-use avr_modbus_slave::internal::UartError;
+use avr_modbus::internal::UartError;
 use libfuzzer_sys::fuzz_target;
 use model::ascii::{lrc, request, run_ascii_events, AsciiEvent};
 

@@ -12,13 +12,13 @@
 //! settings it can run.
 #![no_main]
 
-use avr_modbus_slave::internal::settings::{LineSettings, Slots, SLOTS_LEN};
-use avr_modbus_slave::internal::{EndOfFrame, Engine};
-use avr_modbus_slave::{bit_bytes, Bank, Config, Configurable, Parity, SlaveId, StopBits};
+use avr_modbus::internal::settings::{LineSettings, Slots, SLOTS_LEN};
+use avr_modbus::internal::{EndOfFrame, Engine};
+use avr_modbus::{bit_bytes, Bank, Config, Configurable, Parity, SlaveId, StopBits};
 use libfuzzer_sys::fuzz_target;
 
 #[cfg(feature = "ascii")]
-use avr_modbus_slave::Mode;
+use avr_modbus::Mode;
 
 /// Settings from four input bytes: any id, a rate from a list the USART can make or not,
 /// any parity, stop-bit and (feature `ascii`) mode choice.

@@ -130,10 +130,10 @@ macro_rules! __chip {
 
 #[cfg(avr_chip = "unsupported")]
 ::core::compile_error!(::core::concat!(
-    "avr-modbus-slave runs on the ATmega328P, ATmega168, ATmega32U4, ATmega1280 and ATmega2560 ",
+    "avr-modbus runs on the ATmega328P, ATmega168, ATmega32U4, ATmega1280 and ATmega2560 ",
     "(build with -C target-cpu=atmega328p, atmega168, atmega32u4, atmega1280 or atmega2560); ",
     "this build is for ",
-    env!("AVR_MODBUS_SLAVE_CPU")
+    env!("AVR_MODBUS_CPU")
 ));
 
 /// No table, so that the only error is the one above.

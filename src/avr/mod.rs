@@ -69,9 +69,9 @@ pub mod __private {
 /// `millis()`.
 ///
 /// ```ignore
-/// avr_modbus_slave::slave!(SLAVE: Registers);                  // the board's pins 0/1, no pins
-/// avr_modbus_slave::slave!(SLAVE: Registers, NoPin, LedPin);   // driver enable, LED
-/// avr_modbus_slave::slave!(SLAVE on USART1: Registers);        // a Mega's Serial1 (pins 19/18)
+/// avr_modbus::slave!(SLAVE: Registers);                  // the board's pins 0/1, no pins
+/// avr_modbus::slave!(SLAVE: Registers, NoPin, LedPin);   // driver enable, LED
+/// avr_modbus::slave!(SLAVE on USART1: Registers);        // a Mega's Serial1 (pins 19/18)
 /// ```
 ///
 /// Without `on`, the slave serves the USART on the board's pins 0/1: USART0 on the
@@ -96,7 +96,7 @@ macro_rules! slave {
 
         #[doc(hidden)]
         #[allow(non_snake_case)]
-        mod __avr_modbus_slave_interrupts {
+        mod __avr_modbus_interrupts {
             /// TIMER0_COMPB: the gap deadline, then T3.5.
             #[export_name = $crate::__chip!(vector TIMER0_COMPB)]
             unsafe extern "avr-interrupt" fn TIMER0_COMPB() {

@@ -223,7 +223,7 @@ fn set_mode<const N: usize>(engine: &mut Engine<N>, timer: &mut FrameTimer, conf
 /// variables.
 ///
 /// ```ignore
-/// avr_modbus_slave::slave!(SLAVE: Registers);
+/// avr_modbus::slave!(SLAVE: Registers);
 /// // in main:
 /// SLAVE.start(CONFIG, dp.USART0, dp.TC0, bank)?;
 /// let setpoint = SLAVE.get(40001)?;

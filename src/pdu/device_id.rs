@@ -287,7 +287,7 @@ pub fn respond(
 /// `set_identification(&IDENTITY)`.
 ///
 /// ```
-/// avr_modbus_slave::identification! {
+/// avr_modbus::identification! {
 ///     /// What FC 43 tells a master.
 ///     pub static IDENTITY = {
 ///         vendor_name: "Acme Controls",
@@ -301,7 +301,7 @@ pub fn respond(
 /// The three basic objects are mandatory:
 ///
 /// ```compile_fail
-/// avr_modbus_slave::identification! {
+/// avr_modbus::identification! {
 ///     static IDENTITY = { vendor_name: "Acme Controls", product_code: "AC-16" };
 /// }
 /// let _ = &IDENTITY;

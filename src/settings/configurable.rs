@@ -19,8 +19,8 @@ use crate::reference::{IntoReference, Reference, Table};
 /// `Slave::poll_settings` does the main loop's part.
 ///
 /// ```
-/// use avr_modbus_slave::Configurable;
-/// use avr_modbus_slave::{bit_bytes, Bank, Config, Parity, StopBits};
+/// use avr_modbus::Configurable;
+/// use avr_modbus::{bit_bytes, Bank, Config, Parity, StopBits};
 /// const DEFAULT: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 /// let mut bank: Bank<1, 4, { bit_bytes(0) }> = Bank::new();
 /// bank.add_range(40001, 4).unwrap();

@@ -4,8 +4,8 @@
 //! Each test crate uses a different subset of these helpers.
 #![allow(dead_code)]
 
-use avr_modbus_slave::internal::{EndOfFrame, Engine};
-use avr_modbus_slave::{Bank, DataModel, Exception, Reference, SlaveId, Table};
+use avr_modbus::internal::{EndOfFrame, Engine};
+use avr_modbus::{Bank, DataModel, Exception, Reference, SlaveId, Table};
 
 /// The address of the slave under test (the spec's examples use 0x11).
 pub const ID: u8 = 0x11;

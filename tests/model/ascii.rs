@@ -23,8 +23,8 @@
 //! | the inter-character timeout in a frame | the frame ends, dropped for its fault, or as a gap |
 //! | anything while a reply is pending | ignored |
 
-use avr_modbus_slave::internal::ascii::{encoded_char, encoded_len};
-use avr_modbus_slave::internal::{EndOfFrame, Engine, FrameError, UartError};
+use avr_modbus::internal::ascii::{encoded_char, encoded_len};
+use avr_modbus::internal::{EndOfFrame, Engine, FrameError, UartError};
 
 use super::{check_bank, with_crc, Model, RandomBank, ID};
 

@@ -19,7 +19,7 @@
 use std::collections::BTreeMap;
 use std::sync::OnceLock;
 
-use avr_modbus_slave::Identification;
+use avr_modbus::Identification;
 
 /// Largest PDU, Application Protocol §4.1.
 const MAX_PDU: usize = 253;
@@ -125,7 +125,7 @@ const LONGEST: [&str; 7] = [
 ];
 const EIGHTY: [&str; 3] = [text(&[b'A'; 80]), text(&[b'B'; 80]), text(&[b'C'; 81])];
 
-avr_modbus_slave::identification! {
+avr_modbus::identification! {
     /// The basic objects of §6.21's example.
     static SPEC = {
         vendor_name: "Company identification",
@@ -134,7 +134,7 @@ avr_modbus_slave::identification! {
     };
 }
 
-avr_modbus_slave::identification! {
+avr_modbus::identification! {
     /// Basic and regular objects, ProductName (04) left out.
     static REGULAR = {
         vendor_name: "Acme",
@@ -146,7 +146,7 @@ avr_modbus_slave::identification! {
     };
 }
 
-avr_modbus_slave::identification! {
+avr_modbus::identification! {
     /// Seven objects of 60 bytes: three to a response.
     static SIXTIES = {
         vendor_name: SIXTY,
@@ -159,7 +159,7 @@ avr_modbus_slave::identification! {
     };
 }
 
-avr_modbus_slave::identification! {
+avr_modbus::identification! {
     /// Seven objects of 244 bytes, the longest: one to a response, which it fills.
     static LONGEST_EACH = {
         vendor_name: LONGEST[0],
@@ -172,7 +172,7 @@ avr_modbus_slave::identification! {
     };
 }
 
-avr_modbus_slave::identification! {
+avr_modbus::identification! {
     /// The basic objects fill a response to its last byte (7 + 3 × 82 = 253); VendorUrl
     /// follows.
     static EXACT = {
@@ -183,7 +183,7 @@ avr_modbus_slave::identification! {
     };
 }
 
-avr_modbus_slave::identification! {
+avr_modbus::identification! {
     /// One byte more than [`EXACT`]: MajorMinorRevision follows.
     static ONE_OVER = {
         vendor_name: EIGHTY[0],
@@ -193,7 +193,7 @@ avr_modbus_slave::identification! {
     };
 }
 
-avr_modbus_slave::identification! {
+avr_modbus::identification! {
     /// Short basic objects and the longest UserApplicationName, which follows them.
     static LAST_LONG = {
         vendor_name: "V",

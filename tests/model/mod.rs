@@ -16,8 +16,8 @@
 
 use std::collections::BTreeMap;
 
-use avr_modbus_slave::internal::{EndOfFrame, Engine, FrameError, UartError};
-use avr_modbus_slave::{Bank, Counters, Reference, SlaveId, Table};
+use avr_modbus::internal::{EndOfFrame, Engine, FrameError, UartError};
+use avr_modbus::{Bank, Counters, Reference, SlaveId, Table};
 
 pub use super::common::{reference_crc, with_crc, ID};
 
@@ -480,7 +480,7 @@ pub fn check_bank(bank: &RandomBank, model: &Model) -> Result<(), String> {
     for (&(table, address), &value) in &model.values {
         check_eq!(
             bank.get(Reference { table, address }),
-            Ok::<u16, avr_modbus_slave::Error>(value),
+            Ok::<u16, avr_modbus::Error>(value),
             "{:?} {}",
             table,
             address

@@ -16,18 +16,18 @@
 #![feature(abi_avr_interrupt)]
 
 use avr_device::atmega2560 as pac;
-use avr_modbus_slave::{board, millis, Config, Error, NoPin, Parity, StopBits};
+use avr_modbus::{board, millis, Config, Error, NoPin, Parity, StopBits};
 use panic_halt as _;
 
 const CONFIG: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 
-avr_modbus_slave::register_map! {
+avr_modbus::register_map! {
     /// What the master sees.
     struct Registers { 1..=8, 10001..=10008, 30001..=30002, 40001..=40010 }
 }
 
 // Pins 0/1: USART0, the Mega's USB serial port.
-avr_modbus_slave::slave!(SLAVE: Registers, NoPin, board::Pin);
+avr_modbus::slave!(SLAVE: Registers, NoPin, board::Pin);
 
 fn registers() -> Result<Registers, Error> {
     let mut bank = Registers::new();

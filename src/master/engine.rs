@@ -1,0 +1,377 @@
+//! The master's protocol state without hardware, Modbus over Serial Line v1.02 §2.4.1
+//! (figure 6, the master's state diagram) and §2.5.1.1 (T3.5 between frames).
+//!
+//! Idle → a request is started: it waits for T3.5 of silence after anything on the line,
+//! then goes out → waiting for the reply, the response timeout running (for a broadcast,
+//! the turnaround delay, and no reply) → the reply from the slave asked is checked → done,
+//! until the application collects the outcome. A frame from another slave is ignored and
+//! the timeout keeps running; a damaged frame, or one from the slave that does not answer
+//! the request, ends the attempt (the spec's "processing error"); a timeout too. An attempt
+//! that ended so is sent again while retries are left.
+//!
+//! The AVR layer forwards its interrupts here as the slave's does: characters and damage
+//! to the shared [`Framer`], Timer0's silences, the millisecond clock, the end of the
+//! request on the wire. Host tests script the same calls.
+
+use super::reply::{Reply, Verdict};
+use super::request::{Expect, Request};
+use crate::error::Error;
+use crate::framer::{FrameError, Framer, UartError, MAX_FRAME};
+
+/// How long the master waits, and how often it tries again.
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Timeouts {
+    /// The response timeout, in milliseconds, from the request's last character on the
+    /// wire to the reply's end (it must cover the slave's processing and the reply's own
+    /// time on the line: 125 registers take 136 ms at 19200 bps).
+    pub response_ms: u16,
+    /// After a broadcast, the turnaround delay in milliseconds: no reply is awaited; the
+    /// slaves get this long to act before the next request.
+    pub turnaround_ms: u16,
+    /// How many times a request is sent again after a timeout, a damaged reply or one that
+    /// does not answer it.
+    pub retries: u8,
+}
+
+impl Timeouts {
+    /// The defaults: a 1000 ms response timeout, a 100 ms turnaround delay, one retry.
+    pub const DEFAULT: Timeouts = Timeouts { response_ms: 1000, turnaround_ms: 100, retries: 1 };
+}
+
+impl Default for Timeouts {
+    fn default() -> Self {
+        Timeouts::DEFAULT
+    }
+}
+
+/// Why a request got no answer.
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Failure {
+    /// The slave answered with this exception code (Application Protocol §7: 0x01 Illegal
+    /// Function, 0x02 Illegal Data Address, 0x03 Illegal Data Value, 0x04 Server Device
+    /// Failure, …).
+    Exception(u8),
+    /// No reply within the response timeout, on the last try.
+    Timeout,
+    /// The last try ended with a damaged frame (CRC or LRC, parity, a gap over T1.5), or
+    /// a frame from the slave asked that does not answer the request.
+    BadReply,
+}
+
+/// What the master counted since it started (each wraps at 65535).
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counters {
+    /// Requests sent, retries included.
+    pub requests: u16,
+    /// Answers taken: replies that answer their request, exception replies included.
+    pub replies: u16,
+    /// Exception replies.
+    pub exceptions: u16,
+    /// Tries that got no reply within the response timeout.
+    pub timeouts: u16,
+    /// Requests sent again.
+    pub retries: u16,
+    /// Frames dropped for a bad CRC (or LRC).
+    pub crc_errors: u16,
+    /// Frames dropped for a gap over T1.5, a parity, framing or overrun error, or a length
+    /// under 4 or over 256 bytes.
+    pub malformed: u16,
+    /// Good frames that were no answer: from another slave, not answering the request,
+    /// or with no request waiting.
+    pub unexpected: u16,
+}
+
+/// A counter's place in [`Engine::counts`]: the order of [`Counters`]'s fields.
+#[derive(Clone, Copy)]
+enum Count {
+    Requests,
+    Replies,
+    Exceptions,
+    Timeouts,
+    Retries,
+    CrcErrors,
+    Malformed,
+    Unexpected,
+}
+
+const COUNTS: usize = Count::Unexpected as usize + 1;
+
+/// Where a request is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum State {
+    /// No request.
+    Idle,
+    /// Started, waiting for T3.5 of silence on the line.
+    Due,
+    /// On the wire.
+    Sending,
+    /// Sent; waiting for the reply, the response timeout running.
+    Waiting,
+    /// A broadcast sent; the turnaround delay running.
+    Turnaround,
+    /// The outcome is ready for the application.
+    Done,
+}
+
+/// What the AVR layer does after an event.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Action {
+    /// Nothing.
+    None,
+    /// The line has been quiet for T3.5: send the request now, from its first byte.
+    Send,
+}
+
+/// The master's protocol state: the receive framer (shared with the slave), the request
+/// as sent (kept for retries and for checking the reply's echo), the state, the counters.
+/// `N` bytes each way.
+#[derive(Clone, Debug)]
+pub struct Engine<const N: usize = MAX_FRAME> {
+    framer: Framer<N>,
+    request: [u8; N],
+    request_len: usize,
+    expect: Expect,
+    state: State,
+    /// Tries left after the current one.
+    retries_left: u8,
+    timeouts: Timeouts,
+    /// When the response timeout or the turnaround delay started (milliseconds).
+    since: u32,
+    /// T3.5 has passed since the line's last character (or the request's last).
+    quiet: bool,
+    /// The outcome once `Done`: `Ok` with the reply's length (0 after a broadcast).
+    outcome: Result<usize, Failure>,
+    counts: [u16; COUNTS],
+}
+
+impl<const N: usize> Default for Engine<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize> Engine<N> {
+    /// A master just after power-up: it waits for T3.5 of silence before it sends.
+    pub const fn new() -> Self {
+        Engine {
+            framer: Framer::new(),
+            request: [0; N],
+            request_len: 0,
+            expect: Expect::NONE,
+            state: State::Idle,
+            retries_left: 0,
+            timeouts: Timeouts::DEFAULT,
+            since: 0,
+            quiet: false,
+            outcome: Err(Failure::Timeout),
+            counts: [0; COUNTS],
+        }
+    }
+
+    /// Sets the response timeout, the turnaround delay and the retries, from the next
+    /// request on.
+    pub fn set_timeouts(&mut self, timeouts: Timeouts) {
+        self.timeouts = timeouts;
+    }
+
+    /// The timeouts in use.
+    pub fn timeouts(&self) -> Timeouts {
+        self.timeouts
+    }
+
+    /// The counters.
+    pub fn counters(&self) -> Counters {
+        let [requests, replies, exceptions, timeouts, retries, crc_errors, malformed, unexpected] = self.counts;
+        Counters { requests, replies, exceptions, timeouts, retries, crc_errors, malformed, unexpected }
+    }
+
+    fn count(&mut self, count: Count) {
+        let c = &mut self.counts[count as usize];
+        *c = c.wrapping_add(1);
+    }
+
+    /// True from [`Engine::start`] until the outcome is ready.
+    pub fn is_busy(&self) -> bool {
+        !matches!(self.state, State::Idle | State::Done)
+    }
+
+    /// Starts `request` to `slave` (0: broadcast): checked and built now, sent as soon as
+    /// the line has been quiet for T3.5 ([`Action::Send`]: at once). A request while one is
+    /// under way is [`Error::Busy`]; an outcome not yet collected is dropped. Nothing
+    /// changes when the request is refused.
+    pub fn start(&mut self, slave: u8, request: &Request<'_>) -> Result<Action, Error> {
+        if self.is_busy() {
+            return Err(Error::Busy);
+        }
+        let (len, expect) = request.encode(slave, &mut self.request, N)?;
+        self.request_len = len;
+        self.expect = expect;
+        self.retries_left = self.timeouts.retries;
+        self.framer.release();
+        self.state = State::Due;
+        Ok(self.send_if_quiet())
+    }
+
+    /// From `Due`: sends when the line is quiet.
+    fn send_if_quiet(&mut self) -> Action {
+        if self.state == State::Due && self.quiet {
+            self.state = State::Sending;
+            self.quiet = false;
+            self.count(Count::Requests);
+            Action::Send
+        } else {
+            Action::None
+        }
+    }
+
+    /// The request's bytes as sent (address to CRC).
+    pub fn request(&self) -> &[u8] {
+        self.request.get(..self.request_len).unwrap_or_default()
+    }
+
+    /// Byte `index` of the request.
+    #[inline(always)]
+    pub fn request_byte(&self, index: usize) -> u8 {
+        self.request.get(index).copied().unwrap_or(0)
+    }
+
+    /// The request's length in bytes.
+    #[inline(always)]
+    pub fn request_len(&self) -> usize {
+        self.request_len
+    }
+
+    /// A character arrived.
+    #[inline(always)]
+    pub fn on_byte(&mut self, byte: u8) {
+        self.quiet = false;
+        self.framer.on_byte(byte);
+    }
+
+    /// A damaged character arrived.
+    pub fn on_error(&mut self, error: UartError) {
+        self.quiet = false;
+        self.framer.on_error(error);
+    }
+
+    /// The gap deadline (T1.5) passed since the last character.
+    pub fn on_gap_deadline(&mut self) {
+        self.framer.on_gap_deadline();
+    }
+
+    /// The request's last character has left the wire, at `now` (milliseconds): the
+    /// response timeout starts (for a broadcast, the turnaround delay). The caller starts
+    /// the silence deadlines from here, so that the next request waits T3.5.
+    pub fn on_sent(&mut self, now: u32) {
+        if self.state == State::Sending {
+            self.since = now;
+            self.state = if self.expect.is_broadcast() { State::Turnaround } else { State::Waiting };
+        }
+    }
+
+    /// T3.5 of silence passed since the last character: a frame that ended is judged, and
+    /// a request that waited for the silence goes out.
+    pub fn on_end_deadline(&mut self) -> Action {
+        self.quiet = true;
+        match self.framer.on_end_deadline() {
+            None => {}
+            Some(Ok(len)) => self.on_frame(len),
+            Some(Err(error)) => {
+                self.count(if error == FrameError::BadCrc { Count::CrcErrors } else { Count::Malformed });
+                if self.state == State::Waiting {
+                    self.attempt_failed(Failure::BadReply);
+                }
+            }
+        }
+        self.send_if_quiet()
+    }
+
+    /// A good frame of `len` bytes ended.
+    fn on_frame(&mut self, len: usize) {
+        if self.state != State::Waiting {
+            self.count(Count::Unexpected);
+            self.framer.release();
+            return;
+        }
+        let frame = self.framer.buffer().get(..len);
+        let verdict = match frame {
+            Some(frame) => self.expect.check(self.request(), frame),
+            None => Verdict::Mismatch, // longer than the buffer: no answer to this request
+        };
+        match verdict {
+            Verdict::Answer => {
+                self.count(Count::Replies);
+                self.finish(Ok(len));
+                // The framer keeps the reply until it is collected.
+                return;
+            }
+            Verdict::Exception(code) => {
+                self.count(Count::Replies);
+                self.count(Count::Exceptions);
+                self.finish(Err(Failure::Exception(code)));
+            }
+            Verdict::OtherSlave => self.count(Count::Unexpected),
+            Verdict::Mismatch => {
+                self.count(Count::Unexpected);
+                self.attempt_failed(Failure::BadReply);
+            }
+        }
+        self.framer.release();
+    }
+
+    fn finish(&mut self, outcome: Result<usize, Failure>) {
+        self.outcome = outcome;
+        self.state = State::Done;
+    }
+
+    /// The current try ended without an answer: again while retries are left (once the
+    /// line is quiet), else the outcome is `failure`.
+    fn attempt_failed(&mut self, failure: Failure) {
+        if self.retries_left == 0 {
+            self.finish(Err(failure));
+        } else {
+            self.retries_left -= 1;
+            self.count(Count::Retries);
+            self.state = State::Due;
+        }
+    }
+
+    /// The clock reads `now` (milliseconds): the response timeout or the turnaround delay
+    /// may have passed. Called at least once a millisecond or so (Timer0's turn).
+    pub fn on_tick(&mut self, now: u32) -> Action {
+        let elapsed = now.wrapping_sub(self.since);
+        match self.state {
+            State::Waiting if elapsed >= u32::from(self.timeouts.response_ms) => {
+                self.count(Count::Timeouts);
+                self.attempt_failed(Failure::Timeout);
+            }
+            State::Turnaround if elapsed >= u32::from(self.timeouts.turnaround_ms) => self.finish(Ok(0)),
+            _ => {}
+        }
+        self.send_if_quiet()
+    }
+
+    /// The outcome, once the request is done: the reply, read in place, or why there is
+    /// none. `None` while a request is under way or when there is none.
+    pub fn outcome(&self) -> Option<Result<Reply<'_>, Failure>> {
+        if self.state != State::Done {
+            return None;
+        }
+        Some(match self.outcome {
+            Ok(0) => Ok(Reply::broadcast(&self.expect)),
+            Ok(len) => Ok(Reply::new(self.framer.buffer().get(..len).unwrap_or_default(), &self.expect)),
+            Err(failure) => Err(failure),
+        })
+    }
+
+    /// The outcome was collected: the master is idle and listens again.
+    pub fn collect(&mut self) {
+        if self.state == State::Done {
+            self.state = State::Idle;
+            self.framer.release();
+        }
+    }
+}

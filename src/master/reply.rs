@@ -1,0 +1,123 @@
+//! Checking a reply against its request, Modbus over Serial Line v1.02 §2.4.1 (the master's
+//! states) and Application Protocol v1.1b3 §7 (exception responses): the address, the
+//! function code or its exception form, the byte count against the quantity asked, the
+//! echo of a write. The framer has checked the CRC and the silences already.
+
+use super::request::{Expect, Shape};
+
+/// What a frame that ended while the master waited is to it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Verdict {
+    /// The answer to the request: its PDU is the frame's bytes 1 to `len` − 2.
+    Answer,
+    /// The slave answered with this exception code.
+    Exception(u8),
+    /// A frame from another slave: not for this master's request.
+    OtherSlave,
+    /// From the slave asked, but no answer to the request: wrong function code, byte
+    /// count, length or echo.
+    Mismatch,
+}
+
+impl Expect {
+    /// Judges `frame` (address to CRC, CRC checked) against the request it should answer,
+    /// `request` (address to CRC, as sent).
+    pub(crate) fn check(&self, request: &[u8], frame: &[u8]) -> Verdict {
+        let (Some(&slave), Some(&function)) = (frame.first(), frame.get(1)) else {
+            return Verdict::Mismatch;
+        };
+        if slave != self.slave {
+            return Verdict::OtherSlave;
+        }
+        let len = frame.len();
+        if function == self.function | 0x80 {
+            return match frame.get(2) {
+                Some(&code) if len == 5 => Verdict::Exception(code),
+                _ => Verdict::Mismatch,
+            };
+        }
+        if function != self.function {
+            return Verdict::Mismatch;
+        }
+        let fits = match self.shape {
+            Shape::Count(count) => frame.get(2) == Some(&count) && len == 5 + usize::from(count),
+            Shape::Echo => len == 8 && frame.get(2..6) == request.get(2..6),
+            Shape::Any => len >= 4,
+        };
+        if fits {
+            Verdict::Answer
+        } else {
+            Verdict::Mismatch
+        }
+    }
+}
+
+/// A slave's answer to the master's request: its PDU, read in place.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Reply<'a> {
+    /// The PDU after the function code (empty after a broadcast).
+    data: &'a [u8],
+    function: u8,
+    quantity: u16,
+}
+
+impl<'a> Reply<'a> {
+    /// The answer in `frame` (address to CRC) to a request of `expect`.
+    pub(crate) fn new(frame: &'a [u8], expect: &Expect) -> Self {
+        let end = frame.len().saturating_sub(2);
+        Reply { data: frame.get(2..end).unwrap_or_default(), function: expect.function, quantity: expect.quantity }
+    }
+
+    /// What a broadcast of `expect` completes with: no data.
+    pub(crate) fn broadcast(expect: &Expect) -> Self {
+        Reply { data: &[], function: expect.function, quantity: 0 }
+    }
+
+    /// The function code answered.
+    pub fn function(&self) -> u8 {
+        self.function
+    }
+
+    /// How many coils, inputs or registers the request read (0 for writes, broadcasts and
+    /// raw requests).
+    pub fn len(&self) -> usize {
+        usize::from(self.quantity)
+    }
+
+    /// True when the reply carries no values ([`Reply::len`] is 0).
+    pub fn is_empty(&self) -> bool {
+        self.quantity == 0
+    }
+
+    /// The reply's PDU after the function code, as the slave sent it: for a raw request,
+    /// the answer itself; for a read, the byte count and the values; for a write, the echo.
+    pub fn data(&self) -> &'a [u8] {
+        self.data
+    }
+
+    /// Register `index` of a read of registers (FC 3, 4, 23), counted from the first one
+    /// asked; `None` past the last.
+    pub fn register(&self, index: usize) -> Option<u16> {
+        if index >= self.len() {
+            return None;
+        }
+        let at = 1 + 2 * index;
+        Some(u16::from_be_bytes([*self.data.get(at)?, *self.data.get(at + 1)?]))
+    }
+
+    /// The registers read (FC 3, 4, 23), from the first one asked.
+    pub fn registers(&self) -> impl Iterator<Item = u16> + 'a {
+        let values = self.data.get(1..).unwrap_or_default();
+        values.chunks_exact(2).map(|pair| u16::from_be_bytes([pair[0], pair[1]]))
+    }
+
+    /// Coil or input `index` of a read of bits (FC 1, 2), counted from the first one
+    /// asked; `None` past the last.
+    pub fn bit(&self, index: usize) -> Option<bool> {
+        if index >= self.len() {
+            return None;
+        }
+        let byte = self.data.get(1 + index / 8)?;
+        Some(byte >> (index % 8) & 1 != 0)
+    }
+}

@@ -1,0 +1,310 @@
+//! The master's requests, Modbus Application Protocol v1.1b3 §6.1–6.6, §6.11, §6.12 and
+//! §6.17: each checked against the spec's limits before a byte is built, then written as
+//! an RTU frame (address, PDU, CRC) with what its reply must look like.
+
+use crate::crc::Crc16;
+use crate::error::Error;
+use crate::pdu::{MAX_READ_BITS, MAX_READ_REGISTERS, MAX_READ_WRITE_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS};
+
+/// What the master asks of a slave. Addresses are protocol addresses, counted from 0:
+/// holding register 40001 is address 0, coil 00001 address 0, input register 30005
+/// address 4.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Request<'a> {
+    /// 0x01 Read Coils, §6.1: 1–2000 coils.
+    ReadCoils {
+        /// The first coil's address.
+        address: u16,
+        /// How many.
+        quantity: u16,
+    },
+    /// 0x02 Read Discrete Inputs, §6.2: 1–2000 inputs.
+    ReadDiscreteInputs {
+        /// The first input's address.
+        address: u16,
+        /// How many.
+        quantity: u16,
+    },
+    /// 0x03 Read Holding Registers, §6.3: 1–125 registers.
+    ReadHoldingRegisters {
+        /// The first register's address.
+        address: u16,
+        /// How many.
+        quantity: u16,
+    },
+    /// 0x04 Read Input Registers, §6.4: 1–125 registers.
+    ReadInputRegisters {
+        /// The first register's address.
+        address: u16,
+        /// How many.
+        quantity: u16,
+    },
+    /// 0x05 Write Single Coil, §6.5 (sent as 0xFF00 for on, 0x0000 for off).
+    WriteSingleCoil {
+        /// The coil's address.
+        address: u16,
+        /// On or off.
+        value: bool,
+    },
+    /// 0x06 Write Single Register, §6.6.
+    WriteSingleRegister {
+        /// The register's address.
+        address: u16,
+        /// Its new value.
+        value: u16,
+    },
+    /// 0x0F Write Multiple Coils, §6.11: 1–1968 coils.
+    WriteMultipleCoils {
+        /// The first coil's address.
+        address: u16,
+        /// The coils' new states, from the first.
+        values: &'a [bool],
+    },
+    /// 0x10 Write Multiple Registers, §6.12: 1–123 registers.
+    WriteMultipleRegisters {
+        /// The first register's address.
+        address: u16,
+        /// The registers' new values, from the first.
+        values: &'a [u16],
+    },
+    /// 0x17 Read/Write Multiple Registers, §6.17: writes 1–121 registers, then reads 1–125.
+    ReadWriteMultipleRegisters {
+        /// The first register read.
+        read_address: u16,
+        /// How many are read.
+        read_quantity: u16,
+        /// The first register written.
+        write_address: u16,
+        /// The values written, from the first.
+        values: &'a [u16],
+    },
+    /// Any other function code (1–127) with the request PDU's data as given (FC 8
+    /// Diagnostics, 17 Report Server ID, 43 Read Device Identification …): the reply's
+    /// PDU is handed back unchecked beyond its address, function code and CRC.
+    Raw {
+        /// The function code.
+        function: u8,
+        /// The PDU after the function code.
+        data: &'a [u8],
+    },
+}
+
+/// What a reply to a request must look like, beside the slave's address and the
+/// function code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Shape {
+    /// A byte count, then that many bytes (FC 1–4, 23).
+    Count(u8),
+    /// An echo of the request's four bytes after the function code (FC 5, 6, 15, 16).
+    Echo,
+    /// Anything (a raw request).
+    Any,
+}
+
+/// What the master waits for: a reply from `slave` to `function`, of `shape`, with
+/// `quantity` bits or registers (0 for writes and raw requests).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Expect {
+    pub(crate) slave: u8,
+    pub(crate) function: u8,
+    pub(crate) shape: Shape,
+    pub(crate) quantity: u16,
+}
+
+impl Expect {
+    /// Nothing expected: the state of a master with no request yet.
+    pub(crate) const NONE: Expect = Expect { slave: 0, function: 0, shape: Shape::Any, quantity: 0 };
+
+    /// The longest reply frame (address to CRC) that can answer: the room the receive
+    /// buffer needs. A raw request's reply can be anything up to 256 bytes, so it needs
+    /// none beyond what it has: whatever does not fit is no answer.
+    pub(crate) const fn reply_len(&self) -> usize {
+        match self.shape {
+            Shape::Count(n) => 5 + n as usize,
+            Shape::Echo => 8,
+            Shape::Any => 5,
+        }
+    }
+
+    /// True for a broadcast, which no slave answers.
+    pub(crate) const fn is_broadcast(&self) -> bool {
+        self.slave == 0
+    }
+}
+
+impl Request<'_> {
+    /// The function code.
+    pub const fn function(&self) -> u8 {
+        match self {
+            Request::ReadCoils { .. } => 0x01,
+            Request::ReadDiscreteInputs { .. } => 0x02,
+            Request::ReadHoldingRegisters { .. } => 0x03,
+            Request::ReadInputRegisters { .. } => 0x04,
+            Request::WriteSingleCoil { .. } => 0x05,
+            Request::WriteSingleRegister { .. } => 0x06,
+            Request::WriteMultipleCoils { .. } => 0x0F,
+            Request::WriteMultipleRegisters { .. } => 0x10,
+            Request::ReadWriteMultipleRegisters { .. } => 0x17,
+            Request::Raw { function, .. } => *function,
+        }
+    }
+
+    /// True for the requests a broadcast can carry: the writes (FC 5, 6, 15, 16) and raw
+    /// requests. A read has no one to answer it (Serial Line v1.02 §2.1).
+    const fn may_broadcast(&self) -> bool {
+        !matches!(
+            self,
+            Request::ReadCoils { .. }
+                | Request::ReadDiscreteInputs { .. }
+                | Request::ReadHoldingRegisters { .. }
+                | Request::ReadInputRegisters { .. }
+                | Request::ReadWriteMultipleRegisters { .. }
+        )
+    }
+
+    /// Writes the request to `slave` (0: broadcast, 1–247) as an RTU frame into `frame`
+    /// and returns its length and what its reply must be. Refused before a byte is written
+    /// when a quantity or value is outside the spec's limits ([`Error::Quantity`]), the
+    /// slave address is reserved ([`Error::SlaveId`]), a read is broadcast
+    /// ([`Error::Broadcast`]), a raw function code is not 1–127 ([`Error::Function`]), or
+    /// the request or its reply does not fit the master's buffers, `frame` and `reply_room`
+    /// bytes ([`Error::TooLong`]).
+    pub(crate) fn encode(&self, slave: u8, frame: &mut [u8], reply_room: usize) -> Result<(usize, Expect), Error> {
+        if slave > 247 {
+            return Err(Error::SlaveId);
+        }
+        if slave == 0 && !self.may_broadcast() {
+            return Err(Error::Broadcast);
+        }
+        let function = self.function();
+        let mut out = Writer { frame, len: 0 };
+        let (shape, quantity) = match *self {
+            Request::ReadCoils { address, quantity } | Request::ReadDiscreteInputs { address, quantity } => {
+                let bytes = checked(quantity, MAX_READ_BITS)?.div_ceil(8);
+                out.header(slave, function, address, quantity)?;
+                (Shape::Count(bytes as u8), quantity)
+            }
+            Request::ReadHoldingRegisters { address, quantity } | Request::ReadInputRegisters { address, quantity } => {
+                let bytes = checked(quantity, MAX_READ_REGISTERS)? * 2;
+                out.header(slave, function, address, quantity)?;
+                (Shape::Count(bytes as u8), quantity)
+            }
+            Request::WriteSingleCoil { address, value } => {
+                out.header(slave, function, address, if value { 0xFF00 } else { 0x0000 })?;
+                (Shape::Echo, 0)
+            }
+            Request::WriteSingleRegister { address, value } => {
+                out.header(slave, function, address, value)?;
+                (Shape::Echo, 0)
+            }
+            Request::WriteMultipleCoils { address, values } => {
+                let quantity = checked_len(values.len(), MAX_WRITE_COILS)?;
+                out.header(slave, function, address, quantity)?;
+                out.push(quantity.div_ceil(8) as u8)?;
+                for byte in values.chunks(8) {
+                    let packed = byte.iter().rev().fold(0u8, |bits, &on| (bits << 1) | u8::from(on));
+                    out.push(packed)?;
+                }
+                (Shape::Echo, 0)
+            }
+            Request::WriteMultipleRegisters { address, values } => {
+                let quantity = checked_len(values.len(), MAX_WRITE_REGISTERS)?;
+                out.header(slave, function, address, quantity)?;
+                out.registers(values)?;
+                (Shape::Echo, 0)
+            }
+            Request::ReadWriteMultipleRegisters { read_address, read_quantity, write_address, values } => {
+                let bytes = checked(read_quantity, MAX_READ_REGISTERS)? * 2;
+                let write_quantity = checked_len(values.len(), MAX_READ_WRITE_REGISTERS)?;
+                out.header(slave, function, read_address, read_quantity)?;
+                out.word(write_address)?;
+                out.word(write_quantity)?;
+                out.registers(values)?;
+                (Shape::Count(bytes as u8), read_quantity)
+            }
+            Request::Raw { function, data } => {
+                if !(1..=0x7F).contains(&function) {
+                    return Err(Error::Function);
+                }
+                out.push(slave)?;
+                out.push(function)?;
+                for &byte in data {
+                    out.push(byte)?;
+                }
+                (Shape::Any, 0)
+            }
+        };
+        let expect = Expect { slave, function, shape, quantity };
+        let len = out.crc()?;
+        if !expect.is_broadcast() && expect.reply_len() > reply_room {
+            return Err(Error::TooLong);
+        }
+        Ok((len, expect))
+    }
+}
+
+/// A quantity inside 1–`max`.
+fn checked(quantity: u16, max: u16) -> Result<u16, Error> {
+    if quantity == 0 || quantity > max {
+        Err(Error::Quantity)
+    } else {
+        Ok(quantity)
+    }
+}
+
+/// The number of values written, inside 1–`max`.
+fn checked_len(len: usize, max: u16) -> Result<u16, Error> {
+    checked(u16::try_from(len).unwrap_or(u16::MAX), max)
+}
+
+/// Appends a frame's bytes, refusing to run past the buffer.
+struct Writer<'a> {
+    frame: &'a mut [u8],
+    len: usize,
+}
+
+impl Writer<'_> {
+    fn push(&mut self, byte: u8) -> Result<(), Error> {
+        // A frame is at most 256 bytes: address, 253 bytes of PDU, CRC.
+        let slot = if self.len < 254 { self.frame.get_mut(self.len) } else { None };
+        *slot.ok_or(Error::TooLong)? = byte;
+        self.len += 1;
+        Ok(())
+    }
+
+    fn word(&mut self, word: u16) -> Result<(), Error> {
+        let [high, low] = word.to_be_bytes();
+        self.push(high)?;
+        self.push(low)
+    }
+
+    /// Address, function code, and the two words every request of FC 1–6, 15, 16 and 23
+    /// starts with.
+    fn header(&mut self, slave: u8, function: u8, first: u16, second: u16) -> Result<(), Error> {
+        self.push(slave)?;
+        self.push(function)?;
+        self.word(first)?;
+        self.word(second)
+    }
+
+    /// The byte count and the values of FC 16 and 23.
+    fn registers(&mut self, values: &[u16]) -> Result<(), Error> {
+        self.push((values.len() * 2) as u8)?;
+        for &value in values {
+            self.word(value)?;
+        }
+        Ok(())
+    }
+
+    /// Appends the CRC (low byte first); the frame's length.
+    fn crc(mut self) -> Result<usize, Error> {
+        let crc = Crc16::new().update_slice(self.frame.get(..self.len).unwrap_or_default());
+        let [low, high] = crc.to_wire();
+        for byte in [low, high] {
+            let slot = self.frame.get_mut(self.len).ok_or(Error::TooLong)?;
+            *slot = byte;
+            self.len += 1;
+        }
+        Ok(self.len)
+    }
+}
