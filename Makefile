@@ -24,6 +24,9 @@ help:
 setup:
 	@.ci/setup
 
+# The master's examples (feature master).
+MASTER_EXAMPLES := plc_poller master_mirror
+
 # The examples that keep the clock (feature millis) are a build of their own, so that the
 # others carry no clock.
 firmware: setup
@@ -31,6 +34,7 @@ firmware: setup
 	$(CARGO) uno --example uno_slave --example dip_switch --example boards --features examples,millis
 	$(CARGO) uno --example ascii --features examples,ascii
 	$(CARGO) uno --example configurable --features examples,eeprom-settings,ascii,device-id,$(OPTIONAL)
+	$(CARGO) uno $(addprefix --example ,$(MASTER_EXAMPLES)) --features examples,master
 	@.ci/sizes $(FIRMWARE)
 	@.ci/no-panic $(FIRMWARE)
 	@$(MAKE) --no-print-directory chips
@@ -118,13 +122,15 @@ clippy: setup
 	$(CARGO) clippy -p avr-modbus --all-targets --features ascii -- -D warnings
 	$(CARGO) clippy -p avr-modbus --all-targets --features clock-8mhz,ascii -- -D warnings
 	$(CARGO) clippy -p avr-modbus --all-targets --features $(OPTIONAL),eeprom-settings,ufmt -- -D warnings
+	$(CARGO) clippy -p avr-modbus --all-targets --features master,ufmt -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples,millis,ascii,device-id,$(OPTIONAL),eeprom-settings,ufmt -- -D warnings
+	$(CARGO) uno-clippy --examples --features examples,master,ufmt -- -D warnings
 
 docs: setup
-	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus --features $(OPTIONAL),eeprom-settings,ufmt,device-id,ascii
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus --features $(OPTIONAL),eeprom-settings,ufmt,device-id,ascii,master
 	RUSTDOCFLAGS="-D warnings -C target-cpu=atmega328p" $(CARGO) doc --no-deps -p avr-modbus --release \
-		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings,ufmt,millis,ascii
+		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings,ufmt,millis,ascii,master
 
 lint: fmt-check clippy docs
 
@@ -141,6 +147,7 @@ host-test: setup firmware fixtures bootloaders
 	$(CARGO) test -p avr-modbus --features ascii --test ascii --test sim_ascii --test framer --test adu --test random_frames
 	$(CARGO) test -p avr-modbus --features ascii --doc
 	$(CARGO) test -p avr-modbus --features clock-8mhz,ascii --lib --test timing
+	$(CARGO) test -p avr-modbus --features master --test master --test sim_master
 
 test: lint firmware host-test interop demos
 

@@ -35,6 +35,8 @@ pub use avr::__private;
 pub use avr::millis;
 #[cfg(target_arch = "avr")]
 pub use avr::{board, NoPin, Slave};
+#[cfg(all(target_arch = "avr", feature = "master"))]
+pub use avr::Master;
 pub use bank::{bit_bytes, Bank};
 #[cfg(feature = "ascii")]
 pub use config::Mode;

@@ -60,6 +60,7 @@ macro_rules! __chip {
     };
     (vector $other:ident $what:ident) => { "" };
     (default $($slave:tt)*) => { $crate::slave!(@on USART0 $($slave)*); };
+    (default_master $($master:tt)*) => { $crate::master!(@on USART0 $($master)*); };
 }
 
 /// ATmega32U4 (Leonardo, Micro, Pro Micro): USART1 on pins 0/1 (USB is the chip's own),
@@ -86,6 +87,7 @@ macro_rules! __chip {
     };
     (vector $other:ident $what:ident) => { "" };
     (default $($slave:tt)*) => { $crate::slave!(@on USART1 $($slave)*); };
+    (default_master $($master:tt)*) => { $crate::master!(@on USART1 $($master)*); };
 }
 
 /// ATmega2560 and ATmega1280 (Mega): USART0 on pins 0/1 (shared with USB), USART1 on
@@ -126,6 +128,7 @@ macro_rules! __chip {
     };
     (vector $other:ident $what:ident) => { "" };
     (default $($slave:tt)*) => { $crate::slave!(@on USART0 $($slave)*); };
+    (default_master $($master:tt)*) => { $crate::master!(@on USART0 $($master)*); };
 }
 
 #[cfg(avr_chip = "unsupported")]
@@ -148,4 +151,5 @@ macro_rules! __chip {
     (vector $($what:ident)*) => { "" };
     (usart $what:ident) => { 0 };
     (default $($slave:tt)*) => { $crate::slave!(@on USART0 $($slave)*); };
+    (default_master $($master:tt)*) => { $crate::master!(@on USART0 $($master)*); };
 }

@@ -21,13 +21,18 @@ mod clock {
     pub(crate) const OVERFLOW_INTERRUPT: u8 = 0;
 }
 mod eeprom;
+#[cfg(feature = "master")]
+mod master;
 mod pins;
 mod reg;
 mod rtu;
+mod started;
 mod timer;
 mod usart;
 
 pub use pins::NoPin;
+#[cfg(feature = "master")]
+pub use master::Master;
 pub use rtu::Slave;
 
 /// Small drivers for firmware written without a HAL (this crate's examples): the Uno's
@@ -139,5 +144,76 @@ macro_rules! slave {
     };
     ($name:ident : $model:ty, $de:ty, $led:ty) => {
         $crate::__chip!(default $name: $model, $de, $led);
+    };
+}
+
+/// Declares the master `NAME` (feature `master`) with buffers of `N` bytes each way (the
+/// request as sent, the reply; 256 when left out) and binds the four interrupts it needs,
+/// as [`crate::slave!`] does for a slave: its USART's RX complete, data register empty and
+/// TX complete, and Timer0 compare B (the silences, the timeouts).
+///
+/// ```ignore
+/// avr_modbus::master!(MASTER);                       // the board's pins 0/1, 256-byte buffers
+/// avr_modbus::master!(MASTER: 32);                   // 32-byte buffers
+/// avr_modbus::master!(MASTER: 32, DePin, NoPin);     // RS-485 driver enable, no LED
+/// avr_modbus::master!(MASTER on USART1: 64);         // a Mega's Serial1 (pins 19/18)
+/// ```
+///
+/// [`Master::start`] then takes that USART. A firmware has one role on Timer0 for now: a
+/// master and a slave in one firmware do not build (both bind Timer0's compare B).
+#[cfg(feature = "master")]
+#[macro_export]
+macro_rules! master {
+    (@on $usart:ident $name:ident : $n:expr, $de:ty, $led:ty) => {
+        static $name: $crate::Master<$de, $led, { $n }, { $crate::__chip!(usart $usart) }> = $crate::Master::new();
+
+        #[doc(hidden)]
+        #[allow(non_snake_case)]
+        mod __avr_modbus_master_interrupts {
+            /// TIMER0_COMPB: T1.5, T3.5, and the timeouts.
+            #[export_name = $crate::__chip!(vector TIMER0_COMPB)]
+            unsafe extern "avr-interrupt" fn TIMER0_COMPB() {
+                // SAFETY: an interrupt handler, which runs with interrupts disabled.
+                unsafe { super::$name.on_timer_compare() }
+            }
+
+            /// USARTn_RX: a character arrived.
+            #[export_name = $crate::__chip!(vector $usart RX)]
+            unsafe extern "avr-interrupt" fn USART_RX() {
+                // SAFETY: as above; the handler's first call.
+                unsafe { $crate::__private::usart_rx_arrived() };
+                // SAFETY: as above.
+                unsafe { super::$name.on_usart_rx() }
+            }
+
+            /// USARTn_UDRE: room for the request's next character.
+            #[export_name = $crate::__chip!(vector $usart UDRE)]
+            unsafe extern "avr-interrupt" fn USART_UDRE() {
+                // SAFETY: as above.
+                unsafe { super::$name.on_usart_udre() }
+            }
+
+            /// USARTn_TX: the request has left the wire.
+            #[export_name = $crate::__chip!(vector $usart TX)]
+            unsafe extern "avr-interrupt" fn USART_TX() {
+                // SAFETY: as above.
+                unsafe { super::$name.on_usart_tx() }
+            }
+        }
+    };
+    ($name:ident on $usart:ident : $n:expr) => {
+        $crate::master!(@on $usart $name: $n, $crate::NoPin, $crate::NoPin);
+    };
+    ($name:ident on $usart:ident : $n:expr, $de:ty, $led:ty) => {
+        $crate::master!(@on $usart $name: $n, $de, $led);
+    };
+    ($name:ident) => {
+        $crate::__chip!(default_master $name: 256, $crate::NoPin, $crate::NoPin);
+    };
+    ($name:ident : $n:expr) => {
+        $crate::__chip!(default_master $name: $n, $crate::NoPin, $crate::NoPin);
+    };
+    ($name:ident : $n:expr, $de:ty, $led:ty) => {
+        $crate::__chip!(default_master $name: $n, $de, $led);
     };
 }

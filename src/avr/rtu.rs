@@ -3,15 +3,13 @@
 //! starts from that same interrupt, so the application's main loop never has to call
 //! anything for the slave to answer.
 
-use core::cell::UnsafeCell;
-use core::mem::MaybeUninit;
-
 use core::ops::Deref;
 
 use embedded_hal::digital::OutputPin;
 
 use super::pins::NoPin;
 use super::reg::{self, claim};
+use super::started::Started;
 use super::timer::{FrameTimer, Passed};
 use super::usart::Usart;
 use crate::config::Config;
@@ -237,66 +235,29 @@ fn set_mode<const N: usize>(engine: &mut Engine<N>, timer: &mut FrameTimer, conf
 /// [`DataModel::FRAME`]; 256, the default, fits every model. `U` is the number of the
 /// USART it serves, as `slave!` names it.
 pub struct Slave<M, DE = NoPin, LED = NoPin, const N: usize = MAX_FRAME, const U: u8 = 0> {
-    state: UnsafeCell<u8>,
-    running: UnsafeCell<MaybeUninit<Running<M, DE, LED, N, U>>>,
+    running: Started<Running<M, DE, LED, N, U>>,
 }
-
-const EMPTY: u8 = 0;
-const READY: u8 = 1;
-const IN_USE: u8 = 2;
-
-// SAFETY: the chip has one core, and the cell is only touched with interrupts
-// disabled (`reg::free`, or inside the slave's interrupt handlers), so no two accesses
-// overlap. What it holds moves in from `start`'s caller and is used from interrupts, hence
-// the `Send` bounds.
-unsafe impl<M: Send, DE: Send, LED: Send, const N: usize, const U: u8> Sync for Slave<M, DE, LED, N, U> {}
 
 impl<M, DE, LED, const N: usize, const U: u8> Slave<M, DE, LED, N, U> {
     /// A slave not yet started: what [`crate::slave!`] declares.
     #[doc(hidden)]
     pub const fn new() -> Self {
-        Slave { state: UnsafeCell::new(EMPTY), running: UnsafeCell::new(MaybeUninit::zeroed()) }
+        Slave { running: Started::new() }
     }
 
-    /// Runs `f` on the running slave.
+    /// Runs `f` on the running slave from one of its interrupt handlers.
     ///
     /// # Safety
-    /// Interrupts must be disabled for the whole call.
-    #[inline(always)]
-    unsafe fn access<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N, U>) -> R) -> Option<R> {
-        // SAFETY: no other access can run (the caller's promise); READY means the slave
-        // was written by `start`, and IN_USE keeps a nested call from aliasing it.
-        unsafe {
-            if *self.state.get() != READY {
-                return None;
-            }
-            *self.state.get() = IN_USE;
-            let result = f((*self.running.get()).assume_init_mut());
-            *self.state.get() = READY;
-            Some(result)
-        }
-    }
-
-    /// Runs `f` on the running slave from one of its interrupt handlers, without
-    /// [`Slave::access`]'s check, which keeps them short.
-    ///
-    /// # Safety
-    /// Only from the slave's interrupt handlers (interrupts disabled, and they stay so), so
-    /// no other access overlaps this one: the application's run with interrupts disabled,
-    /// and the handlers don't nest. The slave is there: only `start` enables the receive
-    /// and Timer0 interrupts, after writing it, and only the slave's handlers enable the
-    /// transmit ones.
+    /// As for [`Started::access_in_handler`].
     #[inline(always)]
     unsafe fn access_in_handler<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N, U>) -> R) -> R {
-        // SAFETY: as promised by the caller, nothing else reaches the slave meanwhile, and
-        // it was written.
-        unsafe { f((*self.running.get()).assume_init_mut()) }
+        // SAFETY: the caller's promise.
+        unsafe { self.running.access_in_handler(f) }
     }
 
     /// Runs `f` on the running slave with interrupts disabled.
     fn locked<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N, U>) -> R) -> Option<R> {
-        // SAFETY: interrupts are disabled for the whole access.
-        reg::free(|| unsafe { self.access(f) })
+        self.running.locked(f)
     }
 }
 
@@ -344,17 +305,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> S
         };
         claim::<_, { reg::USART_SIZE }>(usart, Usart::<U>::BLOCK)?;
         claim::<_, { reg::TC0.1 }>(tc0, reg::TC0.0)?;
-        reg::free(|| {
-            // SAFETY: interrupts are disabled, so nothing else accesses the cell.
-            unsafe {
-                if *self.state.get() != EMPTY {
-                    return Err(Error::AlreadyStarted);
-                }
-                (*self.running.get()).write(Running::new(config, model, driver_enable, led));
-                *self.state.get() = READY;
-            }
-            Ok(())
-        })?;
+        self.running.start(|| Running::new(config, model, driver_enable, led))?;
         // SAFETY: the slave is in its cell, so its interrupt handlers can run.
         unsafe { reg::enable_interrupts() };
         Ok(())

@@ -1,0 +1,285 @@
+//! The interrupt-driven master (feature `master`), Modbus over Serial Line v1.02 §2.4.1:
+//! the application starts a request and goes on; the request goes out from the USART's
+//! interrupts once the line has been quiet for T3.5, the reply is received, checked and
+//! kept, timeouts and retries run from Timer0's compare interrupt, and the application
+//! collects the outcome when it likes. The link is the slave's: the same USART driver,
+//! Timer0 deadlines and framer.
+
+use core::ops::Deref;
+
+use embedded_hal::digital::OutputPin;
+
+use super::clock;
+use super::pins::NoPin;
+use super::reg::{self, claim};
+use super::started::Started;
+use super::timer::{FrameTimer, Passed};
+use super::usart::Usart;
+use crate::config::Config;
+use crate::error::Error;
+use crate::framer::MAX_FRAME;
+use crate::master::internal::{Action, Engine};
+use crate::master::{Counters, Failure, Reply, Request, Timeouts};
+use crate::peripheral::may_be_usart;
+
+/// The running master: its peripherals, protocol state with `N`-byte buffers, the RS-485
+/// driver-enable pin and the communication LED.
+pub(crate) struct Running<DE, LED, const N: usize, const U: u8> {
+    engine: Engine<N>,
+    usart: Usart<U>,
+    timer: FrameTimer,
+    /// Index of the request's next byte.
+    tx_next: usize,
+    driver_enable: DE,
+    led: LED,
+}
+
+impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED, N, U> {
+    fn new(config: Config, mut driver_enable: DE, mut led: LED) -> Self {
+        let _ = driver_enable.set_low();
+        let _ = led.set_low();
+        let mut timer = FrameTimer::new(config.timer_plan());
+        let usart = Usart::new(&config);
+        // The power-up wait: T3.5 of silence before the first request.
+        timer.restart();
+        Running { engine: Engine::new(), usart, timer, tx_next: 0, driver_enable, led }
+    }
+
+    /// Sends the request from its first byte: driver enabled, the address into the USART,
+    /// the rest from the data-register-empty interrupt.
+    #[inline(always)]
+    fn act(&mut self, action: Action) {
+        if action == Action::Send {
+            let _ = self.driver_enable.set_high();
+            let _ = self.led.set_high();
+            self.usart.write(self.engine.request_byte(0));
+            self.tx_next = 1;
+            self.usart.start_feeding();
+        }
+    }
+
+    #[inline(always)]
+    fn on_usart_rx(&mut self) {
+        match self.usart.read() {
+            Ok(byte) => self.engine.on_byte(byte),
+            Err(e) => self.engine.on_error(e),
+        }
+    }
+
+    /// Timer0 compare B: T1.5, T3.5, or a turn of the timer with neither (about once a
+    /// millisecond), when the response timeout and the turnaround delay are checked.
+    #[inline(always)]
+    fn on_timer_compare(&mut self) {
+        let action = match self.timer.on_compare() {
+            Passed::Gap => {
+                self.engine.on_gap_deadline();
+                return;
+            }
+            Passed::End => {
+                // A character not yet taken came before T3.5 expired: the silence starts over.
+                if self.usart.has_data() {
+                    self.timer.restart();
+                    return;
+                }
+                self.engine.on_end_deadline()
+            }
+            Passed::Nothing => self.engine.on_tick(clock::millis()),
+        };
+        self.act(action);
+    }
+
+    #[inline(always)]
+    fn on_usart_udre(&mut self) {
+        let next = self.tx_next;
+        self.usart.write(self.engine.request_byte(next));
+        self.tx_next = next + 1;
+        if self.tx_next >= self.engine.request_len() {
+            self.usart.last_written();
+        }
+    }
+
+    /// The request has left the wire: the response timeout starts, and so do the silence
+    /// deadlines (the next request waits T3.5 after this one even if nothing answers).
+    #[inline(always)]
+    fn on_usart_tx(&mut self) {
+        self.usart.finished();
+        let _ = self.driver_enable.set_low();
+        let _ = self.led.set_low();
+        self.engine.on_sent(clock::millis());
+        self.timer.restart();
+    }
+}
+
+/// The Modbus RTU master (feature `master`): declare it with [`crate::master!`], start it
+/// with the application's USART (the one `master!` names) and `TC0`, then send requests
+/// and collect their outcomes; nothing waits.
+///
+/// ```ignore
+/// avr_modbus::master!(MASTER: 64);
+/// // in main:
+/// MASTER.start(CONFIG, dp.USART0, dp.TC0)?;
+/// MASTER.send(1, &Request::ReadInputRegisters { address: 0, quantity: 5 })?;
+/// // later, in the loop:
+/// if let Some(outcome) = MASTER.poll(|outcome| outcome.map(|reply| reply.register(0))) { … }
+/// ```
+///
+/// `N` is the size of each of its two buffers, the request as sent and the reply: the
+/// longest request and the longest reply the firmware makes (a read of `q` registers is
+/// answered in 5 + 2`q` bytes, a write of `q` registers takes 9 + 2`q`); 256 fits every
+/// one. `U` is the number of the USART it serves, as `master!` names it.
+pub struct Master<DE = NoPin, LED = NoPin, const N: usize = MAX_FRAME, const U: u8 = 0> {
+    running: Started<Running<DE, LED, N, U>>,
+}
+
+impl<DE, LED, const N: usize, const U: u8> Master<DE, LED, N, U> {
+    /// A master not yet started: what [`crate::master!`] declares.
+    #[doc(hidden)]
+    pub const fn new() -> Self {
+        Master { running: Started::new() }
+    }
+}
+
+impl<const N: usize, const U: u8> Master<NoPin, NoPin, N, U> {
+    /// Starts the master: takes the USART that [`crate::master!`] named and `TC0` from the
+    /// application's `Peripherals` (arduino-hal's or `avr-device`'s, any version),
+    /// configures them for `config` (its slave id is not used), and enables interrupts.
+    /// The first request goes out after T3.5 of silence.
+    pub fn start<P: Deref, T: Deref>(&self, config: Config, usart: P, tc0: T) -> Result<(), Error>
+    where
+        P::Target: Sized,
+        T::Target: Sized,
+    {
+        self.start_with_pins(config, usart, tc0, NoPin, NoPin)
+    }
+}
+
+impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED, N, U> {
+    /// [`Master::start`] with an RS-485 driver-enable pin (high from just before a
+    /// request's first character until its last has left the wire; join DE and /RE of a
+    /// MAX485 to it) and a communication LED (lit while a request goes out): any
+    /// `embedded-hal` output pin, arduino-hal's included, or [`crate::NoPin`].
+    pub fn start_with_pins<P: Deref, T: Deref>(
+        &self,
+        config: Config,
+        usart: P,
+        tc0: T,
+        driver_enable: DE,
+        led: LED,
+    ) -> Result<(), Error>
+    where
+        P::Target: Sized,
+        T::Target: Sized,
+    {
+        const {
+            assert!(
+                may_be_usart(core::any::type_name::<P>(), U, Usart::<U>::BLOCK),
+                "start takes the USART that master! names: dp.USART0 for master!(MASTER: …) on pins 0/1 \
+                 (dp.USART1 on the ATmega32U4), dp.USARTn for master!(MASTER on USARTn: …)"
+            );
+        };
+        claim::<_, { reg::USART_SIZE }>(usart, Usart::<U>::BLOCK)?;
+        claim::<_, { reg::TC0.1 }>(tc0, reg::TC0.0)?;
+        self.running.start(|| Running::new(config, driver_enable, led))?;
+        // SAFETY: the master is in its cell, so its interrupt handlers can run.
+        unsafe { reg::enable_interrupts() };
+        Ok(())
+    }
+
+    /// Starts `request` to `slave` (1–247, or 0 to broadcast a write) and returns at once:
+    /// the request is checked and built now, and goes out as soon as the line has been
+    /// quiet for T3.5 (at once if it has). [`Error::Busy`] while another is under way
+    /// (it goes on), [`Error::NotStarted`] before [`Master::start`]; a quantity outside
+    /// the spec's limits, a broadcast read, a request or reply longer than the buffers
+    /// are refused before a byte is sent. An outcome not yet collected is dropped.
+    pub fn send(&self, slave: u8, request: &Request<'_>) -> Result<(), Error> {
+        self.running
+            .locked(|m| {
+                let action = m.engine.start(slave, request)?;
+                m.act(action);
+                Ok(())
+            })
+            .unwrap_or(Err(Error::NotStarted))
+    }
+
+    /// The outcome of the last request, once it is there: `f` runs on the reply (read in
+    /// place, with interrupts disabled: keep it short, copy what you need) or on why there
+    /// is none, and the master is ready for the next request. `None` while the request is
+    /// under way, or when there is none.
+    pub fn poll<R>(&self, f: impl FnOnce(Result<Reply<'_>, Failure>) -> R) -> Option<R> {
+        self.running
+            .locked(|m| {
+                let result = m.engine.outcome().map(f);
+                m.engine.collect();
+                result
+            })
+            .flatten()
+    }
+
+    /// True from [`Master::send`] until the outcome is there.
+    pub fn is_busy(&self) -> bool {
+        self.running.locked(|m| m.engine.is_busy()).unwrap_or(false)
+    }
+
+    /// Blocks until the request under way is done, then [`Master::poll`]s it: for simple
+    /// firmware that has nothing else to do meanwhile. `None` when no request was sent.
+    pub fn wait_blocking<R>(&self, f: impl FnOnce(Result<Reply<'_>, Failure>) -> R) -> Option<R> {
+        while self.is_busy() {}
+        self.poll(f)
+    }
+
+    /// Sets the response timeout, the broadcast turnaround delay and the retries, from the
+    /// next request on ([`Timeouts::DEFAULT`]: 1000 ms, 100 ms, one retry).
+    pub fn set_timeouts(&self, timeouts: Timeouts) {
+        self.running.locked(|m| m.engine.set_timeouts(timeouts));
+    }
+
+    /// The master's counters (all zero before [`Master::start`]).
+    pub fn counters(&self) -> Counters {
+        self.running.locked(|m| m.engine.counters()).unwrap_or_default()
+    }
+
+    /// The handlers [`crate::master!`] binds, one per interrupt.
+    ///
+    /// # Safety
+    /// Only from the interrupt handler it is named for (interrupts disabled), and one that
+    /// does not enable them.
+    #[doc(hidden)]
+    #[inline(always)]
+    pub unsafe fn on_usart_rx(&self) {
+        // SAFETY: the receive interrupt handler (the caller's promise).
+        unsafe { self.running.access_in_handler(Running::on_usart_rx) };
+    }
+
+    /// See [`Master::on_usart_rx`].
+    ///
+    /// # Safety
+    /// As for [`Master::on_usart_rx`].
+    #[doc(hidden)]
+    #[inline(always)]
+    pub unsafe fn on_usart_udre(&self) {
+        // SAFETY: as above.
+        unsafe { self.running.access_in_handler(Running::on_usart_udre) };
+    }
+
+    /// See [`Master::on_usart_rx`].
+    ///
+    /// # Safety
+    /// As for [`Master::on_usart_rx`].
+    #[doc(hidden)]
+    #[inline(always)]
+    pub unsafe fn on_usart_tx(&self) {
+        // SAFETY: as above.
+        unsafe { self.running.access_in_handler(Running::on_usart_tx) };
+    }
+
+    /// See [`Master::on_usart_rx`].
+    ///
+    /// # Safety
+    /// As for [`Master::on_usart_rx`].
+    #[doc(hidden)]
+    #[inline(always)]
+    pub unsafe fn on_timer_compare(&self) {
+        // SAFETY: as above.
+        unsafe { self.running.access_in_handler(Running::on_timer_compare) };
+    }
+}

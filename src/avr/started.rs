@@ -1,0 +1,90 @@
+//! The cell a role (slave or master) lives in once started: written by its `start`, then
+//! reached only with interrupts disabled, by the application's calls and by the role's
+//! interrupt handlers.
+
+use core::cell::UnsafeCell;
+use core::mem::MaybeUninit;
+
+use super::reg;
+use crate::error::Error;
+
+const EMPTY: u8 = 0;
+const READY: u8 = 1;
+const IN_USE: u8 = 2;
+
+/// A `T` written once by [`Started::start`]; all zero before, so it lives in `.bss` and
+/// costs no flash for an initializer. A flag refuses re-entry.
+pub(crate) struct Started<T> {
+    state: UnsafeCell<u8>,
+    value: UnsafeCell<MaybeUninit<T>>,
+}
+
+// SAFETY: the chip has one core, and the cell is only touched with interrupts disabled
+// (`reg::free`, or inside the role's interrupt handlers), so no two accesses overlap. What
+// it holds moves in from `start`'s caller and is used from interrupts, hence `Send`.
+unsafe impl<T: Send> Sync for Started<T> {}
+
+impl<T> Started<T> {
+    /// Not started.
+    pub(crate) const fn new() -> Self {
+        Started { state: UnsafeCell::new(EMPTY), value: UnsafeCell::new(MaybeUninit::zeroed()) }
+    }
+
+    /// Writes the value `make` builds, with interrupts disabled; [`Error::AlreadyStarted`]
+    /// the second time.
+    pub(crate) fn start(&self, make: impl FnOnce() -> T) -> Result<(), Error> {
+        reg::free(|| {
+            // SAFETY: interrupts are disabled, so nothing else accesses the cell.
+            unsafe {
+                if *self.state.get() != EMPTY {
+                    return Err(Error::AlreadyStarted);
+                }
+                (*self.value.get()).write(make());
+                *self.state.get() = READY;
+            }
+            Ok(())
+        })
+    }
+
+    /// Runs `f` on the value.
+    ///
+    /// # Safety
+    /// Interrupts must be disabled for the whole call.
+    #[inline(always)]
+    unsafe fn access<R>(&self, f: impl FnOnce(&mut T) -> R) -> Option<R> {
+        // SAFETY: no other access can run (the caller's promise); READY means the value
+        // was written by `start`, and IN_USE keeps a nested call from aliasing it.
+        unsafe {
+            if *self.state.get() != READY {
+                return None;
+            }
+            *self.state.get() = IN_USE;
+            let result = f((*self.value.get()).assume_init_mut());
+            *self.state.get() = READY;
+            Some(result)
+        }
+    }
+
+    /// Runs `f` on the value from one of the role's interrupt handlers, without
+    /// [`Started::access`]'s check, which keeps them short.
+    ///
+    /// # Safety
+    /// Only from the role's interrupt handlers (interrupts disabled, and they stay so), so
+    /// no other access overlaps this one: the application's run with interrupts disabled,
+    /// and the handlers don't nest. The value is there: only `start` enables the receive
+    /// and Timer0 interrupts, after writing it, and only the handlers enable the transmit
+    /// ones.
+    #[inline(always)]
+    pub(crate) unsafe fn access_in_handler<R>(&self, f: impl FnOnce(&mut T) -> R) -> R {
+        // SAFETY: as promised by the caller, nothing else reaches the value meanwhile, and
+        // it was written.
+        unsafe { f((*self.value.get()).assume_init_mut()) }
+    }
+
+    /// Runs `f` on the value with interrupts disabled: `None` before the start or inside
+    /// another access.
+    pub(crate) fn locked<R>(&self, f: impl FnOnce(&mut T) -> R) -> Option<R> {
+        // SAFETY: interrupts are disabled for the whole access.
+        reg::free(|| unsafe { self.access(f) })
+    }
+}
