@@ -24,6 +24,7 @@
 //! reported, not a failure.
 
 mod bus;
+mod master;
 mod modbus;
 
 use std::error::Error;
@@ -939,6 +940,8 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
             None => writeln!(md, "| this crate ({name}: {map}) | not built | {template} | not built |")?,
         }
     }
+
+    master::section(&mut md, root)?;
 
     writeln!(md, "\n### Optional features against the README\n")?;
     writeln!(
