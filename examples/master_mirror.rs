@@ -62,7 +62,12 @@ fn request(step: u16) -> (u8, Request<'static>) {
         5 => Request::ReadDiscreteInputs { address: 0, quantity: 8 },
         6 => Request::WriteSingleRegister { address: 12, value: 0xBEEF },
         7 => Request::WriteMultipleCoils { address: 4, values: &COILS },
-        8 => Request::ReadWriteMultipleRegisters { read_address: 10, read_quantity: 4, write_address: 13, values: &SEVEN },
+        8 => Request::ReadWriteMultipleRegisters {
+            read_address: 10,
+            read_quantity: 4,
+            write_address: 13,
+            values: &SEVEN,
+        },
         9 => Request::ReadHoldingRegisters { address: 0, quantity: 126 },
         10 => Request::ReadHoldingRegisters { address: 9999, quantity: 1 },
         _ => return (0, Request::WriteSingleRegister { address: 14, value: 0x0B0B }),
@@ -76,7 +81,8 @@ fn report(outcome: Result<Reply<'_>, Failure>, bits: bool) -> Report {
     let mut len = 1;
     match outcome {
         Ok(reply) if bits => {
-            values[1] = (0..reply.len().min(16)).fold(0, |packed, i| packed | u16::from(reply.bit(i) == Some(true)) << i);
+            values[1] =
+                (0..reply.len().min(16)).fold(0, |packed, i| packed | u16::from(reply.bit(i) == Some(true)) << i);
             len = 2;
         }
         Ok(reply) => {
@@ -122,7 +128,8 @@ fn main() -> ! {
         }
         let c = MASTER.counters();
         pass = pass.wrapping_add(1);
-        let counters = [c.requests, c.replies, c.exceptions, c.timeouts, c.retries, c.crc_errors, c.malformed, c.unexpected, pass];
+        let counters =
+            [c.requests, c.replies, c.exceptions, c.timeouts, c.retries, c.crc_errors, c.malformed, c.unexpected, pass];
         ask(TOLD, &Request::WriteMultipleRegisters { address: 200, values: &counters }, |_| ());
     }
 }

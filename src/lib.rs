@@ -33,10 +33,10 @@ pub use avr::__private;
 #[cfg(target_arch = "avr")]
 #[cfg(all(target_arch = "avr", feature = "millis"))]
 pub use avr::millis;
-#[cfg(target_arch = "avr")]
-pub use avr::{board, NoPin, Slave};
 #[cfg(all(target_arch = "avr", feature = "master"))]
 pub use avr::Master;
+#[cfg(target_arch = "avr")]
+pub use avr::{board, NoPin, Slave};
 pub use bank::{bit_bytes, Bank};
 #[cfg(feature = "ascii")]
 pub use config::Mode;

@@ -2,7 +2,7 @@
 //! Protocol v1.1b3 §6: requests checked and built, replies checked and read, the master's
 //! states over the same link layer as the slave (framer, CRC, silences).
 //!
-//! On the AVR, [`crate::Master`] runs it from interrupts: the application starts a
+//! On the AVR, `Master` (with `master!`) runs it from interrupts: the application starts a
 //! [`Request`] and goes on; the outcome, a [`Reply`] or a [`Failure`], waits for it.
 
 mod engine;

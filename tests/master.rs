@@ -6,7 +6,6 @@
 #![cfg(feature = "master")]
 
 mod common;
-#[allow(dead_code)]
 mod model;
 
 use avr_modbus::master::internal::{Action, Engine};
@@ -61,11 +60,16 @@ fn counters(requests: u16, replies: u16) -> Counters {
 #[test]
 fn fc1_read_coils_20_to_38_is_the_spec_example() {
     let mut m = master();
-    send(&mut m, ID, Request::ReadCoils { address: 19, quantity: 19 }, &[
-        ID, 0x01, // slave, function
-        0x00, 0x13, // starting address 19 (coil 20)
-        0x00, 0x13, // quantity 19
-    ]);
+    send(
+        &mut m,
+        ID,
+        Request::ReadCoils { address: 19, quantity: 19 },
+        &[
+            ID, 0x01, // slave, function
+            0x00, 0x13, // starting address 19 (coil 20)
+            0x00, 0x13, // quantity 19
+        ],
+    );
     assert_eq!(deliver(&mut m, &with_crc(&[ID, 0x01, 0x03, 0xCD, 0x6B, 0x05])), Action::None);
     let reply = m.outcome().unwrap().unwrap();
     let bits: Vec<bool> = (0..19).map(|i| reply.bit(i).unwrap()).collect();
@@ -132,11 +136,16 @@ fn fc15_write_coils_20_to_29_is_the_spec_example() {
     let mut m = master();
     // CD 01: coils 27–20 = 1100 1101, 29–28 = 01.
     let values = [1, 0, 1, 1, 0, 0, 1, 1, 1, 0].map(|b| b == 1);
-    send(&mut m, ID, Request::WriteMultipleCoils { address: 19, values: &values }, &[
-        ID, 0x0F, 0x00, 0x13, // start 19
-        0x00, 0x0A, // quantity 10
-        0x02, 0xCD, 0x01, // byte count, coils
-    ]);
+    send(
+        &mut m,
+        ID,
+        Request::WriteMultipleCoils { address: 19, values: &values },
+        &[
+            ID, 0x0F, 0x00, 0x13, // start 19
+            0x00, 0x0A, // quantity 10
+            0x02, 0xCD, 0x01, // byte count, coils
+        ],
+    );
     deliver(&mut m, &with_crc(&[ID, 0x0F, 0x00, 0x13, 0x00, 0x0A]));
     assert!(matches!(outcome(&mut m), Some(Ok(_))));
 }
@@ -144,10 +153,15 @@ fn fc15_write_coils_20_to_29_is_the_spec_example() {
 #[test]
 fn fc16_write_registers_2_and_3_is_the_spec_example() {
     let mut m = master();
-    send(&mut m, ID, Request::WriteMultipleRegisters { address: 1, values: &[0x000A, 0x0102] }, &[
-        ID, 0x10, 0x00, 0x01, 0x00, 0x02, // start 1, quantity 2
-        0x04, 0x00, 0x0A, 0x01, 0x02, // byte count, values
-    ]);
+    send(
+        &mut m,
+        ID,
+        Request::WriteMultipleRegisters { address: 1, values: &[0x000A, 0x0102] },
+        &[
+            ID, 0x10, 0x00, 0x01, 0x00, 0x02, // start 1, quantity 2
+            0x04, 0x00, 0x0A, 0x01, 0x02, // byte count, values
+        ],
+    );
     deliver(&mut m, &with_crc(&[ID, 0x10, 0x00, 0x01, 0x00, 0x02]));
     assert!(matches!(outcome(&mut m), Some(Ok(_))));
 }
@@ -158,7 +172,12 @@ fn fc23_read_write_registers_is_the_spec_example() {
     send(
         &mut m,
         ID,
-        Request::ReadWriteMultipleRegisters { read_address: 3, read_quantity: 6, write_address: 14, values: &[0xFF; 3] },
+        Request::ReadWriteMultipleRegisters {
+            read_address: 3,
+            read_quantity: 6,
+            write_address: 14,
+            values: &[0xFF; 3],
+        },
         &[
             ID, 0x17, 0x00, 0x03, 0x00, 0x06, // read 6 from 3
             0x00, 0x0E, 0x00, 0x03, // write 3 at 14
@@ -208,7 +227,12 @@ fn quantities_outside_the_spec_are_refused_before_sending() {
         Request::ReadHoldingRegisters { address: 0, quantity: 125 },
         Request::WriteMultipleCoils { address: 0, values: &[true; 1968] },
         Request::WriteMultipleRegisters { address: 0, values: &[7; 123] },
-        Request::ReadWriteMultipleRegisters { read_address: 0, read_quantity: 125, write_address: 0, values: &[1; 121] },
+        Request::ReadWriteMultipleRegisters {
+            read_address: 0,
+            read_quantity: 125,
+            write_address: 0,
+            values: &[1; 121],
+        },
     ] {
         let mut m = master();
         assert_eq!(m.start(ID, &request), Ok(Action::Send), "{request:?}");
@@ -220,7 +244,8 @@ fn quantities_outside_the_spec_are_refused_before_sending() {
 fn reads_are_never_broadcast_and_reserved_addresses_are_refused() {
     let mut m = master();
     assert_eq!(m.start(0, &Request::ReadHoldingRegisters { address: 0, quantity: 1 }), Err(Error::Broadcast));
-    let fc23 = Request::ReadWriteMultipleRegisters { read_address: 0, read_quantity: 1, write_address: 0, values: &[1] };
+    let fc23 =
+        Request::ReadWriteMultipleRegisters { read_address: 0, read_quantity: 1, write_address: 0, values: &[1] };
     assert_eq!(m.start(0, &fc23), Err(Error::Broadcast));
     assert_eq!(m.start(248, &Request::WriteSingleRegister { address: 0, value: 1 }), Err(Error::SlaveId));
     assert_eq!(m.start(ID, &Request::Raw { function: 0, data: &[] }), Err(Error::Function));
@@ -380,7 +405,12 @@ fn replies_that_do_not_answer_the_request_are_never_taken() {
     send(&mut m, ID, Request::WriteSingleRegister { address: 5, value: 9 }, &[ID, 0x06, 0, 5, 0, 9]);
     deliver(&mut m, &with_crc(&[ID, 0x06, 0, 5, 0, 8]));
     assert_eq!(outcome(&mut m), Some(Err(Failure::BadReply)));
-    send(&mut m, ID, Request::WriteMultipleRegisters { address: 5, values: &[1, 2] }, &[ID, 0x10, 0, 5, 0, 2, 4, 0, 1, 0, 2]);
+    send(
+        &mut m,
+        ID,
+        Request::WriteMultipleRegisters { address: 5, values: &[1, 2] },
+        &[ID, 0x10, 0, 5, 0, 2, 4, 0, 1, 0, 2],
+    );
     deliver(&mut m, &with_crc(&[ID, 0x10, 0, 5, 0, 3]));
     assert_eq!(outcome(&mut m), Some(Err(Failure::BadReply)));
 }
@@ -454,7 +484,11 @@ fn round_trip_through_the_slave_engine_matches_the_reference_model() {
             let got = m.outcome().unwrap().expect("an answer");
             for i in 0..count {
                 let want = model.value(table, u32::from(first + i));
-                let value = if model::is_bits(table) { u16::from(got.bit(usize::from(i)).unwrap()) } else { got.register(usize::from(i)).unwrap() };
+                let value = if model::is_bits(table) {
+                    u16::from(got.bit(usize::from(i)).unwrap())
+                } else {
+                    got.register(usize::from(i)).unwrap()
+                };
                 assert_eq!(value, want, "{table:?} {}", first + i);
             }
             m.collect();
@@ -506,8 +540,16 @@ fn answers(slave: u8, request: &[u8], frame: &[u8]) -> Option<Result<(), u8>> {
     }
     let word = |at: usize| u16::from_be_bytes([request[at], request[at + 1]]);
     let ok = match function {
-        1 | 2 => body.len() >= 3 && usize::from(body[2]) == usize::from(word(4)).div_ceil(8) && body.len() == 3 + usize::from(body[2]),
-        3 | 4 | 0x17 => body.len() >= 3 && usize::from(body[2]) == 2 * usize::from(word(4)) && body.len() == 3 + usize::from(body[2]),
+        1 | 2 => {
+            body.len() >= 3
+                && usize::from(body[2]) == usize::from(word(4)).div_ceil(8)
+                && body.len() == 3 + usize::from(body[2])
+        }
+        3 | 4 | 0x17 => {
+            body.len() >= 3
+                && usize::from(body[2]) == 2 * usize::from(word(4))
+                && body.len() == 3 + usize::from(body[2])
+        }
         5 | 6 | 0x0F | 0x10 => body.len() == 6 && body[2..6] == request[2..6],
         _ => true,
     };
@@ -539,7 +581,12 @@ fn build<'a>(asked: &'a Asked, bools: &'a [bool]) -> Request<'a> {
         6 => Request::WriteSingleRegister { address, value: values[0] },
         0x0F => Request::WriteMultipleCoils { address, values: &bools[..values.len()] },
         0x10 => Request::WriteMultipleRegisters { address, values },
-        _ => Request::ReadWriteMultipleRegisters { read_address: address, read_quantity: quantity, write_address: 1, values },
+        _ => Request::ReadWriteMultipleRegisters {
+            read_address: address,
+            read_quantity: quantity,
+            write_address: 1,
+            values,
+        },
     }
 }
 

@@ -185,10 +185,7 @@ mod diagnostics {
         ask(&mut slave, &mut bank, &to_slave(&[0x03, 0x00, 0x00, 0x00, 0x00])); // exception 03
         let mut bad = read_1();
         bad[7] ^= 0xFF;
-        assert_eq!(
-            slave.handle_frame(&bad, &mut bank),
-            EndOfFrame::Dropped(avr_modbus::internal::FrameError::BadCrc)
-        );
+        assert_eq!(slave.handle_frame(&bad, &mut bank), EndOfFrame::Dropped(avr_modbus::internal::FrameError::BadCrc));
         slave.handle_frame(&with_crc(&[0x00, 0x06, 0x00, 0x00, 0x00, 0x07]), &mut bank); // broadcast
         slave.handle_frame(&with_crc(&[0x22, 0x03, 0x00, 0x00, 0x00, 0x01]), &mut bank); // other slave
                                                                                          // Bus messages: the 5 frames so far, then each counter request itself.

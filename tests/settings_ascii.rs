@@ -7,9 +7,7 @@
 
 mod common;
 
-use avr_modbus::internal::settings::{
-    decode, decode_legacy, encode, Configurable, Record, LEGACY_LEN, LEGACY_MAGIC,
-};
+use avr_modbus::internal::settings::{decode, decode_legacy, encode, Configurable, Record, LEGACY_LEN, LEGACY_MAGIC};
 use avr_modbus::{bit_bytes, Bank, Config, DataModel, Mode, Parity, StopBits};
 use common::{ask, exception_reply, read_pdu, slave, to_slave, with_crc, write_multiple_pdu, ID};
 

@@ -120,7 +120,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
 /// MASTER.start(CONFIG, dp.USART0, dp.TC0)?;
 /// MASTER.send(1, &Request::ReadInputRegisters { address: 0, quantity: 5 })?;
 /// // later, in the loop:
-/// if let Some(outcome) = MASTER.poll(|outcome| outcome.map(|reply| reply.register(0))) { … }
+/// let outcome = MASTER.poll(|outcome| outcome.map(|reply| reply.register(0)));
 /// ```
 ///
 /// `N` is the size of each of its two buffers, the request as sent and the reply: the

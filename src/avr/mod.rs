@@ -30,9 +30,9 @@ mod started;
 mod timer;
 mod usart;
 
-pub use pins::NoPin;
 #[cfg(feature = "master")]
 pub use master::Master;
+pub use pins::NoPin;
 pub use rtu::Slave;
 
 /// Small drivers for firmware written without a HAL (this crate's examples): the Uno's
