@@ -118,7 +118,11 @@ fn fc5_write_coil_173_on_is_the_spec_example_and_its_echo_is_the_answer() {
     let request = [ID, 0x05, 0x00, 0xAC, 0xFF, 0x00];
     send(&mut m, ID, Request::WriteSingleCoil { address: 172, value: true }, &request);
     deliver(&mut m, &with_crc(&request));
-    assert_eq!(outcome(&mut m), Some(Ok(vec![0x00, 0xAC, 0xFF, 0x00])));
+    let reply = m.outcome().unwrap().unwrap();
+    // The echo is the reply's data; a write reads no registers nor bits.
+    assert_eq!(reply.data(), &[0x00, 0xAC, 0xFF, 0x00]);
+    assert_eq!((reply.registers().count(), reply.register(0), reply.bit(0)), (0, None, None));
+    m.collect();
     send(&mut m, ID, Request::WriteSingleCoil { address: 172, value: false }, &[ID, 0x05, 0x00, 0xAC, 0x00, 0x00]);
 }
 
@@ -705,4 +709,21 @@ proptest! {
             None => prop_assert!(expected.is_none() && frame[0] != slave && frame.len() >= 4, "{:02X?}", frame),
         }
     }
+}
+
+/// Found by the `master` fuzz target: a request refused for its length wrote its bytes over
+/// the last one's before it was refused.
+#[test]
+fn a_refused_request_changes_nothing() {
+    let mut small: Engine<16> = Engine::new();
+    small.on_end_deadline();
+    let write = Request::WriteSingleRegister { address: 7, value: 1 };
+    assert_eq!(small.start(0, &write), Ok(Action::Send));
+    let sent = small.request().to_vec();
+    small.on_sent(0);
+    small.on_tick(100);
+    assert!(small.outcome().is_some());
+    assert_eq!(small.start(3, &Request::ReadHoldingRegisters { address: 0, quantity: 39 }), Err(Error::TooLong));
+    assert_eq!(small.request(), sent.as_slice());
+    assert!(matches!(small.outcome(), Some(Ok(reply)) if reply.is_empty()));
 }

@@ -95,26 +95,37 @@ impl<'a> Reply<'a> {
         self.data
     }
 
+    /// How many registers the reply carries: the quantity of a read of registers (FC 3, 4,
+    /// 23), none for anything else.
+    fn register_count(&self) -> usize {
+        if matches!(self.function, 0x03 | 0x04 | 0x17) {
+            self.len()
+        } else {
+            0
+        }
+    }
+
     /// Register `index` of a read of registers (FC 3, 4, 23), counted from the first one
-    /// asked; `None` past the last.
+    /// asked; `None` past the last, and for any other reply.
     pub fn register(&self, index: usize) -> Option<u16> {
-        if index >= self.len() {
+        if index >= self.register_count() {
             return None;
         }
         let at = 1 + 2 * index;
         Some(u16::from_be_bytes([*self.data.get(at)?, *self.data.get(at + 1)?]))
     }
 
-    /// The registers read (FC 3, 4, 23), from the first one asked.
+    /// The registers read (FC 3, 4, 23), from the first one asked; none for any other
+    /// reply (a write's echo is in [`Reply::data`]).
     pub fn registers(&self) -> impl Iterator<Item = u16> + 'a {
         let values = self.data.get(1..).unwrap_or_default();
-        values.chunks_exact(2).map(|pair| u16::from_be_bytes([pair[0], pair[1]]))
+        values.chunks_exact(2).take(self.register_count()).map(|pair| u16::from_be_bytes([pair[0], pair[1]]))
     }
 
     /// Coil or input `index` of a read of bits (FC 1, 2), counted from the first one
-    /// asked; `None` past the last.
+    /// asked; `None` past the last, and for any other reply.
     pub fn bit(&self, index: usize) -> Option<bool> {
-        if index >= self.len() {
+        if index >= self.len() || !matches!(self.function, 0x01 | 0x02) {
             return None;
         }
         let byte = self.data.get(1 + index / 8)?;

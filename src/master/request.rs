@@ -176,9 +176,23 @@ impl Request<'_> {
         if slave == 0 && !self.may_broadcast() {
             return Err(Error::Broadcast);
         }
+        // A dry run first: every check, the length, nothing written (a refused request
+        // leaves the buffer as it was).
+        let mut dry = Writer { frame: &mut [], len: 0, dry: true };
+        let (shape, quantity) = self.write(slave, &mut dry)?;
+        let expect = Expect { slave, function: self.function(), shape, quantity };
+        if dry.len + 2 > frame.len() || (!expect.is_broadcast() && expect.reply_len() > reply_room) {
+            return Err(Error::TooLong);
+        }
+        let mut out = Writer { frame, len: 0, dry: false };
+        self.write(slave, &mut out)?;
+        Ok((out.crc()?, expect))
+    }
+
+    /// Writes the frame's address and PDU to `out`: the reply's shape and quantity.
+    fn write(&self, slave: u8, out: &mut Writer<'_>) -> Result<(Shape, u16), Error> {
         let function = self.function();
-        let mut out = Writer { frame, len: 0 };
-        let (shape, quantity) = match *self {
+        Ok(match *self {
             Request::ReadCoils { address, quantity } | Request::ReadDiscreteInputs { address, quantity } => {
                 let bytes = checked(quantity, MAX_READ_BITS)?.div_ceil(8);
                 out.header(slave, function, address, quantity)?;
@@ -233,13 +247,7 @@ impl Request<'_> {
                 }
                 (Shape::Any, 0)
             }
-        };
-        let expect = Expect { slave, function, shape, quantity };
-        let len = out.crc()?;
-        if !expect.is_broadcast() && expect.reply_len() > reply_room {
-            return Err(Error::TooLong);
-        }
-        Ok((len, expect))
+        })
     }
 }
 
@@ -261,13 +269,19 @@ fn checked_len(len: usize, max: u16) -> Result<u16, Error> {
 struct Writer<'a> {
     frame: &'a mut [u8],
     len: usize,
+    /// Counting only: nothing is written.
+    dry: bool,
 }
 
 impl Writer<'_> {
     fn push(&mut self, byte: u8) -> Result<(), Error> {
         // A frame is at most 256 bytes: address, 253 bytes of PDU, CRC.
-        let slot = if self.len < 254 { self.frame.get_mut(self.len) } else { None };
-        *slot.ok_or(Error::TooLong)? = byte;
+        if self.len >= 254 {
+            return Err(Error::TooLong);
+        }
+        if !self.dry {
+            *self.frame.get_mut(self.len).ok_or(Error::TooLong)? = byte;
+        }
         self.len += 1;
         Ok(())
     }

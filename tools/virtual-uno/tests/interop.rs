@@ -400,6 +400,120 @@ fn minimalmodbus_cannot_set_even_parity_on_a_pty() {
 }
 
 // ------------------------------------------------------------------------------------------
+// The crate's master against pymodbus's serial server
+
+/// The numbers of the flat JSON array `"key":[...]` in `json` (`null` as -1).
+fn json_numbers(json: &str, key: &str) -> Vec<i64> {
+    let start = json.find(&format!("\"{key}\":[")).unwrap_or_else(|| panic!("no `{key}` in {json}")) + key.len() + 4;
+    let body = &json[start..start + json[start..].find(']').unwrap()];
+    body.split(',').filter(|v| !v.is_empty()).map(|v| if v == "null" { -1 } else { v.parse().unwrap() }).collect()
+}
+
+/// The arrays of the JSON array of flat arrays `"key":[[...],[...]]` in `json`.
+fn json_rows(json: &str, key: &str) -> Vec<Vec<i64>> {
+    let start = json.find(&format!("\"{key}\":[")).unwrap_or_else(|| panic!("no `{key}` in {json}")) + key.len() + 4;
+    let mut rows = Vec::new();
+    let mut rest = &json[start..];
+    while let Some(row) = rest.strip_prefix('[').or_else(|| rest.strip_prefix(",[")) {
+        let end = row.find(']').unwrap();
+        rows.push(row[..end].split(',').filter(|v| !v.is_empty()).map(|v| v.parse().unwrap()).collect());
+        rest = &row[end + 1..];
+    }
+    rows
+}
+
+/// examples/master_mirror.rs (feature `master`) polls `demo/pymodbus_server.py`: unit 1 with
+/// every function code, unit 2 told each outcome at holding registers 16 × step, and the
+/// master's counters at 200-208 (the server logs each write of those). The counters are taken
+/// as differences between the first and the last pass the server saw: the master polls from
+/// power-on, and times out until the server has opened the port.
+#[test]
+fn master_mirror_polls_pymodbus_serial_server_with_every_function_code() {
+    let _one = serialise();
+    let uno = VirtualUno::start(&firmware("master_mirror"), &[]);
+    let started = Instant::now();
+    let mut cmd = Command::new(python());
+    cmd.arg(workspace().join("demo/pymodbus_server.py")).arg(uno.port()).args(["--seconds", "8"]);
+    let (ok, out) = run(&mut cmd, Duration::from_secs(40));
+    println!("{out}");
+    println!("pymodbus_server.py took {:.1} s", started.elapsed().as_secs_f64());
+    let fail = |what: &str| -> String { format!("{what} (python: {})\n{}", python(), transcript(&out, &uno)) };
+    assert!(ok, "{}", fail("pymodbus_server.py failed"));
+    let json = out.lines().find(|l| l.starts_with("{\"")).unwrap_or_else(|| panic!("{}", fail("no JSON line")));
+    let unit1 = json_numbers(json, "unit1_holding");
+    let unit2 = json_numbers(json, "unit2_holding");
+    let coils = json_numbers(json, "unit1_coils");
+    let inputs = json_numbers(json, "unit1_inputs");
+    let input_registers = json_numbers(json, "unit1_input_registers");
+    let broadcast = json.contains("\"broadcast\":true");
+    let log = json_rows(json, "counter_log");
+    assert!(unit1.len() == 221 && unit2.len() == 221 && coils.len() == 16, "{}", fail("short arrays"));
+
+    // At least 3 passes ended with the server up, so that the last report of step 1 (FC 1)
+    // came after a whole pass's writes of steps 2 and 7.
+    assert!(log.len() >= 3 && log.iter().all(|row| row.len() == 9), "{}", fail("fewer than 3 passes logged"));
+    let (first, last) = (&log[0], &log[log.len() - 1]);
+    let delta: Vec<i64> = first.iter().zip(last).map(|(a, b)| (b - a) & 0xFFFF).collect();
+    println!("master counters at the first logged pass: {first:?}\n             at the last: {last:?}");
+    println!("                 difference: {delta:?} (requests replies exceptions timeouts retries crc malformed unexpected pass)");
+    assert!(last[8] >= 1 && last == &unit2[200..209], "{}", fail("pass count / counters"));
+    let passes = delta[8];
+    assert_eq!(
+        [delta[3], delta[4], delta[5], delta[6], delta[7]],
+        [0; 5],
+        "timeouts, retries, CRC errors, malformed or unexpected frames while pymodbus served\n{}",
+        fail("")
+    );
+    assert_eq!(delta[2], passes, "one exception (step 10) a pass\n{}", fail(""));
+    assert_eq!(delta[0] - delta[1], passes, "every request answered but the broadcast\n{}", fail(""));
+
+    // What unit 1 holds after the master's writes.
+    let pattern = |i: usize| i64::from(i.is_multiple_of(2));
+    let mut want_coils: Vec<i64> = (0..16).map(pattern).collect();
+    want_coils[3..8].copy_from_slice(&[1, 1, 0, 1, 1]); // FC 5 coil 3, FC 15 coils 4-7
+    assert_eq!(coils, want_coils, "unit 1's coils\n{}", fail(""));
+    let mut want_holding: Vec<i64> = (0..16).map(|i| 0x1000 + i).collect();
+    want_holding[10..14].copy_from_slice(&[0x1234, 0x5678, 0xBEEF, 7]); // FC 16, FC 6, FC 23
+    if broadcast {
+        want_holding[14] = 0x0B0B; // the broadcast FC 6
+    }
+    assert_eq!(unit1[..16], want_holding[..], "unit 1's holding registers\n{}", fail(""));
+
+    // Each step's report at unit 2, from 16 × step: status, then what was read; zeros after.
+    let packed = |bits: &[i64]| bits.iter().enumerate().fold(0, |p, (i, &b)| p | b << i);
+    let reports: [Vec<i64>; 12] = [
+        [&[0], &unit1[0..4]].concat(),         // FC 3, holding 0-3
+        vec![0, packed(&coils[0..10])],        // FC 1, coils 0-9 (as written the pass before)
+        vec![0],                               // FC 5
+        vec![0],                               // FC 16
+        [&[0], &input_registers[..]].concat(), // FC 4, input registers 0-2
+        vec![0, packed(&inputs[0..8])],        // FC 2, discrete inputs 0-7
+        vec![0],                               // FC 6
+        vec![0],                               // FC 15
+        vec![0, 0x1234, 0x5678, 0xBEEF, 7],    // FC 23: 13 = 7, then 10-13
+        vec![0x300],                           // 126 registers: refused before sending
+        vec![2],                               // holding 9999: exception 02
+        vec![0],                               // broadcast: no reply awaited
+    ];
+    let hex = |values: &[i64]| values.iter().map(|v| format!("{v:#x}")).collect::<Vec<_>>().join(" ");
+    let mut wrong = String::new();
+    for (step, report) in reports.iter().enumerate() {
+        let mut want = report.clone();
+        want.resize(16, 0);
+        if step == 0 && broadcast {
+            want[14] = 0x0B0B; // the broadcast reached unit 2 too
+        }
+        let got = &unit2[16 * step..16 * step + 16];
+        println!("step {step:2}: {}", hex(&got[..report.len()]));
+        if got != want {
+            wrong += &format!("step {step} (unit 2 from {}): got {}, expected {}\n", 16 * step, hex(got), hex(&want));
+        }
+    }
+    assert!(wrong.is_empty(), "reports differ from pymodbus's data:\n{wrong}{}", fail(""));
+    println!("pymodbus executed the broadcasts: {broadcast}; {passes} whole passes without an error");
+}
+
+// ------------------------------------------------------------------------------------------
 // libmodbus
 
 /// `demo/libmodbus_check.c`, compiled once per test run.
