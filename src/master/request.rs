@@ -115,17 +115,6 @@ impl Expect {
     /// Nothing expected: the state of a master with no request yet.
     pub(crate) const NONE: Expect = Expect { slave: 0, function: 0, shape: Shape::Any, quantity: 0 };
 
-    /// The longest reply frame (address to CRC) that can answer: the room the receive
-    /// buffer needs. A raw request's reply can be anything up to 256 bytes, so it needs
-    /// none beyond what it has: whatever does not fit is no answer.
-    pub(crate) const fn reply_len(&self) -> usize {
-        match self.shape {
-            Shape::Count(n) => 5 + n as usize,
-            Shape::Echo => 8,
-            Shape::Any => 5,
-        }
-    }
-
     /// True for a broadcast, which no slave answers.
     pub(crate) const fn is_broadcast(&self) -> bool {
         self.slave == 0
@@ -176,43 +165,34 @@ impl Request<'_> {
         if slave == 0 && !self.may_broadcast() {
             return Err(Error::Broadcast);
         }
-        // A dry run first: every check, the length, nothing written (a refused request
-        // leaves the buffer as it was).
-        let mut dry = Writer { frame: &mut [], len: 0, dry: true };
-        let (shape, quantity) = self.write(slave, &mut dry)?;
-        let expect = Expect { slave, function: self.function(), shape, quantity };
-        if dry.len + 2 > frame.len() || (!expect.is_broadcast() && expect.reply_len() > reply_room) {
-            return Err(Error::TooLong);
-        }
-        let mut out = Writer { frame, len: 0, dry: false };
-        self.write(slave, &mut out)?;
-        Ok((out.crc()?, expect))
-    }
-
-    /// Writes the frame's address and PDU to `out`: the reply's shape and quantity.
-    fn write(&self, slave: u8, out: &mut Writer<'_>) -> Result<(Shape, u16), Error> {
+        let mut out = Writer { frame, len: 0, room: reply_room, broadcast: slave == 0 };
         let function = self.function();
-        Ok(match *self {
+        let (shape, quantity) = match *self {
             Request::ReadCoils { address, quantity } | Request::ReadDiscreteInputs { address, quantity } => {
                 let bytes = checked(quantity, MAX_READ_BITS)?.div_ceil(8);
+                out.fits(6, 5 + bytes)?;
                 out.header(slave, function, address, quantity)?;
                 (Shape::Count(bytes as u8), quantity)
             }
             Request::ReadHoldingRegisters { address, quantity } | Request::ReadInputRegisters { address, quantity } => {
                 let bytes = checked(quantity, MAX_READ_REGISTERS)? * 2;
+                out.fits(6, 5 + bytes)?;
                 out.header(slave, function, address, quantity)?;
                 (Shape::Count(bytes as u8), quantity)
             }
             Request::WriteSingleCoil { address, value } => {
+                out.fits(6, 8)?;
                 out.header(slave, function, address, if value { 0xFF00 } else { 0x0000 })?;
                 (Shape::Echo, 0)
             }
             Request::WriteSingleRegister { address, value } => {
+                out.fits(6, 8)?;
                 out.header(slave, function, address, value)?;
                 (Shape::Echo, 0)
             }
             Request::WriteMultipleCoils { address, values } => {
                 let quantity = checked_len(values.len(), MAX_WRITE_COILS)?;
+                out.fits(7 + quantity.div_ceil(8), 8)?;
                 out.header(slave, function, address, quantity)?;
                 out.push(quantity.div_ceil(8) as u8)?;
                 for byte in values.chunks(8) {
@@ -223,6 +203,7 @@ impl Request<'_> {
             }
             Request::WriteMultipleRegisters { address, values } => {
                 let quantity = checked_len(values.len(), MAX_WRITE_REGISTERS)?;
+                out.fits(7 + 2 * quantity, 8)?;
                 out.header(slave, function, address, quantity)?;
                 out.registers(values)?;
                 (Shape::Echo, 0)
@@ -230,6 +211,7 @@ impl Request<'_> {
             Request::ReadWriteMultipleRegisters { read_address, read_quantity, write_address, values } => {
                 let bytes = checked(read_quantity, MAX_READ_REGISTERS)? * 2;
                 let write_quantity = checked_len(values.len(), MAX_READ_WRITE_REGISTERS)?;
+                out.fits(11 + 2 * write_quantity, 5 + bytes)?;
                 out.header(slave, function, read_address, read_quantity)?;
                 out.word(write_address)?;
                 out.word(write_quantity)?;
@@ -240,6 +222,7 @@ impl Request<'_> {
                 if !(1..=0x7F).contains(&function) {
                     return Err(Error::Function);
                 }
+                out.fits(u16::try_from(data.len()).unwrap_or(u16::MAX).saturating_add(2), 5)?;
                 out.push(slave)?;
                 out.push(function)?;
                 for &byte in data {
@@ -247,7 +230,8 @@ impl Request<'_> {
                 }
                 (Shape::Any, 0)
             }
-        })
+        };
+        Ok((out.crc()?, Expect { slave, function, shape, quantity }))
     }
 }
 
@@ -269,19 +253,28 @@ fn checked_len(len: usize, max: u16) -> Result<u16, Error> {
 struct Writer<'a> {
     frame: &'a mut [u8],
     len: usize,
-    /// Counting only: nothing is written.
-    dry: bool,
+    /// The room for the reply.
+    room: usize,
+    /// A broadcast, which gets no reply.
+    broadcast: bool,
 }
 
 impl Writer<'_> {
+    /// Checks, before a byte is written, that a frame of `len` bytes of address and PDU
+    /// fits the buffer and a frame (at most 256 bytes with its CRC), and that a reply of
+    /// `reply` bytes fits its own (no reply to a broadcast): a refused request leaves the
+    /// buffer as it was.
+    fn fits(&self, len: u16, reply: u16) -> Result<(), Error> {
+        let len = usize::from(len);
+        if len > 254 || len + 2 > self.frame.len() || (!self.broadcast && usize::from(reply) > self.room) {
+            Err(Error::TooLong)
+        } else {
+            Ok(())
+        }
+    }
+
     fn push(&mut self, byte: u8) -> Result<(), Error> {
-        // A frame is at most 256 bytes: address, 253 bytes of PDU, CRC.
-        if self.len >= 254 {
-            return Err(Error::TooLong);
-        }
-        if !self.dry {
-            *self.frame.get_mut(self.len).ok_or(Error::TooLong)? = byte;
-        }
+        *self.frame.get_mut(self.len).ok_or(Error::TooLong)? = byte;
         self.len += 1;
         Ok(())
     }
