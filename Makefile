@@ -25,7 +25,7 @@ setup:
 	@.ci/setup
 
 # The master's examples (feature master).
-MASTER_EXAMPLES := plc_poller master_mirror poll_holding poll_four
+MASTER_EXAMPLES := plc_poller master_mirror poll_holding poll_four lab_control
 
 # The examples that keep the clock (feature millis) are a build of their own, so that the
 # others carry no clock.
