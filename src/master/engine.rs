@@ -142,8 +142,9 @@ pub struct Engine<const N: usize = MAX_FRAME> {
     since: u32,
     /// T3.5 has passed since the line's last character (or the request's last).
     quiet: bool,
-    /// The outcome once `Done`: `Ok` with the reply's length (0 after a broadcast).
-    outcome: Result<usize, Failure>,
+    /// Why the request failed, once `Done`; `None` when it was answered (the reply stays
+    /// in the framer's buffer until collected).
+    failure: Option<Failure>,
     counts: [u16; COUNTS],
 }
 
@@ -166,7 +167,7 @@ impl<const N: usize> Engine<N> {
             timeouts: Timeouts::DEFAULT,
             since: 0,
             quiet: false,
-            outcome: Err(Failure::Timeout),
+            failure: None,
             counts: [0; COUNTS],
         }
     }
@@ -188,6 +189,8 @@ impl<const N: usize> Engine<N> {
         Counters { requests, replies, exceptions, timeouts, retries, crc_errors, malformed, unexpected }
     }
 
+    // Out of line: a call is shorter than the increment, and there are a dozen.
+    #[inline(never)]
     fn count(&mut self, count: Count) {
         let c = &mut self.counts[count as usize];
         *c = c.wrapping_add(1);
@@ -304,14 +307,14 @@ impl<const N: usize> Engine<N> {
         match verdict {
             Verdict::Answer => {
                 self.count(Count::Replies);
-                self.finish(Ok(len));
+                self.finish(None);
                 // The framer keeps the reply until it is collected.
                 return;
             }
             Verdict::Exception(code) => {
                 self.count(Count::Replies);
                 self.count(Count::Exceptions);
-                self.finish(Err(Failure::Exception(code)));
+                self.finish(Some(Failure::Exception(code)));
             }
             Verdict::OtherSlave => self.count(Count::Unexpected),
             Verdict::Mismatch => {
@@ -322,16 +325,18 @@ impl<const N: usize> Engine<N> {
         self.framer.release();
     }
 
-    fn finish(&mut self, outcome: Result<usize, Failure>) {
-        self.outcome = outcome;
+    #[inline(never)]
+    fn finish(&mut self, failure: Option<Failure>) {
+        self.failure = failure;
         self.state = State::Done;
     }
 
     /// The current try ended without an answer: again while retries are left (once the
     /// line is quiet), else the outcome is `failure`.
+    #[inline(never)]
     fn attempt_failed(&mut self, failure: Failure) {
         if self.retries_left == 0 {
-            self.finish(Err(failure));
+            self.finish(Some(failure));
         } else {
             self.retries_left -= 1;
             self.count(Count::Retries);
@@ -348,7 +353,7 @@ impl<const N: usize> Engine<N> {
                 self.count(Count::Timeouts);
                 self.attempt_failed(Failure::Timeout);
             }
-            State::Turnaround if elapsed >= u32::from(self.timeouts.turnaround_ms) => self.finish(Ok(0)),
+            State::Turnaround if elapsed >= u32::from(self.timeouts.turnaround_ms) => self.finish(None),
             _ => {}
         }
         self.send_if_quiet()
@@ -360,10 +365,10 @@ impl<const N: usize> Engine<N> {
         if self.state != State::Done {
             return None;
         }
-        Some(match self.outcome {
-            Ok(0) => Ok(Reply::broadcast(&self.expect)),
-            Ok(len) => Ok(Reply::new(self.framer.buffer().get(..len).unwrap_or_default(), &self.expect)),
-            Err(failure) => Err(failure),
+        Some(match self.failure {
+            Some(failure) => Err(failure),
+            None if self.expect.is_broadcast() => Ok(Reply::broadcast(&self.expect)),
+            None => Ok(Reply::new(self.framer.buffer().get(..self.framer.frame_len()).unwrap_or_default(), &self.expect)),
         })
     }
 
