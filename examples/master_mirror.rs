@@ -123,7 +123,8 @@ fn main() -> ! {
                 Ok(()) => MASTER.wait_blocking(|outcome| report(outcome, bits)).unwrap_or(([0x400, 0, 0, 0, 0], 1)),
                 Err(_) => ([0x300, 0, 0, 0, 0], 1),
             };
-            let told = Request::WriteMultipleRegisters { address: 16 * step, values: values.get(..len).unwrap_or(&values) };
+            let told =
+                Request::WriteMultipleRegisters { address: 16 * step, values: values.get(..len).unwrap_or(&values) };
             ask(TOLD, &told, |_| ());
         }
         let c = MASTER.counters();

@@ -39,7 +39,7 @@ fn send(m: &mut Engine, slave: u8, request: Request, expected: &[u8]) {
 }
 
 /// The request's last character left the wire at `now`, and T3.5 of silence followed.
-fn sent(m: &mut Engine, now: u32) {
+fn sent<const N: usize>(m: &mut Engine<N>, now: u32) {
     m.on_sent(now);
     assert_eq!(m.on_end_deadline(), Action::None);
 }
@@ -281,7 +281,7 @@ fn a_request_waits_for_t35_of_silence_after_anything_on_the_line() {
     assert_eq!(m.start(ID, &read), Ok(Action::None));
     assert_eq!(m.counters().requests, 0);
     assert_eq!(m.on_end_deadline(), Action::Send);
-    m.on_sent(0);
+    sent(&mut m, 0);
     // A late character on the line after a reply: the next request waits for its T3.5.
     deliver(&mut m, &with_crc(&[ID, 0x03, 0x02, 0x00, 0x01]));
     m.collect();
@@ -308,15 +308,16 @@ fn a_silent_slave_times_out_after_each_retry_and_the_failure_is_a_timeout() {
     let mut m = master();
     m.set_timeouts(Timeouts { response_ms: 200, turnaround_ms: 100, retries: 2 });
     send(&mut m, ID, Request::ReadInputRegisters { address: 0, quantity: 5 }, &[ID, 0x04, 0, 0, 0, 5]);
-    assert_eq!(m.on_tick(199), Action::None);
+    // The clock's readings are rounded down: 200 ms have surely passed only at 201.
+    assert_eq!(m.on_tick(200), Action::None);
     assert!(m.is_busy());
     // The first timeout: sent again at once (the line is quiet).
-    assert_eq!(m.on_tick(200), Action::Send);
+    assert_eq!(m.on_tick(201), Action::Send);
     sent(&mut m, 210);
-    assert_eq!(m.on_tick(409), Action::None);
-    assert_eq!(m.on_tick(410), Action::Send);
+    assert_eq!(m.on_tick(410), Action::None);
+    assert_eq!(m.on_tick(411), Action::Send);
     sent(&mut m, 420);
-    assert_eq!(m.on_tick(620), Action::None);
+    assert_eq!(m.on_tick(621), Action::None);
     assert_eq!(outcome(&mut m), Some(Err(Failure::Timeout)));
     assert_eq!(m.counters(), Counters { requests: 3, timeouts: 3, retries: 2, ..Counters::default() });
     assert!(!m.is_busy());
@@ -329,12 +330,12 @@ fn a_reply_just_inside_the_timeout_is_taken_and_one_just_outside_is_not() {
     let read = Request::ReadHoldingRegisters { address: 0, quantity: 1 };
     let reply = with_crc(&[ID, 0x03, 0x02, 0xBE, 0xEF]);
     send(&mut m, ID, read, &[ID, 0x03, 0, 0, 0, 1]);
-    assert_eq!(m.on_tick(99), Action::None);
+    assert_eq!(m.on_tick(100), Action::None);
     deliver(&mut m, &reply);
     assert_eq!(m.outcome().unwrap().unwrap().register(0), Some(0xBEEF));
     m.collect();
     send(&mut m, ID, read, &[ID, 0x03, 0, 0, 0, 1]);
-    m.on_tick(100);
+    m.on_tick(101);
     deliver(&mut m, &reply);
     assert_eq!(outcome(&mut m), Some(Err(Failure::Timeout)));
     assert_eq!(m.counters().unexpected, 1);
@@ -359,8 +360,8 @@ fn a_frame_from_another_slave_is_ignored_and_the_timeout_keeps_running() {
     m.on_tick(30);
     deliver(&mut m, &with_crc(&[ID + 1, 0x03, 0x02, 0x00, 0x01]));
     assert!(m.is_busy());
-    assert_eq!(m.on_tick(49), Action::None);
-    m.on_tick(50);
+    assert_eq!(m.on_tick(50), Action::None);
+    m.on_tick(51);
     assert_eq!(outcome(&mut m), Some(Err(Failure::Timeout)));
     assert_eq!(m.counters().unexpected, 1);
 }
@@ -425,7 +426,7 @@ fn a_flood_longer_than_the_buffer_never_overruns_it_and_is_not_taken() {
     m.on_end_deadline();
     m.set_timeouts(Timeouts { retries: 0, ..Timeouts::DEFAULT });
     assert_eq!(m.start(1, &Request::ReadHoldingRegisters { address: 0, quantity: 2 }), Ok(Action::Send));
-    m.on_sent(0);
+    sent(&mut m, 0);
     // A good frame of 200 bytes whose byte count claims them all.
     let mut frame = vec![1, 0x03, 196];
     frame.extend((0..196).map(|i| i as u8));
@@ -435,7 +436,7 @@ fn a_flood_longer_than_the_buffer_never_overruns_it_and_is_not_taken() {
     let mut m: Engine<16> = Engine::new();
     m.on_end_deadline();
     m.start(1, &Request::ReadHoldingRegisters { address: 0, quantity: 2 }).unwrap();
-    m.on_sent(0);
+    sent(&mut m, 0);
     deliver(&mut m, &[0x01; 300]);
     assert_eq!(m.counters().malformed, 1);
 }
@@ -445,9 +446,9 @@ fn a_broadcast_waits_the_turnaround_delay_and_no_reply() {
     let mut m = master();
     m.set_timeouts(Timeouts { response_ms: 1000, turnaround_ms: 100, retries: 3 });
     send(&mut m, 0, Request::WriteSingleRegister { address: 0, value: 1 }, &[0, 0x06, 0, 0, 0, 1]);
-    assert_eq!(m.on_tick(99), Action::None);
+    assert_eq!(m.on_tick(100), Action::None);
     assert_eq!(m.start(1, &Request::ReadCoils { address: 0, quantity: 1 }), Err(Error::Busy));
-    m.on_tick(100);
+    m.on_tick(101);
     let reply = m.outcome().unwrap().unwrap();
     assert!(reply.is_empty() && reply.data().is_empty());
     m.collect();
@@ -483,7 +484,7 @@ fn round_trip_through_the_slave_engine_matches_the_reference_model() {
             m.start(ID, &request).unwrap();
             let frame = m.request().to_vec();
             let reply = model.frame(&frame).1;
-            m.on_sent(0);
+            sent(&mut m, 0);
             deliver(&mut m, &reply);
             let got = m.outcome().unwrap().expect("an answer");
             for i in 0..count {
@@ -513,7 +514,7 @@ fn round_trip_through_the_slave_engine_matches_the_reference_model() {
         let frame = m.request().to_vec();
         let reply = model.frame(&frame).1;
         assert_eq!(common::ask(&mut slave, &mut bank, &frame), reply);
-        m.on_sent(0);
+        sent(&mut m, 0);
         deliver(&mut m, &reply);
         match m.outcome().unwrap() {
             Ok(_) => assert_eq!(reply.len(), 8),
@@ -692,7 +693,7 @@ proptest! {
         prop_assert_eq!(m.start(slave, &request), Ok(Action::Send));
         let sent = m.request().to_vec();
         prop_assert_eq!(&sent, &spec_frames(&asked).0);
-        m.on_sent(0);
+        crate::sent(&mut m, 0);
         deliver(&mut m, &frame);
         let expected = answers(slave, &sent, &frame);
         match m.outcome() {
@@ -720,10 +721,28 @@ fn a_refused_request_changes_nothing() {
     let write = Request::WriteSingleRegister { address: 7, value: 1 };
     assert_eq!(small.start(0, &write), Ok(Action::Send));
     let sent = small.request().to_vec();
-    small.on_sent(0);
-    small.on_tick(100);
+    crate::sent(&mut small, 0);
+    small.on_tick(101);
     assert!(small.outcome().is_some());
     assert_eq!(small.start(3, &Request::ReadHoldingRegisters { address: 0, quantity: 39 }), Err(Error::TooLong));
     assert_eq!(small.request(), sent.as_slice());
     assert!(matches!(small.outcome(), Some(Ok(reply)) if reply.is_empty()));
+}
+
+#[test]
+fn characters_within_t15_of_the_request_are_no_reply() {
+    let mut m = master();
+    m.set_timeouts(Timeouts { retries: 0, ..Timeouts::DEFAULT });
+    assert_eq!(m.start(ID, &Request::ReadHoldingRegisters { address: 0, quantity: 1 }), Ok(Action::Send));
+    m.on_sent(0);
+    // A late reply to an earlier try, running into the end of this request.
+    for &b in &with_crc(&[ID, 0x03, 0x02, 0xDE, 0xAD]) {
+        m.on_byte(b);
+    }
+    m.on_gap_deadline();
+    assert_eq!(m.on_end_deadline(), Action::None);
+    assert!(m.is_busy(), "the late reply was taken");
+    // The slave's own reply, after T3.5.
+    deliver(&mut m, &with_crc(&[ID, 0x03, 0x02, 0x00, 0x07]));
+    assert_eq!(m.outcome().unwrap().unwrap().register(0), Some(7));
 }

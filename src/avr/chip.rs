@@ -46,6 +46,7 @@ pub(crate) const CHIP: Chip = Chip {
 #[doc(hidden)]
 #[macro_export]
 macro_rules! __chip {
+    (vector TIMER0_COMPA) => { "__vector_14" };
     (vector TIMER0_COMPB) => { "__vector_15" };
     (vector TIMER0_OVF) => { "__vector_16" };
     (vector USART0 RX) => { "__vector_18" };
@@ -73,6 +74,7 @@ pub(crate) const CHIP: Chip = Chip { usarts: [None, Some(0xC8), None, None], eep
 #[doc(hidden)]
 #[macro_export]
 macro_rules! __chip {
+    (vector TIMER0_COMPA) => { "__vector_21" };
     (vector TIMER0_COMPB) => { "__vector_22" };
     (vector TIMER0_OVF) => { "__vector_23" };
     (vector USART1 RX) => { "__vector_25" };
@@ -102,6 +104,7 @@ pub(crate) const CHIP: Chip =
 #[doc(hidden)]
 #[macro_export]
 macro_rules! __chip {
+    (vector TIMER0_COMPA) => { "__vector_21" };
     (vector TIMER0_COMPB) => { "__vector_22" };
     (vector TIMER0_OVF) => { "__vector_23" };
     (vector USART0 RX) => { "__vector_25" };

@@ -13,7 +13,7 @@ use super::clock;
 use super::pins::NoPin;
 use super::reg::{self, claim};
 use super::started::Started;
-use super::timer::{FrameTimer, Passed};
+use super::timer::{FrameTimer, Passed, A};
 use super::usart::Usart;
 use crate::config::Config;
 use crate::error::Error;
@@ -27,7 +27,7 @@ use crate::peripheral::may_be_usart;
 pub(crate) struct Running<DE, LED, const N: usize, const U: u8> {
     engine: Engine<N>,
     usart: Usart<U>,
-    timer: FrameTimer,
+    timer: FrameTimer<A>,
     /// Index of the request's next byte.
     tx_next: usize,
     driver_enable: DE,
@@ -66,7 +66,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
         }
     }
 
-    /// Timer0 compare B: T1.5, T3.5, or a turn of the timer with neither (about once a
+    /// Timer0 compare A: T1.5, T3.5, or a turn of the timer with neither (about once a
     /// millisecond), when the response timeout and the turnaround delay are checked.
     #[inline(always)]
     fn on_timer_compare(&mut self) {

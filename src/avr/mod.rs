@@ -64,7 +64,17 @@ pub mod __private {
     /// Only first thing in the USART_RX interrupt handler (interrupts disabled).
     #[inline(always)]
     pub unsafe fn usart_rx_arrived() {
-        super::timer::on_receive();
+        super::timer::on_receive::<super::timer::B>();
+    }
+
+    /// The master's USART receive complete, before anything else (feature `master`).
+    ///
+    /// # Safety
+    /// Only first thing in the master's USART_RX interrupt handler (interrupts disabled).
+    #[cfg(feature = "master")]
+    #[inline(always)]
+    pub unsafe fn master_rx_arrived() {
+        super::timer::on_receive::<super::timer::A>();
     }
 }
 
@@ -150,7 +160,7 @@ macro_rules! slave {
 /// Declares the master `NAME` (feature `master`) with buffers of `N` bytes each way (the
 /// request as sent, the reply; 256 when left out) and binds the four interrupts it needs,
 /// as [`crate::slave!`] does for a slave: its USART's RX complete, data register empty and
-/// TX complete, and Timer0 compare B (the silences, the timeouts).
+/// TX complete, and Timer0 compare A (the silences, the timeouts; the slave has compare B).
 ///
 /// ```ignore
 /// avr_modbus::master!(MASTER);                       // the board's pins 0/1, 256-byte buffers
@@ -159,8 +169,8 @@ macro_rules! slave {
 /// avr_modbus::master!(MASTER on USART1: 64);         // a Mega's Serial1 (pins 19/18)
 /// ```
 ///
-/// [`Master::start`] then takes that USART. A firmware has one role on Timer0 for now: a
-/// master and a slave in one firmware do not build (both bind Timer0's compare B).
+/// [`Master::start`] then takes that USART. A master and a slave on two USARTs of one chip
+/// share Timer0 (a gateway): hand the first one started `&dp.TC0`, the second `dp.TC0`.
 #[cfg(feature = "master")]
 #[macro_export]
 macro_rules! master {
@@ -170,9 +180,9 @@ macro_rules! master {
         #[doc(hidden)]
         #[allow(non_snake_case)]
         mod __avr_modbus_master_interrupts {
-            /// TIMER0_COMPB: T1.5, T3.5, and the timeouts.
-            #[export_name = $crate::__chip!(vector TIMER0_COMPB)]
-            unsafe extern "avr-interrupt" fn TIMER0_COMPB() {
+            /// TIMER0_COMPA: T1.5, T3.5, and the timeouts.
+            #[export_name = $crate::__chip!(vector TIMER0_COMPA)]
+            unsafe extern "avr-interrupt" fn TIMER0_COMPA() {
                 // SAFETY: an interrupt handler, which runs with interrupts disabled.
                 unsafe { super::$name.on_timer_compare() }
             }
@@ -181,7 +191,7 @@ macro_rules! master {
             #[export_name = $crate::__chip!(vector $usart RX)]
             unsafe extern "avr-interrupt" fn USART_RX() {
                 // SAFETY: as above; the handler's first call.
-                unsafe { $crate::__private::usart_rx_arrived() };
+                unsafe { $crate::__private::master_rx_arrived() };
                 // SAFETY: as above.
                 unsafe { super::$name.on_usart_rx() }
             }

@@ -10,7 +10,7 @@ use embedded_hal::digital::OutputPin;
 use super::pins::NoPin;
 use super::reg::{self, claim};
 use super::started::Started;
-use super::timer::{FrameTimer, Passed};
+use super::timer::{FrameTimer, Passed, B};
 use super::usart::Usart;
 use crate::config::Config;
 use crate::engine::{Counters, EndOfFrame, Engine};
@@ -30,7 +30,7 @@ pub(crate) struct Running<M, DE, LED, const N: usize, const U: u8> {
     // other than zero, the rest of the slave follows its run of zeros (see `Engine`).
     engine: Engine<N>,
     usart: Usart<U>,
-    timer: FrameTimer,
+    timer: FrameTimer<B>,
     model: M,
     /// Index of the reply's next byte, and the reply's length (at most 255 bytes; in
     /// ASCII framing, characters: at most 513).
@@ -210,7 +210,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
 
 /// The engine and Timer0 in the framing `config` asks for (feature `ascii`).
 #[cfg(feature = "ascii")]
-fn set_mode<const N: usize>(engine: &mut Engine<N>, timer: &mut FrameTimer, config: &Config) {
+fn set_mode<const N: usize>(engine: &mut Engine<N>, timer: &mut FrameTimer<B>, config: &Config) {
     let ascii = config.mode() != crate::config::Mode::Rtu;
     engine.set_ascii(ascii);
     timer.set_ascii(ascii, config.char_timeout_turns(), config.char_end());

@@ -1,29 +1,73 @@
-//! Timer0, ATmega328P datasheet §15 (8-bit Timer/Counter0): the RTU silence detector, and
-//! with feature `millis` the application's millisecond clock too (`super::clock`). It runs
-//! freely in normal mode at clk/64 from the slave's start and is never stopped or written
-//! again. Each received character sets compare B to the gap deadline relative to the
-//! counter's current value; when that passes, the compare interrupt moves compare B on to
-//! T3.5, counting the whole turns still to wait (`src/timing.rs` has the arithmetic,
-//! [`TimerPlan`]). One compare unit and one interrupt serve both silences; compare A is not
-//! used. The compare interrupt stays enabled: with no deadline set, its match (once a turn)
-//! finds nothing to do.
+//! Timer0, ATmega328P datasheet §15 (8-bit Timer/Counter0): the RTU silence detector of each
+//! role, and with feature `millis` the application's millisecond clock too (`super::clock`).
+//! It runs freely in normal mode at clk/64 from the first role's start and is never stopped
+//! or written again. Each received character sets the role's compare unit to the gap
+//! deadline relative to the counter's current value; when that passes, the compare
+//! interrupt moves it on to T3.5, counting the whole turns still to wait (`src/timing.rs`
+//! has the arithmetic, [`TimerPlan`]). One compare unit and one interrupt serve both
+//! silences of a line: compare B the slave's ([`B`]), compare A the master's ([`A`]), so that
+//! a gateway runs both roles on one timer. The compare interrupt stays enabled: with no
+//! deadline set, its match (once a turn) finds nothing to do.
 //!
 //! Timer0 is one peripheral, so its state lives in statics, like its registers: the
-//! deadlines here, the clock in `super::clock`. They are only touched with interrupts
-//! disabled.
+//! deadlines of each compare unit here, the clock in `super::clock`. They are only touched
+//! with interrupts disabled.
 
 use core::cell::UnsafeCell;
 
-use super::reg::{OCR0B, TCCR0A, TCCR0B, TCNT0, TIFR0, TIMSK0};
+use core::marker::PhantomData;
+
+#[cfg(feature = "master")]
+use super::reg::OCR0A;
+use super::reg::{Reg, OCR0B, TCCR0A, TCCR0B, TCNT0, TIFR0, TIMSK0};
 #[cfg(feature = "ascii")]
 use crate::timing::Deadline;
 pub(crate) use crate::timing::Passed;
 use crate::timing::{Schedule, TimerPlan, TIMER0_CLOCK_SELECT};
 
+const OCIE0A: u8 = 1 << 1;
 const OCIE0B: u8 = 1 << 2;
 pub(crate) const TOV0: u8 = 1 << 0;
 const OCF0A: u8 = 1 << 1;
 const OCF0B: u8 = 1 << 2;
+
+/// A compare unit of Timer0 and the deadlines it keeps: its register, its flag and
+/// interrupt enable, its state.
+pub(crate) trait Unit {
+    /// OCR0x.
+    const OCR: Reg;
+    /// OCF0x in TIFR0 (and OCIE0x in TIMSK0: the same bit).
+    const FLAG: u8;
+    /// The unit's deadlines.
+    fn deadlines() -> &'static Exclusive<Deadlines>;
+}
+
+/// Compare B: the slave's.
+pub(crate) struct B;
+/// Compare A: the master's.
+#[cfg(feature = "master")]
+pub(crate) struct A;
+
+impl Unit for B {
+    const OCR: Reg = OCR0B;
+    const FLAG: u8 = OCF0B;
+    #[inline(always)]
+    fn deadlines() -> &'static Exclusive<Deadlines> {
+        &DEADLINES_B
+    }
+}
+
+#[cfg(feature = "master")]
+impl Unit for A {
+    const OCR: Reg = OCR0A;
+    const FLAG: u8 = OCF0A;
+    #[inline(always)]
+    fn deadlines() -> &'static Exclusive<Deadlines> {
+        &DEADLINES_A
+    }
+}
+
+const _: () = assert!(OCF0A == OCIE0A && OCF0B == OCIE0B, "a unit's flag and enable share their bit");
 
 /// A value only touched with interrupts disabled.
 pub(crate) struct Exclusive<T>(pub(crate) UnsafeCell<T>);
@@ -49,7 +93,7 @@ impl<T> Exclusive<T> {
 /// ([`Schedule::on_match`]), and the compare flags found already set when the deadline
 /// was set (stale: their interrupt is not a match of the new value). The receive interrupt
 /// only reads TCNT0 and TIFR0, writes the compare register, and zeroes the count.
-struct Deadlines {
+pub(crate) struct Deadlines {
     matches: u8,
     plan: Schedule,
     stale: u8,
@@ -81,28 +125,35 @@ struct AsciiTimer {
 
 /// All zero until [`FrameTimer::new`] writes the plan and parks the deadlines, before any
 /// of Timer0's interrupts is enabled: in `.bss`, with no initial value kept in flash.
-static DEADLINES: Exclusive<Deadlines> = Exclusive(UnsafeCell::new(Deadlines {
-    matches: 0,
-    plan: Schedule::NONE,
-    stale: 0,
-    #[cfg(feature = "ascii")]
-    ascii: AsciiTimer {
-        on: false,
-        timeout: 0,
-        idle: 0,
-        end_due: false,
-        end: Deadline { low: 0, turns: 0 },
-        end_turns: 0,
-    },
-}));
+static DEADLINES_B: Exclusive<Deadlines> = Exclusive(Deadlines::ZERO);
+/// Compare A's, as [`DEADLINES_B`].
+#[cfg(feature = "master")]
+static DEADLINES_A: Exclusive<Deadlines> = Exclusive(Deadlines::ZERO);
 
-/// A character arrived: the gap deadline (and after it T3.5) counts from now, first thing
-/// in the receive interrupt, so that it counts from as close to RXC0 as can be
-/// (`timing::RX_LATENCY_CYCLES`). Only from the receive interrupt handler.
+impl Deadlines {
+    const ZERO: UnsafeCell<Deadlines> = UnsafeCell::new(Deadlines {
+        matches: 0,
+        plan: Schedule::NONE,
+        stale: 0,
+        #[cfg(feature = "ascii")]
+        ascii: AsciiTimer {
+            on: false,
+            timeout: 0,
+            idle: 0,
+            end_due: false,
+            end: Deadline { low: 0, turns: 0 },
+            end_turns: 0,
+        },
+    });
+}
+
+/// A character arrived on the line of unit `U`: the gap deadline (and after it T3.5)
+/// counts from now, first thing in the receive interrupt, so that it counts from as close
+/// to RXC0 as can be (`timing::RX_LATENCY_CYCLES`). Only from the receive interrupt handler.
 #[inline(always)]
-pub(crate) fn on_receive() {
+pub(crate) fn on_receive<U: Unit>() {
     // SAFETY: called from the receive interrupt handler, with interrupts disabled.
-    unsafe { DEADLINES.with(Deadlines::set) }
+    unsafe { U::deadlines().with(Deadlines::set::<U>) }
 }
 
 impl Deadlines {
@@ -120,14 +171,14 @@ impl Deadlines {
     /// while masked, noted here, brought no interrupt once unmasked there, though it does
     /// on the silicon. Hence no masking, and a compare interrupt each turn.)
     #[inline(always)]
-    fn set(&mut self) {
+    fn set<U: Unit>(&mut self) {
         #[cfg(feature = "ascii")]
         if self.ascii.on {
             self.ascii.idle = 0;
             return;
         }
         let tcnt = TCNT0.read();
-        OCR0B.write(tcnt.wrapping_add(self.plan.gap_low));
+        U::OCR.write(tcnt.wrapping_add(self.plan.gap_low));
         self.stale = TIFR0.read();
         self.matches = 0;
     }
@@ -147,8 +198,8 @@ impl Deadlines {
     /// `plan` is the plan as the interrupt read it first: read again after the volatile
     /// reads of TCNT0, it would be loaded again.
     #[inline(always)]
-    fn move_to_end(&mut self, plan: Schedule) {
-        let gap_value = OCR0B.read();
+    fn move_to_end<U: Unit>(&mut self, plan: Schedule) {
+        let gap_value = U::OCR.read();
         let to_end = plan.to_end;
         let read = TCNT0.read();
         let mut elapsed = read.wrapping_sub(gap_value);
@@ -156,17 +207,17 @@ impl Deadlines {
             while TCNT0.read() == read {}
             elapsed = elapsed.wrapping_add(1);
         }
-        OCR0B.write(gap_value.wrapping_add(to_end));
+        U::OCR.write(gap_value.wrapping_add(to_end));
         self.matches = plan.count_after_gap(elapsed);
     }
 
     /// A compare interrupt whose flag was noted stale: lets it pass, once.
     #[inline(always)]
-    fn was_stale(&mut self) -> bool {
-        if self.stale & OCF0B == 0 {
+    fn was_stale<U: Unit>(&mut self) -> bool {
+        if self.stale & U::FLAG == 0 {
             return false;
         }
-        self.stale &= !OCF0B;
+        self.stale &= !U::FLAG;
         true
     }
 }
@@ -194,31 +245,35 @@ impl AsciiTimer {
     }
 }
 
-/// Sets the deadlines from now, outside the receive interrupt.
+/// Sets the deadlines of unit `U` from now, outside the receive interrupt.
 #[inline(never)]
-fn set_now() {
+fn set_now<U: Unit>() {
     // SAFETY: only called by `FrameTimer::restart`, with interrupts disabled.
-    unsafe { DEADLINES.with(Deadlines::set) }
+    unsafe { U::deadlines().with(Deadlines::set::<U>) }
 }
 
-/// The slave's hold on Timer0's deadlines (the plan lives with them, above).
-pub(crate) struct FrameTimer(());
+/// A role's hold on the deadlines of Timer0's compare unit `U` (the plan lives with them,
+/// above).
+pub(crate) struct FrameTimer<U: Unit>(PhantomData<U>);
 
-impl FrameTimer {
-    /// Starts Timer0 from zero with its compare B interrupt on (and the overflow interrupt,
-    /// the clock of `millis()`, with feature `millis`) and no deadline set, for `plan`. The
-    /// slave owns Timer0: it took the application's `TC0`. Call with interrupts disabled.
+impl<U: Unit> FrameTimer<U> {
+    /// Starts Timer0 from zero (unless the other role runs it already) with this unit's
+    /// compare interrupt on (and the overflow interrupt, the clock of `millis()`, with
+    /// feature `millis`) and no deadline set, for `plan`. The role took the application's
+    /// `TC0` (the first of two roles a reference to it). Call with interrupts disabled.
     pub(crate) fn new(plan: TimerPlan) -> Self {
-        // Stopped, normal mode, no output compare pins, interrupts off, counter and flags
-        // cleared: from here on nothing writes TCCR0x or TCNT0 again.
-        TCCR0B.write(0);
-        TCCR0A.write(0);
-        TIMSK0.write(0);
-        TCNT0.write(0);
-        TIFR0.write(TOV0 | OCF0A | OCF0B);
-        let mut timer = FrameTimer(());
+        let mut timer = FrameTimer(PhantomData);
+        let running = TIMSK0.read() & (OCIE0A | OCIE0B);
+        if running == 0 {
+            // Stopped, normal mode, no output compare pins, interrupts off, counter and
+            // flags cleared: from here on nothing writes TCCR0x or TCNT0 again.
+            TCCR0B.write(0);
+            TCCR0A.write(0);
+            TCNT0.write(0);
+            TIFR0.write(TOV0 | OCF0A | OCF0B);
+        }
         timer.plan(plan);
-        TIMSK0.write(super::clock::OVERFLOW_INTERRUPT | OCIE0B);
+        TIMSK0.write(running | super::clock::OVERFLOW_INTERRUPT | U::FLAG);
         TCCR0B.write(TIMER0_CLOCK_SELECT);
         timer
     }
@@ -226,7 +281,7 @@ impl FrameTimer {
     fn plan(&mut self, plan: TimerPlan) {
         // SAFETY: called with interrupts disabled (by `new`, and by `configure`'s callers).
         unsafe {
-            DEADLINES.with(|d| {
+            U::deadlines().with(|d| {
                 d.plan = plan.schedule();
                 d.park();
             })
@@ -244,7 +299,7 @@ impl FrameTimer {
     /// taken (the receive interrupt sets them itself, [`on_receive`]). Interrupts must be
     /// disabled.
     pub(crate) fn restart(&mut self) {
-        set_now();
+        set_now::<U>();
     }
 
     /// ASCII framing (feature `ascii`) with an inter-character timeout of `timeout` turns
@@ -253,7 +308,9 @@ impl FrameTimer {
     #[cfg(feature = "ascii")]
     pub(crate) fn set_ascii(&mut self, on: bool, timeout: u16, end: Deadline) {
         // SAFETY: called with interrupts disabled (the slave's start and its settings switch).
-        unsafe { DEADLINES.with(|d| d.ascii = AsciiTimer { on, timeout, idle: 0, end_due: false, end, end_turns: 0 }) }
+        unsafe {
+            U::deadlines().with(|d| d.ascii = AsciiTimer { on, timeout, idle: 0, end_due: false, end, end_turns: 0 })
+        }
     }
 
     /// ASCII: a frame's outcome is due (its LF came, or a `:` dropped it): the compare
@@ -267,8 +324,8 @@ impl FrameTimer {
     pub(crate) fn end_now(&mut self) {
         // SAFETY: called from the receive interrupt handler, with interrupts disabled.
         unsafe {
-            DEADLINES.with(|d| {
-                OCR0B.write(TCNT0.read().wrapping_add(d.ascii.end.low));
+            U::deadlines().with(|d| {
+                U::OCR.write(TCNT0.read().wrapping_add(d.ascii.end.low));
                 d.stale = TIFR0.read();
                 d.ascii.end_turns = d.ascii.end.turns;
                 d.ascii.end_due = true;
@@ -284,8 +341,8 @@ impl FrameTimer {
     pub(crate) fn on_compare(&mut self) -> Passed {
         // SAFETY: called from the compare interrupt handler, with interrupts disabled.
         unsafe {
-            DEADLINES.with(|d| {
-                if d.was_stale() {
+            U::deadlines().with(|d| {
+                if d.was_stale::<U>() {
                     return Passed::Nothing;
                 }
                 #[cfg(feature = "ascii")]
@@ -296,7 +353,7 @@ impl FrameTimer {
                 let (passed, matches) = plan.on_match(d.matches);
                 d.matches = matches;
                 if passed == Passed::Gap {
-                    d.move_to_end(plan);
+                    d.move_to_end::<U>(plan);
                 }
                 passed
             })

@@ -142,6 +142,9 @@ pub struct Engine<const N: usize = MAX_FRAME> {
     since: u32,
     /// T3.5 has passed since the line's last character (or the request's last).
     quiet: bool,
+    /// The request has just left the wire and T1.5 has not passed since: characters now are
+    /// no reply (a slave answers after T3.5) but the tail of something else, and ignored.
+    settling: bool,
     /// Why the request failed, once `Done`; `None` when it was answered (the reply stays
     /// in the framer's buffer until collected).
     failure: Option<Failure>,
@@ -167,6 +170,7 @@ impl<const N: usize> Engine<N> {
             timeouts: Timeouts::DEFAULT,
             since: 0,
             quiet: false,
+            settling: false,
             failure: None,
             counts: [0; COUNTS],
         }
@@ -251,25 +255,34 @@ impl<const N: usize> Engine<N> {
     #[inline(always)]
     pub fn on_byte(&mut self, byte: u8) {
         self.quiet = false;
-        self.framer.on_byte(byte);
+        if !self.settling {
+            self.framer.on_byte(byte);
+        }
     }
 
     /// A damaged character arrived.
     pub fn on_error(&mut self, error: UartError) {
         self.quiet = false;
-        self.framer.on_error(error);
+        if !self.settling {
+            self.framer.on_error(error);
+        }
     }
 
-    /// The gap deadline (T1.5) passed since the last character.
+    /// The gap deadline (T1.5) passed since the last character: after the request, the
+    /// line is the slave's from here.
     pub fn on_gap_deadline(&mut self) {
+        self.settling = false;
         self.framer.on_gap_deadline();
     }
 
-    /// The request's last character has left the wire, at `now` (milliseconds): the
-    /// response timeout starts (for a broadcast, the turnaround delay). The caller starts
-    /// the silence deadlines from here, so that the next request waits T3.5.
+    /// The request's last character has left the wire, at `now` (milliseconds, rounded
+    /// down): the response timeout starts (for a broadcast, the turnaround delay). The
+    /// caller starts the silence deadlines from here, so that the next request waits T3.5;
+    /// characters before T1.5 has passed are ignored (no slave answers that soon: a late
+    /// reply to an earlier try running into this one, say).
     pub fn on_sent(&mut self, now: u32) {
         if self.state == State::Sending {
+            self.settling = true;
             self.since = now;
             self.state = if self.expect.is_broadcast() { State::Turnaround } else { State::Waiting };
         }
@@ -279,6 +292,7 @@ impl<const N: usize> Engine<N> {
     /// a request that waited for the silence goes out.
     pub fn on_end_deadline(&mut self) -> Action {
         self.quiet = true;
+        self.settling = false;
         match self.framer.on_end_deadline() {
             None => {}
             Some(Ok(len)) => self.on_frame(len),
@@ -344,16 +358,18 @@ impl<const N: usize> Engine<N> {
         }
     }
 
-    /// The clock reads `now` (milliseconds): the response timeout or the turnaround delay
-    /// may have passed. Called at least once a millisecond or so (Timer0's turn).
+    /// The clock reads `now` (milliseconds, rounded down): the response timeout or the
+    /// turnaround delay may have passed. Called at least once a millisecond or so (Timer0's
+    /// turn). Both clock readings are rounded down, so a wait ends only once the count has
+    /// gone one past the setting: never shorter than it, at most 2 ms longer.
     pub fn on_tick(&mut self, now: u32) -> Action {
         let elapsed = now.wrapping_sub(self.since);
         match self.state {
-            State::Waiting if elapsed >= u32::from(self.timeouts.response_ms) => {
+            State::Waiting if elapsed > u32::from(self.timeouts.response_ms) => {
                 self.count(Count::Timeouts);
                 self.attempt_failed(Failure::Timeout);
             }
-            State::Turnaround if elapsed >= u32::from(self.timeouts.turnaround_ms) => self.finish(None),
+            State::Turnaround if elapsed > u32::from(self.timeouts.turnaround_ms) => self.finish(None),
             _ => {}
         }
         self.send_if_quiet()
@@ -368,7 +384,9 @@ impl<const N: usize> Engine<N> {
         Some(match self.failure {
             Some(failure) => Err(failure),
             None if self.expect.is_broadcast() => Ok(Reply::broadcast(&self.expect)),
-            None => Ok(Reply::new(self.framer.buffer().get(..self.framer.frame_len()).unwrap_or_default(), &self.expect)),
+            None => {
+                Ok(Reply::new(self.framer.buffer().get(..self.framer.frame_len()).unwrap_or_default(), &self.expect))
+            }
         })
     }
 
