@@ -1,0 +1,348 @@
+//! `virtual-line`: several simulated boards (and outside programs on ptys) on one RS-485
+//! half-duplex line, in lockstep on simulated time. See `bus` for the line's model and
+//! `args::USAGE` for the command line.
+//!
+//! ```text
+//! virtual-line --board master=lab_control.elf de=10 \
+//!              --board box=lab_lights.elf de=10 \
+//!              --board tower=lab_lights.elf de=10 pin12=low watch=4,5,6,7 \
+//!              --at 2 'set box pin2 low' --at 2.3 'set box pin2 z'
+//! ```
+
+#[allow(dead_code)]
+mod args;
+mod bus;
+#[allow(dead_code)]
+#[path = "../../control.rs"]
+mod control;
+#[allow(dead_code)]
+#[path = "../../line.rs"]
+mod line;
+#[allow(dead_code)]
+#[path = "../../pty.rs"]
+mod pty;
+
+use std::fs::{File, OpenOptions};
+use std::io::{self, Read};
+use std::os::fd::AsFd;
+use std::os::unix::fs::{FileTypeExt, OpenOptionsExt};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
+use nix::sys::signal::{SigSet, Signal};
+use nix::sys::signalfd::{SfdFlags, SignalFd};
+use nix::sys::stat::Mode;
+use uno_sim::{Options, Uno, CYCLES_PER_US};
+
+use args::LineCommand;
+use bus::{stamp, Board, Bus, PtyPort};
+use pty::{Link, Pty};
+
+/// Falling behind the wall clock by more than this is reported.
+const LAG_WARN: Duration = Duration::from_millis(50);
+/// How often falling behind is reported, at most.
+const LAG_REPORT_EVERY: Duration = Duration::from_secs(5);
+/// Wall time spent simulating before looking at the ptys and commands again.
+const TURN: Duration = Duration::from_millis(5);
+
+fn main() -> ExitCode {
+    let args = match args::parse(std::env::args().skip(1)) {
+        Ok(args) => args,
+        Err(None) => {
+            print!("{}", args::USAGE);
+            return ExitCode::SUCCESS;
+        }
+        Err(Some(msg)) => {
+            eprintln!("virtual-line: {msg}\n\n{}", args::USAGE);
+            return ExitCode::from(2);
+        }
+    };
+    match run(args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(msg) => {
+            eprintln!("virtual-line: {msg}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Maps wall-clock time to simulated cycles.
+struct Clock {
+    start: Instant,
+    base_cycle: u64,
+}
+
+impl Clock {
+    fn new(now_cycle: u64) -> Clock {
+        Clock { start: Instant::now(), base_cycle: now_cycle }
+    }
+
+    fn due(&self) -> u64 {
+        let ns = self.start.elapsed().as_nanos();
+        self.base_cycle + u64::try_from(ns * u128::from(CYCLES_PER_US) / 1_000).unwrap_or(u64::MAX)
+    }
+}
+
+fn cycles_to_duration(cycles: u64) -> Duration {
+    Duration::from_nanos(cycles.saturating_mul(1_000) / CYCLES_PER_US)
+}
+
+/// Lines of commands from stdin or the control FIFO.
+struct CommandSource {
+    name: String,
+    file: File,
+    pending: Vec<u8>,
+    open: bool,
+}
+
+impl CommandSource {
+    fn read_lines(&mut self) -> Vec<String> {
+        let mut buf = [0u8; 512];
+        match self.file.read(&mut buf) {
+            Ok(0) => self.open = false,
+            Ok(n) => self.pending.extend_from_slice(&buf[..n]),
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => {}
+            Err(e) => {
+                eprintln!("virtual-line: {}: {e}; no longer read", self.name);
+                self.open = false;
+            }
+        }
+        let mut lines = Vec::new();
+        while let Some(end) = self.pending.iter().position(|&b| b == b'\n') {
+            let line: Vec<u8> = self.pending.drain(..=end).collect();
+            lines.push(String::from_utf8_lossy(&line).into_owned());
+        }
+        lines
+    }
+}
+
+/// The `--control` FIFO, removed on exit if we created it.
+struct ControlFifo {
+    path: PathBuf,
+    created: bool,
+}
+
+impl ControlFifo {
+    fn open(path: &Path) -> Result<(ControlFifo, CommandSource), String> {
+        let created = match path.metadata() {
+            Ok(m) if m.file_type().is_fifo() => false,
+            Ok(_) => return Err(format!("--control {}: exists and is not a FIFO", path.display())),
+            Err(_) => {
+                nix::unistd::mkfifo(path, Mode::from_bits_truncate(0o600))
+                    .map_err(|e| format!("cannot create FIFO {}: {e}", path.display()))?;
+                true
+            }
+        };
+        let guard = ControlFifo { path: path.to_owned(), created };
+        let file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .custom_flags(nix::libc::O_NONBLOCK)
+            .open(path)
+            .map_err(|e| format!("cannot open {}: {e}", path.display()))?;
+        let name = path.display().to_string();
+        Ok((guard, CommandSource { name, file, pending: Vec::new(), open: true }))
+    }
+}
+
+impl Drop for ControlFifo {
+    fn drop(&mut self) {
+        if self.created {
+            let _ = std::fs::remove_file(&self.path);
+        }
+    }
+}
+
+/// Carries out a command line now, or schedules it.
+fn execute(bus: &mut Bus, scheduled: &mut Vec<(u64, String)>, line: &str) {
+    match args::parse_command(line) {
+        Ok(LineCommand::Nothing) => {}
+        Ok(LineCommand::ShowPins) => bus.show_pins(),
+        Ok(LineCommand::At(t, cmd)) => {
+            if let Err(e) = args::parse_command(&cmd) {
+                eprintln!("virtual-line: {e}");
+                return;
+            }
+            bus.say(&format!("scheduled at {}: {cmd}", stamp(t)));
+            scheduled.push((t, cmd));
+            scheduled.sort_by_key(|(t, _)| *t);
+        }
+        Ok(LineCommand::Board(name, cmd)) => {
+            if let Err(e) = bus.command(&name, cmd, line) {
+                eprintln!("virtual-line: {}: {e}", line.trim());
+            }
+        }
+        Err(msg) => eprintln!("virtual-line: {msg}"),
+    }
+}
+
+fn run(args: args::Args) -> Result<(), String> {
+    let mut boards = Vec::new();
+    for b in &args.boards {
+        let options = Options { chip: b.chip, usart: b.usart, ..Options::new() };
+        let mut uno = Uno::load_with(&b.elf, options).map_err(|e| format!("{}: {e}", b.name))?;
+        let has_pins = uno.chip().has_uno_pinout();
+        if !has_pins && (b.de.is_some() || !b.initial.is_empty() || b.watch != args::DEFAULT_WATCH && !b.watch.is_empty()) {
+            return Err(format!("{}: pin numbers are the Uno's; the {} has none of them", b.name, uno.chip()));
+        }
+        for cmd in &b.initial {
+            cmd.apply(&mut uno).map_err(|e| format!("{}: {e}", b.name))?;
+        }
+        let watch = if has_pins { b.watch.clone() } else { Vec::new() };
+        println!(
+            "{} board {}: {}, {}, USART{} on the line{}",
+            stamp(0),
+            b.name,
+            b.elf.display(),
+            uno.chip(),
+            uno.usart(),
+            b.de.map_or(String::new(), |p| format!(", DE on pin {p}"))
+        );
+        boards.push(Board::new(b.name.clone(), uno, b.de, watch));
+    }
+    let mut ptys = Vec::new();
+    for p in &args.ptys {
+        let pty = Pty::open().map_err(|e| format!("cannot open a pseudo-terminal: {e}"))?;
+        let link = match &p.link {
+            Some(path) => Some(Link::create(path, pty.path()).map_err(|e| format!("cannot link {}: {e}", path.display()))?),
+            None => None,
+        };
+        println!(
+            "{} pty {}: {}{}",
+            stamp(0),
+            p.name,
+            pty.path().display(),
+            p.link.as_ref().map_or(String::new(), |l| format!(" (link {})", l.display()))
+        );
+        ptys.push(PtyPort::new(p.name.clone(), pty, link));
+    }
+    println!("{} line: {}{}", stamp(0), args.line, if args.pace { "" } else { ", not paced" });
+    let mut bus = Bus::new(args.line, boards, ptys);
+    let mut scheduled = args.at.clone();
+    for (_, cmd) in &scheduled {
+        args::parse_command(cmd).map_err(|e| format!("--at: {e}"))?;
+    }
+
+    let mut signals = SigSet::empty();
+    for sig in [Signal::SIGINT, Signal::SIGTERM, Signal::SIGHUP] {
+        signals.add(sig);
+    }
+    signals.thread_block().map_err(|e| format!("cannot block signals: {e}"))?;
+    let signal_fd = SignalFd::with_flags(&signals, SfdFlags::SFD_NONBLOCK).map_err(|e| format!("signalfd: {e}"))?;
+    let (_fifo, control) = match &args.control {
+        Some(path) => {
+            let (fifo, source) = ControlFifo::open(path)?;
+            (Some(fifo), Some(source))
+        }
+        None => (None, None),
+    };
+    let mut sources: Vec<CommandSource> = control.into_iter().collect();
+    if args.stdin {
+        let fd = io::stdin().as_fd().try_clone_to_owned().map_err(|e| format!("stdin: {e}"))?;
+        sources.push(CommandSource { name: "stdin".into(), file: File::from(fd), pending: Vec::new(), open: true });
+    }
+
+    let wall_start = Instant::now();
+    let mut clock = Clock::new(0);
+    let (mut lag_total, mut lag_window, mut lag_reported) = (Duration::ZERO, Duration::ZERO, None::<Instant>);
+    let mut buf = [0u8; 1024];
+    let until = args.until.unwrap_or(u64::MAX);
+    'run: loop {
+        let behind = clock.due().saturating_sub(bus.now);
+        let timeout = if !args.pace || behind > 0 {
+            PollTimeout::ZERO
+        } else {
+            PollTimeout::from(1u8)
+        };
+        let mut fds = vec![PollFd::new(signal_fd.as_fd(), PollFlags::POLLIN)];
+        fds.extend(bus.ptys.iter().map(|p| PollFd::new(p.pty.fd(), PollFlags::POLLIN)));
+        let first_source = fds.len();
+        fds.extend(sources.iter().filter(|s| s.open).map(|s| PollFd::new(s.file.as_fd(), PollFlags::POLLIN)));
+        match poll(&mut fds, timeout) {
+            Ok(_) | Err(nix::errno::Errno::EINTR) => {}
+            Err(e) => return Err(format!("poll: {e}")),
+        }
+        let ready: Vec<bool> = fds.iter().map(|fd| fd.any().unwrap_or(false)).collect();
+        drop(fds);
+        if ready[0] {
+            if let Ok(Some(info)) = signal_fd.read_signal() {
+                let name = Signal::try_from(info.ssi_signo as i32).map_or("signal", |s| s.as_str());
+                eprintln!("virtual-line: {name}, stopping");
+            }
+            break;
+        }
+        for k in 0..bus.ptys.len() {
+            if ready[1 + k] {
+                let n = bus.ptys[k].pty.read(&mut buf).map_err(|e| format!("reading the pty: {e}"))?;
+                if n > 0 {
+                    bus.pty_sent(k, &buf[..n])?;
+                }
+            }
+        }
+        let open: Vec<usize> = (0..sources.len()).filter(|&i| sources[i].open).collect();
+        for (k, i) in open.into_iter().enumerate() {
+            if ready[first_source + k] {
+                for line in sources[i].read_lines() {
+                    execute(&mut bus, &mut scheduled, &line);
+                }
+            }
+        }
+
+        // Run up to the wall clock (or flat out), a few milliseconds of wall time at most.
+        let turn = Instant::now();
+        let due = if args.pace { clock.due() } else { u64::MAX };
+        while bus.now < due.min(until) && turn.elapsed() < TURN {
+            let next_cmd = scheduled.first().map_or(u64::MAX, |(t, _)| *t);
+            if next_cmd <= bus.now {
+                let (_, cmd) = scheduled.remove(0);
+                execute(&mut bus, &mut scheduled, &cmd);
+                continue;
+            }
+            bus.step(due.min(until).min(next_cmd))?;
+        }
+        if bus.now >= until {
+            while scheduled.first().is_some_and(|(t, _)| *t <= bus.now) {
+                let (_, cmd) = scheduled.remove(0);
+                execute(&mut bus, &mut scheduled, &cmd);
+            }
+            break 'run;
+        }
+
+        if args.pace {
+            let lag = cycles_to_duration(clock.due().saturating_sub(bus.now));
+            if lag > LAG_WARN {
+                lag_total += lag;
+                lag_window += lag;
+                clock = Clock::new(bus.now);
+                let since = lag_reported.map(|t| t.elapsed());
+                if since.is_none_or(|d| d >= LAG_REPORT_EVERY) {
+                    let msg = match since {
+                        None => format!("behind: the simulation is {} ms behind real time", lag.as_millis()),
+                        Some(d) => format!(
+                            "behind: the simulation fell {} ms behind real time in {:.1} s ({:.0} % speed)",
+                            lag_window.as_millis(),
+                            d.as_secs_f64(),
+                            100.0 * (1.0 - lag_window.as_secs_f64() / d.as_secs_f64()).max(0.0)
+                        ),
+                    };
+                    bus.say(&msg);
+                    lag_window = Duration::ZERO;
+                    lag_reported = Some(Instant::now());
+                }
+            }
+        }
+    }
+    bus.finish();
+    let wall = wall_start.elapsed().as_secs_f64();
+    println!("{} {}", stamp(bus.now), bus.summary());
+    println!(
+        "{} speed: {:.3} s simulated in {wall:.1} s of wall time ({:.0} % of real time){}",
+        stamp(bus.now),
+        bus.now as f64 / uno_sim::F_CPU as f64,
+        100.0 * bus.now as f64 / uno_sim::F_CPU as f64 / wall.max(1e-9),
+        if args.pace { format!(", {} ms behind in all", lag_total.as_millis()) } else { String::new() }
+    );
+    Ok(())
+}
