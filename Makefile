@@ -48,7 +48,8 @@ firmware: setup
 # the crate rebuilds for it. Then once more with the line settings in EEPROM and ASCII
 # (target/chips/CHIP[-usartN]-settings/…) for the Mega's Serial1 and the Leonardo. Last, the
 # contract (sixteen_each, sixteen_each_bank) for the ATmega328P the same way, into
-# target/chips/atmega328p/…: make bench's flash in the template's form; and boards for an
+# target/chips/atmega328p/…: make bench's flash in the template's form; the gateway (slave on
+# USART0, master on USART1) for the ATmega2560 into target/chips/atmega2560-gateway/; and boards for an
 # 8 MHz ATmega328P and ATmega32U4 (feature clock-8mhz, the Pro Mini and Pro Micro 3.3 V) into
 # target/chips/CHIP-8mhz/.
 CHIPS := atmega168 atmega32u4 atmega1280 atmega2560
@@ -66,6 +67,7 @@ chips: setup
 			examples,millis,eeprom-settings,ascii boards || exit 1; \
 	done
 	@.ci/chip-build atmega328p "" atmega328p examples sixteen_each sixteen_each_bank
+	@.ci/chip-build atmega2560 "" atmega2560-gateway examples,master gateway
 	@for chip in atmega328p atmega32u4; do \
 		.ci/chip-build $$chip "" $$chip-8mhz examples,millis,clock-8mhz boards || exit 1; \
 	done
