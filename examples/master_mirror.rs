@@ -26,6 +26,8 @@
  * | 9    | FC 3, holding registers 0–125: refused before sending (status 0x300) |  |
  * | 10   | FC 3, holding register 9999 (absent: exception 02 expected) |  |
  * | 11   | broadcast (slave 0) FC 6, holding register 14 = 0x0B0B |       |
+ * | 12   | raw FC 0x41 (no slave has it: exception 01 expected) |          |
+ * | 13   | raw FC 3 of 0 registers (exception 03 expected)   |           |
  *
  * After the last step: the master's counters at slave 2's registers 200–207 (requests,
  * replies, exceptions, timeouts, retries, CRC errors, malformed, unexpected), then again
@@ -42,7 +44,7 @@ use panic_halt as _;
 const LINE: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 const POLLED: u8 = 1;
 const TOLD: u8 = 2;
-const STEPS: u16 = 12;
+const STEPS: u16 = 14;
 
 avr_modbus::master!(MASTER: 64);
 
@@ -70,7 +72,10 @@ fn request(step: u16) -> (u8, Request<'static>) {
         },
         9 => Request::ReadHoldingRegisters { address: 0, quantity: 126 },
         10 => Request::ReadHoldingRegisters { address: 9999, quantity: 1 },
-        _ => return (0, Request::WriteSingleRegister { address: 14, value: 0x0B0B }),
+        11 => return (0, Request::WriteSingleRegister { address: 14, value: 0x0B0B }),
+        12 => Request::Raw { function: 0x41, data: &[] },
+        // What the master refuses to build as FC 3 (a quantity of 0), sent raw.
+        _ => Request::Raw { function: 0x03, data: &[0, 0, 0, 0] },
     };
     (POLLED, request)
 }

@@ -570,6 +570,38 @@ fn steps() -> Vec<Step> {
             reply: None,
             report: vec![ANSWERED],
         },
+        Step {
+            number: 12,
+            what: "raw FC 0x41",
+            request: Some(with_crc(&[
+                POLLED, // slave address
+                0x41,   // function: none the slave has
+            ])),
+            reply: Some(with_crc(&[
+                POLLED, // slave address
+                0xC1,   // function 0x41 | 0x80: exception
+                0x01,   // exception code: illegal function
+            ])),
+            report: vec![0x0001],
+        },
+        Step {
+            number: 13,
+            what: "raw FC 3 of 0 registers",
+            request: Some(with_crc(&[
+                POLLED, // slave address
+                0x03,   // function: read holding registers
+                0x00,   // starting address hi
+                0x00,   // starting address lo
+                0x00,   // quantity hi
+                0x00,   // quantity lo: 0, outside 1-125
+            ])),
+            reply: Some(with_crc(&[
+                POLLED, // slave address
+                0x83,   // function 3 | 0x80: exception
+                0x03,   // exception code: illegal data value
+            ])),
+            report: vec![0x0003],
+        },
     ]
 }
 
@@ -601,13 +633,13 @@ impl Counters {
     }
 }
 
-/// After one pass where every request was answered at the first try: 11 requests to
-/// slave 1 or broadcast (step 9 none) and 12 reports; 9 answers, the exception and the 12
-/// acknowledgements (a broadcast gets no answer).
+/// After one pass where every request was answered at the first try: 13 requests to
+/// slave 1 or broadcast (step 9 none) and 14 reports; 9 answers, the 3 exceptions and the
+/// 14 acknowledgements (a broadcast gets no answer).
 const CLEAN_PASS: Counters = Counters {
-    requests: 23,
-    replies: 22,
-    exceptions: 1,
+    requests: 27,
+    replies: 26,
+    exceptions: 3,
     timeouts: 0,
     retries: 0,
     crc_errors: 0,
@@ -631,7 +663,7 @@ fn rest_of_pass(bus: &mut Bus, from: usize) -> Counters {
 // Every function code (Application Protocol §6, §7; Serial Line §2.4.1)
 
 /// Steps 0–8 answered, step 9 refused before sending, step 10 answered with exception 02,
-/// step 11 broadcast: every request is the spec's frame byte for byte (checked as it
+/// step 11 broadcast, steps 12 and 13 answered with exceptions 01 and 03: every request is the spec's frame byte for byte (checked as it
 /// comes), and every report carries what slave 1 served: the registers, the bits packed
 /// LSB first, status 0 and nothing else for a write, 0x300 for step 9, 2 for step 10.
 /// Step 9 puts no frame on the line: the frame after step 8's report is step 9's report.

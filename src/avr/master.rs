@@ -191,6 +191,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
     /// (it goes on), [`Error::NotStarted`] before [`Master::start`]; a quantity outside
     /// the spec's limits, a broadcast read, a request or reply longer than the buffers
     /// are refused before a byte is sent. An outcome not yet collected is dropped.
+    #[inline(never)]
     pub fn send(&self, slave: u8, request: &Request<'_>) -> Result<(), Error> {
         self.running
             .locked(|m| {

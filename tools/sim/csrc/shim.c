@@ -108,13 +108,16 @@ typedef struct {
 	size_t len, cap;
 } usart_out_t;
 
-typedef struct uno_shim {
-	avr_t *avr;
-	avr_uart_t *uart;            /* the wire */
+/* Wires: USART0..3 timed as described above (the first is the one `uno_new` names). */
+#define WIRES 2
+
+/* One timed USART. */
+typedef struct uno_wire {
+	struct uno_shim *shim;
+	avr_uart_t *uart;            /* NULL: not in use */
 	uint16_t base;               /* its UCSRnA */
 	char uart_name;              /* '0'..'3' */
 	avr_cycle_timer_t uart_pump; /* simavr's static TX pump, found on first UDRn write */
-	usart_out_t out[USARTS];     /* what the other USARTs sent */
 
 	/* RX schedule, sorted by `at` */
 	rx_item_t *rx;
@@ -127,9 +130,19 @@ typedef struct uno_shim {
 	int tx_buf_full;       /* a second frame waits in UDRn */
 	uint64_t tx_buf_end;   /* when that one will end */
 	int tx_written;        /* UDRn was written during the current instruction */
-	uint64_t tx_ignored;   /* writes while UDRE0 was clear (ignored by the chip) */
+	uint64_t tx_ignored;   /* writes while UDREn was clear (ignored by the chip) */
 	uno_tx_t *tx;
 	size_t tx_len, tx_cap;
+
+	/* DORn and the receive FIFO's read cursor before the current instruction */
+	int dor_before;
+	unsigned read_before;
+} wire_t;
+
+typedef struct uno_shim {
+	avr_t *avr;
+	wire_t wire[WIRES];          /* wire[0]: the wire; wire[1]: a second one, if asked for */
+	usart_out_t out[USARTS];     /* what the other USARTs sent */
 
 	/* interrupt bookkeeping */
 	uint64_t response;     /* interrupt response cycles (4, or 5 with a 3-byte PC) */

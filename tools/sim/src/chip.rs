@@ -23,9 +23,11 @@ pub enum Chip {
     Atmega2560,
 }
 
-/// Interrupt vector numbers (`__vector_N`) that matter to a Modbus slave on one chip and USART.
+/// Interrupt vector numbers (`__vector_N`) that matter to a Modbus slave or master on one chip and USART.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Vectors {
+    /// Timer/Counter0 compare match A (the master's silences and timeouts).
+    pub timer0_compa: u8,
     /// Timer/Counter0 compare match B.
     pub timer0_compb: u8,
     /// Timer/Counter0 overflow.
@@ -79,8 +81,8 @@ impl UsartRegs {
 struct Info {
     chip: Chip,
     name: &'static str,
-    /// Vector numbers of TIMER0_COMPB and TIMER0_OVF.
-    timer0: (u8, u8),
+    /// Vector numbers of TIMER0_COMPA, TIMER0_COMPB and TIMER0_OVF.
+    timer0: (u8, u8, u8),
     /// (USART number, vectors RX, UDRE, TX), first the one a board's Modbus wire uses by default.
     usarts: &'static [(u8, [u8; 3])],
     /// Bytes of a return address (the program counter pushed by CALL and interrupts).
@@ -98,7 +100,7 @@ const TABLE: [Info; 5] = [
     Info {
         chip: Chip::Atmega328p,
         name: "atmega328p",
-        timer0: (15, 16),
+        timer0: (14, 15, 16),
         usarts: &[(0, [18, 19, 20])],
         pc_bytes: 2,
         adc: 8,
@@ -107,7 +109,7 @@ const TABLE: [Info; 5] = [
     Info {
         chip: Chip::Atmega168,
         name: "atmega168",
-        timer0: (15, 16),
+        timer0: (14, 15, 16),
         usarts: &[(0, [18, 19, 20])],
         pc_bytes: 2,
         adc: 8,
@@ -116,7 +118,7 @@ const TABLE: [Info; 5] = [
     Info {
         chip: Chip::Atmega32u4,
         name: "atmega32u4",
-        timer0: (22, 23),
+        timer0: (21, 22, 23),
         usarts: &[(1, [25, 26, 27])],
         pc_bytes: 2,
         adc: 14,
@@ -125,7 +127,7 @@ const TABLE: [Info; 5] = [
     Info {
         chip: Chip::Atmega1280,
         name: "atmega1280",
-        timer0: (22, 23),
+        timer0: (21, 22, 23),
         usarts: MEGA_USARTS,
         pc_bytes: 2,
         adc: 16,
@@ -134,7 +136,7 @@ const TABLE: [Info; 5] = [
     Info {
         chip: Chip::Atmega2560,
         name: "atmega2560",
-        timer0: (22, 23),
+        timer0: (21, 22, 23),
         usarts: MEGA_USARTS,
         pc_bytes: 3,
         adc: 16,
@@ -191,8 +193,9 @@ impl Chip {
         let info = self.info();
         let &(_, [rx, udre, tx]) = info.usarts.iter().find(|u| u.0 == usart)?;
         Some(Vectors {
-            timer0_compb: info.timer0.0,
-            timer0_ovf: info.timer0.1,
+            timer0_compa: info.timer0.0,
+            timer0_compb: info.timer0.1,
+            timer0_ovf: info.timer0.2,
             usart_rx: rx,
             usart_udre: udre,
             usart_tx: tx,
@@ -275,6 +278,8 @@ mod tests {
         assert_eq!((v.timer0_compb, v.timer0_ovf, v.usart_rx, v.usart_udre, v.usart_tx), (15, 16, 18, 19, 20));
         assert_eq!(Chip::Atmega32u4.vectors(0), None);
         assert_eq!(Chip::Atmega32u4.vectors(1).unwrap().usart_rx, 25);
+        assert_eq!(v.timer0_compa, 14);
+        assert_eq!(Chip::Atmega2560.vectors(2).unwrap().timer0_compa, 21);
         assert_eq!(Chip::Atmega2560.vectors(3).unwrap().usart_tx, 56);
         assert_eq!(Chip::Atmega1280.vectors(2).unwrap().usart_udre, 52);
         assert_eq!(Chip::Atmega168.vectors(1), None);

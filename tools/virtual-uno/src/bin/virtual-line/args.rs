@@ -173,7 +173,8 @@ pub fn parse(words: impl Iterator<Item = String>) -> Result<Args, Option<String>
     if args.boards.is_empty() && args.ptys.is_empty() {
         return Err(Some("nothing on the line: give --board (and --pty)".to_owned()));
     }
-    let mut names: Vec<&str> = args.boards.iter().map(|b| b.name.as_str()).chain(args.ptys.iter().map(|p| p.name.as_str())).collect();
+    let mut names: Vec<&str> =
+        args.boards.iter().map(|b| b.name.as_str()).chain(args.ptys.iter().map(|p| p.name.as_str())).collect();
     names.sort_unstable();
     if let Some(w) = names.windows(2).find(|w| w[0] == w[1]) {
         return Err(Some(format!("two participants are named `{}`", w[0])));
@@ -318,7 +319,10 @@ mod tests {
 
     #[test]
     fn commands() {
-        assert_eq!(parse_command("set lab1 pin2 low"), Ok(LineCommand::Board("lab1".into(), Command::Pin(2, Some(false)))));
+        assert_eq!(
+            parse_command("set lab1 pin2 low"),
+            Ok(LineCommand::Board("lab1".into(), Command::Pin(2, Some(false))))
+        );
         assert_eq!(parse_command("lab1 pin 2 z"), Ok(LineCommand::Board("lab1".into(), Command::Pin(2, None))));
         assert_eq!(parse_command("tower reset"), Ok(LineCommand::Board("tower".into(), Command::Reset)));
         assert_eq!(parse_command("pins"), Ok(LineCommand::ShowPins));

@@ -54,6 +54,10 @@ pub struct Board {
     last_rx_end: u64,
     /// Characters it sent with DE low, not yet reported: (first start, bytes, last end).
     muted: Option<(u64, Vec<u8>, u64)>,
+    /// DE high since this sample, if it is.
+    de_high_from: Option<u64>,
+    /// Recent spans of DE high: (first sample high, first sample low again).
+    de_spans: VecDeque<(u64, u64)>,
 }
 
 impl Board {
@@ -71,6 +75,8 @@ impl Board {
             resets,
             last_rx_end: 0,
             muted: None,
+            de_high_from: None,
+            de_spans: VecDeque::new(),
         }
     }
 
@@ -80,6 +86,28 @@ impl Board {
             None => true,
             Some(pin) => self.uno.pin(pin).map(|s| s.output && s.level).unwrap_or(false),
         }
+    }
+
+    /// Records the DE level sampled at `now`.
+    fn sample_de(&mut self, now: u64, level: bool, keep_after: u64) {
+        match (self.de_high_from, level) {
+            (None, true) => self.de_high_from = Some(now),
+            (Some(from), false) => {
+                self.de_spans.push_back((from, now));
+                self.de_high_from = None;
+            }
+            _ => {}
+        }
+        while self.de_spans.front().is_some_and(|&(_, to)| to < keep_after) {
+            self.de_spans.pop_front();
+        }
+    }
+
+    /// Whether its DE pin (if it has one) was seen high between `from` and `to`: its driver
+    /// was on, driving the line (idle if it sent nothing), and its receiver off.
+    fn de_high_during(&self, from: u64, to: u64) -> bool {
+        self.de.is_some()
+            && (self.de_high_from.is_some_and(|f| f < to) || self.de_spans.iter().any(|&(f, t)| f < to && t > from))
     }
 
     /// `2=off 3=off 4=on ...`
@@ -132,6 +160,8 @@ struct Char {
     de_first: Option<bool>,
     de_dropped: bool,
     garbled: bool,
+    /// Boards whose DE was high while it was sent, though they sent nothing then.
+    contention: Vec<usize>,
 }
 
 /// A frame on the line, being collected.
@@ -144,6 +174,7 @@ struct Frame {
     cut: usize,
     max_gap: u64,
     silence_before: Option<u64>,
+    contention: Vec<usize>,
 }
 
 /// Counters for the summary.
@@ -159,6 +190,8 @@ pub struct Stats {
     pub cut: u64,
     /// Characters sent with DE low.
     pub muted: u64,
+    /// Characters garbled by another board's DE high while they were sent (no character of its own).
+    pub contention: u64,
     /// Frames with a bad CRC (collided ones not counted).
     pub bad_crc: u64,
 }
@@ -225,7 +258,8 @@ impl Bus {
 
     /// Carries out a command for a board.
     pub fn command(&mut self, name: &str, cmd: Command, text: &str) -> Result<(), String> {
-        let board = self.boards.iter_mut().find(|b| b.name == name).ok_or_else(|| format!("no board named `{name}`"))?;
+        let board =
+            self.boards.iter_mut().find(|b| b.name == name).ok_or_else(|| format!("no board named `{name}`"))?;
         cmd.apply(&mut board.uno).map_err(|e| e.to_string())?;
         if cmd == Command::Reset {
             board.stopped = false;
@@ -253,20 +287,26 @@ impl Bus {
     /// Bytes an outside program wrote to pty `k`: on the line from now, back to back.
     pub fn pty_sent(&mut self, k: usize, bytes: &[u8]) -> Result<(), String> {
         let port = &mut self.ptys[k];
-        let settings = port.pty.master_settings().map_err(|e| format!("{}: reading the pty's settings: {e}", port.name))?;
+        let settings =
+            port.pty.master_settings().map_err(|e| format!("{}: reading the pty's settings: {e}", port.name))?;
         if port.reported != Some(settings) {
             port.reported = Some(settings);
             let same = settings.baud == self.line.baud && settings.stop_bits == self.line.stop_bits;
             let msg = format!(
                 "{} sends at {settings}{}",
                 port.name,
-                if same { String::new() } else { format!(", the line is {}: its characters arrive garbled", self.line) }
+                if same {
+                    String::new()
+                } else {
+                    format!(", the line is {}: its characters arrive garbled", self.line)
+                }
             );
             println!("{} {msg}", stamp(self.now));
         }
         // A pty shows even parity as none: the line's character time when the rates agree.
         let same = settings.baud == self.line.baud && settings.stop_bits == self.line.stop_bits;
-        let (char_cycles, tx_settings) = if same { (self.char_cycles, self.line) } else { (settings.char_cycles().max(1), settings) };
+        let (char_cycles, tx_settings) =
+            if same { (self.char_cycles, self.line) } else { (settings.char_cycles().max(1), settings) };
         let src = self.boards.len() + k;
         for &byte in bytes {
             let start = self.ptys[k].tx_last_end.max(self.now);
@@ -282,6 +322,7 @@ impl Bus {
                 de_first: Some(true),
                 de_dropped: false,
                 garbled: false,
+                contention: Vec::new(),
             });
         }
         Ok(())
@@ -319,10 +360,15 @@ impl Bus {
                     de_first: None,
                     de_dropped: false,
                     garbled: false,
+                    contention: Vec::new(),
                 });
             }
         }
         let levels: Vec<bool> = self.boards.iter().map(Board::de_level).collect();
+        let keep_after = self.now.saturating_sub(4 * self.char_cycles);
+        for (b, &level) in self.boards.iter_mut().zip(&levels) {
+            b.sample_de(self.now, level, keep_after);
+        }
         for c in &mut self.pending {
             if c.src < levels.len() && c.start <= self.now {
                 let level = levels[c.src];
@@ -381,6 +427,22 @@ impl Bus {
                 }
             }
         }
+        // A board driving the line (DE high) without sending a character of its own.
+        for (j, b) in self.boards.iter().enumerate() {
+            let sending = j == c.src
+                || self
+                    .pending
+                    .iter()
+                    .chain(self.recent.iter())
+                    .any(|o| o.src == j && o.start < c.decide && c.start < o.decide);
+            if !sending && b.de_high_during(c.start, c.decide) {
+                c.contention.push(j);
+            }
+        }
+        if !c.contention.is_empty() {
+            c.garbled = true;
+            self.stats.contention += 1;
+        }
         let error = if c.garbled || c.de_dropped { Some(LineError::Framing) } else { None };
         if c.garbled {
             self.stats.garbled += 1;
@@ -391,8 +453,8 @@ impl Bus {
 
         // To every board but the sender.
         for (i, b) in self.boards.iter_mut().enumerate() {
-            if i == c.src || b.stopped {
-                continue;
+            if i == c.src || b.stopped || b.de_high_during(c.start, c.decide) {
+                continue; // its receiver is off while its DE is high (/RE tied to DE)
             }
             if c.garbled && b.last_rx_end >= c.end {
                 continue; // one garbled character where two ended together
@@ -432,6 +494,11 @@ impl Bus {
                 }
                 f.garbled += usize::from(c.garbled);
                 f.cut += usize::from(c.de_dropped && !c.garbled);
+                for &j in &c.contention {
+                    if !f.contention.contains(&j) {
+                        f.contention.push(j);
+                    }
+                }
             }
             None => {
                 self.frame = Some(Frame {
@@ -443,6 +510,7 @@ impl Bus {
                     cut: usize::from(c.de_dropped && !c.garbled),
                     max_gap: 0,
                     silence_before: self.last_frame_end.map(|e| c.start.saturating_sub(e)),
+                    contention: c.contention.clone(),
                 });
             }
         }
@@ -485,11 +553,13 @@ impl Bus {
         let chars = |n: u64| n as f64 / char_cycles as f64;
         if f.garbled > 0 {
             self.stats.collisions += 1;
+            let mut who = names.clone();
+            who.extend(f.contention.iter().map(|&j| format!("{} (DE high, sending nothing)", self.name(j))));
             notes.push(format!(
-                "COLLISION: {} of {} characters garbled, {} transmitting at once",
+                "COLLISION: {} of {} characters garbled, {} driving the line at once",
                 f.garbled,
                 f.bytes.len(),
-                names.join(" and ")
+                who.join(" and ")
             ));
         } else {
             self.stats.frames[f.senders[0]] += 1;
@@ -538,7 +608,9 @@ impl Bus {
                     Some(s) if s.baud == line.baud && s.parity == line.parity && s.stop_bits == line.stop_bits => {
                         self.say(&format!("{} serial: {s} (USART{})", b.name, b.uno.usart()))
                     }
-                    Some(s) => self.say(&format!("{} serial: {s} (USART{}); the line is {line}!", b.name, b.uno.usart())),
+                    Some(s) => {
+                        self.say(&format!("{} serial: {s} (USART{}); the line is {line}!", b.name, b.uno.usart()))
+                    }
                     None => self.say(&format!("{} serial: off", b.name)),
                 }
             }
@@ -557,14 +629,15 @@ impl Bus {
         let per: Vec<String> =
             self.stats.frames.iter().enumerate().map(|(i, n)| format!("{} {n}", self.name(i))).collect();
         format!(
-            "summary: {:.3} s simulated; frames: {}; collisions: {} ({} characters garbled); bad CRC: {}; cut by DE: {}; sent with DE low: {}",
+            "summary: {:.3} s simulated; frames: {}; collisions: {} ({} characters garbled); bad CRC: {}; cut by DE: {}; sent with DE low: {}; DE high over another's characters: {}",
             self.now as f64 / F_CPU as f64,
             per.join(", "),
             self.stats.collisions,
             self.stats.garbled,
             self.stats.bad_crc,
             self.stats.cut,
-            self.stats.muted
+            self.stats.muted,
+            self.stats.contention
         )
     }
 

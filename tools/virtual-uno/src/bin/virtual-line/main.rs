@@ -184,7 +184,9 @@ fn run(args: args::Args) -> Result<(), String> {
         let options = Options { chip: b.chip, usart: b.usart, ..Options::new() };
         let mut uno = Uno::load_with(&b.elf, options).map_err(|e| format!("{}: {e}", b.name))?;
         let has_pins = uno.chip().has_uno_pinout();
-        if !has_pins && (b.de.is_some() || !b.initial.is_empty() || b.watch != args::DEFAULT_WATCH && !b.watch.is_empty()) {
+        if !has_pins
+            && (b.de.is_some() || !b.initial.is_empty() || b.watch != args::DEFAULT_WATCH && !b.watch.is_empty())
+        {
             return Err(format!("{}: pin numbers are the Uno's; the {} has none of them", b.name, uno.chip()));
         }
         for cmd in &b.initial {
@@ -206,7 +208,9 @@ fn run(args: args::Args) -> Result<(), String> {
     for p in &args.ptys {
         let pty = Pty::open().map_err(|e| format!("cannot open a pseudo-terminal: {e}"))?;
         let link = match &p.link {
-            Some(path) => Some(Link::create(path, pty.path()).map_err(|e| format!("cannot link {}: {e}", path.display()))?),
+            Some(path) => {
+                Some(Link::create(path, pty.path()).map_err(|e| format!("cannot link {}: {e}", path.display()))?)
+            }
             None => None,
         };
         println!(
@@ -251,11 +255,7 @@ fn run(args: args::Args) -> Result<(), String> {
     let until = args.until.unwrap_or(u64::MAX);
     'run: loop {
         let behind = clock.due().saturating_sub(bus.now);
-        let timeout = if !args.pace || behind > 0 {
-            PollTimeout::ZERO
-        } else {
-            PollTimeout::from(1u8)
-        };
+        let timeout = if !args.pace || behind > 0 { PollTimeout::ZERO } else { PollTimeout::from(1u8) };
         let mut fds = vec![PollFd::new(signal_fd.as_fd(), PollFlags::POLLIN)];
         fds.extend(bus.ptys.iter().map(|p| PollFd::new(p.pty.fd(), PollFlags::POLLIN)));
         let first_source = fds.len();
