@@ -316,6 +316,23 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         self.values.set(table, at, value)
     }
 
+    /// The `u32`, `i32` or `f32` the two registers from `first` hold, in `order` (see
+    /// [`crate::WordOrder`]): `bank.get_wide::<f32>(40010, WordOrder::HighFirst)`.
+    pub fn get_wide<T: crate::Wide>(&self, first: impl IntoReference, order: crate::WordOrder) -> Result<T, Error> {
+        crate::wide::get(self, first.into_reference()?, order)
+    }
+
+    /// Sets the two registers from `first` to `value` in `order`: both, or neither when one
+    /// is missing.
+    pub fn set_wide<T: crate::Wide>(
+        &mut self,
+        first: impl IntoReference,
+        value: T,
+        order: crate::WordOrder,
+    ) -> Result<(), Error> {
+        crate::wide::set(self, first.into_reference()?, value, order)
+    }
+
     #[cfg(feature = "write-protect")]
     /// Makes `count` coils or holding registers from `first` read-only to the master: a
     /// write touching any of them is answered with exception 02 (Illegal Data Address: the

@@ -26,6 +26,7 @@ mod reference;
 mod settings;
 mod storage;
 mod timing;
+mod wide;
 
 #[cfg(target_arch = "avr")]
 #[doc(hidden)]
@@ -49,6 +50,7 @@ pub use pdu::Exception;
 pub use reference::{IntoReference, Reference, Table};
 #[cfg(feature = "eeprom-settings")]
 pub use settings::Configurable;
+pub use wide::{Wide, WordOrder};
 
 /// The protocol engine's parts, for this crate's tests, simulator and benchmarks: not
 /// part of the API, and they change without notice.

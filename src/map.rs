@@ -156,6 +156,54 @@ impl Layout {
     }
 }
 
+impl Layout {
+    /// The ranges declared as pairs, decoded: (table, first address, last address).
+    /// Panics (a build error) unless each is registers, an even number of them.
+    pub const fn pairs<const N: usize>(declared: &[Option<(u32, u32)>]) -> [Option<(Table, u16, u16)>; N] {
+        let mut out = [None; N];
+        let mut i = 0;
+        while i < N {
+            if let Some(range) = declared[i] {
+                let (table, start, last) = decode(range);
+                if table.is_bits() {
+                    panic!("register_map!: pairs (as u32, i32, f32) are registers, 30001 or 40001 ...");
+                }
+                if (last - start) % 2 == 0 {
+                    panic!("register_map!: a range of pairs (as u32, i32, f32) holds an even number of registers");
+                }
+                out[i] = Some((table, start, last));
+            }
+            i += 1;
+        }
+        out
+    }
+
+    /// True when a range is declared as pairs.
+    pub const fn any_pair(declared: &[Option<(u32, u32)>]) -> bool {
+        let mut i = 0;
+        while i < declared.len() {
+            if declared[i].is_some() {
+                return true;
+            }
+            i += 1;
+        }
+        false
+    }
+
+    /// True when writing `qty` registers of `table` from `start` would write one register of
+    /// a pair and not the other: it starts on a pair's second register or ends on a first.
+    #[inline(always)]
+    pub fn cuts_pair(pairs: &[Option<(Table, u16, u16)>], table: Table, start: u16, qty: u16) -> bool {
+        let (start, end) = (u32::from(start), u32::from(start) + u32::from(qty) - 1);
+        pairs.iter().flatten().any(|&(pair_table, first, last)| {
+            let (first, last) = (u32::from(first), u32::from(last));
+            let starts_on_a_second = start > first && start <= last && (start - first) % 2 == 1;
+            let ends_on_a_first = end >= first && end < last && (end - first) % 2 == 0;
+            pair_table as u8 == table as u8 && (starts_on_a_second || ends_on_a_first)
+        })
+    }
+}
+
 impl Span {
     /// A range `start..=last` of `table` with no other range following it without a gap,
     /// its first value at storage index 0: a [`crate::Bank`]'s run.
@@ -200,6 +248,25 @@ impl Span {
 /// assert_eq!(core::mem::size_of::<Registers>(), 2 * 24 + 4 + 2);
 /// ```
 ///
+/// A range of registers may be declared as pairs holding 32-bit values, `as u32`, `as i32`
+/// or `as f32` (`40011..=40014 as f32`: two floats): the application reads and writes each
+/// with `get_wide` and `set_wide` (in either [`crate::WordOrder`]), and a master's write that
+/// would change one register of a pair and not the other gets exception 02, so that a pair
+/// is never half old, half new. Reads of one register of a pair are answered.
+///
+/// ```
+/// use avr_modbus::WordOrder;
+/// avr_modbus::register_map! {
+///     struct Meter { 40001..=40010, 40011..=40014 as f32, 30001..=30002 as u32 }
+/// }
+/// let mut map = Meter::new();
+/// map.set_wide(40011, 1.0f32, WordOrder::HighFirst).unwrap();
+/// assert_eq!((map.get(40011), map.get(40012)), (Ok(0x3F80), Ok(0x0000)));
+/// map.set_wide(30001, 0x1234_5678u32, WordOrder::LowFirst).unwrap();
+/// assert_eq!((map.get(30001), map.get(30002)), (Ok(0x5678), Ok(0x1234)));
+/// assert_eq!(map.get_wide::<u32>(30001, WordOrder::LowFirst), Ok(0x1234_5678));
+/// ```
+///
 /// A reference that is not a classic one, an empty range or two ranges that overlap fail
 /// the build:
 ///
@@ -211,7 +278,7 @@ impl Span {
 /// ```
 #[macro_export]
 macro_rules! register_map {
-    ($(#[$attr:meta])* $vis:vis struct $name:ident { $($first:literal $(..= $last:literal)?),+ $(,)? }) => {
+    ($(#[$attr:meta])* $vis:vis struct $name:ident { $($first:literal $(..= $last:literal)? $(as $wide:ident)?),+ $(,)? }) => {
         $(#[$attr])*
         $vis struct $name(
             $crate::internal::map::Values<
@@ -242,6 +309,18 @@ macro_rules! register_map {
                 ::core::option::Option::None
             }
 
+            /// True when writing `qty` registers of `table` from `start` would write one
+            /// register of a pair declared `as u32`, `as i32` or `as f32` without the other;
+            /// never in a map without pairs (folded away).
+            #[inline(always)]
+            fn cuts_pair(table: $crate::Table, start: u16, qty: u16) -> bool {
+                const DECLARED: &[::core::option::Option<(u32, u32)>] = &[$($crate::__pair!($first $(..= $last)? $(as $wide)?)),+];
+                const PAIRS: &[::core::option::Option<($crate::Table, u16, u16)>] =
+                    &$crate::internal::map::Layout::pairs::<{ DECLARED.len() }>(DECLARED);
+                const ANY: bool = $crate::internal::map::Layout::any_pair(DECLARED);
+                ANY && $crate::internal::map::Layout::cuts_pair(PAIRS, table, start, qty)
+            }
+
             #[inline(always)]
             fn locate_one(reference: $crate::Reference) -> ::core::option::Option<usize> {
                 Self::locate(reference.table, reference.address, 1)
@@ -261,6 +340,18 @@ macro_rules! register_map {
             $vis fn set(&mut self, reference: impl $crate::IntoReference, value: u16) -> ::core::result::Result<(), $crate::Error> {
                 let reference = reference.into_reference()?;
                 self.0.set(reference.table, Self::locate_one(reference), value)
+            }
+
+            /// The `u32`, `i32` or `f32` the two registers from `first` hold, in `order`.
+            #[allow(dead_code)]
+            $vis fn get_wide<T: $crate::Wide>(&self, first: impl $crate::IntoReference, order: $crate::WordOrder) -> ::core::result::Result<T, $crate::Error> {
+                <Self as $crate::DataModel>::get_wide(self, first.into_reference()?, order)
+            }
+
+            /// Sets the two registers from `first` to `value` in `order`: both, or neither.
+            #[allow(dead_code)]
+            $vis fn set_wide<T: $crate::Wide>(&mut self, first: impl $crate::IntoReference, value: T, order: $crate::WordOrder) -> ::core::result::Result<(), $crate::Error> {
+                <Self as $crate::DataModel>::set_wide(self, first.into_reference()?, value, order)
             }
 
             /// True if the map has the reference.
@@ -318,7 +409,9 @@ macro_rules! register_map {
                 qty: u16,
                 data: &mut [u8],
             ) -> ::core::result::Result<(), $crate::Exception> {
-                self.0.transfer(access, table, Self::locate(table, start, qty), qty, data)
+                let at = Self::locate(table, start, qty);
+                let cuts = access == $crate::internal::Access::Write && Self::cuts_pair(table, start, qty);
+                self.0.transfer(access, table, if cuts { ::core::option::Option::None } else { at }, qty, data)
             }
 
             fn has_range(&self, table: $crate::Table, start: u16, qty: u16) -> bool {
@@ -331,7 +424,9 @@ macro_rules! register_map {
 
             fn write_registers(&mut self, start: u16, values: &[u8]) -> ::core::result::Result<(), $crate::Exception> {
                 let qty = (values.len() / 2) as u16;
-                self.0.write_words(Self::locate($crate::Table::HoldingRegisters, start, qty), values)
+                let at = Self::locate($crate::Table::HoldingRegisters, start, qty);
+                let cuts = Self::cuts_pair($crate::Table::HoldingRegisters, start, qty);
+                self.0.write_words(if cuts { ::core::option::Option::None } else { at }, values)
             }
 
             #[inline(always)]
@@ -361,6 +456,24 @@ macro_rules! register_map {
                 self.0.identification()
             }
         }
+    };
+}
+
+/// One range of [`register_map!`] as a pair range: `Some((first, last))` when declared
+/// `as u32`, `as i32` or `as f32` (the type checked to be one of them), else `None`.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __pair {
+    ($first:literal ..= $last:literal as $wide:ident) => {{
+        const fn wide<T: $crate::Wide>() {}
+        wide::<$wide>();
+        ::core::option::Option::Some(($first, $last))
+    }};
+    ($first:literal as $wide:ident) => {
+        ::core::compile_error!("register_map!: a pair takes a range of two registers, first..=last")
+    };
+    ($first:literal $(..= $last:literal)?) => {
+        ::core::option::Option::None
     };
 }
 

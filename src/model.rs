@@ -147,6 +147,24 @@ pub trait DataModel {
         Err(Error::NotFound)
     }
 
+    /// The `u32`, `i32` or `f32` the two registers from `first` hold, in `order` (see
+    /// [`crate::WordOrder`]), read from [`DataModel::value`].
+    fn get_wide<T: crate::Wide>(&self, first: Reference, order: crate::WordOrder) -> Result<T, Error>
+    where
+        Self: Sized,
+    {
+        crate::wide::get(self, first, order)
+    }
+
+    /// Sets the two registers from `first` to `value` in `order` with
+    /// [`DataModel::set_value`]: both, or neither when one is missing.
+    fn set_wide<T: crate::Wide>(&mut self, first: Reference, value: T, order: crate::WordOrder) -> Result<(), Error>
+    where
+        Self: Sized,
+    {
+        crate::wide::set(self, first, value, order)
+    }
+
     /// How many master writes succeeded so far, wrapping (see
     /// [`crate::Bank::master_writes`]).
     fn master_writes(&self) -> u16 {

@@ -386,6 +386,29 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> S
         self.with(|model| model.set_value(reference, value)).unwrap_or(Err(Error::NotFound))
     }
 
+    /// The `u32`, `i32` or `f32` the two registers from `first` hold, in `order` (see
+    /// [`crate::WordOrder`]): both read with interrupts disabled, so never a pair the master
+    /// is writing half of (its write runs whole in an interrupt).
+    pub fn get_wide<T: crate::Wide>(&self, first: impl IntoReference, order: crate::WordOrder) -> Result<T, Error> {
+        let first = first.into_reference()?;
+        self.with(|model| model.get_wide(first, order)).unwrap_or(Err(Error::NotFound))
+    }
+
+    /// Sets the two registers from `first` to `value` in `order`, both with interrupts
+    /// disabled: a master never reads the pair half old, half new.
+    pub fn set_wide<T: crate::Wide>(
+        &self,
+        first: impl IntoReference,
+        value: T,
+        order: crate::WordOrder,
+    ) -> Result<(), Error> {
+        let first = first.into_reference()?;
+        // Worked out before interrupts go off.
+        let [a, b] = order.split(value);
+        let bits = crate::WordOrder::HighFirst.join::<u32>([reg::computed(a), reg::computed(b)]);
+        self.with(|model| model.set_wide(first, bits, crate::WordOrder::HighFirst)).unwrap_or(Err(Error::NotFound))
+    }
+
     /// How many master writes succeeded so far, wrapping (see
     /// [`crate::Bank::master_writes`]): compare it with the last value seen to learn that
     /// the master wrote something.

@@ -122,6 +122,13 @@ impl<'a> Reply<'a> {
         values.chunks_exact(2).take(self.register_count()).map(|pair| u16::from_be_bytes([pair[0], pair[1]]))
     }
 
+    /// The `u32`, `i32` or `f32` registers `index` and `index + 1` of a read of registers
+    /// hold in `order` (see [`crate::WordOrder`]): `reply.wide::<f32>(0, WordOrder::HighFirst)`;
+    /// `None` past the last register.
+    pub fn wide<T: crate::Wide>(&self, index: usize, order: crate::WordOrder) -> Option<T> {
+        Some(order.join([self.register(index)?, self.register(index.checked_add(1)?)?]))
+    }
+
     /// Coil or input `index` of a read of bits (FC 1, 2), counted from the first one
     /// asked; `None` past the last, and for any other reply.
     pub fn bit(&self, index: usize) -> Option<bool> {

@@ -595,6 +595,8 @@ struct Report {
     features: Vec<FeatureCost>,
     /// `boards` on every chip and USART.
     chips: Vec<ChipRun>,
+    /// The master: `master_boards` on every chip and USART, `poll_holding`'s send latency.
+    master: master::Measured,
 }
 
 /// An optional feature: what it costs as measured, and what the README says.
@@ -746,6 +748,7 @@ fn measure(root: &Path, log: &mut Log) -> Result<Report> {
         contract_mix,
         features: feature_costs(root),
         chips: chip_runs(root, log)?,
+        master: master::measure(root, log)?,
     })
 }
 
@@ -851,6 +854,7 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
             Some(mean <= RX_TARGET_CYCLES as f64 && max <= RX_TARGET_CYCLES as f64),
         )?;
     }
+    master::target_rows(&r.master, &mut row)?;
     let mix = &r.mix;
     let p99 = mix.percentile(TURNAROUND_PERCENTILE);
     let target_cycles = (TURNAROUND_TARGET_US * CYCLES_PER_US as f64) as i64;
@@ -941,7 +945,7 @@ fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
         }
     }
 
-    master::section(&mut md, root)?;
+    master::section(&mut md, root, &r.master)?;
 
     writeln!(md, "\n### Optional features against the README\n")?;
     writeln!(
@@ -1195,6 +1199,24 @@ fn main() -> ExitCode {
     let root = root.canonicalize().unwrap_or(root);
     let started = Instant::now();
     let mut log = Log::default();
+    // `bench master`: the master's timing alone, printed and not written.
+    if std::env::args().nth(1).as_deref() == Some("master") {
+        return match master::only(&root, &mut log) {
+            Ok(md) => {
+                print!("{md}");
+                log.problems.iter().for_each(|p| eprintln!("bench: {p}"));
+                if log.problems.is_empty() {
+                    ExitCode::SUCCESS
+                } else {
+                    ExitCode::FAILURE
+                }
+            }
+            Err(e) => {
+                eprintln!("bench: {e}");
+                ExitCode::FAILURE
+            }
+        };
+    }
     let md = match measure(&root, &mut log).and_then(|report| render(&report, &log, &root)) {
         Ok(md) => md,
         Err(e) => {

@@ -51,7 +51,7 @@
 
 DEFINE_FIFO(uint16_t, uart_fifo);
 
-/* Data-space addresses of the wire USART's registers: UCSRnA is at s->base. */
+/* Data-space addresses of a wire USART's registers: UCSRnA is at w->base. */
 #define R_UCSRA(s) ((s)->base)
 #define R_UCSRB(s) ((s)->base + 1)
 #define R_UCSRC(s) ((s)->base + 2)
@@ -197,11 +197,11 @@ static void install_logger(void)
 /* ------------------------------------------------------------------------- */
 /* helpers                                                                   */
 
-static uint64_t char_cycles(const uno_shim_t *s)
+static uint64_t char_cycles(const wire_t *w)
 {
-	const uint8_t *d = s->avr->data;
-	uint8_t a = d[R_UCSRA(s)], b = d[R_UCSRB(s)], c = d[R_UCSRC(s)];
-	uint64_t ubrr = ((uint64_t)(d[R_UBRRH(s)] & 0x0F) << 8) | d[R_UBRRL(s)];
+	const uint8_t *d = w->shim->avr->data;
+	uint8_t a = d[R_UCSRA(w)], b = d[R_UCSRB(w)], c = d[R_UCSRC(w)];
+	uint64_t ubrr = ((uint64_t)(d[R_UBRRH(w)] & 0x0F) << 8) | d[R_UBRRL(w)];
 	uint64_t bit = (ubrr + 1) * ((a & 0x02) ? 8 : 16);
 	int ucsz = ((c >> 1) & 3) | ((b & 0x04) ? 4 : 0);
 	int data_bits = ucsz <= 3 ? 5 + ucsz : (ucsz == 7 ? 9 : 8);
@@ -220,22 +220,22 @@ static void clear_flag(avr_t *avr, avr_int_vector_t *v)
 
 /* Park simavr's TX pump: keep it "flying" (far in the future) while UDRn holds a
  * byte, so that enabling UDRIEn does not raise UDREn; remove it otherwise. */
-static void park_uart_pump(uno_shim_t *s)
+static void park_uart_pump(wire_t *w)
 {
-	avr_t *avr = s->avr;
-	avr_uart_t *p = s->uart;
-	if (!s->uart_pump) {
+	avr_t *avr = w->shim->avr;
+	avr_uart_t *p = w->uart;
+	if (!w->uart_pump) {
 		for (avr_cycle_timer_slot_p t = avr->cycle_timers.timer; t; t = t->next)
 			if (t->param == p) {
-				s->uart_pump = t->timer;
+				w->uart_pump = t->timer;
 				break;
 			}
 	}
-	if (s->uart_pump) {
-		if (s->tx_buf_full)
-			avr_cycle_timer_register(avr, (avr_cycle_count_t)1 << 60, s->uart_pump, p);
+	if (w->uart_pump) {
+		if (w->tx_buf_full)
+			avr_cycle_timer_register(avr, (avr_cycle_count_t)1 << 60, w->uart_pump, p);
 		else
-			avr_cycle_timer_cancel(avr, s->uart_pump, p);
+			avr_cycle_timer_cancel(avr, w->uart_pump, p);
 	}
 	p->tx_cnt = 0;
 }
@@ -243,33 +243,33 @@ static void park_uart_pump(uno_shim_t *s)
 /* ------------------------------------------------------------------------- */
 /* TX                                                                        */
 
-static void tx_push_log(uno_shim_t *s, uint8_t byte, uint64_t start, uint64_t end)
+static void tx_push_log(wire_t *w, uint8_t byte, uint64_t start, uint64_t end)
 {
-	if (s->tx_len == s->tx_cap) {
-		size_t cap = s->tx_cap ? s->tx_cap * 2 : 256;
-		uno_tx_t *n = realloc(s->tx, cap * sizeof(*n));
+	if (w->tx_len == w->tx_cap) {
+		size_t cap = w->tx_cap ? w->tx_cap * 2 : 256;
+		uno_tx_t *n = realloc(w->tx, cap * sizeof(*n));
 		if (!n)
 			return;
-		s->tx = n;
-		s->tx_cap = cap;
+		w->tx = n;
+		w->tx_cap = cap;
 	}
-	s->tx[s->tx_len++] = (uno_tx_t){ .start = start, .end = end, .byte = byte };
+	w->tx[w->tx_len++] = (uno_tx_t){ .start = start, .end = end, .byte = byte };
 }
 
 /* Advance the transmitter model to cycle `now`. */
-static void tx_catch_up(uno_shim_t *s, uint64_t now)
+static void tx_catch_up(wire_t *w, uint64_t now)
 {
-	avr_t *avr = s->avr;
-	while (s->tx_active && s->tx_shift_end <= now) {
-		if (s->tx_buf_full) {
+	avr_t *avr = w->shim->avr;
+	while (w->tx_active && w->tx_shift_end <= now) {
+		if (w->tx_buf_full) {
 			/* UDRn -> shift register right after the previous stop bit */
-			s->tx_shift_end = s->tx_buf_end;
-			s->tx_buf_full = 0;
-			avr_raise_interrupt(avr, &s->uart->udrc);
-			park_uart_pump(s);
+			w->tx_shift_end = w->tx_buf_end;
+			w->tx_buf_full = 0;
+			avr_raise_interrupt(avr, &w->uart->udrc);
+			park_uart_pump(w);
 		} else {
-			s->tx_active = 0;
-			avr_raise_interrupt(avr, &s->uart->txc);
+			w->tx_active = 0;
+			avr_raise_interrupt(avr, &w->uart->txc);
 		}
 	}
 }
@@ -277,9 +277,9 @@ static void tx_catch_up(uno_shim_t *s, uint64_t now)
 static avr_cycle_count_t tx_timer(avr_t *avr, avr_cycle_count_t when, void *param)
 {
 	(void)avr;
-	uno_shim_t *s = param;
-	tx_catch_up(s, when);
-	return s->tx_active ? s->tx_shift_end : 0;
+	wire_t *w = param;
+	tx_catch_up(w, when);
+	return w->tx_active ? w->tx_shift_end : 0;
 }
 
 /* UART_IRQ_OUTPUT: raised by simavr from within the UDRn write (only when TXENn is
@@ -287,27 +287,27 @@ static avr_cycle_count_t tx_timer(avr_t *avr, avr_cycle_count_t when, void *para
 static void tx_output_irq(avr_irq_t *irq, uint32_t value, void *param)
 {
 	(void)irq;
-	uno_shim_t *s = param;
-	avr_t *avr = s->avr;
+	wire_t *w = param;
+	avr_t *avr = w->shim->avr;
 	uint64_t written = avr->cycle + 2; /* ST/STS take 2 cycles; the write lands at the end */
-	uint64_t ch = char_cycles(s);
+	uint64_t ch = char_cycles(w);
 
-	s->tx_written = 1;
-	tx_catch_up(s, written);
-	if (!s->tx_active) {
-		s->tx_active = 1;
-		s->tx_shift_end = written + ch;
-		tx_push_log(s, (uint8_t)value, written, s->tx_shift_end);
-		avr_cycle_timer_register(avr, s->tx_shift_end - avr->cycle, tx_timer, s);
+	w->tx_written = 1;
+	tx_catch_up(w, written);
+	if (!w->tx_active) {
+		w->tx_active = 1;
+		w->tx_shift_end = written + ch;
+		tx_push_log(w, (uint8_t)value, written, w->tx_shift_end);
+		avr_cycle_timer_register(avr, w->tx_shift_end - avr->cycle, tx_timer, w);
 		/* straight into the shift register: the buffer is empty again */
-		avr_raise_interrupt(avr, &s->uart->udrc);
-	} else if (!s->tx_buf_full) {
-		s->tx_buf_full = 1;
-		s->tx_buf_end = s->tx_shift_end + ch;
-		tx_push_log(s, (uint8_t)value, s->tx_shift_end, s->tx_buf_end);
+		avr_raise_interrupt(avr, &w->uart->udrc);
+	} else if (!w->tx_buf_full) {
+		w->tx_buf_full = 1;
+		w->tx_buf_end = w->tx_shift_end + ch;
+		tx_push_log(w, (uint8_t)value, w->tx_shift_end, w->tx_buf_end);
 	} else {
 		/* data sheet: written while UDREn is clear -> ignored by the transmitter */
-		s->tx_ignored++;
+		w->tx_ignored++;
 	}
 }
 
@@ -330,12 +330,12 @@ static void other_output_irq(avr_irq_t *irq, uint32_t value, void *param)
 /* ------------------------------------------------------------------------- */
 /* RX                                                                        */
 
-static void rx_deliver(uno_shim_t *s, uint16_t value)
+static void rx_deliver(wire_t *w, uint16_t value)
 {
-	avr_t *avr = s->avr;
-	avr_uart_t *p = s->uart;
+	avr_t *avr = w->shim->avr;
+	avr_uart_t *p = w->uart;
 	if (!avr_regbit_get(avr, p->rxen)) {
-		s->rx_dropped++;
+		w->rx_dropped++;
 		return;
 	}
 	uart_fifo_t *f = &p->input;
@@ -344,7 +344,7 @@ static void rx_deliver(uno_shim_t *s, uint16_t value)
 		/* data overrun: the new frame replaces the one waiting in the shift register */
 		f->buffer[(f->write - 1) & (uart_fifo_fifo_size - 1)] = value;
 		avr_regbit_set(avr, p->dor);
-		s->rx_overruns++;
+		w->rx_overruns++;
 	} else {
 		uart_fifo_write(f, value);
 	}
@@ -354,16 +354,16 @@ static void rx_deliver(uno_shim_t *s, uint16_t value)
 static avr_cycle_count_t rx_timer(avr_t *avr, avr_cycle_count_t when, void *param)
 {
 	(void)avr;
-	uno_shim_t *s = param;
-	while (s->rx_head < s->rx_len && s->rx[s->rx_head].at <= when) {
-		rx_deliver(s, s->rx[s->rx_head].value);
-		s->rx_head++;
+	wire_t *w = param;
+	while (w->rx_head < w->rx_len && w->rx[w->rx_head].at <= when) {
+		rx_deliver(w, w->rx[w->rx_head].value);
+		w->rx_head++;
 	}
-	if (s->rx_head == s->rx_len) {
-		s->rx_head = s->rx_len = 0;
+	if (w->rx_head == w->rx_len) {
+		w->rx_head = w->rx_len = 0;
 		return 0;
 	}
-	return s->rx[s->rx_head].at;
+	return w->rx[w->rx_head].at;
 }
 
 /* ------------------------------------------------------------------------- */
@@ -426,29 +426,36 @@ static avr_cycle_count_t stop_timer(avr_t *avr, avr_cycle_count_t when, void *pa
 	return 0;
 }
 
-/* After every instruction: restore the hardware invariants simavr would break.
- * `dor_before`/`read_before`: DORn and the receive FIFO's read cursor before it. */
-static void post_step(uno_shim_t *s, int dor_before, unsigned read_before)
+/* Before every instruction: what post_step compares with. */
+static void pre_step(wire_t *w)
 {
-	avr_t *avr = s->avr;
-	avr_uart_t *p = s->uart;
-	uint8_t ucsrb = avr->data[R_UCSRB(s)];
+	w->dor_before = (w->shim->avr->data[R_UCSRA(w)] >> DOR) & 1;
+	w->read_before = w->uart->input.read;
+}
+
+/* After every instruction: restore the hardware invariants simavr would break on wire
+ * `w`, against DORn and the receive FIFO's read cursor before it (pre_step). */
+static void post_step(wire_t *w)
+{
+	avr_t *avr = w->shim->avr;
+	avr_uart_t *p = w->uart;
+	uint8_t ucsrb = avr->data[R_UCSRB(w)];
 
 	/* DORn is read-only on the chip; simavr clears it on any UCSRnA write. Only reading
 	 * UDRn may clear it. */
-	if (dor_before && p->input.read == read_before)
-		avr->data[R_UCSRA(s)] |= 1 << DOR;
+	if (w->dor_before && p->input.read == w->read_before)
+		avr->data[R_UCSRA(w)] |= 1 << DOR;
 
 	/* disarm simavr's "bytes read too fast" check: our FIFO only holds received bytes */
 	p->rx_cnt = 0;
-	if (s->tx_written) {
-		s->tx_written = 0;
-		park_uart_pump(s);
+	if (w->tx_written) {
+		w->tx_written = 0;
+		park_uart_pump(w);
 	}
 
 	/* UDREn == transmit buffer empty; level-triggered interrupt */
 	int udre = avr_regbit_get(avr, p->udrc.raised);
-	if (s->tx_buf_full) {
+	if (w->tx_buf_full) {
 		if (udre)
 			clear_flag(avr, &p->udrc);
 	} else if (!udre || ((ucsrb & UCSRB_UDRIE) && !p->udrc.pending)) {
@@ -463,14 +470,14 @@ static void post_step(uno_shim_t *s, int dor_before, unsigned read_before)
 			avr_raise_interrupt(avr, &p->rxc);
 		/* FEn (simavr sets it on UCSRnA reads) and UPEn follow the oldest unread frame */
 		uint16_t head = f->buffer[f->read & (uart_fifo_fifo_size - 1)];
-		uint8_t a = avr->data[R_UCSRA(s)] & (uint8_t)~((1 << FE) | (1 << UPE));
+		uint8_t a = avr->data[R_UCSRA(w)] & (uint8_t)~((1 << FE) | (1 << UPE));
 		if (head & UART_INPUT_FE)
 			a |= 1 << FE;
 		if (head & UNO_INPUT_PE)
 			a |= 1 << UPE;
-		avr->data[R_UCSRA(s)] = a;
+		avr->data[R_UCSRA(w)] = a;
 	} else {
-		avr->data[R_UCSRA(s)] &= (uint8_t)~((1 << FE) | (1 << UPE));
+		avr->data[R_UCSRA(w)] &= (uint8_t)~((1 << FE) | (1 << UPE));
 	}
 }
 
@@ -520,8 +527,11 @@ static void chip_reset(uno_shim_t *s, uint8_t cause)
 	avr->data[R_MCUSR] |= cause;
 	s->reset_cause = avr->data[R_MCUSR];
 	s->resets++;
-	s->rx_head = s->rx_len = 0;
-	s->tx_active = s->tx_buf_full = s->tx_written = 0;
+	for (int i = 0; i < WIRES; i++) {
+		wire_t *w = &s->wire[i];
+		w->rx_head = w->rx_len = 0;
+		w->tx_active = w->tx_buf_full = w->tx_written = 0;
+	}
 	s->isr_depth = 0;
 	s->reti_pending = 0;
 	s->was_sleeping = 0;
@@ -534,8 +544,9 @@ static void step_once(uno_shim_t *s)
 	uint8_t vec = depth ? avr->interrupts.running[depth - 1]->vector & (ISR_VECTORS - 1) : 0;
 	uint64_t c0 = avr->cycle;
 
-	int dor_before = (avr->data[R_UCSRA(s)] >> DOR) & 1;
-	unsigned read_before = s->uart->input.read;
+	for (int i = 0; i < WIRES; i++)
+		if (s->wire[i].uart)
+			pre_step(&s->wire[i]);
 
 	s->was_sleeping = avr->state == cpu_Sleeping;
 	s->entry_added = 0;
@@ -544,7 +555,9 @@ static void step_once(uno_shim_t *s)
 	if (depth)
 		s->isr[vec].cycles += avr->cycle - c0 - s->entry_added;
 	finish_reti(s);
-	post_step(s, dor_before, read_before);
+	for (int i = 0; i < WIRES; i++)
+		if (s->wire[i].uart)
+			post_step(&s->wire[i]);
 	/* simavr's watchdog fired with WDE set: it swapped avr->run for its reset, which
 	 * would drop this shim's timers; reset here instead (its I/O reset sets WDRF). */
 	if (avr->run != s->core_run)
@@ -557,10 +570,12 @@ static void step_once(uno_shim_t *s)
 void uno_free(uno_shim_t *s);
 
 /* Loads the ELF file at `path` (NULL: none, the flash erased) into a fresh `mcu`
- * (simavr's core name) at 16 MHz and makes USART`usart` the wire; its UCSRnA must be at `base` (the caller's
- * table, checked against simavr's core). `response`: interrupt response cycles. */
-uno_shim_t *uno_new(const char *path, const char *mcu, int usart, uint16_t base, uint32_t response, char *err,
-		    size_t errlen)
+ * (simavr's core name) at 16 MHz and makes USART`usart` the wire (wire 0); its UCSRnA must be
+ * at `base` (the caller's table, checked against simavr's core). `usart2` (-1: none) is a
+ * second timed wire (wire 1), with its UCSRnA at `base2`. `response`: interrupt response
+ * cycles. */
+uno_shim_t *uno_new(const char *path, const char *mcu, int usart, uint16_t base, int usart2, uint16_t base2,
+		    uint32_t response, char *err, size_t errlen)
 {
 	pthread_once(&logger_once, install_logger);
 	last_error[0] = 0;
@@ -570,6 +585,14 @@ uno_shim_t *uno_new(const char *path, const char *mcu, int usart, uint16_t base,
 		snprintf(err, errlen, "USART%d does not exist", usart);
 		return NULL;
 	}
+	if (usart2 >= USARTS || usart2 == usart) {
+		snprintf(err, errlen, usart2 == usart ? "USART%d is already the wire" : "USART%d does not exist",
+			 usart2);
+		return NULL;
+	}
+	int wires = usart2 >= 0 ? 2 : 1;
+	const int usart_of[WIRES] = { usart, usart2 };
+	const uint16_t base_of[WIRES] = { base, base2 };
 
 	elf_firmware_t *f = calloc(1, sizeof(*f) + 4096);
 	uno_shim_t *s = calloc(1, sizeof(*s));
@@ -615,8 +638,11 @@ uno_shim_t *uno_new(const char *path, const char *mcu, int usart, uint16_t base,
 	avr->sleep = sleep_exact;
 	s->core_run = avr->run;
 	s->response = response;
-	s->uart_name = (char)('0' + usart);
-	s->base = base;
+	for (int i = 0; i < wires; i++) {
+		s->wire[i].shim = s;
+		s->wire[i].uart_name = (char)('0' + usart_of[i]);
+		s->wire[i].base = base_of[i];
+	}
 
 	for (avr_io_t *io = avr->io_port; io; io = io->next) {
 		if (strcmp(io->kind, "uart"))
@@ -627,22 +653,29 @@ uno_shim_t *uno_new(const char *path, const char *mcu, int usart, uint16_t base,
 		flags &= ~(uint32_t)(AVR_UART_FLAG_POLL_SLEEP | AVR_UART_FLAG_STDIO);
 		avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS(u->name), &flags);
 		avr_irq_t *output = avr_io_getirq(avr, AVR_IOCTL_UART_GETIRQ(u->name), UART_IRQ_OUTPUT);
-		if (u->name == s->uart_name) {
-			s->uart = u;
-			avr_irq_register_notify(output, tx_output_irq, s);
+		wire_t *w = NULL;
+		for (int i = 0; i < wires; i++)
+			if (u->name == s->wire[i].uart_name)
+				w = &s->wire[i];
+		if (w) {
+			w->uart = u;
+			avr_irq_register_notify(output, tx_output_irq, w);
 		} else if (u->name >= '0' && u->name < '0' + USARTS) {
 			avr_irq_register_notify(output, other_output_irq, &s->out[u->name - '0']);
 		}
 	}
 	uarts_off(avr);
-	if (!s->uart) {
-		snprintf(err, errlen, "simavr's %s core has no USART%d", mcu, usart);
-		goto fail;
-	}
-	if (s->uart->r_ucsra != base) {
-		snprintf(err, errlen, "simavr's %s core has UCSR%dA at 0x%x, not 0x%x", mcu, usart,
-			 (unsigned)s->uart->r_ucsra, (unsigned)base);
-		goto fail;
+	for (int i = 0; i < wires; i++) {
+		wire_t *w = &s->wire[i];
+		if (!w->uart) {
+			snprintf(err, errlen, "simavr's %s core has no USART%d", mcu, usart_of[i]);
+			goto fail;
+		}
+		if (w->uart->r_ucsra != base_of[i]) {
+			snprintf(err, errlen, "simavr's %s core has UCSR%dA at 0x%x, not 0x%x", mcu, usart_of[i],
+				 (unsigned)w->uart->r_ucsra, (unsigned)base_of[i]);
+			goto fail;
+		}
 	}
 
 	for (int i = 0; i < avr->interrupts.vector_count; i++)
@@ -668,8 +701,10 @@ void uno_free(uno_shim_t *s)
 		avr_terminate(s->avr);
 		free(s->avr);
 	}
-	free(s->rx);
-	free(s->tx);
+	for (int i = 0; i < WIRES; i++) {
+		free(s->wire[i].rx);
+		free(s->wire[i].tx);
+	}
 	for (int i = 0; i < USARTS; i++)
 		free(s->out[i].bytes);
 	free(s);
@@ -690,17 +725,29 @@ static int runnable(const uno_shim_t *s)
 	return s->avr->state == cpu_Running || s->avr->state == cpu_Sleeping;
 }
 
-/* Run until the clock reaches `target`, the core stops, or (if `stop_on_tx`)
- * the firmware writes UDRn. Returns the core state. */
+static int tx_logged(const uno_shim_t *s, int wires, size_t *len)
+{
+	int changed = 0;
+	for (int i = 0; i < WIRES; i++)
+		if (wires & (1 << i)) {
+			changed |= s->wire[i].tx_len != len[i];
+			len[i] = s->wire[i].tx_len;
+		}
+	return changed;
+}
+
+/* Run until the clock reaches `target`, the core stops, or the firmware writes UDRn
+ * of a wire in `stop_on_tx` (bit 0: wire 0, bit 1: wire 1). Returns the core state. */
 int uno_run(uno_shim_t *s, uint64_t target, int stop_on_tx)
 {
 	avr_t *avr = s->avr;
 	if (avr->cycle < target)
 		avr_cycle_timer_register(avr, target - avr->cycle, stop_timer, s);
-	size_t tx0 = s->tx_len;
+	size_t tx0[WIRES];
+	tx_logged(s, stop_on_tx, tx0);
 	while (avr->cycle < target && runnable(s)) {
 		step_once(s);
-		if (stop_on_tx && s->tx_len != tx0)
+		if (stop_on_tx && tx_logged(s, stop_on_tx, tx0))
 			break;
 	}
 	avr_cycle_timer_cancel(avr, stop_timer, s);
@@ -759,84 +806,109 @@ void uno_isr_reset(uno_shim_t *s)
 	memset(s->isr, 0, sizeof(s->isr));
 }
 
-/* Schedule a received frame: `value` is the data byte, optionally ORed with
+/* Wire `i`, or NULL if there is no such wire. */
+static wire_t *wire_at(uno_shim_t *s, int i)
+{
+	return i >= 0 && i < WIRES && s->wire[i].uart ? &s->wire[i] : NULL;
+}
+
+static const wire_t *wire_at_const(const uno_shim_t *s, int i)
+{
+	return i >= 0 && i < WIRES && s->wire[i].uart ? &s->wire[i] : NULL;
+}
+
+/* Schedule a received frame on wire `wire`: `value` is the data byte, optionally ORed with
  * UART_INPUT_FE (0x8000) / UNO_INPUT_PE (0x4000); it enters the receive buffer and
  * RXCn rises at cycle `at` (the crate passes the middle of the first stop bit). */
-int uno_rx_push(uno_shim_t *s, uint64_t at, uint16_t value)
+int uno_rx_push(uno_shim_t *s, int wire, uint64_t at, uint16_t value)
 {
 	avr_t *avr = s->avr;
+	wire_t *w = wire_at(s, wire);
+	if (!w)
+		return UNO_ERR_ARG;
 	if (at < avr->cycle)
 		return UNO_ERR_PAST;
 	if (value & ~(0xFF | UNO_INPUT_FLAGS))
 		return UNO_ERR_ARG;
-	if (s->rx_len > s->rx_head && at < s->rx[s->rx_len - 1].at)
+	if (w->rx_len > w->rx_head && at < w->rx[w->rx_len - 1].at)
 		return UNO_ERR_ORDER;
-	if (s->rx_len == s->rx_cap) {
-		if (s->rx_head > 0) {
-			memmove(s->rx, s->rx + s->rx_head, (s->rx_len - s->rx_head) * sizeof(*s->rx));
-			s->rx_len -= s->rx_head;
-			s->rx_head = 0;
+	if (w->rx_len == w->rx_cap) {
+		if (w->rx_head > 0) {
+			memmove(w->rx, w->rx + w->rx_head, (w->rx_len - w->rx_head) * sizeof(*w->rx));
+			w->rx_len -= w->rx_head;
+			w->rx_head = 0;
 		} else {
-			size_t cap = s->rx_cap ? s->rx_cap * 2 : 256;
-			rx_item_t *n = realloc(s->rx, cap * sizeof(*n));
+			size_t cap = w->rx_cap ? w->rx_cap * 2 : 256;
+			rx_item_t *n = realloc(w->rx, cap * sizeof(*n));
 			if (!n)
 				return UNO_ERR_NOMEM;
-			s->rx = n;
-			s->rx_cap = cap;
+			w->rx = n;
+			w->rx_cap = cap;
 		}
 	}
-	int was_empty = s->rx_head == s->rx_len;
-	s->rx[s->rx_len++] = (rx_item_t){ .at = at, .value = value };
+	int was_empty = w->rx_head == w->rx_len;
+	w->rx[w->rx_len++] = (rx_item_t){ .at = at, .value = value };
 	if (was_empty)
-		avr_cycle_timer_register(avr, at - avr->cycle, rx_timer, s);
+		avr_cycle_timer_register(avr, at - avr->cycle, rx_timer, w);
 	return UNO_OK;
 }
 
-size_t uno_rx_pending(const uno_shim_t *s)
+size_t uno_rx_pending(const uno_shim_t *s, int wire)
 {
-	return s->rx_len - s->rx_head;
+	const wire_t *w = wire_at_const(s, wire);
+	return w ? w->rx_len - w->rx_head : 0;
 }
 
-void uno_rx_clear(uno_shim_t *s)
+void uno_rx_clear(uno_shim_t *s, int wire)
 {
-	s->rx_head = s->rx_len = 0;
-	avr_cycle_timer_cancel(s->avr, rx_timer, s);
+	wire_t *w = wire_at(s, wire);
+	if (!w)
+		return;
+	w->rx_head = w->rx_len = 0;
+	avr_cycle_timer_cancel(s->avr, rx_timer, w);
 }
 
-void uno_uart_counters(const uno_shim_t *s, uint64_t *rx_dropped, uint64_t *rx_overruns, uint64_t *tx_ignored)
+void uno_uart_counters(const uno_shim_t *s, int wire, uint64_t *rx_dropped, uint64_t *rx_overruns,
+		       uint64_t *tx_ignored)
 {
-	*rx_dropped = s->rx_dropped;
-	*rx_overruns = s->rx_overruns;
-	*tx_ignored = s->tx_ignored;
+	const wire_t *w = wire_at_const(s, wire);
+	*rx_dropped = w ? w->rx_dropped : 0;
+	*rx_overruns = w ? w->rx_overruns : 0;
+	*tx_ignored = w ? w->tx_ignored : 0;
 }
 
-size_t uno_tx_len(const uno_shim_t *s)
+size_t uno_tx_len(const uno_shim_t *s, int wire)
 {
-	return s->tx_len;
+	const wire_t *w = wire_at_const(s, wire);
+	return w ? w->tx_len : 0;
 }
 
-/* Move up to `max` logged TX frames (oldest first) to `out`. */
-size_t uno_tx_take(uno_shim_t *s, uno_tx_t *out, size_t max)
+/* Move up to `max` frames logged on wire `wire` (oldest first) to `out`. */
+size_t uno_tx_take(uno_shim_t *s, int wire, uno_tx_t *out, size_t max)
 {
-	size_t n = s->tx_len < max ? s->tx_len : max;
-	memcpy(out, s->tx, n * sizeof(*out));
-	memmove(s->tx, s->tx + n, (s->tx_len - n) * sizeof(*out));
-	s->tx_len -= n;
+	wire_t *w = wire_at(s, wire);
+	if (!w)
+		return 0;
+	size_t n = w->tx_len < max ? w->tx_len : max;
+	memcpy(out, w->tx, n * sizeof(*out));
+	memmove(w->tx, w->tx + n, (w->tx_len - n) * sizeof(*out));
+	w->tx_len -= n;
 	return n;
 }
 
-/* Cycle at which the transmitter becomes idle (0 if it already is). */
-uint64_t uno_tx_busy_until(const uno_shim_t *s)
+/* Cycle at which wire `wire`'s transmitter becomes idle (0 if it already is). */
+uint64_t uno_tx_busy_until(const uno_shim_t *s, int wire)
 {
-	if (!s->tx_active)
+	const wire_t *w = wire_at_const(s, wire);
+	if (!w || !w->tx_active)
 		return 0;
-	return s->tx_buf_full ? s->tx_buf_end : s->tx_shift_end;
+	return w->tx_buf_full ? w->tx_buf_end : w->tx_shift_end;
 }
 
 uint32_t uno_uart_flags(const uno_shim_t *s)
 {
 	uint32_t flags = 0;
-	avr_ioctl(s->avr, AVR_IOCTL_UART_GET_FLAGS(s->uart_name), &flags);
+	avr_ioctl(s->avr, AVR_IOCTL_UART_GET_FLAGS(s->wire[0].uart_name), &flags);
 	return flags;
 }
 
@@ -846,12 +918,15 @@ uint8_t *uno_data(uno_shim_t *s, size_t *len)
 	return s->avr->data;
 }
 
-/* Move up to `max` bytes USART`usart` (not the wire) transmitted, oldest first, to
- * `out`. Returns how many, or UNO_ERR_ARG for the wire or a USART out of range. */
+/* Move up to `max` bytes USART`usart` (not a wire) transmitted, oldest first, to
+ * `out`. Returns how many, or UNO_ERR_ARG for a wire or a USART out of range. */
 long uno_usart_take(uno_shim_t *s, int usart, uint8_t *out, size_t max)
 {
-	if (usart < 0 || usart >= USARTS || '0' + usart == s->uart_name)
+	if (usart < 0 || usart >= USARTS)
 		return UNO_ERR_ARG;
+	for (int i = 0; i < WIRES; i++)
+		if (s->wire[i].uart && '0' + usart == s->wire[i].uart_name)
+			return UNO_ERR_ARG;
 	usart_out_t *o = &s->out[usart];
 	size_t n = o->len < max ? o->len : max;
 	memcpy(out, o->bytes, n);

@@ -34,6 +34,12 @@ pub(crate) const INPUT_PE: u16 = 0x4000;
 pub(crate) const ERR_PAST: c_int = -1;
 pub(crate) const ERR_ORDER: c_int = -2;
 pub(crate) const ERR_NOMEM: c_int = -3;
+pub(crate) const ERR_ARG: c_int = -4;
+
+/// `uno_run`'s `stop_on_tx` bit of wire `wire` (0: the wire, 1: the second one).
+pub(crate) const fn stop_on_tx_of(wire: usize) -> c_int {
+    1 << wire
+}
 
 extern "C" {
     pub(crate) fn uno_new(
@@ -41,6 +47,8 @@ extern "C" {
         mcu: *const c_char,
         usart: c_int,
         base: u16,
+        usart2: c_int,
+        base2: u16,
         response: u32,
         err: *mut c_char,
         errlen: usize,
@@ -62,13 +70,19 @@ extern "C" {
     pub(crate) fn uno_running_vector(s: *const Shim) -> c_int;
     pub(crate) fn uno_isr_stats(s: *const Shim, vector: u8, out: *mut IsrRaw);
     pub(crate) fn uno_isr_reset(s: *mut Shim);
-    pub(crate) fn uno_rx_push(s: *mut Shim, at: u64, value: u16) -> c_int;
-    pub(crate) fn uno_rx_pending(s: *const Shim) -> usize;
-    pub(crate) fn uno_rx_clear(s: *mut Shim);
-    pub(crate) fn uno_uart_counters(s: *const Shim, rx_dropped: *mut u64, rx_overruns: *mut u64, tx_ignored: *mut u64);
-    pub(crate) fn uno_tx_len(s: *const Shim) -> usize;
-    pub(crate) fn uno_tx_take(s: *mut Shim, out: *mut TxRaw, max: usize) -> usize;
-    pub(crate) fn uno_tx_busy_until(s: *const Shim) -> u64;
+    pub(crate) fn uno_rx_push(s: *mut Shim, wire: c_int, at: u64, value: u16) -> c_int;
+    pub(crate) fn uno_rx_pending(s: *const Shim, wire: c_int) -> usize;
+    pub(crate) fn uno_rx_clear(s: *mut Shim, wire: c_int);
+    pub(crate) fn uno_uart_counters(
+        s: *const Shim,
+        wire: c_int,
+        rx_dropped: *mut u64,
+        rx_overruns: *mut u64,
+        tx_ignored: *mut u64,
+    );
+    pub(crate) fn uno_tx_len(s: *const Shim, wire: c_int) -> usize;
+    pub(crate) fn uno_tx_take(s: *mut Shim, wire: c_int, out: *mut TxRaw, max: usize) -> usize;
+    pub(crate) fn uno_tx_busy_until(s: *const Shim, wire: c_int) -> u64;
     pub(crate) fn uno_uart_flags(s: *const Shim) -> u32;
     pub(crate) fn uno_data(s: *mut Shim, len: *mut usize) -> *mut u8;
     pub(crate) fn uno_usart_take(s: *mut Shim, usart: c_int, out: *mut u8, max: usize) -> c_long;

@@ -338,6 +338,16 @@ pub enum LineError {
     Parity,
 }
 
+impl LineError {
+    /// The shim's marker of this error on a received value.
+    const fn input_flag(self) -> u16 {
+        match self {
+            LineError::Framing => ffi::INPUT_FE,
+            LineError::Parity => ffi::INPUT_PE,
+        }
+    }
+}
+
 /// A frame the firmware transmitted.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TxByte {
@@ -450,14 +460,18 @@ pub struct Options {
     /// The USART the wire is on; `None`: the chip's default ([`Chip::default_usart`]).
     pub usart: Option<u8>,
     /// When RXCn rises for a received character: the chip's moment unless a test asks for
-    /// another.
+    /// another (on both wires).
     pub rx_flag: RxFlag,
+    /// A second timed wire on this USART (e.g. a Mega gateway's other line), with the same
+    /// timing model as the wire; `None`: only the wire is timed. See [`Uno::send_byte_on`].
+    pub second_usart: Option<u8>,
 }
 
 impl Options {
-    /// The chip from the file, its default USART, RXCn where the chip raises it.
+    /// The chip from the file, its default USART, RXCn where the chip raises it, no second
+    /// wire.
     pub const fn new() -> Options {
-        Options { chip: None, usart: None, rx_flag: RxFlag::FirstStopBit }
+        Options { chip: None, usart: None, rx_flag: RxFlag::FirstStopBit, second_usart: None }
     }
 
     /// Simulates `chip`, whatever the file names.
@@ -474,6 +488,13 @@ impl Options {
     pub const fn rx_flag(self, flag: RxFlag) -> Options {
         Options { rx_flag: flag, ..self }
     }
+
+    /// Times USART`n` as a second wire, besides the wire ([`Options::usart`]): bytes queued
+    /// with [`Uno::send_byte_on`], frames collected with [`Uno::take_tx_on`]. It must be
+    /// another USART of the chip.
+    pub const fn second_usart(self, n: u8) -> Options {
+        Options { second_usart: Some(n), ..self }
+    }
 }
 
 /// A simulated Arduino Uno (or another board's chip) running one firmware.
@@ -485,9 +506,15 @@ pub struct Uno {
     regs: UsartRegs,
     vectors: Vectors,
     symbols: Vec<Symbol>,
-    tx: Vec<TxByte>,
+    /// The second timed wire: its USART and registers.
+    second: Option<(u8, UsartRegs)>,
+    /// Frames collected from the shim, per wire (0: the wire, 1: the second one).
+    tx: [Vec<TxByte>; WIRES],
     rx_flag: RxFlag,
 }
+
+/// Timed wires: the wire and an optional second one.
+const WIRES: usize = 2;
 
 // SAFETY: the simavr instance behind `shim` is owned exclusively by this value and simavr keeps no
 // thread-bound state for it; the only process-wide state (the log hook) is installed once under
@@ -500,6 +527,7 @@ impl fmt::Debug for Uno {
             .field("path", &self.path)
             .field("chip", &self.chip)
             .field("usart", &self.usart)
+            .field("second_usart", &self.second_usart())
             .field("cycle", &self.now())
             .finish_non_exhaustive()
     }
@@ -548,6 +576,13 @@ impl Uno {
         let usart = options.usart.unwrap_or(chip.default_usart());
         let no_such = Error::NoSuchUsart { chip, usart };
         let (regs, vectors) = chip.usart_regs(usart).zip(chip.vectors(usart)).ok_or(no_such)?;
+        let second = match options.second_usart {
+            Some(n) => {
+                let regs = chip.usart_regs(n).ok_or(Error::NoSuchUsart { chip, usart: n })?;
+                Some((n, regs))
+            }
+            None => None,
+        };
         let c_path = match &path {
             Some(path) => Some(
                 CString::new(path.as_os_str().as_bytes())
@@ -569,6 +604,8 @@ impl Uno {
                     c_mcu.as_ptr(),
                     c_int::from(usart),
                     regs.ucsra,
+                    second.map_or(-1, |(n, _)| c_int::from(n)),
+                    second.map_or(0, |(_, regs)| regs.ucsra),
                     response,
                     err.as_mut_ptr(),
                     err.len(),
@@ -582,7 +619,18 @@ impl Uno {
             let reason = if msg.is_empty() { "simavr could not load the file".to_owned() } else { msg };
             return Err(Error::Load { path, reason });
         };
-        Ok(Uno { shim, path, chip, usart, regs, vectors, symbols, tx: Vec::new(), rx_flag: options.rx_flag })
+        Ok(Uno {
+            shim,
+            path,
+            chip,
+            usart,
+            regs,
+            vectors,
+            symbols,
+            second,
+            tx: Default::default(),
+            rx_flag: options.rx_flag,
+        })
     }
 
     /// The simulated chip.
@@ -593,6 +641,11 @@ impl Uno {
     /// The number of the USART the wire is on.
     pub fn usart(&self) -> u8 {
         self.usart
+    }
+
+    /// The USART of the second timed wire ([`Options::second_usart`]), if any.
+    pub fn second_usart(&self) -> Option<u8> {
+        self.second.map(|(n, _)| n)
     }
 
     /// The wire USART's register addresses.
@@ -614,7 +667,10 @@ impl Uno {
     /// driven from outside stay.
     pub fn reset(&mut self) -> Result<(), Error> {
         let eeprom = self.eeprom();
-        let options = Options::new().chip(self.chip).usart(self.usart).rx_flag(self.rx_flag);
+        let options = Options {
+            second_usart: self.second_usart(),
+            ..Options::new().chip(self.chip).usart(self.usart).rx_flag(self.rx_flag)
+        };
         let mut fresh = Uno::load_with(&self.path, options)?;
         fresh.write_eeprom(0, &eeprom)?;
         *self = fresh;
@@ -735,8 +791,18 @@ impl Uno {
     /// The format the firmware configured on the wire's USART (USART0 on the Uno), or `None`
     /// while it is off (neither RXENn nor TXENn) or not in asynchronous mode.
     pub fn serial_config(&self) -> Option<SerialConfig> {
+        self.serial_config_at(self.regs)
+    }
+
+    /// [`Uno::serial_config`] of USART`usart`, any USART of the chip (a wire or not); `None`
+    /// also for a USART the chip lacks.
+    pub fn serial_config_on(&self, usart: u8) -> Option<SerialConfig> {
+        self.serial_config_at(self.chip.usart_regs(usart)?)
+    }
+
+    fn serial_config_at(&self, regs: UsartRegs) -> Option<SerialConfig> {
         let d = self.data();
-        let base = usize::from(self.regs.ucsra);
+        let base = usize::from(regs.ucsra);
         let cfg = SerialConfig::from_registers(d[base], d[base + 1], d[base + 2], d[base + 4], d[base + 5]);
         let asynchronous = d[base + 2] & 0xc0 == 0;
         (asynchronous && (cfg.rx_enabled || cfg.tx_enabled)).then_some(cfg)
@@ -746,6 +812,11 @@ impl Uno {
     /// [`Uno::serial_config`]).
     pub fn wire_char_cycles(&self) -> Option<u64> {
         self.serial_config().map(|cfg| cfg.char_cycles())
+    }
+
+    /// [`Uno::wire_char_cycles`] of USART`usart` (see [`Uno::serial_config_on`]).
+    pub fn wire_char_cycles_on(&self, usart: u8) -> Option<u64> {
+        self.serial_config_on(usart).map(|cfg| cfg.char_cycles())
     }
 
     /// When RXCn rises for each received character ([`Options::rx_flag`]).
@@ -758,23 +829,57 @@ impl Uno {
     /// ([`SerialConfig::rx_flag_lead_cycles`]); 0 with [`RxFlag::CharEnd`]. `None` while the
     /// wire's USART is off (see [`Uno::serial_config`]).
     pub fn rx_flag_lead(&self) -> Option<u64> {
-        let cfg = self.serial_config()?;
+        self.rx_flag_lead_for(self.serial_config()?)
+    }
+
+    /// [`Uno::rx_flag_lead`] of USART`usart` (see [`Uno::serial_config_on`]).
+    pub fn rx_flag_lead_on(&self, usart: u8) -> Option<u64> {
+        self.rx_flag_lead_for(self.serial_config_on(usart)?)
+    }
+
+    fn rx_flag_lead_for(&self, cfg: SerialConfig) -> Option<u64> {
         Some(match self.rx_flag {
             RxFlag::FirstStopBit => cfg.rx_flag_lead_cycles(),
             RxFlag::CharEnd => 0,
         })
     }
 
-    /// Schedules a character that ends at `end_cycle`: RXCn rises [`Uno::rx_flag_lead`] earlier
-    /// (at `end_cycle` while the USART is off).
-    fn push_rx(&mut self, end_cycle: u64, value: u16) -> Result<(), Error> {
-        let flag_cycle = end_cycle.saturating_sub(self.rx_flag_lead().unwrap_or(0));
+    /// The wire (0) or the second wire (1) that USART`usart` is.
+    fn wire_of(&self, usart: u8) -> Result<usize, Error> {
+        if usart == self.usart {
+            Ok(0)
+        } else if self.second_usart() == Some(usart) {
+            Ok(1)
+        } else if !self.chip.has_usart(usart) {
+            Err(Error::NoSuchUsart { chip: self.chip, usart })
+        } else {
+            Err(Error::Internal(format!(
+                "USART{usart} is not a timed wire (the wire is USART{}; a second one: Options::second_usart)",
+                self.usart
+            )))
+        }
+    }
+
+    /// The USART of wire `wire` (see [`Uno::wire_of`]).
+    fn usart_of(&self, wire: usize) -> u8 {
+        match (wire, self.second) {
+            (1, Some((n, _))) => n,
+            _ => self.usart,
+        }
+    }
+
+    /// Schedules a character that ends at `end_cycle` on wire `wire`: RXCn rises
+    /// [`Uno::rx_flag_lead`] earlier (at `end_cycle` while the USART is off).
+    fn push_rx(&mut self, wire: usize, end_cycle: u64, value: u16) -> Result<(), Error> {
+        let lead = self.rx_flag_lead_on(self.usart_of(wire)).unwrap_or(0);
+        let flag_cycle = end_cycle.saturating_sub(lead);
         // SAFETY: `shim` is valid and exclusively borrowed.
-        match unsafe { ffi::uno_rx_push(self.raw_mut(), flag_cycle, value) } {
+        match unsafe { ffi::uno_rx_push(self.raw_mut(), wire as c_int, flag_cycle, value) } {
             0 => Ok(()),
             ffi::ERR_PAST => Err(Error::RxInPast { at: flag_cycle, now: self.now() }),
             ffi::ERR_ORDER => Err(Error::RxOutOfOrder { at: flag_cycle }),
             ffi::ERR_NOMEM => Err(Error::Internal("out of memory".into())),
+            ffi::ERR_ARG => Err(Error::Internal(format!("uno_rx_push refused wire {wire}, value {value:#06x}"))),
             other => Err(Error::Internal(format!("uno_rx_push returned {other}"))),
         }
     }
@@ -786,16 +891,32 @@ impl Uno {
     /// byte is scheduled. Bytes must be scheduled in time order and their RXCn not in the past.
     /// Bytes arriving while RXENn is clear are lost.
     pub fn send_byte(&mut self, byte: u8, end_cycle: u64) -> Result<(), Error> {
-        self.push_rx(end_cycle, u16::from(byte))
+        self.push_rx(0, end_cycle, u16::from(byte))
+    }
+
+    /// [`Uno::send_byte`] on USART`usart`: the wire or the second wire
+    /// ([`Options::second_usart`]), each with its own schedule (in time order per wire) and
+    /// format.
+    pub fn send_byte_on(&mut self, usart: u8, byte: u8, end_cycle: u64) -> Result<(), Error> {
+        let wire = self.wire_of(usart)?;
+        self.push_rx(wire, end_cycle, u16::from(byte))
     }
 
     /// Like [`Uno::send_byte`], with a framing or parity error.
     pub fn send_byte_with_error(&mut self, byte: u8, end_cycle: u64, error: LineError) -> Result<(), Error> {
-        let flag = match error {
-            LineError::Framing => ffi::INPUT_FE,
-            LineError::Parity => ffi::INPUT_PE,
-        };
-        self.push_rx(end_cycle, u16::from(byte) | flag)
+        self.push_rx(0, end_cycle, u16::from(byte) | error.input_flag())
+    }
+
+    /// [`Uno::send_byte_with_error`] on USART`usart` (see [`Uno::send_byte_on`]).
+    pub fn send_byte_with_error_on(
+        &mut self,
+        usart: u8,
+        byte: u8,
+        end_cycle: u64,
+        error: LineError,
+    ) -> Result<(), Error> {
+        let wire = self.wire_of(usart)?;
+        self.push_rx(wire, end_cycle, u16::from(byte) | error.input_flag())
     }
 
     /// Schedules `bytes` at the configured character time: the first ends at `first_end_cycle`,
@@ -803,14 +924,27 @@ impl Uno {
     /// Returns the end cycle of the last byte (its end on the line: each byte's RXCn rises
     /// earlier, as [`Uno::send_byte`] says).
     pub fn send_frame(&mut self, bytes: &[u8], first_end_cycle: u64, gap_cycles: u64) -> Result<u64, Error> {
-        let char_cycles = self.wire_char_cycles().ok_or(Error::UartNotConfigured)?;
+        self.send_frame_on(self.usart, bytes, first_end_cycle, gap_cycles)
+    }
+
+    /// [`Uno::send_frame`] on USART`usart`, at its configured character time (see
+    /// [`Uno::send_byte_on`]).
+    pub fn send_frame_on(
+        &mut self,
+        usart: u8,
+        bytes: &[u8],
+        first_end_cycle: u64,
+        gap_cycles: u64,
+    ) -> Result<u64, Error> {
+        let wire = self.wire_of(usart)?;
+        let char_cycles = self.wire_char_cycles_on(usart).ok_or(Error::UartNotConfigured)?;
         let step = char_cycles.saturating_add(gap_cycles);
         let mut end = first_end_cycle;
         for (i, &byte) in bytes.iter().enumerate() {
             if i > 0 {
                 end = end.saturating_add(step);
             }
-            self.send_byte(byte, end)?;
+            self.push_rx(wire, end, u16::from(byte))?;
         }
         Ok(end)
     }
@@ -818,21 +952,47 @@ impl Uno {
     /// Bytes scheduled with [`Uno::send_byte`] that have not arrived yet.
     pub fn pending_rx(&self) -> usize {
         // SAFETY: `shim` is valid for the lifetime of `self`.
-        unsafe { ffi::uno_rx_pending(self.raw()) }
+        unsafe { ffi::uno_rx_pending(self.raw(), 0) }
+    }
+
+    /// [`Uno::pending_rx`] of USART`usart` (a wire).
+    pub fn pending_rx_on(&self, usart: u8) -> Result<usize, Error> {
+        let wire = self.wire_of(usart)?;
+        // SAFETY: `shim` is valid for the lifetime of `self`.
+        Ok(unsafe { ffi::uno_rx_pending(self.raw(), wire as c_int) })
     }
 
     /// Drops all bytes that have not arrived yet.
     pub fn cancel_rx(&mut self) {
         // SAFETY: `shim` is valid and exclusively borrowed.
-        unsafe { ffi::uno_rx_clear(self.raw_mut()) }
+        unsafe { ffi::uno_rx_clear(self.raw_mut(), 0) }
+    }
+
+    /// [`Uno::cancel_rx`] on USART`usart` (a wire).
+    pub fn cancel_rx_on(&mut self, usart: u8) -> Result<(), Error> {
+        let wire = self.wire_of(usart)?;
+        // SAFETY: `shim` is valid and exclusively borrowed.
+        unsafe { ffi::uno_rx_clear(self.raw_mut(), wire as c_int) };
+        Ok(())
+    }
+
+    fn counters_of(&self, wire: usize) -> UartCounters {
+        let mut c = UartCounters::default();
+        // SAFETY: `shim` is valid; the three pointers are writable.
+        unsafe {
+            ffi::uno_uart_counters(self.raw(), wire as c_int, &mut c.rx_dropped, &mut c.rx_overruns, &mut c.tx_ignored)
+        };
+        c
     }
 
     /// Counters of dropped, overrun and ignored bytes.
     pub fn uart_counters(&self) -> UartCounters {
-        let mut c = UartCounters::default();
-        // SAFETY: `shim` is valid; the three pointers are writable.
-        unsafe { ffi::uno_uart_counters(self.raw(), &mut c.rx_dropped, &mut c.rx_overruns, &mut c.tx_ignored) };
-        c
+        self.counters_of(0)
+    }
+
+    /// [`Uno::uart_counters`] of USART`usart` (a wire).
+    pub fn uart_counters_on(&self, usart: u8) -> Result<UartCounters, Error> {
+        Ok(self.counters_of(self.wire_of(usart)?))
     }
 
     /// simavr's flags (`AVR_UART_FLAG_*`) of the wire's USART; this crate clears POLL_SLEEP and
@@ -842,16 +1002,30 @@ impl Uno {
         unsafe { ffi::uno_uart_flags(self.raw()) }
     }
 
+    fn wires(&self) -> usize {
+        if self.second.is_some() {
+            2
+        } else {
+            1
+        }
+    }
+
     fn drain_tx(&mut self) {
         let mut buf = [ffi::TxRaw::default(); 256];
-        loop {
-            // SAFETY: `shim` is valid for the lifetime of `self`.
-            if unsafe { ffi::uno_tx_len(self.raw()) } == 0 {
-                break;
+        for wire in 0..self.wires() {
+            loop {
+                // SAFETY: `shim` is valid for the lifetime of `self`.
+                if unsafe { ffi::uno_tx_len(self.raw(), wire as c_int) } == 0 {
+                    break;
+                }
+                // SAFETY: `shim` is valid; `buf` is writable for `buf.len()` entries.
+                let n = unsafe { ffi::uno_tx_take(self.raw_mut(), wire as c_int, buf.as_mut_ptr(), buf.len()) };
+                self.tx[wire].extend(buf[..n].iter().map(|t| TxByte {
+                    byte: t.byte,
+                    start_cycle: t.start,
+                    end_cycle: t.end,
+                }));
             }
-            // SAFETY: `shim` is valid; `buf` is writable for `buf.len()` entries.
-            let n = unsafe { ffi::uno_tx_take(self.raw_mut(), buf.as_mut_ptr(), buf.len()) };
-            self.tx.extend(buf[..n].iter().map(|t| TxByte { byte: t.byte, start_cycle: t.start, end_cycle: t.end }));
         }
     }
 
@@ -860,18 +1034,26 @@ impl Uno {
     /// the future.
     pub fn take_tx(&mut self) -> Vec<TxByte> {
         self.drain_tx();
-        std::mem::take(&mut self.tx)
+        std::mem::take(&mut self.tx[0])
+    }
+
+    /// [`Uno::take_tx`] of USART`usart`: the wire or the second wire ([`Options::second_usart`]),
+    /// each with its own frames.
+    pub fn take_tx_on(&mut self, usart: u8) -> Result<Vec<TxByte>, Error> {
+        let wire = self.wire_of(usart)?;
+        self.drain_tx();
+        Ok(std::mem::take(&mut self.tx[wire]))
     }
 
     /// Takes the bytes the firmware has transmitted on USART`usart`, another USART than the
-    /// wire, since the last call (oldest first; simavr's own timing, not modelled here: a byte
-    /// is listed when it is written to UDRn). [`Error::WireUsart`] for the wire's USART,
-    /// [`Error::NoSuchUsart`] for one the chip lacks.
+    /// wires, since the last call (oldest first; simavr's own timing, not modelled here: a byte
+    /// is listed when it is written to UDRn). [`Error::WireUsart`] for the wire's USART (and
+    /// the second wire's), [`Error::NoSuchUsart`] for one the chip lacks.
     pub fn take_usart_output(&mut self, usart: u8) -> Result<Vec<u8>, Error> {
         if !self.chip.has_usart(usart) {
             return Err(Error::NoSuchUsart { chip: self.chip, usart });
         }
-        if usart == self.usart {
+        if usart == self.usart || self.second_usart() == Some(usart) {
             return Err(Error::WireUsart(usart));
         }
         let mut out = Vec::new();
@@ -889,39 +1071,59 @@ impl Uno {
         }
     }
 
-    /// Cycle at which the transmitter becomes idle, if it is busy.
-    pub fn tx_busy_until(&self) -> Option<u64> {
+    fn busy_until_of(&self, wire: usize) -> Option<u64> {
         // SAFETY: `shim` is valid for the lifetime of `self`.
-        match unsafe { ffi::uno_tx_busy_until(self.raw()) } {
+        match unsafe { ffi::uno_tx_busy_until(self.raw(), wire as c_int) } {
             0 => None,
             cycle => Some(cycle),
         }
+    }
+
+    /// Cycle at which the transmitter becomes idle, if it is busy.
+    pub fn tx_busy_until(&self) -> Option<u64> {
+        self.busy_until_of(0)
+    }
+
+    /// [`Uno::tx_busy_until`] of USART`usart` (a wire).
+    pub fn tx_busy_until_on(&self, usart: u8) -> Result<Option<u64>, Error> {
+        Ok(self.busy_until_of(self.wire_of(usart)?))
     }
 
     /// Runs until the firmware has sent something and then left the line idle for `idle_cycles`
     /// after the end of its last frame, or until `deadline`. Returns what [`Uno::take_tx`] would
     /// (empty if nothing was sent by `deadline`).
     pub fn run_until_tx_idle(&mut self, idle_cycles: u64, deadline: u64) -> Result<Vec<TxByte>, Error> {
+        self.run_until_tx_idle_of(0, idle_cycles, deadline)
+    }
+
+    /// [`Uno::run_until_tx_idle`] on USART`usart` (a wire): what the firmware sends on the other
+    /// wire meanwhile stays for [`Uno::take_tx_on`].
+    pub fn run_until_tx_idle_on(&mut self, usart: u8, idle_cycles: u64, deadline: u64) -> Result<Vec<TxByte>, Error> {
+        let wire = self.wire_of(usart)?;
+        self.run_until_tx_idle_of(wire, idle_cycles, deadline)
+    }
+
+    fn run_until_tx_idle_of(&mut self, wire: usize, idle_cycles: u64, deadline: u64) -> Result<Vec<TxByte>, Error> {
         loop {
             self.drain_tx();
             let now = self.now();
-            let target = match self.tx.last() {
+            let target = match self.tx[wire].last() {
                 Some(last) => {
-                    let busy = self.tx_busy_until().unwrap_or(0);
+                    let busy = self.busy_until_of(wire).unwrap_or(0);
                     let quiet_at = last.end_cycle.max(busy).saturating_add(idle_cycles);
                     if now >= quiet_at {
-                        return Ok(self.take_tx());
+                        return Ok(std::mem::take(&mut self.tx[wire]));
                     }
                     quiet_at.min(deadline)
                 }
                 None => deadline,
             };
             if now >= deadline {
-                return Ok(self.take_tx());
+                return Ok(std::mem::take(&mut self.tx[wire]));
             }
             self.check_alive()?;
             // SAFETY: `shim` is valid and exclusively borrowed.
-            unsafe { ffi::uno_run(self.raw_mut(), target, 1) };
+            unsafe { ffi::uno_run(self.raw_mut(), target, ffi::stop_on_tx_of(wire)) };
             self.check_alive()?;
         }
     }

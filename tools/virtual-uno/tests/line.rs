@@ -1,0 +1,260 @@
+//! `virtual-line`: several simulated boards on one RS-485 line. Each test runs the binary
+//! unpaced (`--no-pace`) up to a simulated time (`--until`), pressing buttons at simulated
+//! times (`--at`), and checks its transcript: frames with their senders, pin changes, the
+//! summary. Everything is counted in simulated time, so a slow or busy machine only makes
+//! a test take longer.
+//!
+//! Needs the firmware: `make firmware`, or `cargo uno --example lab_lights --example
+//! poll_four --example minimal --features examples` and `cargo uno --example lab_control
+//! --features examples,master`.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// `$CARGO_TARGET_DIR` (or `<workspace>/target`)`/avr-atmega328p/release/examples/NAME.elf`.
+fn firmware(name: &str) -> String {
+    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| workspace().join("target"), PathBuf::from);
+    let elf = target.join("avr-atmega328p/release/examples").join(format!("{name}.elf"));
+    assert!(elf.is_file(), "{} is missing: run make firmware first", elf.display());
+    elf.display().to_string()
+}
+
+/// One printed line: simulated seconds and the text after the time stamp.
+#[derive(Debug, Clone)]
+struct Event {
+    t: f64,
+    text: String,
+}
+
+/// A finished run of virtual-line.
+struct Run {
+    out: String,
+    events: Vec<Event>,
+}
+
+impl Run {
+    /// Runs virtual-line with `args` (plus --no-pace --no-stdin) to the end; fails on a
+    /// non-zero exit or after `limit` of wall time.
+    fn new(args: &[&str], limit: Duration) -> Run {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_virtual-line"))
+            .args(["--no-pace", "--no-stdin"])
+            .args(args)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("virtual-line starts");
+        let mut stdout = child.stdout.take().unwrap();
+        let mut stderr = child.stderr.take().unwrap();
+        let reader = std::thread::spawn(move || {
+            let mut s = String::new();
+            let _ = stdout.read_to_string(&mut s);
+            s
+        });
+        let err_reader = std::thread::spawn(move || {
+            let mut s = String::new();
+            let _ = stderr.read_to_string(&mut s);
+            s
+        });
+        let started = Instant::now();
+        let status = loop {
+            if let Some(status) = child.try_wait().unwrap() {
+                break status;
+            }
+            if started.elapsed() > limit {
+                let _ = child.kill();
+                let _ = child.wait();
+                panic!("virtual-line did not finish in {limit:?}:\n{}", reader.join().unwrap());
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        };
+        let out = reader.join().unwrap();
+        let err = err_reader.join().unwrap();
+        assert!(status.success(), "virtual-line failed ({status}):\n{out}\n{err}");
+        eprintln!("virtual-line {} took {:.1} s", args.join(" "), started.elapsed().as_secs_f64());
+        let events = out
+            .lines()
+            .filter_map(|line| {
+                let rest = line.strip_prefix('[')?;
+                let (t, text) = rest.split_once("] ")?;
+                Some(Event { t: t.trim().parse().ok()?, text: text.to_owned() })
+            })
+            .collect();
+        Run { out, events }
+    }
+
+    /// `(t, sender, bytes, notes)` of every frame.
+    fn frames(&self) -> Vec<(f64, String, Vec<u8>, String)> {
+        self.events
+            .iter()
+            .filter_map(|e| {
+                let rest = e.text.strip_prefix("frame from ")?;
+                let (who, rest) = rest.split_once(": ")?;
+                let (hex, notes) = rest.split_once(" (").map_or((rest, ""), |(h, n)| (h, n));
+                let bytes = hex.split_whitespace().map(|b| u8::from_str_radix(b, 16).unwrap()).collect();
+                Some((e.t, who.to_owned(), bytes, notes.to_owned()))
+            })
+            .collect()
+    }
+
+    /// The watched pins of `board` in force at simulated time `t` (the last `pins:` line
+    /// printed at or before it), as `"4=on 5=off ..."`.
+    fn pins_at(&self, board: &str, t: f64) -> String {
+        let prefix = format!("{board} pins: ");
+        self.events
+            .iter()
+            .rev()
+            .filter(|e| e.t <= t)
+            .find_map(|e| e.text.strip_prefix(&prefix))
+            .unwrap_or_else(|| panic!("no pins of {board} by {t} s:\n{}", self.out))
+            .to_owned()
+    }
+
+    /// Times at which `board`'s pins became `state`.
+    fn became(&self, board: &str, state: &str) -> Vec<f64> {
+        let line = format!("{board} pins: {state}");
+        self.events.iter().filter(|e| e.text == line).map(|e| e.t).collect()
+    }
+
+    /// A number from the summary, e.g. `collisions: 3`.
+    fn summary(&self, key: &str) -> u64 {
+        let line = self.events.iter().find_map(|e| e.text.strip_prefix("summary: ")).expect("a summary");
+        let at = line.find(&format!("{key}: ")).unwrap_or_else(|| panic!("no `{key}` in {line}")) + key.len() + 2;
+        line[at..].split(|c: char| !c.is_ascii_digit()).next().unwrap().parse().unwrap()
+    }
+}
+
+const RED: &str = "4=on 5=off 6=off 7=off";
+const GREEN: &str = "4=off 5=on 6=off 7=off";
+
+/// The lab: lab_control (master, DE on pin 2), lab_lights as the button box (device 1) and
+/// as the light tower (device 2, pin 12 jumpered low), DE on pin 10. The tower shows RED;
+/// START (pin 2 pressed for 0.3 s) turns it GREEN; STOP (pin 3) RED again.
+#[test]
+fn lab_start_turns_the_tower_green_and_stop_red() {
+    let (control, lights) = (firmware("lab_control"), firmware("lab_lights"));
+    #[rustfmt::skip]
+    let args: &[&str] = &[
+        "--board", &format!("master={control}"), "de=2", "watch=13",
+        "--board", &format!("box={lights}"), "de=10", "watch=2,3",
+        "--board", &format!("tower={lights}"), "de=10", "pin12=low", "watch=4,5,6,7",
+        "--at", "1.5", "set box pin2 low", "--at", "1.8", "set box pin2 z",
+        "--at", "2.5", "set box pin3 low", "--at", "2.8", "set box pin3 z",
+        "--until", "3.5",
+    ];
+    let run = Run::new(args, Duration::from_secs(180));
+    let out = &run.out;
+    // RED from the first write on, until START.
+    assert_eq!(run.pins_at("tower", 0.2), RED, "RED at start:\n{out}");
+    assert_eq!(run.pins_at("tower", 1.5), RED, "RED until START:\n{out}");
+    // GREEN within 200 ms of START, kept until STOP.
+    let green: Vec<f64> = run.became("tower", GREEN);
+    assert_eq!(green.len(), 1, "GREEN once:\n{out}");
+    assert!(green[0] > 1.5 && green[0] < 1.7, "GREEN {:.3} s after START:\n{out}", green[0] - 1.5);
+    assert_eq!(run.pins_at("tower", 2.5), GREEN, "GREEN until STOP:\n{out}");
+    // RED within 200 ms of STOP, to the end.
+    let red: Vec<f64> = run.became("tower", RED);
+    assert_eq!(red.len(), 2, "RED at start and after STOP:\n{out}");
+    assert!(red[1] > 2.5 && red[1] < 2.7, "RED {:.3} s after STOP:\n{out}", red[1] - 2.5);
+    assert_eq!(run.pins_at("tower", 3.5), RED, "RED to the end:\n{out}");
+    // The alarm LED (a device not answering) never lit.
+    assert!(run.became("master", "13=on").is_empty(), "the master's alarm LED lit:\n{out}");
+
+    // The line: all three talk, nothing collides, every CRC is good.
+    let frames = run.frames();
+    for who in ["master", "box", "tower"] {
+        assert!(frames.iter().any(|f| f.1 == who), "no frame from {who}:\n{out}");
+    }
+    assert!(frames.iter().all(|f| f.3.is_empty()), "a frame with a remark:\n{out}");
+    assert_eq!(run.summary("collisions"), 0, "{out}");
+    assert_eq!(run.summary("bad CRC"), 0, "{out}");
+    assert_eq!(run.summary("cut by DE"), 0, "{out}");
+    assert_eq!(run.summary("sent with DE low"), 0, "{out}");
+    assert_eq!(run.summary("DE high over another's characters"), 0, "{out}");
+    // The box answers the master's reads with START and STOP as pressed.
+    let answers: Vec<&(f64, String, Vec<u8>, String)> = frames.iter().filter(|f| f.1 == "box").collect();
+    let pressed = |from: f64, to: f64, bits: u8| {
+        answers.iter().filter(|f| f.0 > from && f.0 < to).all(|f| f.2[..4] == [0x01, 0x02, 0x01, bits])
+    };
+    assert!(pressed(0.1, 1.5, 0) && pressed(1.51, 1.8, 1) && pressed(1.81, 2.5, 0) && pressed(2.51, 2.8, 2), "{out}");
+}
+
+/// A master and one slave: frames alternate master, slave; each reply answers the request
+/// before it (same slave id, same function or its exception), at least 3.5 characters
+/// after it.
+#[test]
+fn pair_replies_alternate_with_requests_and_answer_them() {
+    #[rustfmt::skip]
+    let args: &[&str] = &[
+        "--board", &format!("master={}", firmware("poll_four")),
+        "--board", &format!("slave={}", firmware("minimal")),
+        "--until", "1.05",
+    ];
+    let run = Run::new(args, Duration::from_secs(60));
+    let out = &run.out;
+    let frames = run.frames();
+    assert!(frames.len() >= 18, "10 requests a second, each answered:\n{out}");
+    for (i, f) in frames.iter().enumerate() {
+        assert_eq!(f.1, if i % 2 == 0 { "master" } else { "slave" }, "frame {i}:\n{out}");
+        assert!(f.3.is_empty(), "frame {i} has a remark:\n{out}");
+        if i % 2 == 1 {
+            let request = &frames[i - 1].2;
+            let reply = &f.2;
+            assert_eq!(reply[0], request[0], "frame {i} is another slave's:\n{out}");
+            assert_eq!(reply[1] & 0x7F, request[1], "frame {i} answers another function:\n{out}");
+            // 1.75 ms at least after the request's start plus its characters (573 us each).
+            let request_end = frames[i - 1].0 + request.len() as f64 * 11.0 / 19200.0;
+            assert!(f.0 - request_end >= 3.5 * 11.0 / 19200.0 - 1e-6, "frame {i} too early:\n{out}");
+            assert!(f.0 - request_end < 0.02, "frame {i} too late:\n{out}");
+        }
+    }
+    assert_eq!(run.summary("collisions"), 0, "{out}");
+    assert_eq!(run.summary("bad CRC"), 0, "{out}");
+}
+
+/// Two `minimal` boards, both slave 1, answer one request at once: counted as collisions,
+/// and no clean reply reaches the master.
+#[test]
+fn two_slaves_with_one_id_collide() {
+    let slave = firmware("minimal");
+    #[rustfmt::skip]
+    let args: &[&str] = &[
+        "--board", &format!("master={}", firmware("poll_four")),
+        "--board", &format!("a={slave}"),
+        "--board", &format!("b={slave}"),
+        "--until", "0.5",
+    ];
+    let run = Run::new(args, Duration::from_secs(60));
+    let out = &run.out;
+    let frames = run.frames();
+    let collided: Vec<_> = frames.iter().filter(|f| f.1 == "a+b" || f.1 == "b+a").collect();
+    assert!(collided.len() >= 4, "replies collided:\n{out}");
+    assert!(collided.iter().all(|f| f.3.starts_with("COLLISION")), "{out}");
+    assert!(!frames.iter().any(|f| f.1 == "a" || f.1 == "b"), "a clean reply:\n{out}");
+    assert_eq!(run.summary("collisions") as usize, collided.len(), "{out}");
+}
+
+/// A board whose DE pin is not the one its firmware drives never reaches the line: its
+/// replies are reported as sent with DE low, and the master's requests go unanswered.
+#[test]
+fn a_board_with_de_low_is_not_heard() {
+    #[rustfmt::skip]
+    let args: &[&str] = &[
+        "--board", &format!("master={}", firmware("lab_control")), "de=2", "watch=13",
+        "--board", &format!("box={}", firmware("lab_lights")), "de=9",
+        "--until", "0.5",
+    ];
+    let run = Run::new(args, Duration::from_secs(60));
+    let out = &run.out;
+    assert!(run.summary("sent with DE low") > 0, "{out}");
+    assert!(!run.frames().iter().any(|f| f.1 == "box"), "{out}");
+    assert!(out.contains("box sent with DE low (not on the line): 01 02 01 00 A1 88"), "{out}");
+    // lab_control lights its alarm LED when a device does not answer.
+    assert!(!run.became("master", "13=on").is_empty(), "{out}");
+}
