@@ -68,6 +68,12 @@ chips: setup
 	done
 	@.ci/chip-build atmega328p "" atmega328p examples sixteen_each sixteen_each_bank
 	@.ci/chip-build atmega2560 "" atmega2560-gateway examples,master gateway
+	@for chip in atmega328p $(CHIPS); do \
+		usarts=""; case $$chip in atmega1280|atmega2560) usarts="$(MEGA_USARTS)";; esac; \
+		for usart in "" $$usarts; do \
+			.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart}-master examples,master master_boards || exit 1; \
+		done; \
+	done
 	@for chip in atmega328p atmega32u4; do \
 		.ci/chip-build $$chip "" $$chip-8mhz examples,millis,clock-8mhz boards || exit 1; \
 	done
@@ -127,7 +133,9 @@ clippy: setup
 	$(CARGO) clippy -p avr-modbus --all-targets --features master,ufmt -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples,millis,ascii,device-id,$(OPTIONAL),eeprom-settings,ufmt -- -D warnings
-	$(CARGO) uno-clippy --examples --features examples,master,ufmt -- -D warnings
+	$(CARGO) uno-clippy $(addprefix --example ,$(MASTER_EXAMPLES) master_boards) --features examples,master,ufmt -- -D warnings
+	CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega2560" $(CARGO) clippy --release -Zbuild-std=core --target avr-none \
+		--example gateway --features examples,master -- -D warnings
 
 docs: setup
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus --features $(OPTIONAL),eeprom-settings,ufmt,device-id,ascii,master
@@ -149,7 +157,7 @@ host-test: setup firmware fixtures bootloaders
 	$(CARGO) test -p avr-modbus --features ascii --test ascii --test sim_ascii --test framer --test adu --test random_frames
 	$(CARGO) test -p avr-modbus --features ascii --doc
 	$(CARGO) test -p avr-modbus --features clock-8mhz,ascii --lib --test timing
-	$(CARGO) test -p avr-modbus --features master --test master --test sim_master
+	$(CARGO) test -p avr-modbus --features master --test master --test sim_master --test sim_gateway
 
 test: lint firmware host-test interop demos
 

@@ -125,26 +125,29 @@ struct AsciiTimer {
 
 /// All zero until [`FrameTimer::new`] writes the plan and parks the deadlines, before any
 /// of Timer0's interrupts is enabled: in `.bss`, with no initial value kept in flash.
-static DEADLINES_B: Exclusive<Deadlines> = Exclusive(Deadlines::ZERO);
+static DEADLINES_B: Exclusive<Deadlines> = Exclusive(UnsafeCell::new(Deadlines::zero()));
 /// Compare A's, as [`DEADLINES_B`].
 #[cfg(feature = "master")]
-static DEADLINES_A: Exclusive<Deadlines> = Exclusive(Deadlines::ZERO);
+static DEADLINES_A: Exclusive<Deadlines> = Exclusive(UnsafeCell::new(Deadlines::zero()));
 
 impl Deadlines {
-    const ZERO: UnsafeCell<Deadlines> = UnsafeCell::new(Deadlines {
-        matches: 0,
-        plan: Schedule::NONE,
-        stale: 0,
-        #[cfg(feature = "ascii")]
-        ascii: AsciiTimer {
-            on: false,
-            timeout: 0,
-            idle: 0,
-            end_due: false,
-            end: Deadline { low: 0, turns: 0 },
-            end_turns: 0,
-        },
-    });
+    /// No plan, no deadline: what the statics hold before a role starts.
+    const fn zero() -> Deadlines {
+        Deadlines {
+            matches: 0,
+            plan: Schedule::NONE,
+            stale: 0,
+            #[cfg(feature = "ascii")]
+            ascii: AsciiTimer {
+                on: false,
+                timeout: 0,
+                idle: 0,
+                end_due: false,
+                end: Deadline { low: 0, turns: 0 },
+                end_turns: 0,
+            },
+        }
+    }
 }
 
 /// A character arrived on the line of unit `U`: the gap deadline (and after it T3.5)

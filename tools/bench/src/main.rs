@@ -15,8 +15,11 @@
 //! the bound the bus allows. If a `max_frame` firmware (125 holding registers; pin 12 low
 //! selects 115200 bps) is built, FC 3 × 125 and FC 16 × 123 are timed on it too. Every
 //! reply is compared byte for byte with a model of the firmware's registers (values the
-//! firmware changes itself only by length). Every figure comes from this run; all timings
-//! are simulated cycles, so a run on any machine gives the same numbers.
+//! firmware changes itself only by length). The master (feature `master`): its interrupts'
+//! cycles on every chip and USART (`master_boards`, answered by a simulated slave) and the
+//! time from `Master::send` to the request's first start bit (`poll_holding`); `bench
+//! master` measures that part alone, printed, not written. Every figure comes from this
+//! run; all timings are simulated cycles, so a run on any machine gives the same numbers.
 //!
 //! Run from the workspace with the firmware built (`make firmware`, and `make
 //! bench-features` for the feature costs); prints a Markdown report and writes it to
