@@ -8,11 +8,12 @@ EXAMPLES := $(patsubst examples/%.rs,%,$(wildcard examples/*.rs))
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: help setup bootloaders demos firmware chips fixtures package sizes lint fmt-check clippy docs host-test test demo serve interop bench bench-features fuzz soak
+.PHONY: help setup bootloaders demos demo-lab firmware chips fixtures package sizes lint fmt-check clippy docs host-test test demo serve interop bench bench-features fuzz soak
 
 help:
 	@echo "make demo   - flash the Uno slave with cargo run (ravedude, avrdude, optiboot) on a virtual Uno, and poll it"
 	@echo "           (BOARD=mega2560: a virtual Mega 2560 and its stk500v2 bootloader)"
+	@echo "make demo-lab - the lab's control application: a master and two slaves on a virtual RS-485 line"
 	@echo "make serve EXAMPLE=uno_slave - keep a virtual Uno running for QModMaster or any master"
 	@echo "           (BOARD=mega2560 USART=1: another board's chip, built under target/chips/)"
 	@echo "make test   - set up, lint, build every firmware, run all tests"
@@ -35,6 +36,7 @@ firmware: setup
 	$(CARGO) uno --example ascii --features examples,ascii
 	$(CARGO) uno --example configurable --features examples,eeprom-settings,ascii,device-id,$(OPTIONAL)
 	$(CARGO) uno $(addprefix --example ,$(MASTER_EXAMPLES)) --features examples,master
+	$(CARGO) uno --example slow_master --features examples,reply-delay
 	@.ci/sizes $(FIRMWARE)
 	@.ci/no-panic $(FIRMWARE)
 	@$(MAKE) --no-print-directory chips
@@ -131,9 +133,11 @@ clippy: setup
 	$(CARGO) clippy -p avr-modbus --all-targets --features clock-8mhz,ascii -- -D warnings
 	$(CARGO) clippy -p avr-modbus --all-targets --features $(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 	$(CARGO) clippy -p avr-modbus --all-targets --features master,ufmt -- -D warnings
+	$(CARGO) clippy -p avr-modbus --all-targets --features reply-delay -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples,millis,ascii,device-id,$(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 	$(CARGO) uno-clippy $(addprefix --example ,$(MASTER_EXAMPLES) master_boards) --features examples,master,ufmt -- -D warnings
+	$(CARGO) uno-clippy --example slow_master --features examples,reply-delay -- -D warnings
 	CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega2560" $(CARGO) clippy --release -Zbuild-std=core --target avr-none \
 		--example gateway --features examples,master -- -D warnings
 
@@ -158,14 +162,24 @@ host-test: setup firmware fixtures bootloaders
 	$(CARGO) test -p avr-modbus --features ascii --doc
 	$(CARGO) test -p avr-modbus --features clock-8mhz,ascii --lib --test timing
 	$(CARGO) test -p avr-modbus --features master --test master --test sim_master --test sim_gateway
+	$(CARGO) test -p avr-modbus --features reply-delay --test sim_reply_delay --lib
+	$(CARGO) test -p virtual-uno --test line
 
 test: lint firmware host-test interop demos
 
 # make demo for both boards, as a user runs it: flashed with cargo run through the
-# bootloader, then polled.
+# bootloader, then polled; and make demo-lab.
 demos: setup bootloaders
 	demo/demo.sh uno
 	demo/demo.sh mega2560
+	demo/lab.sh
+
+# The lab's control application on a virtual RS-485 line (tools/virtual-uno's virtual-line):
+# examples/lab_control.rs (the master) and examples/lab_lights.rs twice (the button box and
+# the light tower); START and STOP pressed with pin commands, every frame printed with its
+# sender, the lamps followed.
+demo-lab: setup firmware
+	demo/lab.sh
 
 EXAMPLE ?= uno_slave
 

@@ -41,7 +41,17 @@ control=$work/control
 line=$!
 tail -n +1 -f "$log" &
 tailer=$!
-trap 'kill -TERM "$line" 2>/dev/null; wait "$line" 2>/dev/null; sleep 0.2; kill "$tailer" 2>/dev/null; rm -rf "$work"' EXIT
+cleanup() {
+  local rc=$?
+  kill -TERM "$line" 2>/dev/null || true
+  wait "$line" 2>/dev/null || true
+  sleep 0.2
+  kill "$tailer" 2>/dev/null || true
+  wait "$tailer" 2>/dev/null || true
+  rm -rf "$work"
+  exit "$rc"
+}
+trap cleanup EXIT
 started=$(date +%s)
 
 # Wall seconds left of the demo.

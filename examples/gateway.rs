@@ -107,7 +107,9 @@ fn main() -> ! {
         if MASTER.is_busy() {
             continue;
         }
-        let coils = (0..8).fold(0u8, |bits, i| bits | u8::from(SLAVE.get(1 + i) == Ok(1)) << i);
+        // The eight coils read together: never half of a SCADA write.
+        let coils = SLAVE.with(|map| (0..8).fold(0u8, |bits, i| bits | u8::from(map.get(1 + i) == Ok(1)) << i));
+        let Some(coils) = coils else { continue };
         let now = millis();
         if coils_sent != Some(coils) {
             let values = [0, 1, 2, 3, 4, 5, 6, 7].map(|i| coils >> i & 1 == 1);

@@ -93,6 +93,9 @@ pub struct Config {
     /// (the reply waits for the LF to leave the line).
     #[cfg(feature = "ascii")]
     char_end: Deadline,
+    /// The reply delay after T3.5 in Timer0 ticks (feature `reply-delay`; 0: none).
+    #[cfg(feature = "reply-delay")]
+    reply_delay: u16,
 }
 
 impl Config {
@@ -160,7 +163,38 @@ impl Config {
             char_timeout: timeout_turns(Self::ASCII_CHAR_TIMEOUT_MS),
             #[cfg(feature = "ascii")]
             char_end: Deadline::after_flag(flag_to_end),
+            #[cfg(feature = "reply-delay")]
+            reply_delay: 0,
         })
+    }
+
+    /// The longest reply delay, in microseconds: 65 535 Timer0 ticks (262 ms at 16 MHz).
+    #[cfg(feature = "reply-delay")]
+    pub const MAX_REPLY_DELAY_US: u32 = 65_535 * 1000 / crate::timing::TICKS_PER_MS;
+
+    /// The slave waits `microseconds` after T3.5 before it answers (feature
+    /// `reply-delay`): for a master whose USB–RS-485 adapter or transceiver turns around
+    /// slowly and loses the first bytes of a reply that comes at once. Rounded to Timer0's
+    /// ticks (4 µs, 8 µs at 8 MHz), at most [`Config::MAX_REPLY_DELAY_US`] (more is that);
+    /// RTU only (an ASCII reply waits for nothing). 0, the default, is none.
+    #[cfg(feature = "reply-delay")]
+    pub const fn with_reply_delay(mut self, microseconds: u32) -> Self {
+        let us = if microseconds > Self::MAX_REPLY_DELAY_US { Self::MAX_REPLY_DELAY_US } else { microseconds };
+        self.reply_delay = ((us * crate::timing::TICKS_PER_MS + 500) / 1000) as u16;
+        self
+    }
+
+    /// The reply delay in microseconds, as Timer0 ticks make it (feature `reply-delay`).
+    #[cfg(feature = "reply-delay")]
+    pub const fn reply_delay_us(&self) -> u32 {
+        self.reply_delay as u32 * 1000 / crate::timing::TICKS_PER_MS
+    }
+
+    /// The reply delay in Timer0 ticks (feature `reply-delay`).
+    #[cfg(feature = "reply-delay")]
+    #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
+    pub(crate) const fn reply_delay_ticks(&self) -> u16 {
+        self.reply_delay
     }
 
     /// ASCII's inter-character timeout unless [`Config::with_char_timeout`] says otherwise:

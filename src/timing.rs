@@ -300,6 +300,9 @@ pub enum Passed {
     Gap,
     /// T3.5: no deadline is set until the next character.
     End,
+    /// The reply delay after T3.5 has passed (feature `reply-delay`).
+    #[cfg(feature = "reply-delay")]
+    Delayed,
 }
 
 impl TimerPlan {

@@ -724,9 +724,22 @@ fn a_refused_request_changes_nothing() {
     crate::sent(&mut small, 0);
     small.on_tick(101);
     assert!(small.outcome().is_some());
+    small.collect();
     assert_eq!(small.start(3, &Request::ReadHoldingRegisters { address: 0, quantity: 39 }), Err(Error::TooLong));
     assert_eq!(small.request(), sent.as_slice());
-    assert!(matches!(small.outcome(), Some(Ok(reply)) if reply.is_empty()));
+    assert!(!small.is_busy());
+}
+
+#[test]
+fn an_outcome_not_collected_keeps_the_next_request_out() {
+    let mut m = master();
+    send(&mut m, ID, Request::ReadHoldingRegisters { address: 0, quantity: 1 }, &[ID, 0x03, 0, 0, 0, 1]);
+    deliver(&mut m, &with_crc(&[ID, 0x03, 0x02, 0x12, 0x34]));
+    assert!(m.is_busy() && !m.is_under_way());
+    assert_eq!(m.start(ID, &Request::WriteSingleCoil { address: 0, value: true }), Err(Error::Busy));
+    assert_eq!(m.outcome().unwrap().unwrap().register(0), Some(0x1234));
+    m.collect();
+    assert_eq!(m.start(ID, &Request::WriteSingleCoil { address: 0, value: true }), Ok(Action::Send));
 }
 
 #[test]

@@ -204,6 +204,8 @@ fn one_compare_edges(plan: TimerPlan, t0: u8, late: u32) -> (u32, u32) {
                 edge = write;
             }
             Passed::End => return (gap.expect("the gap deadline passes first"), edge),
+            #[cfg(feature = "reply-delay")]
+            Passed::Delayed => unreachable!("the schedule knows nothing of reply delays"),
         }
     }
 }

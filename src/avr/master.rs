@@ -187,10 +187,11 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
 
     /// Starts `request` to `slave` (1–247, or 0 to broadcast a write) and returns at once:
     /// the request is checked and built now, and goes out as soon as the line has been
-    /// quiet for T3.5 (at once if it has). [`Error::Busy`] while another is under way
-    /// (it goes on), [`Error::NotStarted`] before [`Master::start`]; a quantity outside
-    /// the spec's limits, a broadcast read, a request or reply longer than the buffers
-    /// are refused before a byte is sent. An outcome not yet collected is dropped.
+    /// quiet for T3.5 (at once if it has). [`Error::Busy`] while another is under way (it
+    /// goes on) or its outcome waits to be collected with [`Master::poll`] (nothing is ever
+    /// dropped), [`Error::NotStarted`] before [`Master::start`]; a quantity outside the
+    /// spec's limits, a broadcast read, a request or reply longer than the buffers are
+    /// refused before a byte is sent.
     #[inline(never)]
     pub fn send(&self, slave: u8, request: &Request<'_>) -> Result<(), Error> {
         self.running
@@ -216,7 +217,8 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
             .flatten()
     }
 
-    /// True from [`Master::send`] until the outcome is there.
+    /// True from [`Master::send`] until the outcome is collected with [`Master::poll`]:
+    /// `send` is refused meanwhile.
     pub fn is_busy(&self) -> bool {
         self.running.locked(|m| m.engine.is_busy()).unwrap_or(false)
     }
@@ -224,7 +226,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
     /// Blocks until the request under way is done, then [`Master::poll`]s it: for simple
     /// firmware that has nothing else to do meanwhile. `None` when no request was sent.
     pub fn wait_blocking<R>(&self, f: impl FnOnce(Result<Reply<'_>, Failure>) -> R) -> Option<R> {
-        while self.is_busy() {}
+        while self.running.locked(|m| m.engine.is_under_way()).unwrap_or(false) {}
         self.poll(f)
     }
 

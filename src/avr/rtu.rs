@@ -38,6 +38,9 @@ pub(crate) struct Running<M, DE, LED, const N: usize, const U: u8> {
     tx_len: TxIndex,
     driver_enable: DE,
     led: LED,
+    /// The reply delay after T3.5, in Timer0 ticks (feature `reply-delay`; 0: none).
+    #[cfg(feature = "reply-delay")]
+    reply_delay: u16,
 }
 
 /// A position in the reply as it goes out: bytes, or with feature `ascii` characters.
@@ -60,7 +63,18 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
         let mut engine = Engine::new(config.slave_id());
         #[cfg(feature = "ascii")]
         set_mode(&mut engine, &mut timer, &config);
-        Running { usart, timer, engine, model, tx_next: 0, tx_len: 0, driver_enable, led }
+        Running {
+            usart,
+            timer,
+            engine,
+            model,
+            tx_next: 0,
+            tx_len: 0,
+            driver_enable,
+            led,
+            #[cfg(feature = "reply-delay")]
+            reply_delay: config.reply_delay_ticks(),
+        }
     }
 
     /// USART RX complete: one character (or a damaged one) arrived. The interrupt handler
@@ -105,6 +119,8 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
                 }
             }
             Passed::End => {}
+            #[cfg(feature = "reply-delay")]
+            Passed::Delayed => return self.send_processed(),
         }
         // A character that arrived while interrupts were held off (this interrupt outranks
         // the receive one) was on the wire before T3.5 expired: the silence starts over,
@@ -114,6 +130,16 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
             return;
         }
         let end = self.engine.on_end_deadline();
+        #[cfg(feature = "reply-delay")]
+        if end == EndOfFrame::Reply && self.reply_delay != 0 && !self.is_ascii() {
+            // Processed now, sent when the delay has passed.
+            let bytes = self.engine.process(&mut self.model);
+            self.tx_len = self.reply_chars(bytes);
+            if !self.timer.delay(self.reply_delay) {
+                self.send_processed();
+            }
+            return;
+        }
         if end == EndOfFrame::Reply {
             let _ = self.driver_enable.set_high();
             let _ = self.led.set_high();
@@ -129,6 +155,16 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
         if self.tx_len != 0 {
             self.usart.start_feeding();
         }
+    }
+
+    /// Sends a reply processed already (feature `reply-delay`): its delay has passed.
+    #[cfg(feature = "reply-delay")]
+    fn send_processed(&mut self) {
+        let _ = self.driver_enable.set_high();
+        let _ = self.led.set_high();
+        self.usart.write(self.first_char());
+        self.tx_next = 1;
+        self.usart.start_feeding();
     }
 
     /// True in ASCII framing (feature `ascii`); without the feature, never.
@@ -202,6 +238,10 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
             self.usart.configure(&config);
             self.timer.configure(config.timer_plan());
             self.engine.set_id(config.slave_id());
+            #[cfg(feature = "reply-delay")]
+            {
+                self.reply_delay = config.reply_delay_ticks();
+            }
             #[cfg(feature = "ascii")]
             set_mode(&mut self.engine, &mut self.timer, &config);
         }

@@ -100,6 +100,10 @@ pub(crate) struct Deadlines {
     /// ASCII framing (feature `ascii`), whose own events the compare interrupt reports.
     #[cfg(feature = "ascii")]
     ascii: AsciiTimer,
+    /// A reply waits for its delay (feature `reply-delay`): the matches of the compare
+    /// value still to let pass, and whether one is waiting.
+    #[cfg(feature = "reply-delay")]
+    delay: (u8, bool),
 }
 
 /// The compare interrupt's part in ASCII framing: it comes once a turn (1.024 ms, 2.048 ms
@@ -146,6 +150,8 @@ impl Deadlines {
                 end: Deadline { low: 0, turns: 0 },
                 end_turns: 0,
             },
+            #[cfg(feature = "reply-delay")]
+            delay: (0, false),
         }
     }
 }
@@ -336,6 +342,30 @@ impl<U: Unit> FrameTimer<U> {
         }
     }
 
+    /// Called at T3.5 from the compare interrupt: [`Passed::Delayed`] comes `ticks` (≥ 1)
+    /// Timer0 ticks after T3.5's compare value (feature `reply-delay`), or at once when that
+    /// has passed already.
+    #[cfg(feature = "reply-delay")]
+    pub(crate) fn delay(&mut self, ticks: u16) -> bool {
+        // SAFETY: called from the compare interrupt handler, with interrupts disabled.
+        unsafe {
+            U::deadlines().with(|d| {
+                let [turns, low] = ticks.to_be_bytes();
+                let at = U::OCR.read();
+                if low == 0 && turns == 0 {
+                    return false;
+                }
+                if turns == 0 && TCNT0.read().wrapping_sub(at) >= low {
+                    return false;
+                }
+                U::OCR.write(at.wrapping_add(low));
+                d.stale = TIFR0.read();
+                d.delay = (if low == 0 { turns - 1 } else { turns }, true);
+                true
+            })
+        }
+    }
+
     /// Compare B fired: which deadline passed, if one did. At the gap deadline the compare
     /// value moves on to T3.5's; after T3.5 no deadline is set until the next character, and
     /// the timer runs on. In ASCII framing: the end of a frame when one is due, the
@@ -347,6 +377,15 @@ impl<U: Unit> FrameTimer<U> {
             U::deadlines().with(|d| {
                 if d.was_stale::<U>() {
                     return Passed::Nothing;
+                }
+                #[cfg(feature = "reply-delay")]
+                if d.delay.1 {
+                    if d.delay.0 != 0 {
+                        d.delay.0 -= 1;
+                        return Passed::Nothing;
+                    }
+                    d.delay.1 = false;
+                    return Passed::Delayed;
                 }
                 #[cfg(feature = "ascii")]
                 if d.ascii.on {

@@ -200,15 +200,20 @@ impl<const N: usize> Engine<N> {
         *c = c.wrapping_add(1);
     }
 
-    /// True from [`Engine::start`] until the outcome is ready.
+    /// True from [`Engine::start`] until the outcome is collected ([`Engine::collect`]).
     pub fn is_busy(&self) -> bool {
+        self.state != State::Idle
+    }
+
+    /// True from [`Engine::start`] until the outcome is ready.
+    pub fn is_under_way(&self) -> bool {
         !matches!(self.state, State::Idle | State::Done)
     }
 
     /// Starts `request` to `slave` (0: broadcast): checked and built now, sent as soon as
     /// the line has been quiet for T3.5 ([`Action::Send`]: at once). A request while one is
-    /// under way is [`Error::Busy`]; an outcome not yet collected is dropped. Nothing
-    /// changes when the request is refused.
+    /// under way, or before the last outcome is collected, is [`Error::Busy`]: no request
+    /// and no outcome is ever dropped. Nothing changes when the request is refused.
     pub fn start(&mut self, slave: u8, request: &Request<'_>) -> Result<Action, Error> {
         if self.is_busy() {
             return Err(Error::Busy);

@@ -4,7 +4,9 @@
  * simavr simulates the AVR cores (here ATmega328P, 168, 32U4, 1280, 2560) and most
  * peripherals well, but its USART timing is not wire-accurate (see the crate
  * documentation for details). This shim keeps simavr's register handling for one
- * USART, "the wire" (USARTn, whichever the caller picks), and replaces its timing:
+ * USART, "the wire" (USARTn, whichever the caller picks), and optionally for a second
+ * one (a "second wire", e.g. a Mega gateway's other line), and replaces their timing,
+ * each wire with its own RX schedule and TX model:
  *
  *   - RX: bytes are written straight into the USART's receive FIFO at the cycle
  *     the caller gives, and RXCn is raised at that very cycle by a simavr cycle
@@ -17,8 +19,10 @@
  *     register using the character time the firmware configured; UDREn and TXCn are
  *     raised when the real chip would raise them. simavr's TX pump is parked.
  *
- * The chip's other USARTs run as simavr models them; the bytes they transmit are
- * collected (without timing) so that a test can read, e.g., debug output.
+ * The chip's other USARTs (those not a wire) run as simavr models them; the bytes they
+ * transmit are collected (without timing) so that a test can read, e.g., debug output.
+ *
+ * Functions that act on one wire take its index: 0 the wire, 1 the second wire.
  *
  * Resets keep the clock running: an external reset (the board's RESET pin, which
  * a USB-serial board pulses when a program opens its port) and a watchdog reset

@@ -20,6 +20,27 @@
 //!
 //! The chip's other USARTs work as simavr models them; [`Uno::take_usart_output`] collects what
 //! they send (e.g. a firmware's debug print on a Mega's USART0 while Modbus uses USART1).
+//!
+//! A second USART can be timed as a wire too ([`Options::second_usart`]), for a firmware that
+//! talks on two lines at once (a Mega gateway: a slave on USART0, a master on USART1). It
+//! follows the same timing model as the wire, with its own schedule and format: the `_on`
+//! methods take the USART's number and work on either wire ([`Uno::send_byte_on`],
+//! [`Uno::send_frame_on`], [`Uno::take_tx_on`], [`Uno::run_until_tx_idle_on`],
+//! [`Uno::tx_busy_until_on`], ...); the methods without `_on` stay the wire's.
+//!
+//! ```no_run
+//! use uno_sim::{us_to_cycles, Options, Uno};
+//!
+//! let options = Options::new().usart(0).second_usart(1);
+//! let mut mega = Uno::load_with("gateway.elf", options)?;
+//! mega.run_until(us_to_cycles(10_000))?;
+//! let char_time = mega.wire_char_cycles_on(1).expect("USART1 enabled");
+//! mega.send_frame_on(1, &[0x01, 0x03, 0x02, 0x00, 0x2A, 0x38, 0x5B], mega.now() + char_time, 0)?;
+//! mega.run_for(us_to_cycles(20_000))?;
+//! let on_usart0 = mega.take_tx(); // the wire's frames
+//! let on_usart1 = mega.take_tx_on(1)?; // the second wire's
+//! # Ok::<(), uno_sim::Error>(())
+//! ```
 //! Arduino pin numbers ([`Uno::pin`]) are the Uno's and work on the 328P and 168 only; every
 //! chip's pins can be named by port and bit ([`Uno::port_pin`]).
 //!

@@ -258,3 +258,81 @@ fn a_board_with_de_low_is_not_heard() {
     // lab_control lights its alarm LED when a device does not answer.
     assert!(!run.became("master", "13=on").is_empty(), "{out}");
 }
+
+/// An outside master on a pty: mbpoll (Debian) reads the button box's inputs and sets the
+/// tower's lamps through the line, paced to the wall clock (mbpoll times out in wall time).
+#[test]
+fn mbpoll_on_a_pty_reads_the_box_and_lights_the_tower() {
+    let lights = firmware("lab_lights");
+    let link = std::env::temp_dir().join(format!("vline-{}-mbpoll", std::process::id()));
+    let mut child = Command::new(env!("CARGO_BIN_EXE_virtual-line"))
+        .args(["--no-stdin", "--until", "60"])
+        .args(["--board", &format!("box={lights}"), "de=10", "pin2=low", "watch=2,3"])
+        .args(["--board", &format!("tower={lights}"), "de=10", "pin12=low", "watch=4,5,6,7"])
+        .args(["--pty", &format!("mbpoll={}", link.display())])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("virtual-line starts");
+    let mut stdout = child.stdout.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = stdout.read_to_string(&mut s);
+        s
+    });
+    let started = Instant::now();
+    while std::fs::read_link(&link).is_err() && started.elapsed() < Duration::from_secs(10) {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let mbpoll = |args: &str| {
+        let out = Command::new("mbpoll")
+            .args("-m rtu -b 19200 -P even -o 1 -1".split(' '))
+            .args(args.split_whitespace().take_while(|a| *a != "--"))
+            .arg(&link)
+            .args(args.split_whitespace().skip_while(|a| *a != "--").skip(1))
+            .output()
+            .expect("mbpoll runs (apt-get install mbpoll)");
+        format!("$ mbpoll {args}\n{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
+    };
+    // START held (pin 2 low from the start), STOP not.
+    let inputs = mbpoll("-a 1 -t 1 -r 1 -c 2");
+    // GREEN and BLUE on.
+    let coils = mbpoll("-a 2 -t 0 -r 1 -- 0 1 0 1");
+    std::thread::sleep(Duration::from_millis(300));
+    nix::sys::signal::kill(nix::unistd::Pid::from_raw(child.id() as i32), nix::sys::signal::Signal::SIGTERM).unwrap();
+    let _ = child.wait();
+    let out = reader.join().unwrap();
+    let transcript = format!("{inputs}\n{coils}\n{out}");
+    assert!(inputs.contains("[1]: \t1") && inputs.contains("[2]: \t0"), "{transcript}");
+    assert!(coils.contains("Written 4 references"), "{transcript}");
+    assert!(out.contains("frame from mbpoll: 01 02 00 00 00 02 F9 CB"), "{transcript}");
+    assert!(out.contains("frame from box: 01 02 01 01 60 48"), "{transcript}");
+    assert!(out.contains("frame from tower: 02 0F 00 00 00 04 54 3B"), "{transcript}");
+    assert!(out.contains("tower pins: 4=off 5=on 6=off 7=on"), "{transcript}");
+    assert!(out.contains("collisions: 0"), "{transcript}");
+}
+
+/// A board whose DE stays high (here the tower's "DE" is its RED lamp, pin 4, lit from its
+/// first reply on) drives the line while the others talk: the master's requests are
+/// garbled, and the tower, its receiver off, hears nothing more.
+#[test]
+fn a_board_holding_de_high_garbles_the_others() {
+    let lights = firmware("lab_lights");
+    #[rustfmt::skip]
+    let args: &[&str] = &[
+        "--board", &format!("master={}", firmware("lab_control")), "de=2", "watch=13",
+        "--board", &format!("box={lights}"), "de=10", "watch=none",
+        "--board", &format!("tower={lights}"), "de=4", "pin12=low", "watch=4,5,6,7",
+        "--until", "0.2",
+    ];
+    let run = Run::new(args, Duration::from_secs(60));
+    let out = &run.out;
+    // The reply's first character went out before the lamp lit: not on the line.
+    assert!(out.contains("tower sent with DE low (not on the line): 02"), "{out}");
+    assert!(out.contains("frame from tower: 0F 00 00 00 04 54 3B (bad CRC)"), "{out}");
+    let garbled = run.frames().into_iter().filter(|f| f.1 == "master" && f.3.contains("tower (DE high")).count();
+    assert!(garbled >= 2, "{out}");
+    assert!(run.summary("DE high over another's characters") >= 20, "{out}");
+    assert!(!run.frames().iter().any(|f| f.1 == "box"), "the box heard a garbled request:\n{out}");
+}

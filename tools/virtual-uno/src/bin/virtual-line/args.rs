@@ -14,8 +14,13 @@ usage: virtual-line [OPTIONS] --board NAME=FIRMWARE.elf [BOARD-OPTIONS...] [--bo
 Several simulated boards (simavr) and outside programs on ONE half-duplex RS-485 line, in
 lockstep on simulated time: every board and pty hears every character any other puts on
 the line; a board with de=PIN reaches the line only while that pin is high; two
-transmitters at once garble both. Every frame on the line is printed with its sender.
-Lines start with the simulated time in seconds, [   1.234567].
+transmitters at once garble both, and so does a board holding its DE high while another
+sends. Every frame on the line is printed with its sender once 3.5 character times of
+silence have ended it (`frame from master: 01 02 00 00 00 02 F9 CB`, remarks in
+parentheses: COLLISION, bad CRC, characters cut by DE, a short silence); pin changes as
+`tower pins: 4=on 5=off ...`. Lines start with the simulated time in seconds,
+[   1.234567] (a frame's: when its first start bit began). At the end (--until, Ctrl-C,
+SIGTERM): a summary line, each DE pin's timing, and the speed against real time.
 
 options:
   --board NAME=ELF [OPT...]  a simulated board; the chip is the one the ELF names. Its

@@ -58,6 +58,14 @@ pub struct Board {
     de_high_from: Option<u64>,
     /// Recent spans of DE high: (first sample high, first sample low again).
     de_spans: VecDeque<(u64, u64)>,
+    /// End of the last character it started.
+    last_tx_end: u64,
+    /// DE rose (first sample high) and no character has started since.
+    de_rise: Option<u64>,
+    /// Longest DE lead before a first start bit, and tail after a last stop bit, in cycles
+    /// (at the resolution of the DE samples).
+    de_lead: Option<(u64, u64)>,
+    de_tail: Option<(u64, u64)>,
 }
 
 impl Board {
@@ -77,6 +85,10 @@ impl Board {
             muted: None,
             de_high_from: None,
             de_spans: VecDeque::new(),
+            last_tx_end: 0,
+            de_rise: None,
+            de_lead: None,
+            de_tail: None,
         }
     }
 
@@ -91,10 +103,17 @@ impl Board {
     /// Records the DE level sampled at `now`.
     fn sample_de(&mut self, now: u64, level: bool, keep_after: u64) {
         match (self.de_high_from, level) {
-            (None, true) => self.de_high_from = Some(now),
+            (None, true) => {
+                self.de_high_from = Some(now);
+                self.de_rise = Some(now);
+            }
             (Some(from), false) => {
                 self.de_spans.push_back((from, now));
                 self.de_high_from = None;
+                if self.last_tx_end > from {
+                    let tail = now.saturating_sub(self.last_tx_end);
+                    self.de_tail = Some(self.de_tail.map_or((tail, tail), |(lo, hi)| (lo.min(tail), hi.max(tail))));
+                }
             }
             _ => {}
         }
@@ -346,10 +365,21 @@ impl Bus {
         }
         self.now = target;
 
-        // New characters, and DE samples.
+        // DE samples.
+        let levels: Vec<bool> = self.boards.iter().map(Board::de_level).collect();
+        let keep_after = self.now.saturating_sub(4 * self.char_cycles);
+        for (b, &level) in self.boards.iter_mut().zip(&levels) {
+            b.sample_de(self.now, level, keep_after);
+        }
+        // New characters (a DE that rose in this slice counts as before them).
         for (i, b) in self.boards.iter_mut().enumerate() {
             let settings = b.serial.unwrap_or(self.line);
             for t in b.uno.take_tx() {
+                if let Some(rise) = b.de_rise.take() {
+                    let lead = t.start_cycle.saturating_sub(rise);
+                    b.de_lead = Some(b.de_lead.map_or((lead, lead), |(lo, hi)| (lo.min(lead), hi.max(lead))));
+                }
+                b.last_tx_end = b.last_tx_end.max(t.end_cycle);
                 self.pending.push(Char {
                     src: i,
                     byte: t.byte,
@@ -363,11 +393,6 @@ impl Bus {
                     contention: Vec::new(),
                 });
             }
-        }
-        let levels: Vec<bool> = self.boards.iter().map(Board::de_level).collect();
-        let keep_after = self.now.saturating_sub(4 * self.char_cycles);
-        for (b, &level) in self.boards.iter_mut().zip(&levels) {
-            b.sample_de(self.now, level, keep_after);
         }
         for c in &mut self.pending {
             if c.src < levels.len() && c.start <= self.now {
@@ -622,6 +647,28 @@ impl Bus {
             b.serial = serial;
             b.pins_shown = pins;
         }
+    }
+
+    /// How long each board with a DE pin held it high around its frames.
+    pub fn de_report(&self) -> Vec<String> {
+        let us = |c: u64| c / uno_sim::CYCLES_PER_US;
+        let range = |r: Option<(u64, u64)>| r.map_or("?".to_owned(), |(lo, hi)| format!("{}-{}", us(lo), us(hi)));
+        self.boards
+            .iter()
+            .filter_map(|b| {
+                let pin = b.de?;
+                Some(match (b.de_lead, b.de_tail) {
+                    (None, None) => format!("DE of {} (pin {pin}): never high around a character", b.name),
+                    (lead, tail) => format!(
+                        "DE of {} (pin {pin}): high {} us before a frame's first start bit, low {} us after its last stop bit (DE sampled every {} us)",
+                        b.name,
+                        range(lead),
+                        range(tail),
+                        us(self.slice)
+                    ),
+                })
+            })
+            .collect()
     }
 
     /// The summary line.

@@ -337,6 +337,9 @@ fn run(args: args::Args) -> Result<(), String> {
     bus.finish();
     let wall = wall_start.elapsed().as_secs_f64();
     println!("{} {}", stamp(bus.now), bus.summary());
+    for line in bus.de_report() {
+        println!("{} {line}", stamp(bus.now));
+    }
     println!(
         "{} speed: {:.3} s simulated in {wall:.1} s of wall time ({:.0} % of real time){}",
         stamp(bus.now),
