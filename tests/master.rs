@@ -759,3 +759,22 @@ fn characters_within_t15_of_the_request_are_no_reply() {
     deliver(&mut m, &with_crc(&[ID, 0x03, 0x02, 0x00, 0x07]));
     assert_eq!(m.outcome().unwrap().unwrap().register(0), Some(7));
 }
+
+#[test]
+fn the_echo_of_the_request_from_a_transceiver_that_hears_itself_is_no_reply() {
+    let mut m = master();
+    m.set_timeouts(Timeouts { retries: 0, ..Timeouts::DEFAULT });
+    assert_eq!(m.start(ID, &Request::ReadHoldingRegisters { address: 0, quantity: 1 }), Ok(Action::Send));
+    // The request's own characters come back while it goes out.
+    let request = m.request().to_vec();
+    for &b in &request {
+        m.on_byte(b);
+    }
+    m.on_sent(0);
+    m.on_gap_deadline();
+    assert_eq!(m.on_end_deadline(), Action::None);
+    assert!(m.is_under_way(), "the echo ended the try");
+    assert_eq!(m.counters().unexpected + m.counters().malformed, 0);
+    deliver(&mut m, &with_crc(&[ID, 0x03, 0x02, 0x00, 0x05]));
+    assert_eq!(m.outcome().unwrap().unwrap().register(0), Some(5));
+}

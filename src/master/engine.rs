@@ -142,8 +142,9 @@ pub struct Engine<const N: usize = MAX_FRAME> {
     since: u32,
     /// T3.5 has passed since the line's last character (or the request's last).
     quiet: bool,
-    /// The request has just left the wire and T1.5 has not passed since: characters now are
-    /// no reply (a slave answers after T3.5) but the tail of something else, and ignored.
+    /// The request is on the wire, or has just left it and T1.5 has not passed since:
+    /// characters now are no reply (a slave answers after T3.5) but the request's own echo
+    /// or the tail of something else, and ignored.
     settling: bool,
     /// Why the request failed, once `Done`; `None` when it was answered (the reply stays
     /// in the framer's buffer until collected).
@@ -232,6 +233,9 @@ impl<const N: usize> Engine<N> {
         if self.state == State::Due && self.quiet {
             self.state = State::Sending;
             self.quiet = false;
+            // What the line carries while the request goes out is the request itself (a
+            // transceiver that hears its own transmitter echoes it) or a collision: no reply.
+            self.settling = true;
             self.count(Count::Requests);
             Action::Send
         } else {
