@@ -77,3 +77,18 @@ impl Error {
         }
     }
 }
+
+/// The one-line description ([`Error::message`]).
+impl core::fmt::Display for Error {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.message())
+    }
+}
+
+/// The one-line description ([`Error::message`]), for arduino-hal's serial (feature `ufmt`).
+#[cfg(feature = "ufmt")]
+impl ufmt::uDisplay for Error {
+    fn fmt<W: ufmt::uWrite + ?Sized>(&self, f: &mut ufmt::Formatter<'_, W>) -> Result<(), W::Error> {
+        f.write_str(self.message())
+    }
+}

@@ -49,3 +49,12 @@ fn references_print_table_and_address() {
     assert_eq!(printed(&Table::Coils), "Coils");
     assert_eq!(printed(&SlaveId::new(9).unwrap()), "SlaveId(9)");
 }
+
+#[test]
+fn an_error_displays_its_message_with_ufmt_and_core_fmt() {
+    let mut out = Text(String::new());
+    ufmt::uwrite!(out, "{}", Error::Quantity).unwrap();
+    assert_eq!(out.0, "quantity outside the spec's limits");
+    assert_eq!(format!("{}", Error::SlaveId), "slave id must be 1-247");
+    assert_eq!(Error::Busy.to_string(), Error::Busy.message());
+}
