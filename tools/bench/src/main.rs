@@ -143,7 +143,7 @@ const LIBRARIES: [(&str, u64, &str); 3] = [
 ];
 
 /// Optional features measured on `minimal` (`make bench-features`).
-const FEATURES: [&str; 6] = ["extra-fc", "diagnostics", "write-protect", "device-id", "millis", "ascii"];
+const FEATURES: [&str; 7] = ["extra-fc", "diagnostics", "write-protect", "device-id", "millis", "ascii", "reply-delay"];
 
 /// A request of every function code the examples serve, each answered normally where the
 /// table exists and with exception 02 where it does not, plus FC 3 × 125 and an unsupported
