@@ -1,7 +1,8 @@
 /*!
  * Line settings the master can change, kept in EEPROM: the master writes the slave id,
- * baud rate, parity, stop bits and the transmission mode (RTU or ASCII, feature `ascii`)
- * to holding registers 40101–40105; the slave answers that
+ * baud rate, parity, stop bits, the transmission mode (RTU or ASCII, feature `ascii`) and
+ * the reply delay (feature `reply-delay`) to holding registers 40101–40106; the slave
+ * answers that
  * write at the old settings and switches once the reply has left the wire and the main
  * loop (`SLAVE.poll_settings`) has computed the new USART and Timer0 settings, under 4 ms
  * after the request (3.7 ms measured at 115200). The main loop then stores them in EEPROM (≈3.4 ms per changed byte), where
@@ -37,6 +38,7 @@
  * | 40103       | 102     | parity: 0 none, 1 odd, 2 even                        |
  * | 40104       | 103     | stop bits: 1 or 2                                    |
  * | 40105       | 104     | mode: 0 RTU, 1 ASCII (7 data bits), 2 ASCII with 8   |
+ * | 40106       | 105     | reply delay after T3.5 in ms, 0–255 (RTU)            |
  *
  * In QModMaster (Start Address counts from 0; Options › Settings › Base Addr stays 0), one
  * read per row: 40005–40100 don't exist, so a read from 40001 to 40101 gets exception 02.
@@ -46,9 +48,9 @@
  * | 00001–00008 | Read Coils (0x01); write: 0x05, 0x0f               | 0             | 8      |
  * | 30001–30003 | Read Input Registers (0x04)                        | 0             | 3      |
  * | 40001–40004 | Read Holding Registers (0x03); write: 0x06, 0x10   | 0             | 4      |
- * | 40101–40105 | Read Holding Registers (0x03); write: 0x06, 0x10   | 100           | 5      |
+ * | 40101–40106 | Read Holding Registers (0x03); write: 0x06, 0x10   | 100           | 6      |
  *
- * A write to 40101–40105 that the slave can't run (id 0 or over 247, a rate the 16 MHz
+ * A write to 40101–40106 that the slave can't run (id 0 or over 247, a rate the 16 MHz
  * USART can't make within 2.5 %, another code) gets exception 03 and changes nothing. In
  * ASCII the line keeps its rate, parity and stop bits (19200 7E1 after writing 1 to 40105
  * at the default), and a frame inside which it stays silent for 1 s is dropped.

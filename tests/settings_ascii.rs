@@ -3,7 +3,7 @@
 //! high nibble of the record's stop-bits byte, which RTU firmware writes as 0.
 //! `tests/settings.rs` covers the four-register block of firmware without `ascii`.
 
-#![cfg(all(feature = "eeprom-settings", feature = "ascii"))]
+#![cfg(all(feature = "eeprom-settings", feature = "ascii", not(feature = "reply-delay")))]
 
 mod common;
 

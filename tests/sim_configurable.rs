@@ -336,3 +336,36 @@ fn in_ascii_with_two_stop_bits_the_reply_waits_for_the_lfs_last_stop_bit() {
         cycles_to_us(lead)
     );
 }
+
+#[test]
+fn writing_3_to_40106_delays_every_reply_3_ms_after_t35_and_a_reset_keeps_it() {
+    let mut board = Board::boot(Line::B19200_8E1, |_| {});
+    let line = Line::B19200_8E1;
+    let turnaround = |board: &mut Board| {
+        let exchange = board.exchange(&read_request(ID, 0x03, BLOCK, 6));
+        assert_eq!(exchange.bytes().len(), 5 + 12, "a reply to the block's read");
+        exchange.turnaround().unwrap()
+    };
+    let before = turnaround(&mut board);
+    assert!(before < line.t35() + us_to_cycles(40), "no delay yet: {} µs", cycles_to_us(before));
+    let write = with_crc(&[
+        ID,   // slave address
+        0x06, // function: write single register
+        0x00, // address hi
+        0x69, // address lo: 40106, the reply delay
+        0x00, // value hi
+        0x03, // value lo: 3 ms
+    ]);
+    // Answered at once: the new settings apply once the reply has left the wire.
+    assert_eq!(board.ask(&write), write);
+    board.settle(line);
+    let after = turnaround(&mut board);
+    let past = cycles_to_us(after) - cycles_to_us(line.t35());
+    println!("reply delay 3 ms: the reply starts {past:.1} µs after T3.5");
+    assert!((3000.0..3040.0).contains(&past), "{past:.1} µs after T3.5");
+    assert_eq!(board.read(ID, 0x03, BLOCK, 6), Some(vec![1, 192, 2, 1, 0, 3]));
+    // Kept in EEPROM: a reset starts with the delay.
+    let mut board = board.reset(line);
+    let past = cycles_to_us(turnaround(&mut board)) - cycles_to_us(line.t35());
+    assert!((3000.0..3040.0).contains(&past), "after the reset: {past:.1} µs after T3.5");
+}

@@ -9,12 +9,9 @@ use crate::config::{Config, Parity, SlaveId, StopBits};
 use crate::pdu::Exception;
 use crate::timing::{BaudDivisor, CLOCK_HZ};
 
-/// Registers in the settings block: four, and the transmission mode with feature `ascii`.
-#[cfg(not(feature = "ascii"))]
-pub const BLOCK_LEN: u16 = 4;
-/// Registers in the settings block: four, and the transmission mode with feature `ascii`.
-#[cfg(feature = "ascii")]
-pub const BLOCK_LEN: u16 = 5;
+/// Registers in the settings block: four, the transmission mode with feature `ascii`, and
+/// the reply delay with feature `reply-delay`, in that order.
+pub const BLOCK_LEN: u16 = 4 + cfg!(feature = "ascii") as u16 + cfg!(feature = "reply-delay") as u16;
 
 /// Offset of the slave id in the settings block.
 pub const SLAVE_ID: u16 = 0;
@@ -27,6 +24,13 @@ pub const STOP_BITS: u16 = 3;
 /// Offset of the transmission mode in the settings block (feature `ascii`).
 #[cfg(feature = "ascii")]
 pub const MODE: u16 = 4;
+/// Offset of the reply delay in milliseconds in the settings block (feature `reply-delay`):
+/// the last register.
+#[cfg(feature = "reply-delay")]
+pub const REPLY_DELAY: u16 = BLOCK_LEN - 1;
+/// The longest reply delay the block and the record take, in milliseconds.
+#[cfg(feature = "reply-delay")]
+pub const MAX_REPLY_DELAY_MS: u16 = 255;
 
 /// The transmission mode of a code (feature `ascii`): 0 RTU, 1 ASCII with 7 data bits,
 /// 2 ASCII with 8 (the discriminants of [`Mode`]); `None` for another code.
@@ -91,6 +95,9 @@ pub struct LineSettings {
     /// RTU or ASCII (feature `ascii`).
     #[cfg(feature = "ascii")]
     pub mode: Mode,
+    /// The reply delay after T3.5 in milliseconds, 0–255 (feature `reply-delay`).
+    #[cfg(feature = "reply-delay")]
+    pub reply_delay_ms: u8,
 }
 
 impl LineSettings {
@@ -103,6 +110,15 @@ impl LineSettings {
             stop_bits: config.stop_bits(),
             #[cfg(feature = "ascii")]
             mode: config.mode(),
+            #[cfg(feature = "reply-delay")]
+            reply_delay_ms: {
+                let ms = config.reply_delay_us() / 1000;
+                if ms > MAX_REPLY_DELAY_MS as u32 {
+                    MAX_REPLY_DELAY_MS as u8
+                } else {
+                    ms as u8
+                }
+            },
         }
     }
 
@@ -115,6 +131,8 @@ impl LineSettings {
             u16::from(stop_bits_count(self.stop_bits)),
             #[cfg(feature = "ascii")]
             (self.mode as u16),
+            #[cfg(feature = "reply-delay")]
+            u16::from(self.reply_delay_ms),
         ]
     }
 
@@ -122,10 +140,8 @@ impl LineSettings {
     /// baud register still reading `base`'s value keeps `base`'s exact rate. Exception 03
     /// when the registers describe settings the slave can't run.
     pub fn from_registers(base: &LineSettings, registers: [u16; BLOCK_LEN as usize]) -> Result<Self, Exception> {
-        #[cfg(not(feature = "ascii"))]
-        let [id, baud_100, parity, stop] = registers;
-        #[cfg(feature = "ascii")]
-        let [id, baud_100, parity, stop, mode] = registers;
+        let at = |offset: u16| registers.get(usize::from(offset)).copied().unwrap_or(0);
+        let [id, baud_100, parity, stop] = [at(SLAVE_ID), at(BAUD_100), at(PARITY), at(STOP_BITS)];
         let baud = u32::from(baud_100) * 100;
         // `baud_100 == base.baud / 100`, without a division.
         let baud = if (baud..baud + 100).contains(&base.baud) { base.baud } else { baud };
@@ -135,7 +151,9 @@ impl LineSettings {
             parity: parity_from_code(parity).ok_or(Exception::IllegalDataValue)?,
             stop_bits: stop_bits_from_count(stop).ok_or(Exception::IllegalDataValue)?,
             #[cfg(feature = "ascii")]
-            mode: mode_from_code(mode).ok_or(Exception::IllegalDataValue)?,
+            mode: mode_from_code(at(MODE)).ok_or(Exception::IllegalDataValue)?,
+            #[cfg(feature = "reply-delay")]
+            reply_delay_ms: u8::try_from(at(REPLY_DELAY)).map_err(|_| Exception::IllegalDataValue)?,
         };
         if settings.is_runnable() {
             Ok(settings)
@@ -160,6 +178,8 @@ impl LineSettings {
         let config = Config::try_new(self.slave_id, self.baud, self.parity, self.stop_bits).ok();
         #[cfg(feature = "ascii")]
         let config = config.map(|c| c.with_mode(self.mode));
+        #[cfg(feature = "reply-delay")]
+        let config = config.map(|c| c.with_reply_delay(u32::from(self.reply_delay_ms) * 1000));
         config
     }
 }

@@ -10,7 +10,7 @@
 //! | 0    | [`MAGIC`], written last                     |
 //! | 1    | sequence number (wrapping), the newer wins  |
 //! | 2    | slave id                                    |
-//! | 3–6  | baud rate, `u32` little-endian              |
+//! | 3–6  | baud rate, `u32` little-endian (at most 1 000 000: byte 6 is 0); with feature `reply-delay` byte 6 is the reply delay in milliseconds instead (0: the byte earlier firmware writes) |
 //! | 7    | parity code (0 none, 1 odd, 2 even)         |
 //! | 8    | stop bits (1 or 2), and with feature `ascii` the transmission mode code in the high nibble (0 RTU: the byte RTU firmware writes) |
 //! | 9–10 | CRC-16/MODBUS of bytes 0–8, low byte first  |
@@ -52,6 +52,8 @@ pub struct Record {
 /// stored: 7 bytes.
 fn encode_settings(config: &Config) -> [u8; 7] {
     let [b0, b1, b2, b3] = config.baud().to_le_bytes();
+    #[cfg(feature = "reply-delay")]
+    let b3 = b3 | LineSettings::of(config).reply_delay_ms;
     #[allow(unused_mut)]
     let mut stop = stop_bits_count(config.stop_bits());
     #[cfg(feature = "ascii")]
@@ -63,7 +65,12 @@ fn encode_settings(config: &Config) -> [u8; 7] {
 
 /// The configuration of 7 stored bytes, `None` when [`Config::try_new`] refuses it.
 fn decode_settings(bytes: [u8; 7]) -> Option<Config> {
-    let [id, b0, b1, b2, b3, parity, stop] = bytes;
+    #[allow(unused_mut)]
+    let [id, b0, b1, b2, mut b3, parity, stop] = bytes;
+    // With feature `reply-delay` the baud rate's high byte (always 0) holds the delay;
+    // without, a delay there makes a rate no USART makes: a record this firmware can't run.
+    #[cfg(feature = "reply-delay")]
+    let reply_delay_ms = core::mem::replace(&mut b3, 0);
     // Without feature `ascii` a mode in the high nibble makes an unknown stop count: a
     // record this firmware can't run.
     #[cfg(feature = "ascii")]
@@ -75,6 +82,8 @@ fn decode_settings(bytes: [u8; 7]) -> Option<Config> {
         stop_bits: stop_bits_from_count(u16::from(stop))?,
         #[cfg(feature = "ascii")]
         mode,
+        #[cfg(feature = "reply-delay")]
+        reply_delay_ms,
     }
     .to_config()
 }
