@@ -21,30 +21,31 @@
 //! ```
 
 mod args;
+mod commands;
 mod control;
 mod dtr;
 mod line;
+mod pace;
 mod pty;
 mod state;
 mod wire;
 
-use std::fs::{File, OpenOptions};
-use std::io::{self, Read};
+use std::fs::File;
+use std::io;
 use std::os::fd::AsFd;
-use std::os::unix::fs::{FileTypeExt, OpenOptionsExt};
-use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
 use nix::sys::signal::{SigSet, Signal};
 use nix::sys::signalfd::{SfdFlags, SignalFd};
-use nix::sys::stat::Mode;
 use uno_sim::{Options, ResetCause, Uno, CYCLES_PER_US};
 
+use commands::{CommandSource, ControlFifo};
 use control::Command;
 use dtr::Dtr;
 use line::Settings;
+use pace::{cycles_to_duration, Clock};
 use pty::{Link, Pty};
 use state::State;
 use wire::Wire;
@@ -75,96 +76,6 @@ fn main() -> ExitCode {
         Err(msg) => {
             eprintln!("virtual-uno: {msg}");
             ExitCode::FAILURE
-        }
-    }
-}
-
-/// Maps wall-clock time to simulated cycles.
-struct Clock {
-    start: Instant,
-    base_cycle: u64,
-}
-
-impl Clock {
-    fn new(now_cycle: u64) -> Clock {
-        Clock { start: Instant::now(), base_cycle: now_cycle }
-    }
-
-    /// The cycle the simulation should have reached by now.
-    fn due(&self) -> u64 {
-        let ns = self.start.elapsed().as_nanos();
-        self.base_cycle + u64::try_from(ns * u128::from(CYCLES_PER_US) / 1_000).unwrap_or(u64::MAX)
-    }
-}
-
-fn cycles_to_duration(cycles: u64) -> Duration {
-    Duration::from_nanos(cycles.saturating_mul(1_000) / CYCLES_PER_US)
-}
-
-/// Lines of commands from stdin or the control FIFO.
-struct CommandSource {
-    name: String,
-    file: File,
-    pending: Vec<u8>,
-    open: bool,
-}
-
-impl CommandSource {
-    /// Reads what is available; returns complete lines. A closed stdin is simply not read again.
-    fn read_lines(&mut self) -> Vec<String> {
-        let mut buf = [0u8; 512];
-        match self.file.read(&mut buf) {
-            Ok(0) => self.open = false,
-            Ok(n) => self.pending.extend_from_slice(&buf[..n]),
-            Err(e) if e.kind() == io::ErrorKind::WouldBlock => {}
-            Err(e) => {
-                eprintln!("virtual-uno: {}: {e}; no longer read", self.name);
-                self.open = false;
-            }
-        }
-        let mut lines = Vec::new();
-        while let Some(end) = self.pending.iter().position(|&b| b == b'\n') {
-            let line: Vec<u8> = self.pending.drain(..=end).collect();
-            lines.push(String::from_utf8_lossy(&line).into_owned());
-        }
-        lines
-    }
-}
-
-/// The `--control` FIFO: created if missing (and then removed on exit), opened read-write so
-/// that writers coming and going never make it report end of file.
-struct ControlFifo {
-    path: PathBuf,
-    created: bool,
-}
-
-impl ControlFifo {
-    fn open(path: &Path) -> Result<(ControlFifo, CommandSource), String> {
-        let created = match path.metadata() {
-            Ok(m) if m.file_type().is_fifo() => false,
-            Ok(_) => return Err(format!("--control {}: exists and is not a FIFO", path.display())),
-            Err(_) => {
-                nix::unistd::mkfifo(path, Mode::from_bits_truncate(0o600))
-                    .map_err(|e| format!("cannot create FIFO {}: {e}", path.display()))?;
-                true
-            }
-        };
-        let guard = ControlFifo { path: path.to_owned(), created };
-        let file = OpenOptions::new()
-            .read(true)
-            .write(true)
-            .custom_flags(nix::libc::O_NONBLOCK)
-            .open(path)
-            .map_err(|e| format!("cannot open {}: {e}", path.display()))?;
-        let name = path.display().to_string();
-        Ok((guard, CommandSource { name, file, pending: Vec::new(), open: true }))
-    }
-}
-
-impl Drop for ControlFifo {
-    fn drop(&mut self) {
-        if self.created {
-            let _ = std::fs::remove_file(&self.path);
         }
     }
 }
@@ -292,7 +203,7 @@ fn run(args: &args::Args) -> Result<(), String> {
     let mut sources: Vec<CommandSource> = control.into_iter().collect();
     if args.stdin {
         let fd = io::stdin().as_fd().try_clone_to_owned().map_err(|e| format!("stdin: {e}"))?;
-        sources.push(CommandSource { name: "stdin".into(), file: File::from(fd), pending: Vec::new(), open: true });
+        sources.push(CommandSource::new("stdin", File::from(fd)));
     }
 
     let mut wire = Wire::default();

@@ -12,32 +12,35 @@
 #[allow(dead_code)]
 mod args;
 mod bus;
+#[path = "../../commands.rs"]
+mod commands;
 #[allow(dead_code)]
 #[path = "../../control.rs"]
 mod control;
 #[allow(dead_code)]
 #[path = "../../line.rs"]
 mod line;
+#[path = "../../pace.rs"]
+mod pace;
 #[allow(dead_code)]
 #[path = "../../pty.rs"]
 mod pty;
 
-use std::fs::{File, OpenOptions};
-use std::io::{self, Read};
+use std::fs::File;
+use std::io;
 use std::os::fd::AsFd;
-use std::os::unix::fs::{FileTypeExt, OpenOptionsExt};
-use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
 use nix::sys::signal::{SigSet, Signal};
 use nix::sys::signalfd::{SfdFlags, SignalFd};
-use nix::sys::stat::Mode;
-use uno_sim::{Options, Uno, CYCLES_PER_US};
+use uno_sim::{Options, Uno};
 
 use args::LineCommand;
 use bus::{stamp, Board, Bus, PtyPort};
+use commands::{CommandSource, ControlFifo};
+use pace::{cycles_to_duration, Clock};
 use pty::{Link, Pty};
 
 /// Falling behind the wall clock by more than this is reported.
@@ -64,93 +67,6 @@ fn main() -> ExitCode {
         Err(msg) => {
             eprintln!("virtual-line: {msg}");
             ExitCode::FAILURE
-        }
-    }
-}
-
-/// Maps wall-clock time to simulated cycles.
-struct Clock {
-    start: Instant,
-    base_cycle: u64,
-}
-
-impl Clock {
-    fn new(now_cycle: u64) -> Clock {
-        Clock { start: Instant::now(), base_cycle: now_cycle }
-    }
-
-    fn due(&self) -> u64 {
-        let ns = self.start.elapsed().as_nanos();
-        self.base_cycle + u64::try_from(ns * u128::from(CYCLES_PER_US) / 1_000).unwrap_or(u64::MAX)
-    }
-}
-
-fn cycles_to_duration(cycles: u64) -> Duration {
-    Duration::from_nanos(cycles.saturating_mul(1_000) / CYCLES_PER_US)
-}
-
-/// Lines of commands from stdin or the control FIFO.
-struct CommandSource {
-    name: String,
-    file: File,
-    pending: Vec<u8>,
-    open: bool,
-}
-
-impl CommandSource {
-    fn read_lines(&mut self) -> Vec<String> {
-        let mut buf = [0u8; 512];
-        match self.file.read(&mut buf) {
-            Ok(0) => self.open = false,
-            Ok(n) => self.pending.extend_from_slice(&buf[..n]),
-            Err(e) if e.kind() == io::ErrorKind::WouldBlock => {}
-            Err(e) => {
-                eprintln!("virtual-line: {}: {e}; no longer read", self.name);
-                self.open = false;
-            }
-        }
-        let mut lines = Vec::new();
-        while let Some(end) = self.pending.iter().position(|&b| b == b'\n') {
-            let line: Vec<u8> = self.pending.drain(..=end).collect();
-            lines.push(String::from_utf8_lossy(&line).into_owned());
-        }
-        lines
-    }
-}
-
-/// The `--control` FIFO, removed on exit if we created it.
-struct ControlFifo {
-    path: PathBuf,
-    created: bool,
-}
-
-impl ControlFifo {
-    fn open(path: &Path) -> Result<(ControlFifo, CommandSource), String> {
-        let created = match path.metadata() {
-            Ok(m) if m.file_type().is_fifo() => false,
-            Ok(_) => return Err(format!("--control {}: exists and is not a FIFO", path.display())),
-            Err(_) => {
-                nix::unistd::mkfifo(path, Mode::from_bits_truncate(0o600))
-                    .map_err(|e| format!("cannot create FIFO {}: {e}", path.display()))?;
-                true
-            }
-        };
-        let guard = ControlFifo { path: path.to_owned(), created };
-        let file = OpenOptions::new()
-            .read(true)
-            .write(true)
-            .custom_flags(nix::libc::O_NONBLOCK)
-            .open(path)
-            .map_err(|e| format!("cannot open {}: {e}", path.display()))?;
-        let name = path.display().to_string();
-        Ok((guard, CommandSource { name, file, pending: Vec::new(), open: true }))
-    }
-}
-
-impl Drop for ControlFifo {
-    fn drop(&mut self) {
-        if self.created {
-            let _ = std::fs::remove_file(&self.path);
         }
     }
 }
@@ -245,7 +161,7 @@ fn run(args: args::Args) -> Result<(), String> {
     let mut sources: Vec<CommandSource> = control.into_iter().collect();
     if args.stdin {
         let fd = io::stdin().as_fd().try_clone_to_owned().map_err(|e| format!("stdin: {e}"))?;
-        sources.push(CommandSource { name: "stdin".into(), file: File::from(fd), pending: Vec::new(), open: true });
+        sources.push(CommandSource::new("stdin", File::from(fd)));
     }
 
     let wall_start = Instant::now();
