@@ -11,7 +11,6 @@ use embedded_hal::digital::OutputPin;
 
 use super::clock;
 use super::pins::NoPin;
-use super::reg::{self, claim};
 use super::started::Started;
 use super::timer::{FrameTimer, Passed, A};
 use super::usart::Usart;
@@ -20,7 +19,6 @@ use crate::error::Error;
 use crate::framer::MAX_FRAME;
 use crate::master::internal::{Action, Engine};
 use crate::master::{Counters, Failure, Reply, Request, Timeouts};
-use crate::peripheral::may_be_usart;
 
 /// The running master: its peripherals, protocol state with `N`-byte buffers, the RS-485
 /// driver-enable pin and the communication LED.
@@ -83,7 +81,9 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
                 }
                 self.engine.on_end_deadline()
             }
-            Passed::Nothing => self.engine.on_tick(clock::millis()),
+            // The clock is read only while a timeout runs: an idle turn costs a few cycles.
+            Passed::Nothing if self.engine.is_timing() => self.engine.on_tick(clock::millis()),
+            Passed::Nothing => return,
         };
         self.act(action);
     }
@@ -170,19 +170,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
         P::Target: Sized,
         T::Target: Sized,
     {
-        const {
-            assert!(
-                may_be_usart(core::any::type_name::<P>(), U, Usart::<U>::BLOCK),
-                "start takes the USART that master! names: dp.USART0 for master!(MASTER: …) on pins 0/1 \
-                 (dp.USART1 on the ATmega32U4), dp.USARTn for master!(MASTER on USARTn: …)"
-            );
-        };
-        claim::<_, { reg::USART_SIZE }>(usart, Usart::<U>::BLOCK)?;
-        claim::<_, { reg::TC0.1 }>(tc0, reg::TC0.0)?;
-        self.running.start(|| Running::new(config, driver_enable, led))?;
-        // SAFETY: the master is in its cell, so its interrupt handlers can run.
-        unsafe { reg::enable_interrupts() };
-        Ok(())
+        self.running.start_on::<_, _, U>(usart, tc0, || Running::new(config, driver_enable, led))
     }
 
     /// Starts `request` to `slave` (1–247, or 0 to broadcast a write) and returns at once:
@@ -192,12 +180,15 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
     /// dropped), [`Error::NotStarted`] before [`Master::start`]; a quantity outside the
     /// spec's limits, a broadcast read, a request or reply longer than the buffers are
     /// refused before a byte is sent.
-    #[inline(never)]
     pub fn send(&self, slave: u8, request: &Request<'_>) -> Result<(), Error> {
         self.running
             .locked(|m| {
-                let action = m.engine.start(slave, request)?;
+                let action = m.engine.begin(slave, request)?;
+                // The address goes out first; the CRC is worked out while it is on the wire
+                // (the rest follows from the data-register-empty interrupt, once this
+                // critical section ends).
                 m.act(action);
+                m.engine.seal();
                 Ok(())
             })
             .unwrap_or(Err(Error::NotStarted))

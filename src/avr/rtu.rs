@@ -8,7 +8,7 @@ use core::ops::Deref;
 use embedded_hal::digital::OutputPin;
 
 use super::pins::NoPin;
-use super::reg::{self, claim};
+use super::reg;
 use super::started::Started;
 use super::timer::{FrameTimer, Passed, B};
 use super::usart::Usart;
@@ -17,7 +17,6 @@ use crate::engine::{Counters, EndOfFrame, Engine};
 use crate::error::Error;
 use crate::framer::MAX_FRAME;
 use crate::model::DataModel;
-use crate::peripheral::may_be_usart;
 use crate::reference::IntoReference;
 
 /// The running slave: its peripherals, protocol state with a frame buffer of `N` bytes,
@@ -336,19 +335,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> S
         P::Target: Sized,
         T::Target: Sized,
     {
-        const {
-            assert!(
-                may_be_usart(core::any::type_name::<P>(), U, Usart::<U>::BLOCK),
-                "start takes the USART that slave! names: dp.USART0 for slave!(SLAVE: …) on pins 0/1 \
-                 (dp.USART1 on the ATmega32U4), dp.USARTn for slave!(SLAVE on USARTn: …)"
-            );
-        };
-        claim::<_, { reg::USART_SIZE }>(usart, Usart::<U>::BLOCK)?;
-        claim::<_, { reg::TC0.1 }>(tc0, reg::TC0.0)?;
-        self.running.start(|| Running::new(config, model, driver_enable, led))?;
-        // SAFETY: the slave is in its cell, so its interrupt handlers can run.
-        unsafe { reg::enable_interrupts() };
-        Ok(())
+        self.running.start_on::<_, _, U>(usart, tc0, || Running::new(config, model, driver_enable, led))
     }
 
     /// The handlers [`crate::slave!`] binds, one per interrupt, each inlined into its

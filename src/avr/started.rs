@@ -4,27 +4,30 @@
 
 use core::cell::UnsafeCell;
 use core::mem::MaybeUninit;
+use core::ops::Deref;
 
-use super::reg;
+use super::reg::{self, claim};
+use super::usart::Usart;
 use crate::error::Error;
+use crate::peripheral::may_be_usart;
 
 const EMPTY: u8 = 0;
 const READY: u8 = 1;
 const IN_USE: u8 = 2;
 
-/// A `T` written once by [`Started::start`]; all zero before, so it lives in `.bss` and
+/// A role `R` written once by [`Started::start`]; all zero before, so it lives in `.bss` and
 /// costs no flash for an initializer. A flag refuses re-entry.
-pub(crate) struct Started<T> {
+pub(crate) struct Started<R> {
     state: UnsafeCell<u8>,
-    value: UnsafeCell<MaybeUninit<T>>,
+    value: UnsafeCell<MaybeUninit<R>>,
 }
 
 // SAFETY: the chip has one core, and the cell is only touched with interrupts disabled
 // (`reg::free`, or inside the role's interrupt handlers), so no two accesses overlap. What
 // it holds moves in from `start`'s caller and is used from interrupts, hence `Send`.
-unsafe impl<T: Send> Sync for Started<T> {}
+unsafe impl<R: Send> Sync for Started<R> {}
 
-impl<T> Started<T> {
+impl<R> Started<R> {
     /// Not started.
     pub(crate) const fn new() -> Self {
         Started { state: UnsafeCell::new(EMPTY), value: UnsafeCell::new(MaybeUninit::zeroed()) }
@@ -32,7 +35,7 @@ impl<T> Started<T> {
 
     /// Writes the value `make` builds, with interrupts disabled; [`Error::AlreadyStarted`]
     /// the second time.
-    pub(crate) fn start(&self, make: impl FnOnce() -> T) -> Result<(), Error> {
+    pub(crate) fn start(&self, make: impl FnOnce() -> R) -> Result<(), Error> {
         reg::free(|| {
             // SAFETY: interrupts are disabled, so nothing else accesses the cell.
             unsafe {
@@ -46,12 +49,42 @@ impl<T> Started<T> {
         })
     }
 
+    /// A role's start: takes USART `U` and `TC0` from the application's `Peripherals`
+    /// (another USART is a build error, or [`Error::WrongPeripheral`] with a PAC whose
+    /// types don't tell), writes the value `make` builds (which configures them), and
+    /// enables interrupts.
+    #[inline(always)]
+    pub(crate) fn start_on<P: Deref, T: Deref, const U: u8>(
+        &self,
+        usart: P,
+        tc0: T,
+        make: impl FnOnce() -> R,
+    ) -> Result<(), Error>
+    where
+        P::Target: Sized,
+        T::Target: Sized,
+    {
+        const {
+            assert!(
+                may_be_usart(core::any::type_name::<P>(), U, Usart::<U>::BLOCK),
+                "start takes the USART that slave! or master! names: dp.USART0 for slave!(SLAVE: …) or \
+                 master!(MASTER: …) on pins 0/1 (dp.USART1 on the ATmega32U4), dp.USARTn for … on USARTn"
+            );
+        };
+        claim::<_, { reg::USART_SIZE }>(usart, Usart::<U>::BLOCK)?;
+        claim::<_, { reg::TC0.1 }>(tc0, reg::TC0.0)?;
+        self.start(make)?;
+        // SAFETY: the role is in its cell, so its interrupt handlers can run.
+        unsafe { reg::enable_interrupts() };
+        Ok(())
+    }
+
     /// Runs `f` on the value.
     ///
     /// # Safety
     /// Interrupts must be disabled for the whole call.
     #[inline(always)]
-    unsafe fn access<R>(&self, f: impl FnOnce(&mut T) -> R) -> Option<R> {
+    unsafe fn access<Q>(&self, f: impl FnOnce(&mut R) -> Q) -> Option<Q> {
         // SAFETY: no other access can run (the caller's promise); READY means the value
         // was written by `start`, and IN_USE keeps a nested call from aliasing it.
         unsafe {
@@ -75,7 +108,7 @@ impl<T> Started<T> {
     /// and Timer0 interrupts, after writing it, and only the handlers enable the transmit
     /// ones.
     #[inline(always)]
-    pub(crate) unsafe fn access_in_handler<R>(&self, f: impl FnOnce(&mut T) -> R) -> R {
+    pub(crate) unsafe fn access_in_handler<Q>(&self, f: impl FnOnce(&mut R) -> Q) -> Q {
         // SAFETY: as promised by the caller, nothing else reaches the value meanwhile, and
         // it was written.
         unsafe { f((*self.value.get()).assume_init_mut()) }
@@ -83,7 +116,7 @@ impl<T> Started<T> {
 
     /// Runs `f` on the value with interrupts disabled: `None` before the start or inside
     /// another access.
-    pub(crate) fn locked<R>(&self, f: impl FnOnce(&mut T) -> R) -> Option<R> {
+    pub(crate) fn locked<Q>(&self, f: impl FnOnce(&mut R) -> Q) -> Option<Q> {
         // SAFETY: interrupts are disabled for the whole access.
         reg::free(|| unsafe { self.access(f) })
     }

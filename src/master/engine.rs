@@ -14,7 +14,7 @@
 //! request on the wire. Host tests script the same calls.
 
 use super::reply::{Reply, Verdict};
-use super::request::{Expect, Request};
+use super::request::{seal, Expect, Request};
 use crate::error::Error;
 use crate::framer::{FrameError, Framer, UartError, MAX_FRAME};
 
@@ -216,6 +216,15 @@ impl<const N: usize> Engine<N> {
     /// under way, or before the last outcome is collected, is [`Error::Busy`]: no request
     /// and no outcome is ever dropped. Nothing changes when the request is refused.
     pub fn start(&mut self, slave: u8, request: &Request<'_>) -> Result<Action, Error> {
+        let action = self.begin(slave, request)?;
+        self.seal();
+        Ok(action)
+    }
+
+    /// [`Engine::start`] without the CRC, so that the first byte can go out while it is
+    /// worked out: call [`Engine::seal`] before anything reads past the request's PDU (on
+    /// the AVR, before interrupts are enabled again).
+    pub fn begin(&mut self, slave: u8, request: &Request<'_>) -> Result<Action, Error> {
         if self.is_busy() {
             return Err(Error::Busy);
         }
@@ -226,6 +235,11 @@ impl<const N: usize> Engine<N> {
         self.framer.release();
         self.state = State::Due;
         Ok(self.send_if_quiet())
+    }
+
+    /// Appends the CRC to the request [`Engine::begin`] built.
+    pub fn seal(&mut self) {
+        self.request_len = seal(&mut self.request, self.request_len);
     }
 
     /// From `Due`: sends when the line is quiet.
@@ -365,6 +379,13 @@ impl<const N: usize> Engine<N> {
             self.count(Count::Retries);
             self.state = State::Due;
         }
+    }
+
+    /// True while a response timeout or a turnaround delay runs: [`Engine::on_tick`] has
+    /// something to check.
+    #[inline(always)]
+    pub fn is_timing(&self) -> bool {
+        matches!(self.state, State::Waiting | State::Turnaround)
     }
 
     /// The clock reads `now` (milliseconds, rounded down): the response timeout or the

@@ -151,8 +151,9 @@ impl Request<'_> {
         )
     }
 
-    /// Writes the request to `slave` (0: broadcast, 1–247) as an RTU frame into `frame`
-    /// and returns its length and what its reply must be. Refused before a byte is written
+    /// Writes the request to `slave` (0: broadcast, 1–247) as an RTU frame into `frame`,
+    /// all but the CRC ([`seal`] appends it), and returns the length written and what its
+    /// reply must be. Refused before a byte is written
     /// when a quantity or value is outside the spec's limits ([`Error::Quantity`]), the
     /// slave address is reserved ([`Error::SlaveId`]), a read is broadcast
     /// ([`Error::Broadcast`]), a raw function code is not 1–127 ([`Error::Function`]), or
@@ -231,8 +232,18 @@ impl Request<'_> {
                 (Shape::Any, 0)
             }
         };
-        Ok((out.crc()?, Expect { slave, function, shape, quantity }))
+        Ok((out.len, Expect { slave, function, shape, quantity }))
     }
+}
+
+/// Appends the CRC (low byte first) to the `len` bytes of address and PDU at the start of
+/// `frame`, which [`Request::encode`] checked has room for it; the frame's length.
+pub(crate) fn seal(frame: &mut [u8], len: usize) -> usize {
+    let crc = Crc16::new().update_slice(frame.get(..len).unwrap_or_default());
+    if let Some(slot) = frame.get_mut(len..len + 2) {
+        slot.copy_from_slice(&crc.to_wire());
+    }
+    len + 2
 }
 
 /// A quantity inside 1–`max`.
@@ -301,17 +312,5 @@ impl Writer<'_> {
             self.word(value)?;
         }
         Ok(())
-    }
-
-    /// Appends the CRC (low byte first); the frame's length.
-    fn crc(mut self) -> Result<usize, Error> {
-        let crc = Crc16::new().update_slice(self.frame.get(..self.len).unwrap_or_default());
-        let [low, high] = crc.to_wire();
-        for byte in [low, high] {
-            let slot = self.frame.get_mut(self.len).ok_or(Error::TooLong)?;
-            *slot = byte;
-            self.len += 1;
-        }
-        Ok(self.len)
     }
 }

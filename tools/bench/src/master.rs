@@ -116,7 +116,8 @@ pub(crate) struct MasterRun {
     t35: u64,
 }
 
-/// `poll_holding`: from the call of `Master::send` to the request's first start bit.
+/// `poll_holding`: from the call of its `ask` (which calls `Master::send`) to the request's
+/// first start bit.
 pub(crate) struct Latency {
     /// Cycles, sorted.
     samples: Vec<u64>,
@@ -267,15 +268,16 @@ fn master_run(elf: &Path, chip: Chip, usart: u8, log: &mut Log) -> Result<Master
     Ok(run)
 }
 
-/// The entry of `Master::send` in `uno`'s firmware (`#[inline(never)]` in src/avr/master.rs).
+/// The entry of `poll_holding`'s `ask` (`#[inline(never)]`), which calls `Master::send`: the
+/// moment the application asks.
 fn send_entry(uno: &Uno) -> Option<u32> {
     uno.symbols()
         .iter()
-        .find(|s| s.space == Space::Flash && s.name.contains("6Master") && s.name.contains("4send"))
+        .find(|s| s.space == Space::Flash && s.name.contains("12poll_holding") && s.name.ends_with("3ask"))
         .map(|s| s.addr)
 }
 
-/// `poll_holding` on the Uno: each call of `Master::send` (reached by stepping to its entry)
+/// `poll_holding` on the Uno: each call of its `ask` (reached by stepping to its entry)
 /// to the request's first start bit, the line idle since the last reply.
 fn latency(root: &Path, log: &mut Log) -> Result<Option<Latency>> {
     let elf = firmware_path(root, "poll_holding");
@@ -285,7 +287,7 @@ fn latency(root: &Path, log: &mut Log) -> Result<Option<Latency>> {
     }
     let mut uno = Uno::load(&elf)?;
     let Some(entry) = send_entry(&uno) else {
-        log.problems.push(format!("{}: no symbol for Master::send (is it #[inline(never)]?)", elf.display()));
+        log.problems.push(format!("{}: no symbol for poll_holding's ask (is it #[inline(never)]?)", elf.display()));
         return Ok(None);
     };
     uno.run_until(us_to_cycles(1000))?;
@@ -305,7 +307,7 @@ fn latency(root: &Path, log: &mut Log) -> Result<Option<Latency>> {
         while uno.pc() != entry {
             uno.step()?;
             if uno.now() > limit {
-                return Err(format!("poll_holding: Master::send not called within 300 ms (request {n})").into());
+                return Err(format!("poll_holding: ask not called within 300 ms (request {n})").into());
             }
         }
         let at = uno.now();
@@ -317,7 +319,7 @@ fn latency(root: &Path, log: &mut Log) -> Result<Option<Latency>> {
             return Ok(None);
         };
         if first.start_cycle < at {
-            log.problems.push(format!("poll_holding: a request went out before Master::send (request {n})"));
+            log.problems.push(format!("poll_holding: a request went out before ask (request {n})"));
             return Ok(None);
         }
         samples.push(first.start_cycle - at);
@@ -341,7 +343,7 @@ pub(crate) fn measure(root: &Path, log: &mut Log) -> Result<Measured> {
         eprintln!("bench: master_boards on the {chip}, USART{usart} ({BOARD_REQUESTS} requests)");
         m.runs.push(master_run(&elf, chip, usart, log)?);
     }
-    eprintln!("bench: poll_holding, Master::send to the first start bit ({LATENCY_REQUESTS} requests)");
+    eprintln!("bench: poll_holding, ask (Master::send) to the first start bit ({LATENCY_REQUESTS} requests)");
     m.latency = latency(root, log)?;
     Ok(m)
 }
@@ -387,7 +389,7 @@ pub(crate) fn target_rows(
         _ => row(target, "not built (`make chips`)".into(), None)?,
     }
     let target = format!(
-        "master (`poll_holding`): the request's first start bit ≤ {LATENCY_TARGET_US:.0} µs after `Master::send`, \
+        "master (`poll_holding`): the request's first start bit ≤ {LATENCY_TARGET_US:.0} µs after the application asks (`Master::send` called), \
          line idle T3.5"
     );
     match &m.latency {
@@ -455,7 +457,7 @@ fn timing_section(md: &mut String, m: &Measured) -> Result<()> {
         writeln!(
             md,
             "`poll_holding` on the Uno (FC 3 × 10 every 100 ms of `millis()`, each answered T3.5 plus up to \
-             {SLAVE_DELAY_US} µs after it): from the entry of `Master::send` (its ELF symbol; the simulator \
+             {SLAVE_DELAY_US} µs after it): from the entry of `poll_holding`'s `ask`, which calls `Master::send` (its ELF symbol; the simulator \
              steps to it) to the request's first start bit on the wire, over {} requests. The simulated USART \
              starts a character at the UDRn write.\n",
             l.samples.len()
