@@ -158,9 +158,9 @@ clippy: setup
 		--example gateway --features examples,master -- -D warnings
 
 docs: setup
-	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus --features $(OPTIONAL),eeprom-settings,ufmt,device-id,ascii,master
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus --features $(OPTIONAL),eeprom-settings,ufmt,device-id,ascii,master,reply-delay
 	RUSTDOCFLAGS="-D warnings -C target-cpu=atmega328p" $(CARGO) doc --no-deps -p avr-modbus --release \
-		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings,ufmt,millis,ascii,master
+		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings,ufmt,millis,ascii,master,reply-delay
 
 lint: fmt-check clippy docs
 
