@@ -6,6 +6,7 @@
 
 Unit 1, the slave polled (protocol addresses, i.e. address 0 is register 0):
     holding registers 0-15   0x1000 + i
+    holding registers 16-19  1.5 as f32 high word first (3FC0 0000), then low word first (0000 3FC0)
     input registers 0-2      0x2000 + i
     coils 0-15               on at even addresses (0, 2, 4, ...)
     discrete inputs 0-7      on at addresses 0, 1, 4, 5 (0b0011_0011)
@@ -39,7 +40,7 @@ from pymodbus.datastore import (
 from pymodbus.server import StartAsyncSerialServer
 from pymodbus.transaction import ModbusRtuFramer
 
-HOLDING = [0x1000 + i for i in range(16)]
+HOLDING = [0x1000 + i for i in range(16)] + [0x3FC0, 0x0000, 0x0000, 0x3FC0]
 INPUT_REGISTERS = [0x2000 + i for i in range(3)]
 COILS = [i % 2 == 0 for i in range(16)]
 DISCRETE = [bool(0b0011_0011 >> i & 1) for i in range(8)]

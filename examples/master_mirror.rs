@@ -28,6 +28,7 @@
  * | 11   | broadcast (slave 0) FC 6, holding register 14 = 0x0B0B |       |
  * | 12   | raw FC 0x41 (no slave has it: exception 01 expected) |          |
  * | 13   | raw FC 3 of 0 registers (exception 03 expected)   |           |
+ * | 14   | FC 3, holding registers 16–19: two f32, high word first then low word first | each × 2, high word first (4 registers) |
  *
  * After the last step: the master's counters at slave 2's registers 200–207 (requests,
  * replies, exceptions, timeouts, retries, CRC errors, malformed, unexpected), then again
@@ -38,13 +39,13 @@
 #![feature(abi_avr_interrupt)]
 
 use avr_modbus::master::{Failure, Reply, Request, Timeouts};
-use avr_modbus::{board, Config, Parity, StopBits};
+use avr_modbus::{board, Config, Parity, StopBits, WordOrder};
 use panic_halt as _;
 
 const LINE: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
 const POLLED: u8 = 1;
 const TOLD: u8 = 2;
-const STEPS: u16 = 14;
+const STEPS: u16 = 15;
 
 avr_modbus::master!(MASTER: 64);
 
@@ -75,16 +76,38 @@ fn request(step: u16) -> (u8, Request<'static>) {
         11 => return (0, Request::WriteSingleRegister { address: 14, value: 0x0B0B }),
         12 => Request::Raw { function: 0x41, data: &[] },
         // What the master refuses to build as FC 3 (a quantity of 0), sent raw.
-        _ => Request::Raw { function: 0x03, data: &[0, 0, 0, 0] },
+        13 => Request::Raw { function: 0x03, data: &[0, 0, 0, 0] },
+        _ => Request::ReadHoldingRegisters { address: 16, quantity: 4 },
     };
     (POLLED, request)
 }
 
+/// How a step's reply is reported.
+#[derive(Clone, Copy, PartialEq)]
+enum Read {
+    /// The registers as read.
+    Registers,
+    /// Bits, packed into one register.
+    Bits,
+    /// Two f32, high word first then low word first, each doubled and reported high word
+    /// first.
+    Floats,
+}
+
 /// The report of an outcome.
-fn report(outcome: Result<Reply<'_>, Failure>, bits: bool) -> Report {
+fn report(outcome: Result<Reply<'_>, Failure>, read: Read) -> Report {
     let mut values = [0u16; 5];
     let mut len = 1;
+    let bits = read == Read::Bits;
     match outcome {
+        Ok(reply) if read == Read::Floats => {
+            let first = reply.wide::<f32>(0, WordOrder::HighFirst).unwrap_or(f32::NAN) * 2.0;
+            let second = reply.wide::<f32>(2, WordOrder::LowFirst).unwrap_or(f32::NAN) * 2.0;
+            let [a, b] = WordOrder::HighFirst.split(first);
+            let [c, d] = WordOrder::HighFirst.split(second);
+            values[1..].copy_from_slice(&[a, b, c, d]);
+            len = 5;
+        }
         Ok(reply) if bits => {
             values[1] =
                 (0..reply.len().min(16)).fold(0, |packed, i| packed | u16::from(reply.bit(i) == Some(true)) << i);
@@ -123,9 +146,13 @@ fn main() -> ! {
     loop {
         for step in 0..STEPS {
             let (slave, request) = request(step);
-            let bits = matches!(request, Request::ReadCoils { .. } | Request::ReadDiscreteInputs { .. });
+            let read = match request {
+                Request::ReadCoils { .. } | Request::ReadDiscreteInputs { .. } => Read::Bits,
+                _ if step == 14 => Read::Floats,
+                _ => Read::Registers,
+            };
             let (values, len) = match MASTER.send(slave, &request) {
-                Ok(()) => MASTER.wait_blocking(|outcome| report(outcome, bits)).unwrap_or(([0x400, 0, 0, 0, 0], 1)),
+                Ok(()) => MASTER.wait_blocking(|outcome| report(outcome, read)).unwrap_or(([0x400, 0, 0, 0, 0], 1)),
                 Err(_) => ([0x300, 0, 0, 0, 0], 1),
             };
             let told =

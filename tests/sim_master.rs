@@ -602,6 +602,15 @@ fn steps() -> Vec<Step> {
             ])),
             report: vec![0x0003],
         },
+        Step {
+            number: 14,
+            what: "FC 3, holding registers 16-19: 1.5 as f32 high word first, then low word first",
+            request: Some(read_request(POLLED, 0x03, 16, 4)),
+            reply: Some(registers_reply(POLLED, 0x03, &[0x3FC0, 0x0000, 0x0000, 0x3FC0])),
+            // Each read as the f32 it is in its word order (Reply::wide), doubled, and
+            // reported high word first: 3.0 = 4040 0000.
+            report: vec![ANSWERED, 0x4040, 0x0000, 0x4040, 0x0000],
+        },
     ]
 }
 
@@ -633,12 +642,12 @@ impl Counters {
     }
 }
 
-/// After one pass where every request was answered at the first try: 13 requests to
-/// slave 1 or broadcast (step 9 none) and 14 reports; 9 answers, the 3 exceptions and the
-/// 14 acknowledgements (a broadcast gets no answer).
+/// After one pass where every request was answered at the first try: 14 requests to
+/// slave 1 or broadcast (step 9 none) and 15 reports; 10 answers, the 3 exceptions and the
+/// 15 acknowledgements (a broadcast gets no answer).
 const CLEAN_PASS: Counters = Counters {
-    requests: 27,
-    replies: 26,
+    requests: 29,
+    replies: 28,
     exceptions: 3,
     timeouts: 0,
     retries: 0,
@@ -663,7 +672,8 @@ fn rest_of_pass(bus: &mut Bus, from: usize) -> Counters {
 // Every function code (Application Protocol §6, §7; Serial Line §2.4.1)
 
 /// Steps 0–8 answered, step 9 refused before sending, step 10 answered with exception 02,
-/// step 11 broadcast, steps 12 and 13 answered with exceptions 01 and 03: every request is the spec's frame byte for byte (checked as it
+/// step 11 broadcast, steps 12 and 13 answered with exceptions 01 and 03, step 14's floats
+/// read in both word orders: every request is the spec's frame byte for byte (checked as it
 /// comes), and every report carries what slave 1 served: the registers, the bits packed
 /// LSB first, status 0 and nothing else for a write, 0x300 for step 9, 2 for step 10.
 /// Step 9 puts no frame on the line: the frame after step 8's report is step 9's report.

@@ -477,6 +477,7 @@ fn master_mirror_polls_pymodbus_serial_server_with_every_function_code() {
     );
     assert_eq!(delta[2], 3 * passes, "three exceptions (steps 10, 12, 13) a pass\n{}", fail(""));
     assert_eq!(delta[0] - delta[1], passes, "every request answered but the broadcast\n{}", fail(""));
+    assert_eq!(&unit1[16..20], &[0x3FC0, 0, 0, 0x3FC0], "unit 1's floats\n{}", fail(""));
 
     // What unit 1 holds after the master's writes.
     let pattern = |i: usize| i64::from(i.is_multiple_of(2));
@@ -492,7 +493,7 @@ fn master_mirror_polls_pymodbus_serial_server_with_every_function_code() {
 
     // Each step's report at unit 2, from 16 × step: status, then what was read; zeros after.
     let packed = |bits: &[i64]| bits.iter().enumerate().fold(0, |p, (i, &b)| p | b << i);
-    let reports: [Vec<i64>; 14] = [
+    let reports: [Vec<i64>; 15] = [
         [&[0], &unit1[0..4]].concat(),         // FC 3, holding 0-3
         vec![0, packed(&coils[0..10])],        // FC 1, coils 0-9 (as written the pass before)
         vec![0],                               // FC 5
@@ -507,6 +508,7 @@ fn master_mirror_polls_pymodbus_serial_server_with_every_function_code() {
         vec![0],                               // broadcast: no reply awaited
         vec![1],                               // raw FC 0x41: exception 01
         vec![3],                               // raw FC 3 of 0 registers: exception 03
+        vec![0, 0x4040, 0, 0x4040, 0],         // 1.5 as f32 both word orders, doubled: 3.0
     ];
     let hex = |values: &[i64]| values.iter().map(|v| format!("{v:#x}")).collect::<Vec<_>>().join(" ");
     let mut wrong = String::new();
