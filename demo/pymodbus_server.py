@@ -13,11 +13,11 @@ Unit 1, the slave polled (protocol addresses, i.e. address 0 is register 0):
 Unit 2, the slave told: 256 holding registers of zeros.
 
 It serves PORT for --seconds, then prints one JSON line on stdout and exits 0:
-    {"unit1_holding": [0..220], "unit2_holding": [0..220], "unit1_coils": [0..15],
+    {"unit1_holding": [0..255], "unit2_holding": [0..255], "unit1_coils": [0..15],
      "unit1_inputs": [...], "unit1_input_registers": [...], "counter_log": [[...], ...],
      "broadcast": true}
 Addresses past a block read as null. `counter_log` lists every write that covered unit 2's
-registers 200-208 (examples/master_mirror.rs's counters and pass count), oldest first.
+registers 240-248 (examples/master_mirror.rs's counters and pass count), oldest first.
 
 Unit-0 broadcasts: pymodbus 3.0's server drops them unless `broadcast_enable=True` (then it
 executes them on every unit and sends no reply); this script enables it unless
@@ -45,7 +45,7 @@ INPUT_REGISTERS = [0x2000 + i for i in range(3)]
 COILS = [i % 2 == 0 for i in range(16)]
 DISCRETE = [bool(0b0011_0011 >> i & 1) for i in range(8)]
 
-COUNTERS = 200  # unit 2: the master's counters at 200-207, its pass count at 208
+COUNTERS = 240  # unit 2: the master's counters at 240-247, its pass count at 248
 COUNTER_COUNT = 9
 
 
@@ -109,8 +109,8 @@ async def serve(args):
     await server.shutdown()
 
     result = {
-        "unit1_holding": read(unit1.store["h"], 221),
-        "unit2_holding": read(told, 221),
+        "unit1_holding": read(unit1.store["h"], 256),
+        "unit2_holding": read(told, 256),
         "unit1_coils": [int(bit) for bit in read(unit1.store["c"], 16)],
         "unit1_inputs": [int(bit) for bit in read(unit1.store["d"], 8)],
         "unit1_input_registers": read(unit1.store["i"], 3),

@@ -60,6 +60,7 @@ fn main() -> ! {
     // The lamps as last written, and when: none yet.
     let mut shown: Option<bool> = None;
     let mut shown_at = 0u32;
+    // What the last request was.
     let mut step = Step::Buttons;
     let mut last_read = 0u32;
     loop {
@@ -93,7 +94,9 @@ fn main() -> ! {
             continue;
         }
         let stale = shown != Some(running) || now.wrapping_sub(shown_at) >= 1000;
-        if stale {
+        // The lamps are set again after a failure, but never twice in a row: a silent tower
+        // does not keep the buttons from being read.
+        if stale && step != Step::Lamps {
             // RED, GREEN, YELLOW, BLUE.
             let lamps = [!running, running, false, false];
             if MASTER.send(LIGHT_TOWER, &Request::WriteMultipleCoils { address: 0, values: &lamps }).is_ok() {

@@ -26,13 +26,13 @@
  * | 9    | FC 3, holding registers 0–125: refused before sending (status 0x300) |  |
  * | 10   | FC 3, holding register 9999 (absent: exception 02 expected) |  |
  * | 11   | broadcast (slave 0) FC 6, holding register 14 = 0x0B0B |       |
- * | 12   | raw FC 0x41 (no slave has it: exception 01 expected) |          |
+ * | 12   | raw FC 0x41 with a byte of data (no slave has it: exception 01 expected) |  |
  * | 13   | raw FC 3 of 0 registers (exception 03 expected)   |           |
  * | 14   | FC 3, holding registers 16–19: two f32, high word first then low word first | each × 2, high word first (4 registers) |
  *
- * After the last step: the master's counters at slave 2's registers 200–207 (requests,
+ * After the last step: the master's counters at slave 2's registers 240–247 (requests,
  * replies, exceptions, timeouts, retries, CRC errors, malformed, unexpected), then again
- * from step 0 with the pass count at register 208.
+ * from step 0 with the pass count at register 248.
  */
 #![no_std]
 #![no_main]
@@ -74,7 +74,7 @@ fn request(step: u16) -> (u8, Request<'static>) {
         9 => Request::ReadHoldingRegisters { address: 0, quantity: 126 },
         10 => Request::ReadHoldingRegisters { address: 9999, quantity: 1 },
         11 => return (0, Request::WriteSingleRegister { address: 14, value: 0x0B0B }),
-        12 => Request::Raw { function: 0x41, data: &[] },
+        12 => Request::Raw { function: 0x41, data: &[0x00] },
         // What the master refuses to build as FC 3 (a quantity of 0), sent raw.
         13 => Request::Raw { function: 0x03, data: &[0, 0, 0, 0] },
         _ => Request::ReadHoldingRegisters { address: 16, quantity: 4 },
@@ -163,6 +163,6 @@ fn main() -> ! {
         pass = pass.wrapping_add(1);
         let counters =
             [c.requests, c.replies, c.exceptions, c.timeouts, c.retries, c.crc_errors, c.malformed, c.unexpected, pass];
-        ask(TOLD, &Request::WriteMultipleRegisters { address: 200, values: &counters }, |_| ());
+        ask(TOLD, &Request::WriteMultipleRegisters { address: 240, values: &counters }, |_| ());
     }
 }

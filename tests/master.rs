@@ -742,20 +742,14 @@ fn an_outcome_not_collected_keeps_the_next_request_out() {
     assert_eq!(m.start(ID, &Request::WriteSingleCoil { address: 0, value: true }), Ok(Action::Send));
 }
 
+/// A slave should wait T3.5 after the request before it answers, but many answer sooner
+/// (pymodbus's serial server, for one): their replies are taken.
 #[test]
-fn characters_within_t15_of_the_request_are_no_reply() {
+fn a_reply_right_after_the_request_from_a_slave_that_does_not_wait_t35_is_taken() {
     let mut m = master();
-    m.set_timeouts(Timeouts { retries: 0, ..Timeouts::DEFAULT });
     assert_eq!(m.start(ID, &Request::ReadHoldingRegisters { address: 0, quantity: 1 }), Ok(Action::Send));
     m.on_sent(0);
-    // A late reply to an earlier try, running into the end of this request.
-    for &b in &with_crc(&[ID, 0x03, 0x02, 0xDE, 0xAD]) {
-        m.on_byte(b);
-    }
-    m.on_gap_deadline();
-    assert_eq!(m.on_end_deadline(), Action::None);
-    assert!(m.is_busy(), "the late reply was taken");
-    // The slave's own reply, after T3.5.
+    // No T1.5, no T3.5 after the request: the reply follows at once.
     deliver(&mut m, &with_crc(&[ID, 0x03, 0x02, 0x00, 0x07]));
     assert_eq!(m.outcome().unwrap().unwrap().register(0), Some(7));
 }

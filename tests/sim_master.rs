@@ -6,9 +6,9 @@
 //! FC 1–6, 15, 16, 23 byte for byte) and §7 (exception replies).
 //!
 //! The release `master_mirror` firmware (`make firmware` builds it with feature `master`)
-//! runs on the simulated ATmega328P at 19200 8E1: twelve steps of requests to slave 1,
+//! runs on the simulated ATmega328P at 19200 8E1: fifteen steps of requests to slave 1,
 //! each outcome written to slave 2 with FC 16 at registers 16 × step (status, then what
-//! was read), and after the last step its counters at registers 200–208. The test plays
+//! was read), and after the last step its counters at registers 240–248. The test plays
 //! both slaves: it collects each frame the master puts on the line with the cycle times of
 //! its characters, compares it byte for byte with the request the spec gives (CRC from
 //! `sim::crc16`, not the crate's), and answers as a scripted slave would, its characters
@@ -42,6 +42,8 @@ const TURNAROUND_MS: u64 = 20;
 const ANSWERED: u16 = 0;
 /// Status: no reply within the response timeout, on the last try.
 const TIMEOUT: u16 = 0x100;
+/// Status of a report whose try ended with a damaged reply.
+const BAD_REPLY: u16 = 0x200;
 /// Status: the request was refused before a byte was sent.
 const REFUSED: u16 = 0x300;
 
@@ -229,7 +231,7 @@ impl Bus {
         values
     }
 
-    /// Expects the counters' report (registers 200–208), acknowledges it, and returns
+    /// Expects the counters' report (registers 240–248), acknowledges it, and returns
     /// what it says.
     fn counters(&mut self) -> (Counters, u16) {
         let frame = self
@@ -237,9 +239,9 @@ impl Bus {
             .unwrap_or_else(|| panic!("counters: the master sent nothing within {FRAME_WITHIN_MS} ms"));
         let (address, values) = decode_write_multiple(&frame.bytes)
             .unwrap_or_else(|| panic!("counters: the master sent {:02X?}, not an FC 16 to slave 2", frame.bytes));
-        assert_eq!((address, values.len()), (200, 9), "counters: report at {address} of {values:04X?}");
-        assert_eq!(frame.bytes, write_multiple_request(TOLD, 200, &values), "counters: the frame");
-        self.answer(&frame, &write_multiple_reply(TOLD, 200, 9));
+        assert_eq!((address, values.len()), (240, 9), "counters: report at {address} of {values:04X?}");
+        assert_eq!(frame.bytes, write_multiple_request(TOLD, 240, &values), "counters: the frame");
+        self.answer(&frame, &write_multiple_reply(TOLD, 240, 9));
         (Counters::from_registers(&values), values[8])
     }
 
@@ -576,6 +578,7 @@ fn steps() -> Vec<Step> {
             request: Some(with_crc(&[
                 POLLED, // slave address
                 0x41,   // function: none the slave has
+                0x00,   // a byte of data
             ])),
             reply: Some(with_crc(&[
                 POLLED, // slave address
@@ -614,7 +617,7 @@ fn steps() -> Vec<Step> {
     ]
 }
 
-/// The firmware's counters (registers 200–207 of its last report).
+/// The firmware's counters (registers 240–247 of its last report).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct Counters {
     requests: u16,
@@ -904,36 +907,35 @@ fn a_reply_still_on_the_line_at_the_response_timeout_is_not_taken() {
     bus.report(0, &[TIMEOUT]);
 }
 
-/// Step 0's reply starts 106 ms after the request's end, past the 100 ms timeout: it is
-/// not taken for that try (the retry has gone out before it starts, just over 100 ms after
-/// the first try's end). It starts a few dozen µs after the retry's last stop bit, less than
-/// T1.5 after it: no answer to the retry either (a slave answers only once T3.5 of silence
-/// has ended the request, §2.5.1.1; the master ignores what comes within T1.5 of its
-/// request), so with the retry otherwise unanswered the report says timeout.
+/// Step 0's reply starts 104 ms after the request's end, past the 100 ms timeout, while the
+/// retry (sent just over 100 ms after the first try's end) is still on the line: its first
+/// characters come while the master sends, and are no reply to it (they are ignored, as a
+/// transceiver's echo of the request would be); the rest, a frame without its head, fails
+/// its CRC and ends the retry: the report says bad reply.
 #[test]
 fn a_late_reply_running_into_the_retry_is_no_answer_to_either_try() {
     let mut bus = Bus::boot();
     let first = bus.expect(&step0_request(), "step 0");
-    let late = bus.answer_with(&first, ms(106), &registers_reply(POLLED, 0x03, &STEP0_WRONG), None);
+    let late = bus.answer_with(&first, ms(104), &registers_reply(POLLED, 0x03, &STEP0_WRONG), None);
     let retry = bus.expect(&step0_request(), "step 0: the retry");
     println!(
-        "the retry: cycles {}..{}, {}..{} after the first try; the late reply starts at cycle {}, {} after the retry's end",
+        "the retry: cycles {}..{}, {}..{} after the first try; the late reply starts at cycle {}, {} after the retry's start",
         retry.start,
         retry.end,
         fmt_us(retry.start - first.end),
         fmt_us(retry.end - first.end),
         late.start,
-        fmt_gap(late.start as i64 - retry.end as i64)
+        fmt_gap(late.start as i64 - retry.start as i64)
     );
-    // The premise: the late reply follows the retry and does not overlap it.
+    // The premise: the late reply starts while the retry goes out.
     assert!(
-        retry.end <= late.start,
-        "the retry (cycles {}..{}) overlaps the late reply (from cycle {}): move the late reply",
+        retry.start < late.start && late.start < retry.end,
+        "the late reply (from cycle {}) does not start during the retry (cycles {}..{}): move it",
+        late.start,
         retry.start,
-        retry.end,
-        late.start
+        retry.end
     );
-    bus.report(0, &[TIMEOUT]);
+    bus.report(0, &[BAD_REPLY]);
 }
 
 /// The response timeout counted against the millisecond clock's phase: step 0's reply is

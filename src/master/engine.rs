@@ -142,10 +142,9 @@ pub struct Engine<const N: usize = MAX_FRAME> {
     since: u32,
     /// T3.5 has passed since the line's last character (or the request's last).
     quiet: bool,
-    /// The request is on the wire, or has just left it and T1.5 has not passed since:
-    /// characters now are no reply (a slave answers after T3.5) but the request's own echo
-    /// or the tail of something else, and ignored.
-    settling: bool,
+    /// The request is on the wire: characters now are no reply but its own echo (a
+    /// transceiver that hears its own transmitter) or a collision, and ignored.
+    sending: bool,
     /// Why the request failed, once `Done`; `None` when it was answered (the reply stays
     /// in the framer's buffer until collected).
     failure: Option<Failure>,
@@ -171,7 +170,7 @@ impl<const N: usize> Engine<N> {
             timeouts: Timeouts::DEFAULT,
             since: 0,
             quiet: false,
-            settling: false,
+            sending: false,
             failure: None,
             counts: [0; COUNTS],
         }
@@ -249,7 +248,7 @@ impl<const N: usize> Engine<N> {
             self.quiet = false;
             // What the line carries while the request goes out is the request itself (a
             // transceiver that hears its own transmitter echoes it) or a collision: no reply.
-            self.settling = true;
+            self.sending = true;
             self.count(Count::Requests);
             Action::Send
         } else {
@@ -278,7 +277,7 @@ impl<const N: usize> Engine<N> {
     #[inline(always)]
     pub fn on_byte(&mut self, byte: u8) {
         self.quiet = false;
-        if !self.settling {
+        if !self.sending {
             self.framer.on_byte(byte);
         }
     }
@@ -286,26 +285,24 @@ impl<const N: usize> Engine<N> {
     /// A damaged character arrived.
     pub fn on_error(&mut self, error: UartError) {
         self.quiet = false;
-        if !self.settling {
+        if !self.sending {
             self.framer.on_error(error);
         }
     }
 
-    /// The gap deadline (T1.5) passed since the last character: after the request, the
-    /// line is the slave's from here.
+    /// The gap deadline (T1.5) passed since the last character.
     pub fn on_gap_deadline(&mut self) {
-        self.settling = false;
         self.framer.on_gap_deadline();
     }
 
     /// The request's last character has left the wire, at `now` (milliseconds, rounded
     /// down): the response timeout starts (for a broadcast, the turnaround delay). The
-    /// caller starts the silence deadlines from here, so that the next request waits T3.5;
-    /// characters before T1.5 has passed are ignored (no slave answers that soon: a late
-    /// reply to an earlier try running into this one, say).
+    /// caller starts the silence deadlines from here, so that the next request waits T3.5.
+    /// From here on characters are heard: a slave should wait T3.5 before it answers, but
+    /// many answer sooner (pymodbus's server, for one), and their replies are taken.
     pub fn on_sent(&mut self, now: u32) {
         if self.state == State::Sending {
-            self.settling = true;
+            self.sending = false;
             self.since = now;
             self.state = if self.expect.is_broadcast() { State::Turnaround } else { State::Waiting };
         }
@@ -315,7 +312,6 @@ impl<const N: usize> Engine<N> {
     /// a request that waited for the silence goes out.
     pub fn on_end_deadline(&mut self) -> Action {
         self.quiet = true;
-        self.settling = false;
         match self.framer.on_end_deadline() {
             None => {}
             Some(Ok(len)) => self.on_frame(len),

@@ -333,6 +333,7 @@ fn a_board_holding_de_high_garbles_the_others() {
     assert!(out.contains("frame from tower: 0F 00 00 00 04 54 3B (bad CRC)"), "{out}");
     let garbled = run.frames().into_iter().filter(|f| f.1 == "master" && f.3.contains("tower (DE high")).count();
     assert!(garbled >= 2, "{out}");
-    assert!(run.summary("DE high over another's characters") >= 20, "{out}");
+    // Both of the master's frames garbled whole: the lamps (10 characters), the buttons (8).
+    assert!(run.summary("DE high over another's characters") >= 18, "{out}");
     assert!(!run.frames().iter().any(|f| f.1 == "box"), "the box heard a garbled request:\n{out}");
 }

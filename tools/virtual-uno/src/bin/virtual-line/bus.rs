@@ -688,9 +688,18 @@ impl Bus {
         )
     }
 
-    /// Ends the frame in progress (at exit).
+    /// At exit: the frame still in progress, which the end of the run may have cut short,
+    /// printed as such and not counted.
     pub fn finish(&mut self) {
-        self.emit_frame();
+        if let Some(f) = self.frame.take() {
+            let names: Vec<String> = f.senders.iter().map(|&i| self.name(i).to_owned()).collect();
+            println!(
+                "{} frame from {}: {} (still on the line when the run ended)",
+                stamp(f.start),
+                names.join("+"),
+                hex(&f.bytes)
+            );
+        }
     }
 }
 
