@@ -113,6 +113,28 @@ fn kind(table: Table) -> usize {
 }
 
 /// A range of coils or holding registers the master may read but not write.
+/// Holding registers `start..=last` that hold 32-bit values in pairs from `start`
+/// ([`Bank::add_pairs`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Pairs {
+    start: u16,
+    last: u16,
+}
+
+impl Pairs {
+    /// No range: a slot not taken.
+    const EMPTY: Pairs = Pairs { start: 1, last: 0 };
+
+    /// True when a write of holding registers `start..=end` would write one register of a
+    /// pair and not the other: it starts on a pair's second register or ends on a first.
+    fn cut_by(self, start: u32, end: u32) -> bool {
+        let (first, last) = (u32::from(self.start), u32::from(self.last));
+        let starts_on_a_second = start > first && start <= last && (start - first) % 2 == 1;
+        let ends_on_a_first = end >= first && end < last && (end - first) % 2 == 0;
+        starts_on_a_second || ends_on_a_first
+    }
+}
+
 #[cfg(feature = "write-protect")]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Protected {
@@ -132,7 +154,8 @@ impl Protected {
 
 /// The sparse bank: see the module documentation for capacity and RAM. The optional
 /// fourth parameter is how many read-only ranges `Bank::protect` can hold (5 bytes each;
-/// feature `write-protect`).
+/// feature `write-protect`), the fifth how many ranges of holding-register pairs
+/// [`Bank::add_pairs`] can hold (4 bytes each).
 ///
 /// ```
 /// use avr_modbus::{Bank, bit_bytes};
@@ -144,7 +167,13 @@ impl Protected {
 /// assert_eq!(bank.get(30002), Ok(0));
 /// ```
 #[derive(Clone, Debug)]
-pub struct Bank<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize = 0> {
+pub struct Bank<
+    const RUNS: usize,
+    const REGS: usize,
+    const BIT_BYTES: usize,
+    const PROTECTED: usize = 0,
+    const PAIRS: usize = 0,
+> {
     runs: [Run; RUNS],
     tally: Tally,
     values: Values<REGS, BIT_BYTES>,
@@ -152,18 +181,20 @@ pub struct Bank<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, co
     protected: [Protected; PROTECTED],
     #[cfg(feature = "write-protect")]
     protected_count: usize,
+    /// Holding registers declared as pairs ([`Bank::add_pairs`]); none with `PAIRS` 0.
+    pairs: [Pairs; PAIRS],
 }
 
-impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize> Default
-    for Bank<RUNS, REGS, BIT_BYTES, PROTECTED>
+impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize, const PAIRS: usize> Default
+    for Bank<RUNS, REGS, BIT_BYTES, PROTECTED, PAIRS>
 {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize>
-    Bank<RUNS, REGS, BIT_BYTES, PROTECTED>
+impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize, const PAIRS: usize>
+    Bank<RUNS, REGS, BIT_BYTES, PROTECTED, PAIRS>
 {
     /// An empty bank.
     pub const fn new() -> Self {
@@ -175,6 +206,7 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
             protected: [Protected::EMPTY; PROTECTED],
             #[cfg(feature = "write-protect")]
             protected_count: 0,
+            pairs: [Pairs::EMPTY; PAIRS],
         }
     }
 
@@ -367,7 +399,40 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     /// Storage index of a master write's first value, or exception 02 when an address is
     /// missing or read-only.
     fn writable(&self, table: Table, start: u16, qty: u16) -> Option<usize> {
-        self.locate(table, start, qty).filter(|_| !self.is_protected(table, start, qty))
+        self.locate(table, start, qty)
+            .filter(|_| !self.is_protected(table, start, qty) && !self.cuts_pair(table, start, qty))
+    }
+
+    /// True when a master write of `qty` registers of `table` from `start` would write one
+    /// register of a pair ([`Bank::add_pairs`]) and not the other. Never with `PAIRS` 0.
+    fn cuts_pair(&self, table: Table, start: u16, qty: u16) -> bool {
+        let end = u32::from(start) + u32::from(qty) - 1;
+        PAIRS != 0 && table == Table::HoldingRegisters && self.pairs.iter().any(|p| p.cut_by(u32::from(start), end))
+    }
+
+    /// Adds `count` pairs of registers from `first` (2 × `count` input or holding
+    /// registers, as [`Bank::add_range`] does) for 32-bit values, read and written with
+    /// [`Bank::get_wide`] and [`Bank::set_wide`]. A master's write of holding registers that
+    /// would change one register of a pair and not the other gets exception 02 and changes
+    /// nothing (see the README's "32-bit values"); the bank keeps the range in one of its
+    /// `PAIRS` slots ([`Error::PairsFull`] when none is left; input registers, which no
+    /// master writes, take none).
+    pub fn add_pairs(&mut self, first: impl IntoReference, count: u16) -> Result<(), Error> {
+        let first = first.into_reference()?;
+        if first.table.is_bits() {
+            return Err(Error::BadReference);
+        }
+        let registers = count.checked_mul(2).ok_or(Error::BadRange)?;
+        let holding = first.table == Table::HoldingRegisters;
+        let slot = self.pairs.iter().position(|p| *p == Pairs::EMPTY);
+        if holding && slot.is_none() {
+            return Err(Error::PairsFull);
+        }
+        self.add_range(first, registers)?;
+        if let (true, Some(slot)) = (holding, slot.and_then(|i| self.pairs.get_mut(i))) {
+            *slot = Pairs { start: first.address, last: first.address + (registers - 1) };
+        }
+        Ok(())
     }
 
     /// How many write requests from the master have succeeded (wrapping): compare with
@@ -410,8 +475,8 @@ fn full(table: Table) -> Error {
     }
 }
 
-impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize> DataModel
-    for Bank<RUNS, REGS, BIT_BYTES, PROTECTED>
+impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize, const PAIRS: usize> DataModel
+    for Bank<RUNS, REGS, BIT_BYTES, PROTECTED, PAIRS>
 {
     /// Sized from the capacity: no run holds more than `BIT_BYTES × 8` bits or `REGS`
     /// registers.

@@ -31,6 +31,8 @@ pub enum Error {
     BitsFull,
     /// No room for another read-only range (the bank's `PROTECTED`).
     ProtectionsFull,
+    /// No room for another range of holding-register pairs (the bank's `PAIRS`).
+    PairsFull,
     /// A peripheral handed to the crate is not the one asked for (another `USART` or
     /// timer, say).
     WrongPeripheral,
@@ -66,6 +68,7 @@ impl Error {
             Error::RegistersFull => "bank has no room for more registers (REGS)",
             Error::BitsFull => "bank has no room for more bits (BIT_BYTES)",
             Error::ProtectionsFull => "bank has no room for another protected range",
+            Error::PairsFull => "bank has no room for another range of pairs (PAIRS)",
             Error::WrongPeripheral => "wrong peripheral",
             Error::AlreadyStarted => "started twice",
             Error::Busy => "a request is under way",

@@ -104,3 +104,51 @@ fn a_bank_reads_and_writes_pairs_whole() {
         Err(Error::BadReference)
     );
 }
+
+/// A bank with room for one range of pairs: holding registers 40001–40002 plain,
+/// 40003–40006 two pairs.
+fn paired_bank() -> Bank<4, 8, 0, 0, 1> {
+    let mut bank = Bank::new();
+    bank.add_range(40001, 2).unwrap();
+    bank.add_pairs(40003, 2).unwrap();
+    bank
+}
+
+/// FC 16 of `values` from `start` to a bank, as the slave engine answers it.
+fn bank_fc16<const P: usize>(bank: &mut Bank<4, 8, 0, 0, P>, start: u16, values: &[u16]) -> Vec<u8> {
+    let data: Vec<u8> = values.iter().flat_map(|v| v.to_be_bytes()).collect();
+    exchange(bank, &write_multiple_pdu(0x10, start, values.len() as u16, &data))
+}
+
+#[test]
+fn a_bank_refuses_a_write_of_half_a_pair_with_02_and_takes_whole_pairs() {
+    let mut bank = paired_bank();
+    bank.set_wide(40003, 0x1111_2222u32, WordOrder::HighFirst).unwrap();
+    bank.set_wide(40005, 0x3333_4444u32, WordOrder::HighFirst).unwrap();
+    let illegal_address = with_crc(&[ID, 0x90, 0x02]);
+    assert_eq!(bank_fc16(&mut bank, 1, &[9, 9]), illegal_address, "40002 and the first pair's first half");
+    assert_eq!(bank_fc16(&mut bank, 3, &[9, 9]), illegal_address, "across the two pairs");
+    assert_eq!(exchange(&mut bank, &[0x06, 0x00, 0x05, 0x00, 0x09]), with_crc(&[ID, 0x86, 0x02]));
+    assert_eq!(bank.get_wide::<u32>(40003, WordOrder::HighFirst), Ok(0x1111_2222));
+    assert_eq!(bank.get_wide::<u32>(40005, WordOrder::HighFirst), Ok(0x3333_4444));
+    // Whole pairs, with a plain register before them: written.
+    assert_eq!(bank_fc16(&mut bank, 1, &[7, 0xAAAA, 0xBBBB]), with_crc(&[ID, 0x10, 0x00, 0x01, 0x00, 0x03]));
+    assert_eq!(bank.get_wide::<u32>(40003, WordOrder::HighFirst), Ok(0xAAAA_BBBB));
+    // The plain registers are written one at a time as before.
+    let fc6 = [0x06, 0x00, 0x00, 0x00, 0x05];
+    assert_eq!(exchange(&mut bank, &fc6), with_crc(&[ID, 0x06, 0x00, 0x00, 0x00, 0x05]));
+}
+
+#[test]
+fn a_bank_has_room_for_as_many_ranges_of_pairs_as_it_was_given() {
+    let mut bank = paired_bank();
+    assert_eq!(bank.add_pairs(40011, 1), Err(Error::PairsFull));
+    assert!(!bank.contains(40011), "a refused range is not added");
+    // Input registers take no slot: no master writes them.
+    assert_eq!(bank.add_pairs(30001, 1), Ok(()));
+    assert_eq!(bank.add_pairs(1, 1), Err(Error::BadReference));
+    // Without room for pairs, a half write is applied as any write is.
+    let mut plain: Bank<4, 8, 0> = Bank::new();
+    plain.add_range(40001, 2).unwrap();
+    assert_eq!(bank_fc16(&mut plain, 1, &[9]), with_crc(&[ID, 0x10, 0x00, 0x01, 0x00, 0x01]));
+}
