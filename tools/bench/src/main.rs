@@ -503,9 +503,9 @@ fn max_frame(root: &Path, log: &mut Log) -> Result<Vec<Series>> {
     Ok(out)
 }
 
-/// `examples/boards.rs` on every chip and USART (`make chips`; the ATmega328P's from `make
-/// firmware`): (chip, USART).
-const BOARDS: [(Chip, u8); 11] = [
+/// Every chip and USART the crate serves: `examples/boards.rs` is built for each (`make chips`;
+/// the ATmega328P's from `make firmware`), and `examples/master_boards.rs` too: (chip, USART).
+pub(crate) const BOARDS: [(Chip, u8); 11] = [
     (Chip::Atmega328p, 0),
     (Chip::Atmega168, 0),
     (Chip::Atmega32u4, 1),

@@ -9,7 +9,7 @@ use uno_sim::{cycles_to_us, us_to_cycles, Chip, LineError, Options, Space, TxByt
 
 use crate::bus::IsrTotal;
 use crate::modbus::{crc16, Expect, Request};
-use crate::{avr_size, chip_build_path, firmware_path, Lcg, Log, Result};
+use crate::{avr_size, chip_build_path, firmware_path, Lcg, Log, Result, BOARDS};
 
 /// The Arduino masters, built from source with Debian's arduino-core-avr and avr-gcc 5.4
 /// `-Os -flto` on the same sketch: (library, flash with all four function codes, flash with
@@ -57,22 +57,6 @@ pub(crate) fn section(md: &mut String, root: &Path, measured: &Measured) -> Resu
     }
     timing_section(md, measured)
 }
-
-/// `examples/master_boards.rs` on every chip and USART (`make chips`:
-/// target/chips/CHIP[-usartN]-master/): (chip, USART).
-const MASTER_BUILDS: [(Chip, u8); 11] = [
-    (Chip::Atmega328p, 0),
-    (Chip::Atmega168, 0),
-    (Chip::Atmega32u4, 1),
-    (Chip::Atmega1280, 0),
-    (Chip::Atmega1280, 1),
-    (Chip::Atmega1280, 2),
-    (Chip::Atmega1280, 3),
-    (Chip::Atmega2560, 0),
-    (Chip::Atmega2560, 1),
-    (Chip::Atmega2560, 2),
-    (Chip::Atmega2560, 3),
-];
 
 /// Requests `master_boards` sends per chip and USART, each answered as a slave would.
 const BOARD_REQUESTS: usize = 100;
@@ -334,7 +318,8 @@ fn latency(root: &Path, log: &mut Log) -> Result<Option<Latency>> {
 /// latency on `poll_holding`.
 pub(crate) fn measure(root: &Path, log: &mut Log) -> Result<Measured> {
     let mut m = Measured::default();
-    for (chip, usart) in MASTER_BUILDS {
+    // `master_boards` as `make chips` builds it: target/chips/CHIP[-usartN]-master/.
+    for (chip, usart) in BOARDS {
         let elf = master_board_path(root, chip, usart);
         if !elf.is_file() {
             log.problems.push(format!("{} is missing: run `make chips`", elf.display()));
@@ -375,7 +360,7 @@ pub(crate) fn target_rows(
     match (worst(IsrTotal::mean), worst(|s| s.max as f64)) {
         (Some((mean, mean_on)), Some((max, max_on))) => {
             let limit = MASTER_ISR_TARGET_CYCLES as f64;
-            let missing = MASTER_BUILDS.len() - m.runs.len();
+            let missing = BOARDS.len() - m.runs.len();
             row(
                 target,
                 format!(
