@@ -109,39 +109,7 @@ macro_rules! slave {
             { $crate::__chip!(usart $usart) },
         > = $crate::Slave::new();
 
-        #[doc(hidden)]
-        #[allow(non_snake_case)]
-        mod __avr_modbus_interrupts {
-            /// TIMER0_COMPB: the gap deadline, then T3.5.
-            #[export_name = $crate::__chip!(vector TIMER0_COMPB)]
-            unsafe extern "avr-interrupt" fn TIMER0_COMPB() {
-                // SAFETY: an interrupt handler, which runs with interrupts disabled.
-                unsafe { super::$name.on_timer_compare() }
-            }
-
-            /// USARTn_RX: a character arrived.
-            #[export_name = $crate::__chip!(vector $usart RX)]
-            unsafe extern "avr-interrupt" fn USART_RX() {
-                // SAFETY: as above; the handler's first call.
-                unsafe { $crate::__private::usart_rx_arrived() };
-                // SAFETY: as above.
-                unsafe { super::$name.on_usart_rx() }
-            }
-
-            /// USARTn_UDRE: room for the next character of a reply.
-            #[export_name = $crate::__chip!(vector $usart UDRE)]
-            unsafe extern "avr-interrupt" fn USART_UDRE() {
-                // SAFETY: as above.
-                unsafe { super::$name.on_usart_udre() }
-            }
-
-            /// USARTn_TX: the reply has left the wire.
-            #[export_name = $crate::__chip!(vector $usart TX)]
-            unsafe extern "avr-interrupt" fn USART_TX() {
-                // SAFETY: as above.
-                unsafe { super::$name.on_usart_tx() }
-            }
-        }
+        $crate::__bind_role!(__avr_modbus_interrupts, $name, $usart, TIMER0_COMPB, usart_rx_arrived);
     };
     ($name:ident on $usart:ident : $model:ty) => {
         $crate::slave!(@on $usart $name: $model, $crate::NoPin, $crate::NoPin);
@@ -177,39 +145,7 @@ macro_rules! master {
     (@on $usart:ident $name:ident : $n:expr, $de:ty, $led:ty) => {
         static $name: $crate::Master<$de, $led, { $n }, { $crate::__chip!(usart $usart) }> = $crate::Master::new();
 
-        #[doc(hidden)]
-        #[allow(non_snake_case)]
-        mod __avr_modbus_master_interrupts {
-            /// TIMER0_COMPA: T1.5, T3.5, and the timeouts.
-            #[export_name = $crate::__chip!(vector TIMER0_COMPA)]
-            unsafe extern "avr-interrupt" fn TIMER0_COMPA() {
-                // SAFETY: an interrupt handler, which runs with interrupts disabled.
-                unsafe { super::$name.on_timer_compare() }
-            }
-
-            /// USARTn_RX: a character arrived.
-            #[export_name = $crate::__chip!(vector $usart RX)]
-            unsafe extern "avr-interrupt" fn USART_RX() {
-                // SAFETY: as above; the handler's first call.
-                unsafe { $crate::__private::master_rx_arrived() };
-                // SAFETY: as above.
-                unsafe { super::$name.on_usart_rx() }
-            }
-
-            /// USARTn_UDRE: room for the request's next character.
-            #[export_name = $crate::__chip!(vector $usart UDRE)]
-            unsafe extern "avr-interrupt" fn USART_UDRE() {
-                // SAFETY: as above.
-                unsafe { super::$name.on_usart_udre() }
-            }
-
-            /// USARTn_TX: the request has left the wire.
-            #[export_name = $crate::__chip!(vector $usart TX)]
-            unsafe extern "avr-interrupt" fn USART_TX() {
-                // SAFETY: as above.
-                unsafe { super::$name.on_usart_tx() }
-            }
-        }
+        $crate::__bind_role!(__avr_modbus_master_interrupts, $name, $usart, TIMER0_COMPA, master_rx_arrived);
     };
     ($name:ident on $usart:ident : $n:expr) => {
         $crate::master!(@on $usart $name: $n, $crate::NoPin, $crate::NoPin);
@@ -225,5 +161,49 @@ macro_rules! master {
     };
     ($name:ident : $n:expr, $de:ty, $led:ty) => {
         $crate::__chip!(default_master $name: $n, $de, $led);
+    };
+}
+
+/// The four interrupts a role (`slave!`, `master!`) binds, in module `$module`: Timer0's
+/// compare unit `$compare` (its silences, and the master's timeouts), and USART `$usart`'s
+/// RX complete (first `__private::$arrived`, which starts the silence deadlines), data
+/// register empty and TX complete, each calling the static `$name`'s handler.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __bind_role {
+    ($module:ident, $name:ident, $usart:ident, $compare:ident, $arrived:ident) => {
+        #[doc(hidden)]
+        #[allow(non_snake_case)]
+        mod $module {
+            /// TIMER0_COMPx: the gap deadline, then T3.5 (and the master's timeouts).
+            #[export_name = $crate::__chip!(vector $compare)]
+            unsafe extern "avr-interrupt" fn TIMER0_COMPARE() {
+                // SAFETY: an interrupt handler, which runs with interrupts disabled.
+                unsafe { super::$name.on_timer_compare() }
+            }
+
+            /// USARTn_RX: a character arrived.
+            #[export_name = $crate::__chip!(vector $usart RX)]
+            unsafe extern "avr-interrupt" fn USART_RX() {
+                // SAFETY: as above; the handler's first call.
+                unsafe { $crate::__private::$arrived() };
+                // SAFETY: as above.
+                unsafe { super::$name.on_usart_rx() }
+            }
+
+            /// USARTn_UDRE: room for the next character of a frame.
+            #[export_name = $crate::__chip!(vector $usart UDRE)]
+            unsafe extern "avr-interrupt" fn USART_UDRE() {
+                // SAFETY: as above.
+                unsafe { super::$name.on_usart_udre() }
+            }
+
+            /// USARTn_TX: the frame has left the wire.
+            #[export_name = $crate::__chip!(vector $usart TX)]
+            unsafe extern "avr-interrupt" fn USART_TX() {
+                // SAFETY: as above.
+                unsafe { super::$name.on_usart_tx() }
+            }
+        }
     };
 }
