@@ -23,6 +23,7 @@ mod clock {
 mod eeprom;
 #[cfg(feature = "master")]
 mod master;
+mod mem;
 mod pins;
 mod reg;
 mod rtu;
