@@ -30,7 +30,8 @@ help:
 	@echo "  make lint        - make fmt-check, make clippy and make docs"
 	@echo "  make fmt-check   - cargo fmt --check"
 	@echo "  make clippy      - clippy with -D warnings for the host and the AVR, every feature set"
-	@echo "  make docs        - the API docs, warnings denied, for the host and the AVR"
+	@echo "  make docs        - the API docs, warnings denied, for the host and the AVR, then as docs.rs builds"
+	@echo "                     them (.ci/docsrs: every name of the README's API tables has its page)"
 	@echo "  make host-test   - every cargo test (host, simulator) after building the firmware"
 	@echo "  make interop     - mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on virtual boards"
 	@echo "  make bench       - size targets (met or not), flash, RAM, stack, interrupt cycles, turnaround -> bench/results.md"
@@ -157,10 +158,13 @@ clippy: setup
 	CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega2560" $(CARGO) clippy --release -Zbuild-std=core --target avr-none \
 		--example gateway --features examples,master -- -D warnings
 
+# The API docs, warnings denied: for the host (no AVR layer), for the Uno, and as docs.rs builds
+# them (the host, `--cfg docsrs`: the AVR layer too), checked against the README's API tables.
 docs: setup
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus --features $(OPTIONAL),eeprom-settings,ufmt,device-id,ascii,master,reply-delay
 	RUSTDOCFLAGS="-D warnings -C target-cpu=atmega328p" $(CARGO) doc --no-deps -p avr-modbus --release \
 		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings,ufmt,millis,ascii,master,reply-delay
+	.ci/docsrs
 
 lint: fmt-check clippy docs
 

@@ -3,8 +3,22 @@
 #![cfg_attr(target_arch = "avr", feature(asm_experimental_arch, const_type_name))]
 #![cfg_attr(all(target_arch = "avr", feature = "millis"), feature(abi_avr_interrupt))]
 #![deny(missing_docs)]
+// The docs as docs.rs builds them (`[package.metadata.docs.rs]`): each item shows the
+// features and the target it needs.
+#![cfg_attr(docsrs, feature(doc_cfg))]
+#![cfg_attr(docsrs, doc(auto_cfg(hide(docsrs))))]
 
-#[cfg(target_arch = "avr")]
+// The AVR layer (`Slave`, `slave!`, `Master`, `master!`, `board`, `millis`, `NoPin`) is the
+// firmware's: only an AVR build compiles it. docs.rs documents a crate for a host target (it
+// takes its targets from rustup, which has none for the AVR), so given `--cfg docsrs`
+// rustdoc documents the layer on the host too: the module itself, its real signatures and
+// docs. rustdoc neither type-checks nor compiles function bodies, so their `asm!` stays as
+// it is; only the interrupt handler the crate binds itself (`avr::clock`) is left out, and
+// the Uno's chip table is the one named. `doc` keeps all this out of every rustc build, even
+// one given `--cfg docsrs`. The `doc(cfg)`s below give each item its badge (the automatic
+// one would read "(AVR)" and repeat "AVR" on every method).
+#[cfg(any(target_arch = "avr", all(doc, docsrs)))]
+#[cfg_attr(docsrs, doc(cfg(target_arch = "avr")))]
 mod avr;
 mod bank;
 mod config;
@@ -19,7 +33,7 @@ mod map;
 pub mod master;
 mod model;
 mod pdu;
-#[cfg(any(target_arch = "avr", test))]
+#[cfg(any(target_arch = "avr", all(doc, docsrs), test))]
 mod peripheral;
 mod reference;
 #[cfg(feature = "eeprom-settings")]
@@ -31,12 +45,14 @@ mod wide;
 #[cfg(target_arch = "avr")]
 #[doc(hidden)]
 pub use avr::__private;
-#[cfg(target_arch = "avr")]
-#[cfg(all(target_arch = "avr", feature = "millis"))]
+#[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "millis"))]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "millis"))))]
 pub use avr::millis;
-#[cfg(all(target_arch = "avr", feature = "master"))]
+#[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "master"))]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "master"))))]
 pub use avr::Master;
-#[cfg(target_arch = "avr")]
+#[cfg(any(target_arch = "avr", all(doc, docsrs)))]
+#[cfg_attr(docsrs, doc(cfg(target_arch = "avr")))]
 pub use avr::{board, NoPin, Slave};
 pub use bank::{bit_bytes, Bank};
 #[cfg(feature = "ascii")]

@@ -33,8 +33,9 @@ impl Chip {
 }
 
 /// ATmega328P and ATmega168 (Uno, Nano, Pro Mini, Nano168): USART0 on pins 0/1, LED on
-/// PB5 (pin 13).
-#[cfg(any(avr_chip = "atmega328p", avr_chip = "atmega168"))]
+/// PB5 (pin 13). Also the table the docs built on the host with `--cfg docsrs` name (see
+/// `src/lib.rs`): no page shows a value of it.
+#[cfg(any(avr_chip = "atmega328p", avr_chip = "atmega168", all(doc, docsrs, not(target_arch = "avr"))))]
 pub(crate) const CHIP: Chip = Chip {
     usarts: [Some(0xC0), None, None, None],
     eeprom_size: if cfg!(avr_chip = "atmega168") { 512 } else { 1024 },

@@ -38,7 +38,9 @@ pub(crate) fn millis() -> u32 {
 
 /// TIMER0_OVF: Timer0 overflowed (every 1.024 ms, 2.048 at 8 MHz), the clock moves on. Bound here rather
 /// than by [`crate::slave!`]: it touches nothing of the slave's, and a firmware without
-/// the feature has no handler at all (the interrupt stays off).
+/// the feature has no handler at all (the interrupt stays off). The firmware's alone: the
+/// host has no AVR interrupt ABI, so the docs built there (`--cfg docsrs`) leave it out.
+#[cfg(target_arch = "avr")]
 #[export_name = crate::__chip!(vector TIMER0_OVF)]
 unsafe extern "avr-interrupt" fn timer0_overflow() {
     // SAFETY: the overflow interrupt handler, which runs with interrupts disabled.

@@ -99,6 +99,7 @@ pub mod __private {
 /// `#![feature(abi_avr_interrupt)]`, as every AVR interrupt handler does. Nothing else in
 /// the firmware may handle these interrupts, nor Timer0's overflow (no `default_serial!` on
 /// the slave's USART, nothing on TC0).
+#[cfg_attr(docsrs, doc(cfg(target_arch = "avr")))]
 #[macro_export]
 macro_rules! slave {
     (@on $usart:ident $name:ident : $model:ty, $de:ty, $led:ty) => {
@@ -141,6 +142,7 @@ macro_rules! slave {
 /// [`Master::start`] then takes that USART. A master and a slave on two USARTs of one chip
 /// share Timer0 (a gateway): hand the first one started `&dp.TC0`, the second `dp.TC0`.
 #[cfg(feature = "master")]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "master"))))]
 #[macro_export]
 macro_rules! master {
     (@on $usart:ident $name:ident : $n:expr, $de:ty, $led:ty) => {

@@ -445,6 +445,8 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> S
 }
 
 #[cfg(feature = "eeprom-settings")]
+// Named for the docs: inside the AVR layer the automatic badge misses impl blocks (src/lib.rs).
+#[cfg_attr(docsrs, doc(cfg(feature = "eeprom-settings")))]
 impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8>
     Slave<crate::settings::Configurable<M>, DE, LED, N, U>
 {
