@@ -123,10 +123,8 @@ impl Bus {
         let hex = &text[1..text.len() - 2];
         assert!(hex.len() % 2 == 0, "{what}: odd count in {shown:?}");
         assert!(hex.iter().all(|c| c.is_ascii_digit() || (b'A'..=b'F').contains(c)), "{what}: {shown:?}");
-        let bytes: Vec<u8> = hex
-            .chunks(2)
-            .map(|pair| u8::from_str_radix(std::str::from_utf8(pair).unwrap(), 16).unwrap())
-            .collect();
+        let bytes: Vec<u8> =
+            hex.chunks(2).map(|pair| u8::from_str_radix(std::str::from_utf8(pair).unwrap(), 16).unwrap()).collect();
         let (body, check) = bytes.split_at(bytes.len() - 1);
         assert_eq!(check[0], lrc(body), "{what}: the LRC of {shown:?}");
         self.line_busy_until = end;

@@ -180,7 +180,8 @@ impl<const N: usize, const U: u8> Master<NoPin, NoPin, N, U> {
     /// Starts the master: takes the USART that [`crate::master!`] named and `TC0` from the
     /// application's `Peripherals` (arduino-hal's or `avr-device`'s, any version),
     /// configures them for `config` (its slave id is not used), and enables interrupts.
-    /// The first request goes out after T3.5 of silence.
+    /// The first request goes out after T3.5 of silence (with an ASCII `config`, feature
+    /// `ascii`: at once, unless a frame is on the line).
     pub fn start<P: Deref, T: Deref>(&self, config: Config, usart: P, tc0: T) -> Result<(), Error>
     where
         P::Target: Sized,
@@ -212,7 +213,8 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
 
     /// Starts `request` to `slave` (1–247, or 0 to broadcast a write) and returns at once:
     /// the request is checked and built now, and goes out as soon as the line has been
-    /// quiet for T3.5 (at once if it has). [`Error::Busy`] while another is under way (it
+    /// quiet for T3.5 (at once if it has; in ASCII, as soon as no frame is on the line).
+    /// [`Error::Busy`] while another is under way (it
     /// goes on) or its outcome waits to be collected with [`Master::poll`] (nothing is ever
     /// dropped), [`Error::NotStarted`] before [`Master::start`]; a quantity outside the
     /// spec's limits, a broadcast read, a request or reply longer than the buffers are
