@@ -267,4 +267,12 @@ fn the_ascii_master_speaks_7e1_and_takes_only_the_replies_that_answer_it() {
     bus.answer(&retry, &values_reply());
     bus.counts.replies += 1;
     bus.report(0, 0, VALUES, "a read retried after a late reply");
+
+    // What the interrupts cost in ASCII (printed for the record, not a test of speed).
+    let v = bus.rtu.uno.vectors();
+    for (name, vector) in [("USART_RX", v.usart_rx), ("USART_UDRE", v.usart_udre), ("TIMER0_COMPA", v.timer0_compa)] {
+        let stats = bus.rtu.uno.isr_stats(vector);
+        let mean = stats.cycles as f64 / stats.entries.max(1) as f64;
+        println!("{name}: {} entries, {mean:.1} cycles on average, {} at most", stats.entries, stats.max_cycles);
+    }
 }
