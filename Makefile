@@ -53,6 +53,7 @@ firmware: setup
 	$(CARGO) uno --example ascii --features examples,ascii
 	$(CARGO) uno --example configurable --features examples,eeprom-settings,ascii,device-id,reply-delay,$(OPTIONAL)
 	$(CARGO) uno $(addprefix --example ,$(MASTER_EXAMPLES)) --features examples,master
+	$(CARGO) uno --example ascii_master --features examples,master,ascii
 	$(CARGO) uno --example slow_master --features examples,reply-delay
 	@.ci/sizes $(FIRMWARE)
 	@.ci/no-panic $(FIRMWARE)
@@ -150,10 +151,12 @@ clippy: setup
 	$(CARGO) clippy -p avr-modbus --all-targets --features clock-8mhz,ascii -- -D warnings
 	$(CARGO) clippy -p avr-modbus --all-targets --features $(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 	$(CARGO) clippy -p avr-modbus --all-targets --features master,ufmt -- -D warnings
+	$(CARGO) clippy -p avr-modbus --all-targets --features master,ascii -- -D warnings
 	$(CARGO) clippy -p avr-modbus --all-targets --features reply-delay,eeprom-settings,ascii -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples,millis,ascii,device-id,$(OPTIONAL),eeprom-settings,ufmt,reply-delay -- -D warnings
 	$(CARGO) uno-clippy $(addprefix --example ,$(MASTER_EXAMPLES)) --features examples,master,ufmt -- -D warnings
+	$(CARGO) uno-clippy --example ascii_master --features examples,master,ascii -- -D warnings
 	$(CARGO) uno-clippy --example slow_master --features examples,reply-delay -- -D warnings
 	CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega2560" $(CARGO) clippy --release -Zbuild-std=core --target avr-none \
 		--example gateway --features examples,master -- -D warnings
@@ -182,6 +185,7 @@ host-test: setup firmware fixtures bootloaders
 	$(CARGO) test -p avr-modbus --features ascii --doc
 	$(CARGO) test -p avr-modbus --features clock-8mhz,ascii --lib --test timing
 	$(CARGO) test -p avr-modbus --features master --test master --test sim_master --test sim_gateway
+	$(CARGO) test -p avr-modbus --features master,ascii --test master_ascii --test sim_master_ascii --test master
 	$(CARGO) test -p avr-modbus --features reply-delay --test sim_reply_delay --lib
 	$(CARGO) test -p avr-modbus --features eeprom-settings,reply-delay --test settings_reply_delay --test settings_slots
 	$(CARGO) test -p avr-modbus --features eeprom-settings,reply-delay,ascii --test settings_reply_delay

@@ -250,9 +250,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
 /// The engine and Timer0 in the framing `config` asks for (feature `ascii`).
 #[cfg(feature = "ascii")]
 fn set_mode<const N: usize>(engine: &mut Engine<N>, timer: &mut FrameTimer<B>, config: &Config) {
-    let ascii = config.mode() != crate::config::Mode::Rtu;
-    engine.set_ascii(ascii);
-    timer.set_ascii(ascii, config.char_timeout_turns(), config.char_end());
+    engine.set_ascii(timer.set_mode(config));
 }
 
 /// The Modbus RTU slave: declare it with [`crate::slave!`], start it with the

@@ -315,11 +315,21 @@ impl<U: Unit> FrameTimer<U> {
     /// (0: none), or RTU; `end`: from a character's receive flag to its end on the line.
     /// Interrupts must be disabled.
     #[cfg(feature = "ascii")]
-    pub(crate) fn set_ascii(&mut self, on: bool, timeout: u16, end: Deadline) {
+    fn set_ascii(&mut self, on: bool, timeout: u16, end: Deadline) {
         // SAFETY: called with interrupts disabled (the slave's start and its settings switch).
         unsafe {
             U::deadlines().with(|d| d.ascii = AsciiTimer { on, timeout, idle: 0, end_due: false, end, end_turns: 0 })
         }
+    }
+
+    /// The framing `config` asks for (feature `ascii`): ASCII's timeout and character end
+    /// from it, or RTU. Returns true for ASCII. Both roles start (and the slave switches
+    /// settings) through here. Interrupts must be disabled.
+    #[cfg(feature = "ascii")]
+    pub(crate) fn set_mode(&mut self, config: &crate::config::Config) -> bool {
+        let ascii = config.mode() != crate::config::Mode::Rtu;
+        self.set_ascii(ascii, config.char_timeout_turns(), config.char_end());
+        ascii
     }
 
     /// ASCII: a frame's outcome is due (its LF came, or a `:` dropped it): the compare

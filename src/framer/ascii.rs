@@ -131,6 +131,14 @@ impl<const N: usize> Framer<N> {
         self.ascii.on
     }
 
+    /// True inside an ASCII frame: from its `:` until its outcome has been reported by
+    /// [`Framer::on_end_deadline`] (a frame complete or broken but not yet reported is
+    /// still in progress). Outside a frame the line carries nothing that is addressed to
+    /// anyone: the master sends its requests then.
+    pub fn is_in_frame(&self) -> bool {
+        matches!(self.state, State::Receiving | State::Broken | State::Waiting)
+    }
+
     /// An ASCII character arrived. Returns true when a frame's outcome is due: the caller
     /// then calls [`Framer::on_end_deadline`] (at the LF that ends a frame, and at a `:`
     /// that drops the frame in progress).
