@@ -158,6 +158,7 @@ clippy: setup
 	$(CARGO) uno-clippy $(addprefix --example ,$(MASTER_EXAMPLES)) --features examples,master,ufmt -- -D warnings
 	$(CARGO) uno-clippy --example ascii_master --features examples,master,ascii -- -D warnings
 	$(CARGO) uno-clippy --example slow_master --features examples,reply-delay -- -D warnings
+	$(CARGO) uno-clippy --example master_boards --features examples,master,ascii,reply-delay -- -D warnings
 	CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega2560" $(CARGO) clippy --release -Zbuild-std=core --target avr-none \
 		--example gateway --features examples,master -- -D warnings
 

@@ -121,6 +121,9 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
             // The clock is read only while a timeout runs: an idle turn costs a few cycles.
             Passed::Nothing if self.engine.is_timing() => self.engine.on_tick(clock::millis()),
             Passed::Nothing => return,
+            // The slave's reply delay, on compare B: the master sets none on compare A.
+            #[cfg(feature = "reply-delay")]
+            Passed::Delayed => return,
         };
         self.act(action);
     }

@@ -34,6 +34,9 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
             Passed::End => self.engine.on_end_deadline(),
             Passed::Nothing if self.engine.is_timing() => self.engine.on_tick(clock::millis()),
             Passed::Nothing => return,
+            // The slave's reply delay, on compare B: the master sets none on compare A.
+            #[cfg(feature = "reply-delay")]
+            Passed::Delayed => return,
         };
         self.act(action);
     }
