@@ -3,7 +3,7 @@
 //! It runs freely in normal mode at clk/64 from the first role's start and is never stopped
 //! or written again. Each received character sets the role's compare unit to the gap
 //! deadline relative to the counter's current value; when that passes, the compare
-//! interrupt moves it on to T3.5, counting the whole turns still to wait (`src/timing.rs`
+//! interrupt moves it on to T3.5, counting the whole turns still to wait (`src/link/timing/plan.rs`
 //! has the arithmetic, [`TimerPlan`]). One compare unit and one interrupt serve both
 //! silences of a line: compare B the slave's ([`B`]), compare A the master's ([`A`]), so that
 //! a gateway runs both roles on one timer. The compare interrupt stays enabled: with no
@@ -21,9 +21,9 @@ use core::marker::PhantomData;
 use super::reg::OCR0A;
 use super::reg::{Reg, OCR0B, TCCR0A, TCCR0B, TCNT0, TIFR0, TIMSK0};
 #[cfg(feature = "ascii")]
-use crate::timing::Deadline;
-pub(crate) use crate::timing::Passed;
-use crate::timing::{Schedule, TimerPlan, TIMER0_CLOCK_SELECT};
+use crate::link::timing::Deadline;
+pub(crate) use crate::link::timing::Passed;
+use crate::link::timing::{Schedule, TimerPlan, TIMER0_CLOCK_SELECT};
 
 const OCIE0A: u8 = 1 << 1;
 const OCIE0B: u8 = 1 << 2;
@@ -326,8 +326,8 @@ impl<U: Unit> FrameTimer<U> {
     /// from it, or RTU. Returns true for ASCII. Both roles start (and the slave switches
     /// settings) through here. Interrupts must be disabled.
     #[cfg(feature = "ascii")]
-    pub(crate) fn set_mode(&mut self, config: &crate::config::Config) -> bool {
-        let ascii = config.mode() != crate::config::Mode::Rtu;
+    pub(crate) fn set_mode(&mut self, config: &crate::link::config::Config) -> bool {
+        let ascii = config.mode() != crate::link::config::Mode::Rtu;
         self.set_ascii(ascii, config.char_timeout_turns(), config.char_end());
         ascii
     }

@@ -6,12 +6,12 @@
 //! the range is missing, [`Exception::ServerDeviceFailure`] when it can't do what was
 //! asked, and in either case changes nothing.
 
-#[cfg(feature = "eeprom-settings")]
-use crate::config::Config;
 use crate::error::Error;
-use crate::pdu::device_id::Identification;
-use crate::pdu::{Exception, MAX_READ_BITS, MAX_READ_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS};
-use crate::reference::{Reference, Table};
+#[cfg(feature = "eeprom-settings")]
+use crate::link::config::Config;
+use crate::slave::pdu::device_id::Identification;
+use crate::slave::pdu::{Exception, MAX_READ_BITS, MAX_READ_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS};
+use crate::slave::reference::{Reference, Table};
 
 const fn min(a: u32, b: u32) -> u32 {
     if a < b {
@@ -41,7 +41,7 @@ const fn max(a: u32, b: u32) -> u32 {
 /// capacity.
 pub(crate) const fn frame_for(coils: u32, inputs: u32, input_registers: u32, holding: u32) -> usize {
     if cfg!(any(feature = "diagnostics", feature = "extra-fc", feature = "device-id")) {
-        return crate::framer::MAX_FRAME;
+        return crate::link::framer::MAX_FRAME;
     }
     // Address, function code, byte count, data, CRC.
     let bits_read = min(max(coils, inputs), MAX_READ_BITS as u32);
@@ -60,7 +60,7 @@ pub(crate) const fn frame_for(coils: u32, inputs: u32, input_registers: u32, hol
 /// receive interrupt about 30 cycles more a byte: a master polling one value at a time
 /// keeps every byte of it on the fast path, whatever the map.
 pub(crate) const ONE_VALUE_FRAME: usize = 11;
-const _: () = assert!(ONE_VALUE_FRAME >= crate::framer::MIN_CAPACITY);
+const _: () = assert!(ONE_VALUE_FRAME >= crate::link::framer::MIN_CAPACITY);
 
 /// Which way a request moves values between the PDU and a [`DataModel`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -80,7 +80,7 @@ pub trait DataModel {
     /// refuses). 256, the longest RTU frame, unless the model knows better:
     /// [`crate::register_map!`] works it out from its ranges, [`crate::Bank`] from its
     /// capacity. Features `diagnostics`, `extra-fc` and `device-id` need 256.
-    const FRAME: usize = crate::framer::MAX_FRAME;
+    const FRAME: usize = crate::link::framer::MAX_FRAME;
 
     /// True when every request whose addresses all exist fits [`DataModel::FRAME`], as
     /// [`crate::register_map!`] and [`crate::Bank`] work it out: a request too long for
@@ -189,7 +189,7 @@ pub trait DataModel {
     }
 
     /// Line settings the master wrote, ready to switch to (feature `eeprom-settings`, see
-    /// [`crate::settings::Configurable`]), handed over once: the slave asks whenever a reply
+    /// [`crate::slave::settings::Configurable`]), handed over once: the slave asks whenever a reply
     /// has left the wire, and switches then.
     #[cfg(feature = "eeprom-settings")]
     fn take_new_settings(&mut self) -> Option<Config> {

@@ -14,8 +14,8 @@
 //! on AVR the compiler would turn such a `match` into a lookup table, and constant tables
 //! are copied to RAM at start-up.
 
-use crate::model::{Access, DataModel};
-use crate::reference::Table;
+use crate::slave::model::{Access, DataModel};
+use crate::slave::reference::Table;
 
 pub mod device_id;
 #[cfg(feature = "extra-fc")]
@@ -26,7 +26,7 @@ pub(crate) mod oversized;
 #[cfg(not(feature = "extra-fc"))]
 pub(crate) mod extra {
     use super::Exception;
-    use crate::model::DataModel;
+    use crate::slave::model::DataModel;
 
     pub(crate) const ENABLED: bool = false;
 
@@ -151,16 +151,7 @@ pub enum Exception {
     ServerDeviceFailure = 0x04,
 }
 
-/// Largest quantity of bits in one read (FC 1, 2): 2000.
-pub const MAX_READ_BITS: u16 = 0x07D0;
-/// Largest quantity of registers in one read (FC 3, 4): 125.
-pub const MAX_READ_REGISTERS: u16 = 0x007D;
-/// Largest quantity of coils in one write (FC 15): 1968.
-pub const MAX_WRITE_COILS: u16 = 0x07B0;
-/// Largest quantity of registers in one write (FC 16): 123.
-pub const MAX_WRITE_REGISTERS: u16 = 0x007B;
-/// Largest quantity of registers written by FC 23 (Read/Write Multiple): 121.
-pub const MAX_READ_WRITE_REGISTERS: u16 = 0x0079;
+pub use crate::limits::*;
 
 /// The largest quantity one read of `table` may ask for: FC 1, 2 and FC 3, 4 (and 23's
 /// read).
@@ -223,7 +214,7 @@ pub struct Request {
 /// The big-endian word at `at`, 0 past the end (the length checks decide what that means).
 pub(crate) fn word(pdu: &[u8], at: usize) -> u16 {
     match pdu.get(at..at + 2) {
-        Some(&[hi, lo]) => crate::storage::from_be(hi, lo),
+        Some(&[hi, lo]) => crate::slave::storage::from_be(hi, lo),
         _ => 0,
     }
 }

@@ -9,7 +9,7 @@
 //! (40001–40004 and 40005–40008) are stored side by side, so the master reads across them
 //! as across one range.
 
-use crate::reference::{Reference, Table};
+use crate::slave::reference::{Reference, Table};
 
 /// One declared range, as the lookup needs it.
 #[doc(hidden)]
@@ -111,9 +111,9 @@ impl Layout {
 
     /// The frame buffer the map needs ([`crate::DataModel::FRAME`]): the longest request
     /// or reply of a request it accepts, address and CRC included, from its longest runs of
-    /// addresses of each table (see [`crate::model::frame_for`]).
+    /// addresses of each table (see [`crate::slave::model::frame_for`]).
     pub const fn frame(ranges: &[(u32, u32)]) -> usize {
-        crate::model::frame_for(
+        crate::slave::model::frame_for(
             Self::longest_run(ranges, Table::Coils),
             Self::longest_run(ranges, Table::DiscreteInputs),
             Self::longest_run(ranges, Table::InputRegisters),

@@ -5,8 +5,8 @@ use super::{
     range_check, read_response, value_check, word, written_values_check, Exception, FunctionCode, MAX_READ_REGISTERS,
     MAX_READ_WRITE_REGISTERS,
 };
-use crate::model::{Access, DataModel};
-use crate::reference::Table;
+use crate::slave::model::{Access, DataModel};
+use crate::slave::reference::Table;
 
 /// The feature is on: the engine sends FC 22 and 23 here.
 pub(crate) const ENABLED: bool = true;

@@ -12,12 +12,15 @@ use super::reg;
 use super::started::Started;
 use super::timer::{FrameTimer, Passed, B};
 use super::usart::Usart;
-use crate::config::Config;
-use crate::engine::{Counters, EndOfFrame, Engine};
 use crate::error::Error;
-use crate::framer::MAX_FRAME;
-use crate::model::DataModel;
-use crate::reference::IntoReference;
+use crate::link::config::Config;
+use crate::link::framer::MAX_FRAME;
+use crate::slave::engine::{Counters, EndOfFrame, Engine};
+use crate::slave::model::DataModel;
+use crate::slave::reference::IntoReference;
+
+#[cfg(feature = "ascii")]
+mod ascii;
 
 /// The running slave: its peripherals, protocol state with a frame buffer of `N` bytes,
 /// the application's data model `M`, the RS-485 driver-enable pin `DE` and the
@@ -83,15 +86,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
     fn on_usart_rx(&mut self) {
         #[cfg(feature = "ascii")]
         if self.engine.is_ascii() {
-            match self.usart.read() {
-                Ok(c) => {
-                    if self.engine.on_char(c) {
-                        self.timer.end_now();
-                    }
-                }
-                Err(e) => self.engine.on_error(e),
-            }
-            return;
+            return self.on_ascii_rx();
         }
         match self.usart.read() {
             Ok(byte) => self.engine.on_byte(byte),
@@ -101,22 +96,17 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
 
     /// Timer0 compare B: the inter-character gap deadline, or T3.5 of silence. A frame
     /// for this slave is answered from here: the address goes out first, then the request
-    /// is processed and the reply's CRC appended while it is on the wire.
-    ///
-    /// In ASCII framing (feature `ascii`) the interrupt brings a frame's end out of the
-    /// receive interrupt, and the inter-character timeout ends a frame in progress; the
-    /// reply starts with `:` and goes out in hex.
+    /// is processed and the reply's CRC appended while it is on the wire. (In ASCII framing,
+    /// feature `ascii`: `ascii.rs`.)
     #[inline(always)]
     fn on_timer_compare(&mut self) {
+        #[cfg(feature = "ascii")]
+        if self.engine.is_ascii() {
+            return self.on_ascii_compare();
+        }
         match self.timer.on_compare() {
             Passed::Nothing => return,
-            Passed::Gap => {
-                self.engine.on_gap_deadline();
-                // ASCII: the timeout dropped the frame in progress, reported below.
-                if !self.is_ascii() {
-                    return;
-                }
-            }
+            Passed::Gap => return self.engine.on_gap_deadline(),
             Passed::End => {}
             #[cfg(feature = "reply-delay")]
             Passed::Delayed => return self.send_processed(),
@@ -124,16 +114,15 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
         // A character that arrived while interrupts were held off (this interrupt outranks
         // the receive one) was on the wire before T3.5 expired: the silence starts over,
         // and the receive interrupt, pending, takes the character right after this one.
-        if !self.is_ascii() && self.usart.has_data() {
+        if self.usart.has_data() {
             self.timer.restart();
             return;
         }
         let end = self.engine.on_end_deadline();
         #[cfg(feature = "reply-delay")]
-        if end == EndOfFrame::Reply && self.reply_delay != 0 && !self.is_ascii() {
+        if end == EndOfFrame::Reply && self.reply_delay != 0 {
             // Processed now, sent when the delay has passed.
-            let bytes = self.engine.process(&mut self.model);
-            self.tx_len = self.reply_chars(bytes);
+            self.tx_len = self.engine.process(&mut self.model) as TxIndex;
             if !self.timer.delay(self.reply_delay) {
                 self.send_processed();
             }
@@ -142,15 +131,14 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
         if end == EndOfFrame::Reply {
             let _ = self.driver_enable.set_high();
             let _ = self.led.set_high();
-            self.usart.write(self.first_char());
+            self.usart.write(self.engine.id().get());
             self.tx_next = 1;
         }
         // Executes what `on_end_deadline` accepted (nothing for the other ends) and, for a
         // reply, appends its CRC; the rest of the reply follows the address from the
         // data-register-empty interrupt.
         // The longest reply is 255 bytes (FC 3 or 4 with 125 registers).
-        let bytes = self.engine.process(&mut self.model);
-        self.tx_len = self.reply_chars(bytes);
+        self.tx_len = self.engine.process(&mut self.model) as TxIndex;
         if self.tx_len != 0 {
             self.usart.start_feeding();
         }
@@ -161,54 +149,19 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
     fn send_processed(&mut self) {
         let _ = self.driver_enable.set_high();
         let _ = self.led.set_high();
-        self.usart.write(self.first_char());
+        self.usart.write(self.engine.id().get());
         self.tx_next = 1;
         self.usart.start_feeding();
-    }
-
-    /// True in ASCII framing (feature `ascii`); without the feature, never.
-    #[inline(always)]
-    fn is_ascii(&self) -> bool {
-        #[cfg(feature = "ascii")]
-        return self.engine.is_ascii();
-        #[cfg(not(feature = "ascii"))]
-        false
-    }
-
-    /// The reply's first character: the address, or in ASCII framing `:`.
-    #[inline(always)]
-    fn first_char(&self) -> u8 {
-        #[cfg(feature = "ascii")]
-        if self.is_ascii() {
-            return crate::framer::ascii::COLON;
-        }
-        self.engine.id().get()
-    }
-
-    /// Characters on the wire for a reply of `bytes` bytes: as many, or in ASCII framing
-    /// its frame's (`:`, two hex digits a byte, CR LF; at most 513).
-    #[inline(always)]
-    fn reply_chars(&self, bytes: usize) -> TxIndex {
-        #[cfg(feature = "ascii")]
-        if self.is_ascii() && bytes != 0 {
-            return crate::framer::ascii::encoded_len(bytes) as TxIndex;
-        }
-        bytes as TxIndex
     }
 
     /// USART data register empty: the next character of the reply (CRC included).
     #[inline(always)]
     fn on_usart_udre(&mut self) {
-        let next = self.tx_next;
         #[cfg(feature = "ascii")]
-        if self.is_ascii() {
-            self.usart.write(crate::framer::ascii::encoded_char(self.engine.reply(), usize::from(next)));
-            self.tx_next = next + 1;
-            if self.tx_next == self.tx_len {
-                self.usart.last_written();
-            }
-            return;
+        if self.engine.is_ascii() {
+            return self.on_ascii_udre();
         }
+        let next = self.tx_next;
         self.usart.write(self.engine.reply_byte(usize::from(next)));
         self.tx_next = next.wrapping_add(1);
         if self.tx_next == self.tx_len {
@@ -446,7 +399,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> S
 // Named for the docs: inside the AVR layer the automatic badge misses impl blocks (src/lib.rs).
 #[cfg_attr(docsrs, doc(cfg(feature = "eeprom-settings")))]
 impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8>
-    Slave<crate::settings::Configurable<M>, DE, LED, N, U>
+    Slave<crate::slave::settings::Configurable<M>, DE, LED, N, U>
 {
     /// The main loop's part of a settings change (feature `eeprom-settings`): call it
     /// from the main loop as often as it comes round. Returns how many EEPROM bytes it
@@ -474,7 +427,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8>
         Some(eeprom.store_config(address, &config))
     }
 
-    /// The line settings the slave runs (see [`crate::settings::Configurable::config`]).
+    /// The line settings the slave runs (see [`crate::slave::settings::Configurable::config`]).
     pub fn config(&self) -> Option<Config> {
         self.with(|model| model.config())
     }

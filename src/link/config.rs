@@ -6,9 +6,9 @@
 //! (EEPROM, jumpers) and returns an error instead.
 
 use crate::error::Error;
-use crate::timing::{rx_flag_to_end_cycles, BaudDivisor, CharTimes, TimerPlan, CLOCK_HZ};
+use crate::link::timing::{rx_flag_to_end_cycles, BaudDivisor, CharTimes, TimerPlan, CLOCK_HZ};
 #[cfg(feature = "ascii")]
-use crate::timing::{Deadline, TURN_US};
+use crate::link::timing::{Deadline, TURN_US};
 
 /// A slave (server) address on the serial line: 1–247.
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
@@ -170,7 +170,7 @@ impl Config {
 
     /// The longest reply delay, in microseconds: 65 535 Timer0 ticks (262 ms at 16 MHz).
     #[cfg(feature = "reply-delay")]
-    pub const MAX_REPLY_DELAY_US: u32 = 65_535 * 1000 / crate::timing::TICKS_PER_MS;
+    pub const MAX_REPLY_DELAY_US: u32 = 65_535 * 1000 / crate::link::timing::TICKS_PER_MS;
 
     /// The slave waits `microseconds` after T3.5 before it answers (feature
     /// `reply-delay`): for a master whose USB–RS-485 adapter or transceiver turns around
@@ -180,14 +180,14 @@ impl Config {
     #[cfg(feature = "reply-delay")]
     pub const fn with_reply_delay(mut self, microseconds: u32) -> Self {
         let us = if microseconds > Self::MAX_REPLY_DELAY_US { Self::MAX_REPLY_DELAY_US } else { microseconds };
-        self.reply_delay = ((us * crate::timing::TICKS_PER_MS + 500) / 1000) as u16;
+        self.reply_delay = ((us * crate::link::timing::TICKS_PER_MS + 500) / 1000) as u16;
         self
     }
 
     /// The reply delay in microseconds, as Timer0 ticks make it (feature `reply-delay`).
     #[cfg(feature = "reply-delay")]
     pub const fn reply_delay_us(&self) -> u32 {
-        self.reply_delay as u32 * 1000 / crate::timing::TICKS_PER_MS
+        self.reply_delay as u32 * 1000 / crate::link::timing::TICKS_PER_MS
     }
 
     /// The reply delay in Timer0 ticks (feature `reply-delay`).

@@ -23,8 +23,8 @@
 //! on the Uno (see [`LineSettings::to_config`]).
 
 use super::block::{parity_code, parity_from_code, stop_bits_count, stop_bits_from_count, LineSettings};
-use crate::config::Config;
-use crate::crc::Crc16;
+use crate::link::config::Config;
+use crate::link::crc::Crc16;
 
 /// Length of a record, in bytes.
 pub const RECORD_LEN: usize = 11;

@@ -3,16 +3,16 @@
 //!
 //! [`Engine`], the slave's protocol state, joins the [`Framer`] to the PDU engine: the AVR layer forwards interrupts to
 //! its `on_*` methods, the host tests script the same calls. Data flows one way: bytes →
-//! framer → address and CRC check → [`respond`](crate::pdu::respond) → reply in the same buffer.
+//! framer → address and CRC check → [`respond`](crate::slave::pdu::respond) → reply in the same buffer.
 
-use crate::config::SlaveId;
-use crate::crc::Crc16;
-use crate::framer::{FrameError, Framer, UartError, MAX_FRAME};
-use crate::model::DataModel;
-use crate::pdu::{encode_exception, execute, extra, Exception, FunctionCode};
+use crate::link::config::SlaveId;
+use crate::link::crc::Crc16;
+use crate::link::framer::{FrameError, Framer, UartError, MAX_FRAME};
+use crate::slave::model::DataModel;
+use crate::slave::pdu::{encode_exception, execute, extra, Exception, FunctionCode};
 
 #[cfg(feature = "diagnostics")]
-use crate::diagnostics;
+use crate::slave::diagnostics;
 
 /// What a request the engine handled asks of it beyond counting.
 #[cfg_attr(not(feature = "diagnostics"), allow(dead_code))]
@@ -318,7 +318,7 @@ impl<const N: usize> Engine<N> {
         if self.framer.is_ascii() {
             // An ASCII reply ends with its LRC; the sender writes it out in hex.
             let buf = self.framer.buffer_mut();
-            let lrc = crate::framer::ascii::lrc(buf.get(..body).unwrap_or(&[]));
+            let lrc = crate::link::framer::ascii::lrc(buf.get(..body).unwrap_or(&[]));
             if let Some(slot) = buf.get_mut(body) {
                 *slot = lrc;
             }
@@ -376,7 +376,7 @@ impl<const N: usize> Engine<N> {
             }
             #[cfg(feature = "device-id")]
             FunctionCode::EncapsulatedInterface => {
-                crate::pdu::device_id::respond(pdu, pdu_len, model.identification(), unicast)
+                crate::slave::pdu::device_id::respond(pdu, pdu_len, model.identification(), unicast)
             }
             _ => execute(pdu, pdu_len, model, unicast),
         };
@@ -544,8 +544,8 @@ impl Counters {
 #[cfg(not(feature = "diagnostics"))]
 mod diagnostics {
     use super::{Answer, Counters};
-    use crate::model::DataModel;
-    use crate::pdu::Exception;
+    use crate::slave::model::DataModel;
+    use crate::slave::pdu::Exception;
 
     pub(crate) const ENABLED: bool = false;
 

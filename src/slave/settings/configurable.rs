@@ -2,11 +2,11 @@
 //! its holding registers, Modbus over Serial Line v1.02 §2.5.1 and §2.2.
 
 use super::block::{LineSettings, BLOCK_LEN};
-use crate::config::Config;
 use crate::error::Error;
-use crate::model::DataModel;
-use crate::pdu::Exception;
-use crate::reference::{IntoReference, Reference, Table};
+use crate::link::config::Config;
+use crate::slave::model::DataModel;
+use crate::slave::pdu::Exception;
+use crate::slave::reference::{IntoReference, Reference, Table};
 
 /// A data model with a settings block: holding registers `first`..`first + 3` hold the
 /// line settings (see the module documentation), every other address is `M`'s.

@@ -4,10 +4,10 @@
 //! writes into them ([`LineSettings::from_registers`]).
 
 #[cfg(feature = "ascii")]
-use crate::config::Mode;
-use crate::config::{Config, Parity, SlaveId, StopBits};
-use crate::pdu::Exception;
-use crate::timing::{BaudDivisor, CLOCK_HZ};
+use crate::link::config::Mode;
+use crate::link::config::{Config, Parity, SlaveId, StopBits};
+use crate::link::timing::{BaudDivisor, CLOCK_HZ};
+use crate::slave::pdu::Exception;
 
 /// Registers in the settings block: four, the transmission mode with feature `ascii`, and
 /// the reply delay with feature `reply-delay`, in that order.

@@ -27,7 +27,7 @@
 //! the settings that changed) plus the magic twice, at most 12 writes of ≈3.4 ms.
 
 use super::record::{self, Record, LEGACY_MAGIC, MAGIC, RECORD_LEN};
-use crate::config::Config;
+use crate::link::config::Config;
 
 /// Bytes the two slots take: slot A, then slot B.
 pub const SLOTS_LEN: usize = 2 * RECORD_LEN;

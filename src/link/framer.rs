@@ -14,7 +14,7 @@
 //! arrive, which the check joins to the stored bytes' CRC ([`Crc16::join`]). The engine
 //! then answers it from its first bytes as a 256-byte buffer would.
 
-use crate::crc::Crc16;
+use crate::link::crc::Crc16;
 
 #[cfg(feature = "ascii")]
 pub mod ascii;
