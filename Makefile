@@ -71,7 +71,7 @@ firmware: setup
 # target/chips/atmega328p/…: make bench's flash in the template's form; the gateway (slave on
 # USART0, master on USART1) for the ATmega2560 into target/chips/atmega2560-gateway/; and boards for an
 # 8 MHz ATmega328P and ATmega32U4 (feature clock-8mhz, the Pro Mini and Pro Micro 3.3 V) into
-# target/chips/CHIP-8mhz/.
+# target/chips/CHIP-8mhz/, and master_boards for them into target/chips/CHIP-8mhz-master/.
 CHIPS := atmega168 atmega32u4 atmega1280 atmega2560
 MEGA_USARTS := 1 2 3
 chips: setup
@@ -96,6 +96,7 @@ chips: setup
 	done
 	@for chip in atmega328p atmega32u4; do \
 		.ci/chip-build $$chip "" $$chip-8mhz examples,millis,clock-8mhz boards || exit 1; \
+		.ci/chip-build $$chip "" $$chip-8mhz-master examples,master,clock-8mhz master_boards || exit 1; \
 	done
 	@.ci/sizes target/chips/*/avr-none/release/examples/*.elf
 	@.ci/no-panic target/chips/*/avr-none/release/examples/*.elf
