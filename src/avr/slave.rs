@@ -94,31 +94,22 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
         }
     }
 
-    /// Timer0 compare B: the inter-character gap deadline, or T3.5 of silence. A frame
-    /// for this slave is answered from here: the address goes out first, then the request
-    /// is processed and the reply's CRC appended while it is on the wire. (In ASCII framing,
-    /// feature `ascii`: `ascii.rs`.)
+    /// Timer0 compare B: a frame's end, when it is one (the RTU silences here, ASCII's in
+    /// `ascii.rs`). A frame for this slave is answered from here: the first character (the
+    /// address, in ASCII `:`) goes out first, then the request is processed and the reply's
+    /// CRC (LRC) appended while it is on the wire.
     #[inline(always)]
     fn on_timer_compare(&mut self) {
+        let passed = self.timer.on_compare();
         #[cfg(feature = "ascii")]
-        if self.engine.is_ascii() {
-            return self.on_ascii_compare();
-        }
-        match self.timer.on_compare() {
-            Passed::Nothing => return,
-            Passed::Gap => return self.engine.on_gap_deadline(),
-            Passed::End => {}
-            #[cfg(feature = "reply-delay")]
-            Passed::Delayed => return self.send_processed(),
-        }
-        // A character that arrived while interrupts were held off (this interrupt outranks
-        // the receive one) was on the wire before T3.5 expired: the silence starts over,
-        // and the receive interrupt, pending, takes the character right after this one.
-        if self.usart.has_data() {
-            self.timer.restart();
+        let ended = if self.engine.is_ascii() { self.ascii_ended(passed) } else { self.rtu_ended(passed) };
+        #[cfg(not(feature = "ascii"))]
+        let ended = self.rtu_ended(passed);
+        if !ended {
             return;
         }
         let end = self.engine.on_end_deadline();
+        // (Never in ASCII framing: its reply delay is 0, `Config::reply_delay_ticks`.)
         #[cfg(feature = "reply-delay")]
         if end == EndOfFrame::Reply && self.reply_delay != 0 {
             // Processed now, sent when the delay has passed.
@@ -131,17 +122,67 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
         if end == EndOfFrame::Reply {
             let _ = self.driver_enable.set_high();
             let _ = self.led.set_high();
-            self.usart.write(self.engine.id().get());
+            self.usart.write(self.first_char());
             self.tx_next = 1;
         }
         // Executes what `on_end_deadline` accepted (nothing for the other ends) and, for a
-        // reply, appends its CRC; the rest of the reply follows the address from the
+        // reply, appends its CRC; the rest of the reply follows its first character from the
         // data-register-empty interrupt.
-        // The longest reply is 255 bytes (FC 3 or 4 with 125 registers).
-        self.tx_len = self.engine.process(&mut self.model) as TxIndex;
+        let bytes = self.engine.process(&mut self.model);
+        self.tx_len = self.reply_chars(bytes);
         if self.tx_len != 0 {
             self.usart.start_feeding();
         }
+    }
+
+    /// RTU framing: what `passed`, the inter-character gap deadline, or T3.5 of silence,
+    /// which ends the frame (true). A reply's delay (feature `reply-delay`) that has passed
+    /// sends it.
+    #[inline(always)]
+    fn rtu_ended(&mut self, passed: Passed) -> bool {
+        match passed {
+            Passed::Nothing => false,
+            Passed::Gap => {
+                self.engine.on_gap_deadline();
+                false
+            }
+            // A character that arrived while interrupts were held off (this interrupt
+            // outranks the receive one) was on the wire before T3.5 expired: the silence
+            // starts over, and the receive interrupt, pending, takes the character right
+            // after this one.
+            Passed::End if self.usart.has_data() => {
+                self.timer.restart();
+                false
+            }
+            Passed::End => true,
+            #[cfg(feature = "reply-delay")]
+            Passed::Delayed => {
+                self.send_processed();
+                false
+            }
+        }
+    }
+
+    /// The reply's first character: the address, or in ASCII framing `:`.
+    #[inline(always)]
+    fn first_char(&self) -> u8 {
+        #[cfg(feature = "ascii")]
+        if self.engine.is_ascii() {
+            return crate::link::framer::ascii::COLON;
+        }
+        self.engine.id().get()
+    }
+
+    /// Characters on the wire for a reply of `bytes` bytes (at most 255, FC 3 or 4 with 125
+    /// registers): as many, or in ASCII framing its frame's (`:`, two hex digits a byte,
+    /// CR LF; at most 513).
+    #[inline(always)]
+    fn reply_chars(&self, bytes: usize) -> TxIndex {
+        #[cfg(feature = "ascii")]
+        if self.engine.is_ascii() && bytes != 0 {
+            return crate::link::framer::ascii::encoded_len(bytes) as TxIndex;
+        }
+        bytes as TxIndex
     }
 
     /// Sends a reply processed already (feature `reply-delay`): its delay has passed.

@@ -6,9 +6,16 @@
 //! (EEPROM, jumpers) and returns an error instead.
 
 use crate::error::Error;
-use crate::link::timing::{rx_flag_to_end_cycles, BaudDivisor, CharTimes, TimerPlan, CLOCK_HZ};
 #[cfg(feature = "ascii")]
-use crate::link::timing::{Deadline, TURN_US};
+use crate::link::timing::Deadline;
+use crate::link::timing::{rx_flag_to_end_cycles, BaudDivisor, CharTimes, TimerPlan, CLOCK_HZ};
+
+#[cfg(feature = "ascii")]
+mod ascii;
+#[cfg(feature = "ascii")]
+use ascii::timeout_turns;
+#[cfg(feature = "ascii")]
+pub use ascii::Mode;
 
 /// A slave (server) address on the serial line: 1–247.
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
@@ -31,22 +38,6 @@ impl SlaveId {
     pub const fn get(self) -> u8 {
         self.0
     }
-}
-
-/// How frames travel on the line, Modbus over Serial Line v1.02 §2.5 (feature `ascii`;
-/// without it every frame is RTU). The discriminants are the codes the settings block
-/// (feature `eeprom-settings`) takes.
-#[cfg(feature = "ascii")]
-#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Mode {
-    /// RTU, §2.5.1: binary bytes with a CRC, 8 data bits, frames delimited by silence.
-    Rtu = 0,
-    /// ASCII, §2.5.2: hex characters from `:` to CR LF with an LRC, 7 data bits (the
-    /// spec's default character format is 7E1).
-    Ascii = 1,
-    /// ASCII with 8 data bits, as some devices have it.
-    Ascii8 = 2,
 }
 
 /// Parity of each character.
@@ -190,66 +181,16 @@ impl Config {
         self.reply_delay as u32 * 1000 / crate::link::timing::TICKS_PER_MS
     }
 
-    /// The reply delay in Timer0 ticks (feature `reply-delay`).
+    /// The reply delay in Timer0 ticks (feature `reply-delay`): 0 in ASCII framing, whose
+    /// reply waits for nothing.
     #[cfg(feature = "reply-delay")]
     #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
     pub(crate) const fn reply_delay_ticks(&self) -> u16 {
+        #[cfg(feature = "ascii")]
+        if !matches!(self.mode, Mode::Rtu) {
+            return 0;
+        }
         self.reply_delay
-    }
-
-    /// ASCII's inter-character timeout unless [`Config::with_char_timeout`] says otherwise:
-    /// 1 s, the spec's example (§2.5.2.1).
-    #[cfg(feature = "ascii")]
-    pub const ASCII_CHAR_TIMEOUT_MS: u16 = 1000;
-
-    /// An ASCII configuration for a constant (feature `ascii`): 7 data bits, the spec's
-    /// default character format with even parity and one stop bit (7E1); 7O1 and 7N2 are
-    /// the other formats it names. Invalid values stop the build, as with
-    /// [`Config::new`]; [`Config::with_mode`] turns a run-time configuration into an ASCII one.
-    ///
-    /// ```
-    /// use avr_modbus::{Config, Mode, Parity, StopBits};
-    /// const CONFIG: Config = Config::ascii(1, 9600, Parity::Even, StopBits::One);
-    /// assert_eq!((CONFIG.mode(), CONFIG.bits_per_char()), (Mode::Ascii, 10));
-    /// ```
-    #[cfg(feature = "ascii")]
-    pub const fn ascii(slave_id: u8, baud: u32, parity: Parity, stop_bits: StopBits) -> Self {
-        Self::new(slave_id, baud, parity, stop_bits).with_mode(Mode::Ascii)
-    }
-
-    /// The same line in another transmission mode (feature `ascii`): RTU, ASCII with 7 data
-    /// bits, or ASCII with 8.
-    #[cfg(feature = "ascii")]
-    pub const fn with_mode(self, mode: Mode) -> Self {
-        Config { mode, ..self }
-    }
-
-    /// The same configuration with another ASCII inter-character timeout, in milliseconds
-    /// (feature `ascii`): a frame inside which the line stays silent that long is dropped
-    /// and counted as malformed. 0 waits for ever. Timed to a turn of Timer0 or so (1.024 ms,
-    /// 2.048 ms at 8 MHz), counted from the last character.
-    #[cfg(feature = "ascii")]
-    pub const fn with_char_timeout(self, milliseconds: u16) -> Self {
-        Config { char_timeout: timeout_turns(milliseconds), ..self }
-    }
-
-    /// RTU or ASCII (feature `ascii`).
-    #[cfg(feature = "ascii")]
-    pub const fn mode(&self) -> Mode {
-        self.mode
-    }
-
-    /// ASCII's inter-character timeout in milliseconds, 0 for none (feature `ascii`).
-    #[cfg(feature = "ascii")]
-    pub const fn char_timeout_ms(&self) -> u16 {
-        self.char_timeout.0
-    }
-
-    /// ASCII's inter-character timeout in Timer0 turns ([`TURN_US`]), 0 for none.
-    #[cfg(feature = "ascii")]
-    #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
-    pub(crate) const fn char_timeout_turns(&self) -> u16 {
-        self.char_timeout.1
     }
 
     /// Data bits of each character: 8, or 7 in ASCII mode.
@@ -306,23 +247,6 @@ impl Config {
     pub const fn char_times(&self) -> CharTimes {
         CharTimes::new(self.baud, self.bits_per_char())
     }
-
-    /// From the USART's receive flag to the end of a character on the line (half a bit, or
-    /// one and a half with two stop bits, [`rx_flag_to_end_cycles`]) as a Timer0 deadline:
-    /// ASCII's reply waits that long after the LF's flag (feature `ascii`).
-    #[cfg(feature = "ascii")]
-    #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
-    pub(crate) const fn char_end(&self) -> Deadline {
-        self.char_end
-    }
-}
-
-/// Timer0 turns ([`TURN_US`]: 1.024 ms, 2.048 ms at 8 MHz) for an ASCII timeout of
-/// `milliseconds`, rounded up: the pair kept in [`Config`].
-#[cfg(feature = "ascii")]
-const fn timeout_turns(milliseconds: u16) -> (u16, u16) {
-    let turns = (milliseconds as u32 * 1000).div_ceil(TURN_US);
-    (milliseconds, turns as u16)
 }
 
 const fn bits_per_char(data_bits: u32, parity: Parity, stop_bits: StopBits) -> u32 {
@@ -388,18 +312,5 @@ mod tests {
         assert_eq!(bits(Parity::None, StopBits::Two), 11);
         assert_eq!(bits(Parity::Odd, StopBits::One), 11);
         assert_eq!(bits(Parity::Even, StopBits::Two), 12);
-    }
-
-    #[cfg(feature = "ascii")]
-    #[test]
-    fn ascii_timeout_is_whole_timer0_turns_rounded_up() {
-        // A turn is 1.024 ms at 16 MHz, 2.048 ms at 8 MHz (feature clock-8mhz).
-        let turns = |ms| Config::new(1, 9600, Parity::Even, StopBits::One).with_char_timeout(ms).char_timeout_turns();
-        let per_turn = TURN_US;
-        assert_eq!(u32::from(turns(1000)), (1_000_000u32).div_ceil(per_turn)); // 977 or 489
-        assert_eq!(turns(0), 0);
-        assert_eq!(turns(1), 1);
-        assert_eq!(u32::from(turns(65_535)), (65_535_000u32).div_ceil(per_turn));
-        assert_eq!(turns(1000), if CLOCK_HZ == 16_000_000 { 977 } else { 489 });
     }
 }
