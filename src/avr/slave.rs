@@ -101,6 +101,10 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
     #[inline(always)]
     fn on_timer_compare(&mut self) {
         let passed = self.timer.on_compare();
+        // The gap deadline: RTU's T1.5, ASCII's inter-character timeout.
+        if passed == Passed::Gap {
+            self.engine.on_gap_deadline();
+        }
         #[cfg(feature = "ascii")]
         let ended = if self.engine.is_ascii() { self.ascii_ended(passed) } else { self.rtu_ended(passed) };
         #[cfg(not(feature = "ascii"))]
@@ -135,17 +139,14 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
         }
     }
 
-    /// RTU framing: what `passed`, the inter-character gap deadline, or T3.5 of silence,
-    /// which ends the frame (true). A reply's delay (feature `reply-delay`) that has passed
+    /// RTU framing: what `passed`, the inter-character gap deadline (T1.5, which marks a
+    /// frame that goes on as damaged), or T3.5 of silence, which ends the frame (true). A reply's delay (feature `reply-delay`) that has passed
     /// sends it.
     #[inline(always)]
     fn rtu_ended(&mut self, passed: Passed) -> bool {
         match passed {
             Passed::Nothing => false,
-            Passed::Gap => {
-                self.engine.on_gap_deadline();
-                false
-            }
+            Passed::Gap => false,
             // A character that arrived while interrupts were held off (this interrupt
             // outranks the receive one) was on the wire before T3.5 expired: the silence
             // starts over, and the receive interrupt, pending, takes the character right

@@ -28,16 +28,13 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
     }
 
     /// Timer0 compare B in ASCII framing: what `passed`, a frame's end (true), or the
-    /// inter-character timeout, which drops the frame in progress and is reported as a
+    /// inter-character timeout, which has dropped the frame in progress and is reported as a
     /// frame's end is.
     #[inline(always)]
     pub(super) fn ascii_ended(&mut self, passed: Passed) -> bool {
         match passed {
             Passed::Nothing => false,
-            Passed::Gap => {
-                self.engine.on_gap_deadline();
-                true
-            }
+            Passed::Gap => true,
             Passed::End => true,
             // No reply delay in ASCII framing: none is ever set.
             #[cfg(feature = "reply-delay")]
