@@ -10,6 +10,10 @@
 #![allow(unsafe_code)]
 
 mod adc;
+// `__chip!` is written into this module by build.rs (an `include!`): the crate's own code
+// names it in textual scope, `__chip!`, as a macro-expanded `#[macro_export]` macro cannot be
+// named by its path inside the crate that defines it.
+#[macro_use]
 mod chip;
 #[cfg(feature = "millis")]
 mod clock;
