@@ -22,7 +22,8 @@ help:
 	@echo "  make test        - set up, lint, build every firmware, run all tests (what CI runs)"
 	@echo "  make setup       - install and check the toolchain, simulator, masters and flashing tools"
 	@echo "  make firmware    - build every example for the Uno ($(FIRMWARE_DIR)), then make chips"
-	@echo "  make chips       - the examples for the other chips and USARTs, as the avr-hal template builds them (target/chips)"
+	@echo "  make chips       - the examples for the other chips and USARTs, and the Uno's that make bench sizes,"
+	@echo "                     as the avr-hal template builds them (target/chips)"
 	@echo "  make sizes       - flash and RAM of every firmware (make firmware prints them)"
 	@echo "  make fixtures    - a user's firmware in the template's form for three boards, and make package"
 	@echo "  make package     - the crate as it would be published, built into the Uno fixture"
@@ -34,7 +35,8 @@ help:
 	@echo "                     them (.ci/docsrs: every name of the README's API tables has its page)"
 	@echo "  make host-test   - every cargo test (host, simulator) after building the firmware"
 	@echo "  make interop     - mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on virtual boards"
-	@echo "  make bench       - size targets (met or not), flash, RAM, stack, interrupt cycles, turnaround -> bench/results.md"
+	@echo "  make bench       - size targets (met or not; flash as the avr-hal template builds), flash, RAM, stack,"
+	@echo "                     interrupt cycles, turnaround -> bench/results.md"
 	@echo "  make bench-features - minimal built with each optional feature, for make bench"
 	@echo "  make fuzz        - coverage-guided fuzz targets (FUZZ_SECONDS each), then a long property run"
 	@echo "  make soak        - 100000 mixed transactions against uno_slave in simavr (~15 min; SOAK_TRANSACTIONS)"
@@ -67,15 +69,21 @@ firmware: setup
 # part of it) and shares the host tools; a USART is a cfg of this crate (build.rs), so only
 # the crate rebuilds for it. Then once more with the line settings in EEPROM and ASCII
 # (target/chips/CHIP[-usartN]-settings/…) for the Mega's Serial1 and the Leonardo. Last, the
-# contract (sixteen_each, sixteen_each_bank) for the ATmega328P the same way, into
-# target/chips/atmega328p/…: make bench's flash in the template's form; the gateway (slave on
+# Uno's examples that make bench sizes, the contract (sixteen_each, sixteen_each_bank) and
+# minimal among them, for the ATmega328P the same way, into target/chips/atmega328p/… (those
+# with feature millis into target/chips/atmega328p-millis/…, the master's beside
+# master_boards in target/chips/atmega328p-master/…): the sizes a user of the template sees,
+# which make bench leads with; the gateway (slave on
 # USART0, master on USART1) for the ATmega2560 into target/chips/atmega2560-gateway/; and boards for an
 # 8 MHz ATmega328P and ATmega32U4 (feature clock-8mhz, the Pro Mini and Pro Micro 3.3 V) into
-# target/chips/CHIP-8mhz/.
+# target/chips/CHIP-8mhz/, and master_boards for them into target/chips/CHIP-8mhz-master/.
 # The chips and USARTs, from chips/chips.txt: CHIP: (the board's pins 0/1), then CHIP:N for
 # each of its other USARTs.
 CHIP_BUILDS := $(shell awk '$$1 == "chip" { chip = $$2; print chip ":" } \
 	$$1 == "usart" && $$7 != "pins-0/1" { print chip ":" substr($$2, 6) }' chips/chips.txt)
+TEMPLATE_EXAMPLES := minimal busy_loop lab_lights sixteen_each sixteen_each_bank
+TEMPLATE_MILLIS_EXAMPLES := uno_slave dip_switch
+TEMPLATE_MASTER_EXAMPLES := poll_holding poll_four master_mirror plc_poller
 chips: setup
 	@for build in $(filter-out atmega328p:%,$(CHIP_BUILDS)); do \
 		chip=$${build%%:*}; usart=$${build##*:}; \
@@ -86,14 +94,17 @@ chips: setup
 		.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart}-settings \
 			examples,millis,eeprom-settings,ascii boards || exit 1; \
 	done
-	@.ci/chip-build atmega328p "" atmega328p examples sixteen_each sixteen_each_bank
+	@.ci/chip-build atmega328p "" atmega328p examples $(TEMPLATE_EXAMPLES)
+	@.ci/chip-build atmega328p "" atmega328p-millis examples,millis $(TEMPLATE_MILLIS_EXAMPLES)
 	@.ci/chip-build atmega2560 "" atmega2560-gateway examples,master gateway
 	@for build in $(CHIP_BUILDS); do \
 		chip=$${build%%:*}; usart=$${build##*:}; \
-		.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart}-master examples,master master_boards || exit 1; \
+		examples=master_boards; [ "$$build" != atmega328p: ] || examples="master_boards $(TEMPLATE_MASTER_EXAMPLES)"; \
+		.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart}-master examples,master $$examples || exit 1; \
 	done
 	@for chip in atmega328p atmega32u4; do \
 		.ci/chip-build $$chip "" $$chip-8mhz examples,millis,clock-8mhz boards || exit 1; \
+		.ci/chip-build $$chip "" $$chip-8mhz-master examples,master,clock-8mhz master_boards || exit 1; \
 	done
 	@.ci/sizes target/chips/*/avr-none/release/examples/*.elf
 	@.ci/no-panic target/chips/*/avr-none/release/examples/*.elf

@@ -20,26 +20,14 @@
 #[cfg(any(target_arch = "avr", all(doc, docsrs)))]
 #[cfg_attr(docsrs, doc(cfg(target_arch = "avr")))]
 mod avr;
-mod bank;
-mod config;
-mod crc;
-#[cfg(feature = "diagnostics")]
-mod diagnostics;
-mod engine;
 mod error;
-mod framer;
-mod map;
+mod limits;
+mod link;
 #[cfg(feature = "master")]
 pub mod master;
-mod model;
-mod pdu;
 #[cfg(any(target_arch = "avr", all(doc, docsrs), test))]
 mod peripheral;
-mod reference;
-#[cfg(feature = "eeprom-settings")]
-mod settings;
-mod storage;
-mod timing;
+mod slave;
 mod wide;
 
 #[cfg(target_arch = "avr")]
@@ -54,61 +42,61 @@ pub use avr::Master;
 #[cfg(any(target_arch = "avr", all(doc, docsrs)))]
 #[cfg_attr(docsrs, doc(cfg(target_arch = "avr")))]
 pub use avr::{board, NoPin, Slave};
-pub use bank::{bit_bytes, Bank};
-#[cfg(feature = "ascii")]
-pub use config::Mode;
-pub use config::{Config, Parity, SlaveId, StopBits};
-pub use engine::Counters;
 pub use error::Error;
-pub use model::DataModel;
-pub use pdu::device_id::Identification;
-pub use pdu::Exception;
-pub use reference::{IntoReference, Reference, Table};
+#[cfg(feature = "ascii")]
+pub use link::config::Mode;
+pub use link::config::{Config, Parity, SlaveId, StopBits};
+pub use slave::bank::{bit_bytes, Bank};
+pub use slave::engine::Counters;
+pub use slave::model::DataModel;
+pub use slave::pdu::device_id::Identification;
+pub use slave::pdu::Exception;
+pub use slave::reference::{IntoReference, Reference, Table};
 #[cfg(feature = "eeprom-settings")]
-pub use settings::Configurable;
+pub use slave::settings::Configurable;
 pub use wide::{Wide, WordOrder};
 
 /// The protocol engine's parts, for this crate's tests, simulator and benchmarks: not
 /// part of the API, and they change without notice.
 #[doc(hidden)]
 pub mod internal {
-    pub use crate::crc::{crc16, Crc16};
-    pub use crate::engine::{EndOfFrame, Engine};
-    pub use crate::framer::{FrameError, Framer, UartError, MAX_FRAME, MIN_FRAME};
-    pub use crate::model::Access;
-    pub use crate::pdu::{encode_exception, respond, FunctionCode, Request};
-    pub use crate::timing::{BaudDivisor, CharTimes, Deadline, TimerPlan, Uptime};
+    pub use crate::link::crc::{crc16, Crc16};
+    pub use crate::link::framer::{FrameError, Framer, UartError, MAX_FRAME, MIN_FRAME};
+    pub use crate::link::timing::{BaudDivisor, CharTimes, Deadline, TimerPlan, Uptime};
+    pub use crate::slave::engine::{EndOfFrame, Engine};
+    pub use crate::slave::model::Access;
+    pub use crate::slave::pdu::{encode_exception, respond, FunctionCode, Request};
 
     /// The compile-time register map's parts, for [`crate::register_map!`].
     pub mod map {
-        pub use crate::map::{Layout, Span};
-        pub use crate::storage::Values;
+        pub use crate::slave::map::{Layout, Span};
+        pub use crate::slave::storage::Values;
     }
     /// FC 43 / MEI 14: what [`crate::identification!`] expands to.
     pub mod device_id {
-        pub use crate::pdu::device_id::*;
+        pub use crate::slave::pdu::device_id::*;
     }
     /// The PDU engine.
     pub mod pdu {
-        pub use crate::pdu::*;
+        pub use crate::slave::pdu::*;
     }
     /// Character times and the USART and Timer0 arithmetic.
     pub mod timing {
-        pub use crate::timing::*;
+        pub use crate::link::timing::*;
     }
     /// ASCII framing: LRC, hex, the reply's characters.
     #[cfg(feature = "ascii")]
     pub mod ascii {
-        pub use crate::framer::ascii::*;
+        pub use crate::link::framer::ascii::*;
     }
     /// FC 7, 8, 11 and 17.
     #[cfg(feature = "diagnostics")]
     pub mod diagnostics {
-        pub use crate::diagnostics::*;
+        pub use crate::slave::diagnostics::*;
     }
     /// The settings record and block.
     #[cfg(feature = "eeprom-settings")]
     pub mod settings {
-        pub use crate::settings::*;
+        pub use crate::slave::settings::*;
     }
 }

@@ -8,7 +8,7 @@ use core::cell::UnsafeCell;
 
 use super::reg::{self, TCNT0, TIFR0};
 use super::timer::{Exclusive, TOV0};
-use crate::timing::Uptime;
+use crate::link::timing::Uptime;
 
 /// TIMSK0's overflow interrupt enable (TOIE0).
 pub(crate) const OVERFLOW_INTERRUPT: u8 = 1 << 0;

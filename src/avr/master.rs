@@ -15,9 +15,9 @@ use super::pins::NoPin;
 use super::started::Started;
 use super::timer::{FrameTimer, Passed, A};
 use super::usart::Usart;
-use crate::config::Config;
 use crate::error::Error;
-use crate::framer::MAX_FRAME;
+use crate::link::config::Config;
+use crate::link::framer::MAX_FRAME;
 use crate::master::internal::{Action, Engine};
 use crate::master::{Counters, Failure, Reply, Request, Timeouts};
 

@@ -1,10 +1,16 @@
-//! The AVR layer: a USART (USART0 on the Uno's pins 0/1, any of the chip's), Timer0 as the
-//! silence detector and the application's millisecond clock, and the interrupt-driven
-//! [`Slave`] that ties them to the protocol engine (Modbus over Serial Line v1.02
-//! §2.5.1.1 and §3.3). What differs between the chips is in one table each, `chip`.
+//! The AVR layer: the link's drivers, a USART (USART0 on the Uno's pins 0/1, any of the
+//! chip's) and Timer0 as the silence detector and the application's millisecond clock, and
+//! the two roles on them, the interrupt-driven [`Slave`] and (feature `master`) [`Master`],
+//! each tying them to its protocol engine (Modbus over Serial Line v1.02 §2.5.1.1 and
+//! §3.3). What differs between the chips is data, `chips/chips.txt`; the chosen chip's table
+//! is `chip`.
 //!
-//! Everything here is thin: register writes and reads, and calls into the pure core. The
-//! slave takes the USART and `TC0` the application gets from its HAL's
+//! The link: `usart`, `timer` (Timer0's deadlines, a compare unit each role), `clock`
+//! (`millis()`), `started` (the cell a role lives in), `reg`, `mem`. The roles: `slave`,
+//! `master`. The board, for firmware without a HAL: `pins`, `adc`, `eeprom`.
+//!
+//! Everything here is thin: register writes and reads, and calls into the pure core. A
+//! role takes the USART and `TC0` the application gets from its HAL's
 //! `Peripherals::take()` (arduino-hal's, or `avr-device`'s of any version), and reaches
 //! their registers by address, so no PAC version is part of this crate's API.
 #![allow(unsafe_code)]
@@ -30,7 +36,7 @@ mod master;
 mod mem;
 mod pins;
 mod reg;
-mod rtu;
+mod slave;
 mod started;
 mod timer;
 mod usart;
@@ -38,7 +44,7 @@ mod usart;
 #[cfg(feature = "master")]
 pub use master::Master;
 pub use pins::NoPin;
-pub use rtu::Slave;
+pub use slave::Slave;
 
 /// Small drivers for firmware written without a HAL (this crate's examples): the Uno's
 /// pins by their board names and the ADC (ATmega328P and ATmega168 only: their numbering

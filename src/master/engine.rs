@@ -19,7 +19,7 @@
 use super::reply::{Reply, Verdict};
 use super::request::{seal, Expect, Request};
 use crate::error::Error;
-use crate::framer::{FrameError, Framer, UartError, MAX_FRAME};
+use crate::link::framer::{FrameError, Framer, UartError, MAX_FRAME};
 
 #[cfg(feature = "ascii")]
 mod ascii;

@@ -1,6 +1,6 @@
 //! The master in ASCII framing, Modbus over Serial Line v1.02 §2.5.2 (feature `ascii`): the
 //! request sealed with its LRC and sent as `:`, hex pairs, CR LF; replies received by the
-//! receiver the slave uses ([`crate::framer::ascii`]) and checked as RTU replies are.
+//! receiver the slave uses ([`crate::link::framer::ascii`]) and checked as RTU replies are.
 //!
 //! ASCII frames carry their own delimiters, and there is no T3.5 to wait for: the master
 //! sends when its receiver is outside a frame. That is at once after power-up (as the
@@ -10,7 +10,7 @@
 //! that broke off. Characters outside a frame (noise before a `:`) delay nothing.
 
 use super::Engine;
-use crate::framer::ascii::{encoded_char, encoded_len, lrc};
+use crate::link::framer::ascii::{encoded_char, encoded_len, lrc};
 
 impl<const N: usize> Engine<N> {
     /// Switches between RTU and ASCII framing; call it before the first request.
