@@ -77,17 +77,17 @@ firmware: setup
 # USART0, master on USART1) for the ATmega2560 into target/chips/atmega2560-gateway/; and boards for an
 # 8 MHz ATmega328P and ATmega32U4 (feature clock-8mhz, the Pro Mini and Pro Micro 3.3 V) into
 # target/chips/CHIP-8mhz/, and master_boards for them into target/chips/CHIP-8mhz-master/.
-CHIPS := atmega168 atmega32u4 atmega1280 atmega2560
+# The chips and USARTs, from chips/chips.txt: CHIP: (the board's pins 0/1), then CHIP:N for
+# each of its other USARTs.
+CHIP_BUILDS := $(shell awk '$$1 == "chip" { chip = $$2; print chip ":" } \
+	$$1 == "usart" && $$7 != "pins-0/1" { print chip ":" substr($$2, 6) }' chips/chips.txt)
 TEMPLATE_EXAMPLES := minimal busy_loop lab_lights sixteen_each sixteen_each_bank
 TEMPLATE_MILLIS_EXAMPLES := uno_slave dip_switch
 TEMPLATE_MASTER_EXAMPLES := poll_holding poll_four master_mirror plc_poller
-MEGA_USARTS := 1 2 3
 chips: setup
-	@for chip in $(CHIPS); do \
-		usarts=""; case $$chip in atmega1280|atmega2560) usarts="$(MEGA_USARTS)";; esac; \
-		for usart in "" $$usarts; do \
-			.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart} examples,millis boards || exit 1; \
-		done; \
+	@for build in $(filter-out atmega328p:%,$(CHIP_BUILDS)); do \
+		chip=$${build%%:*}; usart=$${build##*:}; \
+		.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart} examples,millis boards || exit 1; \
 	done
 	@for build in atmega2560:1 atmega32u4:; do \
 		chip=$${build%%:*}; usart=$${build##*:}; \
@@ -97,12 +97,10 @@ chips: setup
 	@.ci/chip-build atmega328p "" atmega328p examples $(TEMPLATE_EXAMPLES)
 	@.ci/chip-build atmega328p "" atmega328p-millis examples,millis $(TEMPLATE_MILLIS_EXAMPLES)
 	@.ci/chip-build atmega2560 "" atmega2560-gateway examples,master gateway
-	@for chip in atmega328p $(CHIPS); do \
-		usarts=""; case $$chip in atmega1280|atmega2560) usarts="$(MEGA_USARTS)";; esac; \
-		for usart in "" $$usarts; do \
-			examples=master_boards; [ "$$chip$$usart" != atmega328p ] || examples="master_boards $(TEMPLATE_MASTER_EXAMPLES)"; \
-			.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart}-master examples,master $$examples || exit 1; \
-		done; \
+	@for build in $(CHIP_BUILDS); do \
+		chip=$${build%%:*}; usart=$${build##*:}; \
+		examples=master_boards; [ "$$build" != atmega328p: ] || examples="master_boards $(TEMPLATE_MASTER_EXAMPLES)"; \
+		.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart}-master examples,master $$examples || exit 1; \
 	done
 	@for chip in atmega328p atmega32u4; do \
 		.ci/chip-build $$chip "" $$chip-8mhz examples,millis,clock-8mhz boards || exit 1; \

@@ -41,7 +41,7 @@ pub(crate) fn millis() -> u32 {
 /// the feature has no handler at all (the interrupt stays off). The firmware's alone: the
 /// host has no AVR interrupt ABI, so the docs built there (`--cfg docsrs`) leave it out.
 #[cfg(target_arch = "avr")]
-#[export_name = crate::__chip!(vector TIMER0_OVF)]
+#[export_name = __chip!(vector TIMER0_OVF)]
 unsafe extern "avr-interrupt" fn timer0_overflow() {
     // SAFETY: the overflow interrupt handler, which runs with interrupts disabled.
     unsafe { CLOCK.with(|c| c.uptime = c.uptime.after_overflow()) }

@@ -2,7 +2,8 @@
 //! chip's) and Timer0 as the silence detector and the application's millisecond clock, and
 //! the two roles on them, the interrupt-driven [`Slave`] and (feature `master`) [`Master`],
 //! each tying them to its protocol engine (Modbus over Serial Line v1.02 §2.5.1.1 and
-//! §3.3). What differs between the chips is in one table each, `chip`.
+//! §3.3). What differs between the chips is data, `chips/chips.txt`; the chosen chip's table
+//! is `chip`.
 //!
 //! The link: `usart`, `timer` (Timer0's deadlines, a compare unit each role), `clock`
 //! (`millis()`), `started` (the cell a role lives in), `reg`, `mem`. The roles: `slave`,
@@ -15,6 +16,10 @@
 #![allow(unsafe_code)]
 
 mod adc;
+// `__chip!` is written into this module by build.rs (an `include!`): the crate's own code
+// names it in textual scope, `__chip!`, as a macro-expanded `#[macro_export]` macro cannot be
+// named by its path inside the crate that defines it.
+#[macro_use]
 mod chip;
 #[cfg(feature = "millis")]
 mod clock;
