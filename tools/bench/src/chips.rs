@@ -14,21 +14,13 @@ use crate::series::Series;
 use crate::timing::MIX_MAX_DELAY_US;
 use crate::Result;
 
-/// Every chip and USART the crate serves: `examples/boards.rs` is built for each (`make chips`;
-/// the ATmega328P's from `make firmware`), and `examples/master_boards.rs` too: (chip, USART).
-pub(crate) const BOARDS: [(Chip, u8); 11] = [
-    (Chip::Atmega328p, 0),
-    (Chip::Atmega168, 0),
-    (Chip::Atmega32u4, 1),
-    (Chip::Atmega1280, 0),
-    (Chip::Atmega1280, 1),
-    (Chip::Atmega1280, 2),
-    (Chip::Atmega1280, 3),
-    (Chip::Atmega2560, 0),
-    (Chip::Atmega2560, 1),
-    (Chip::Atmega2560, 2),
-    (Chip::Atmega2560, 3),
-];
+/// Every chip and USART the crate serves, from the chip table (`chips/chips.txt`, through
+/// the simulator's [`Chip`]): `examples/boards.rs` is built for each (`make chips`; the
+/// ATmega328P's from `make firmware`), and `examples/master_boards.rs` too: (chip, USART).
+pub(crate) fn boards() -> Vec<(Chip, u8)> {
+    Chip::ALL.iter().flat_map(|&chip| chip.usarts().into_iter().map(move |usart| (chip, usart))).collect()
+}
+
 /// Mixed requests per chip and USART, each after a random silence (the turnaround's spread).
 pub(crate) const BOARD_REQUESTS: usize = 200;
 
@@ -56,10 +48,10 @@ fn board_path(root: &Path, chip: Chip, usart: u8) -> PathBuf {
     chip_build_path(root, &dir, "boards")
 }
 
-/// `boards` on each of [`BOARDS`]: the workload, then [`BOARD_REQUESTS`] mixed requests.
+/// `boards` on each of [`boards`]: the workload, then [`BOARD_REQUESTS`] mixed requests.
 pub(crate) fn chip_runs(root: &Path, log: &mut Log) -> Result<Vec<ChipRun>> {
     let mut runs = Vec::new();
-    for (chip, usart) in BOARDS {
+    for (chip, usart) in boards() {
         let elf = board_path(root, chip, usart);
         if !elf.is_file() {
             log.problems.push(format!("{} is missing: run `make firmware`", elf.display()));

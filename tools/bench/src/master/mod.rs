@@ -11,7 +11,7 @@ mod slave;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::chips::BOARDS;
+use crate::chips::boards;
 use crate::log::Log;
 use crate::Result;
 
@@ -37,7 +37,7 @@ pub(crate) fn section(md: &mut String, root: &Path, measured: &Measured) -> Resu
 pub(crate) fn measure(root: &Path, log: &mut Log) -> Result<Measured> {
     let mut m = Measured::default();
     // `master_boards` as `make chips` builds it: target/chips/CHIP[-usartN]-master/.
-    for (chip, usart) in BOARDS {
+    for (chip, usart) in boards() {
         let elf = master_board_path(root, chip, usart);
         if !elf.is_file() {
             log.problems.push(format!("{} is missing: run `make chips`", elf.display()));

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use uno_sim::cycles_to_us;
 
 use crate::bus::IsrTotal;
-use crate::chips::BOARDS;
+use crate::chips::boards;
 use crate::Result;
 
 use super::boards::{BOARD_REQUESTS, MASTER_ISR_TARGET_CYCLES, MASTER_VECTORS};
@@ -41,7 +41,7 @@ pub(crate) fn target_rows(
     match (worst(IsrTotal::mean), worst(|s| s.max as f64)) {
         (Some((mean, mean_on)), Some((max, max_on))) => {
             let limit = MASTER_ISR_TARGET_CYCLES as f64;
-            let missing = BOARDS.len() - m.runs.len();
+            let missing = boards().len() - m.runs.len();
             row(
                 target,
                 format!(
