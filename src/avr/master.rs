@@ -12,6 +12,7 @@ use embedded_hal::digital::OutputPin;
 
 use super::clock;
 use super::pins::NoPin;
+use super::receive::receive;
 use super::started::Started;
 use super::timer::{FrameTimer, Passed, A};
 use super::usart::Usart;
@@ -87,14 +88,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
 
     #[inline(always)]
     fn on_usart_rx(&mut self) {
-        #[cfg(feature = "ascii")]
-        if self.engine.is_ascii() {
-            return self.on_ascii_rx();
-        }
-        match self.usart.read() {
-            Ok(byte) => self.engine.on_byte(byte),
-            Err(e) => self.engine.on_error(e),
-        }
+        receive(&self.usart, &mut self.timer, &mut self.engine);
     }
 
     /// Timer0 compare A: T1.5, T3.5, or a turn of the timer with neither (about once a

@@ -5,8 +5,9 @@
 //! §3.3). What differs between the chips is data, `chips/chips.txt`; the chosen chip's table
 //! is `chip`.
 //!
-//! The link: `usart`, `timer` (Timer0's deadlines, a compare unit each role), `clock`
-//! (`millis()`), `started` (the cell a role lives in), `reg`, `mem`. The roles: `slave`,
+//! The link: `usart`, `receive` (a character to either role), `timer` (Timer0's deadlines,
+//! a compare unit each role), `clock` (`millis()`), `started` (the cell a role lives in),
+//! `reg`, `mem`. The roles: `slave`,
 //! `master`. The board, for firmware without a HAL: `pins`, `adc`, `eeprom`.
 //!
 //! Everything here is thin: register writes and reads, and calls into the pure core. A
@@ -35,6 +36,7 @@ mod eeprom;
 mod master;
 mod mem;
 mod pins;
+mod receive;
 mod reg;
 mod slave;
 mod started;

@@ -8,6 +8,7 @@ use core::ops::Deref;
 use embedded_hal::digital::OutputPin;
 
 use super::pins::NoPin;
+use super::receive::receive;
 use super::reg;
 use super::started::Started;
 use super::timer::{FrameTimer, Passed, B};
@@ -84,14 +85,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
     /// count from as close to the USART's receive flag as can be.
     #[inline(always)]
     fn on_usart_rx(&mut self) {
-        #[cfg(feature = "ascii")]
-        if self.engine.is_ascii() {
-            return self.on_ascii_rx();
-        }
-        match self.usart.read() {
-            Ok(byte) => self.engine.on_byte(byte),
-            Err(e) => self.engine.on_error(e),
-        }
+        receive(&self.usart, &mut self.timer, &mut self.engine);
     }
 
     /// Timer0 compare B: a frame's end, when it is one (the RTU silences here, ASCII's in

@@ -459,3 +459,27 @@ impl<const N: usize> Engine<N> {
         }
     }
 }
+
+impl<const N: usize> crate::link::Receive for Engine<N> {
+    #[inline(always)]
+    fn on_byte(&mut self, byte: u8) {
+        Engine::on_byte(self, byte);
+    }
+
+    #[inline(always)]
+    fn on_error(&mut self, error: UartError) {
+        Engine::on_error(self, error);
+    }
+
+    #[cfg(feature = "ascii")]
+    #[inline(always)]
+    fn is_ascii(&self) -> bool {
+        Engine::is_ascii(self)
+    }
+
+    #[cfg(feature = "ascii")]
+    #[inline(always)]
+    fn on_char(&mut self, c: u8) -> bool {
+        Engine::on_char(self, c)
+    }
+}

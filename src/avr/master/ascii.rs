@@ -11,19 +11,6 @@ use super::super::timer::Passed;
 use super::Running;
 
 impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED, N, U> {
-    /// USART RX complete in ASCII framing: a character (or a damaged one) for the framer.
-    #[inline(always)]
-    pub(super) fn on_ascii_rx(&mut self) {
-        match self.usart.read() {
-            Ok(c) => {
-                if self.engine.on_char(c) {
-                    self.timer.end_now();
-                }
-            }
-            Err(e) => self.engine.on_error(e),
-        }
-    }
-
     /// Timer0 compare A in ASCII framing: a frame's end (its LF, or the `:` that dropped
     /// it, has left the line), the inter-character timeout, or a turn with neither, when
     /// the response timeout and the turnaround delay are checked.

@@ -13,20 +13,6 @@ use crate::link::framer::ascii::encoded_char;
 use crate::slave::model::DataModel;
 
 impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<M, DE, LED, N, U> {
-    /// USART RX complete in ASCII framing: a character (or a damaged one) for the framer;
-    /// its LF ends the frame once it has left the line.
-    #[inline(always)]
-    pub(super) fn on_ascii_rx(&mut self) {
-        match self.usart.read() {
-            Ok(c) => {
-                if self.engine.on_char(c) {
-                    self.timer.end_now();
-                }
-            }
-            Err(e) => self.engine.on_error(e),
-        }
-    }
-
     /// Timer0 compare B in ASCII framing: what `passed`, a frame's end (true), or the
     /// inter-character timeout, which has dropped the frame in progress and is reported as a
     /// frame's end is.
