@@ -52,15 +52,22 @@ impl Uptime {
         if overflow_before(tcnt, overflow_pending) {
             ticks += 256;
         }
-        // At most 249 + 255 + 256 ticks: up to three more milliseconds (five at 8 MHz), no
-        // division.
-        let mut millis = self.millis;
-        while ticks >= TICKS_PER_MS as u16 {
-            ticks -= TICKS_PER_MS as u16;
-            millis = millis.wrapping_add(1);
+        // At most 249 + 255 + 256 ticks: up to three more milliseconds (five at 8 MHz), one
+        // for each whole millisecond the ticks reach. Written as comparisons, not as a loop
+        // that subtracts a millisecond at a time: the compiler turns such a loop into a
+        // division by multiplication, a 32-bit multiply on the AVR.
+        let mut extra = 0;
+        let mut k = 1;
+        while k <= Self::MAX_EXTRA_MS {
+            extra += (ticks >= k * TICKS_PER_MS as u16) as u32;
+            k += 1;
         }
-        millis
+        self.millis.wrapping_add(extra)
     }
+
+    /// The most whole milliseconds [`Uptime::millis_at`] adds: the ticks past `millis`,
+    /// `fract` and a turn and a pending overflow, are below 2 · 256 + [`TICKS_PER_MS`].
+    const MAX_EXTRA_MS: u16 = ((2 * 256 + TICKS_PER_MS - 1) / TICKS_PER_MS) as u16;
 }
 
 /// Whether an overflow flag (TOV0) found set just after reading `tcnt` from TCNT0 is an
@@ -131,5 +138,20 @@ mod tests {
         // Most there can be: 124 + 254 + 256 = 634 ticks, five more milliseconds.
         assert_eq!(Uptime { millis: 7, fract: 124 }.millis_at(254, true), 12);
         assert_eq!(clock.millis_at(255, true), 9);
+    }
+
+    #[test]
+    fn millis_at_is_the_ticks_divided_by_a_millisecond_for_every_fract_count_and_flag() {
+        let t = TICKS_PER_MS as u16;
+        for fract in 0..t as u8 {
+            for tcnt in 0..=255u8 {
+                for pending in [false, true] {
+                    let clock = Uptime { millis: u32::MAX - 1, fract };
+                    let ticks = u16::from(fract) + u16::from(tcnt) + if pending && tcnt != 255 { 256 } else { 0 };
+                    let want = clock.millis.wrapping_add(u32::from(ticks / t));
+                    assert_eq!(clock.millis_at(tcnt, pending), want, "fract {fract}, TCNT0 {tcnt}, flag {pending}");
+                }
+            }
+        }
     }
 }
