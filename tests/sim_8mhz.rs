@@ -12,7 +12,7 @@
 mod sim;
 
 use sim::{
-    chip_examples_dir, read_request, registers_reply, with_crc, write_register_request, Exchange, Line, Rtu, ID,
+    chip_variant_firmware, read_request, registers_reply, with_crc, write_register_request, Exchange, Line, Rtu, ID,
 };
 use uno_sim::Chip;
 
@@ -40,8 +40,7 @@ fn t35() -> u64 {
 const BOARDS: [(Chip, u8); 2] = [(Chip::Atmega328p, 0), (Chip::Atmega32u4, 1)];
 
 fn boot(chip: Chip, usart: u8) -> Rtu {
-    let elf = chip_examples_dir(chip, usart, "-8mhz").join("boards.elf");
-    assert!(elf.is_file(), "{} is missing: run `make chips` first", elf.display());
+    let elf = chip_variant_firmware(chip, usart, "-8mhz", "boards");
     // The master's own waits (T3.5 before each request, the time it gives a reply) are those
     // of 19200 8E1 at 16 MHz: twice the 8 MHz board's, so never too short.
     let rtu = Rtu::boot_elf_on(&elf, usart, Line::B19200_8E1, |_| {});

@@ -1,59 +1,10 @@
-//! A board with a bootloader: the chip starts the boot section at every reset (BOOTRST),
-//! resets keep the clock and the flash, MCUSR says why, and the watchdog resets as the chip
-//! does. With the Uno's optiboot, built by `make bootloaders` (target/bootloaders/).
+//! A board's flash from scratch: a program written into erased flash, and where a
+//! bootloader may sit. The Uno's optiboot itself: `optiboot.rs`.
 
 mod common;
 
-use std::path::PathBuf;
-
 use common::*;
 use uno_sim::{us_to_cycles, Error, Options, ResetCause, Uno};
-
-fn optiboot() -> PathBuf {
-    let hex = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../target/bootloaders/optiboot_atmega328.hex");
-    assert!(hex.is_file(), "{} is missing: run make bootloaders first", hex.display());
-    hex
-}
-
-/// The baud rate the chip's wire USART runs at now, rounded (None: off).
-fn baud(uno: &Uno) -> Option<u32> {
-    uno.serial_config().map(|c| c.baud().round() as u32)
-}
-
-#[test]
-fn optiboot_leaves_a_power_on_to_the_program_and_takes_the_line_after_an_external_reset() {
-    let mut uno = Uno::load(echo_elf()).unwrap();
-    assert_eq!(uno.install_bootloader(&optiboot()).unwrap(), 0x7E00);
-    uno.hard_reset(ResetCause::PowerOn);
-    assert_eq!(uno.resets(), (1, Some(ResetCause::PowerOn)));
-    uno.run_for(us_to_cycles(10_000)).unwrap();
-    assert_eq!(uno.read_symbol("ready").unwrap(), [1], "the program runs after a power-on");
-    assert_eq!(baud(&uno), Some(19_231));
-
-    let before = uno.now();
-    uno.hard_reset(ResetCause::External);
-    assert_eq!(uno.now(), before, "a reset keeps the clock");
-    assert_eq!(uno.resets(), (2, Some(ResetCause::External)));
-    assert_eq!(uno.pc(), 0x7E00, "BOOTRST: the boot section first");
-    uno.run_for(us_to_cycles(10_000)).unwrap();
-    assert_eq!(baud(&uno), Some(117_647), "optiboot listens at 115200 (U2X, UBRR 16)");
-    assert!(uno.pc() >= 0x7E00);
-
-    // Nothing from avrdude: after its LED's three flashes (0.375 s) optiboot's 1 s watchdog
-    // resets the chip into the program.
-    uno.run_for(us_to_cycles(1_300_000)).unwrap();
-    assert_eq!(uno.resets(), (2, Some(ResetCause::External)), "not before 1.375 s");
-    uno.run_for(us_to_cycles(200_000)).unwrap();
-    assert_eq!(uno.resets(), (3, Some(ResetCause::Watchdog)));
-    uno.run_for(us_to_cycles(10_000)).unwrap();
-    assert_eq!(baud(&uno), Some(19_231));
-    assert_eq!(uno.read_symbol("ready").unwrap(), [1]);
-    // and it answers on the line again: the wire survived both resets
-    let end = uno.now() + us_to_cycles(2_000);
-    uno.send_byte(0x5A, end).unwrap();
-    uno.run_until(end + us_to_cycles(3_000)).unwrap();
-    assert_eq!(uno.take_tx().iter().map(|t| t.byte).collect::<Vec<_>>(), [0x5A]);
-}
 
 #[test]
 fn a_program_written_into_erased_flash_runs_after_a_reset() {
