@@ -146,6 +146,7 @@ OPTIONAL := diagnostics,extra-fc,write-protect
 
 clippy: setup
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
+	$(CARGO) clippy -p virtual-uno --test interop -- -D warnings # test = false: not in --all-targets
 	$(CARGO) clippy -p avr-modbus --all-targets --features $(OPTIONAL),device-id -- -D warnings
 	$(CARGO) clippy -p avr-modbus --all-targets --features ascii -- -D warnings
 	$(CARGO) clippy -p avr-modbus --all-targets --features clock-8mhz,ascii -- -D warnings

@@ -60,11 +60,11 @@ fn watch_failures() {
 /// skipped: run `make firmware` first (target/avr-atmega328p/release/examples/minimal.elf missing)
 /// ```
 ///
-/// and ends the test binary with success: the others of its tests do not run. The first
-/// test to miss a file decides, so a binary whose tests need different builds names one at
-/// a time. A binary whose tests all need the file (every `tests/sim_*.rs`) skips as a whole,
-/// each time the same. If a test of the binary has failed already, it panics as when
-/// required, so that the failure is reported and not ended with the rest.
+/// and ends the test binary with success: its other tests do not run. The first test to
+/// miss a file decides, so a binary whose tests need different builds names one at a time;
+/// one whose tests all need the file (every `tests/sim_*.rs`) is skipped as a whole, the
+/// same way each time. If a test of the binary has failed already, it panics as when
+/// required, so that the failure is reported rather than cut off with the rest.
 pub fn built(path: impl Into<PathBuf>, command: &str) -> PathBuf {
     watch_failures();
     let path = path.into();
