@@ -23,7 +23,7 @@ help:
 	@echo "  make test        - set up, lint, build every firmware, run all tests (what CI runs)"
 	@echo "  make setup       - install and check the toolchain, simulator, masters and flashing tools"
 	@echo "  make firmware    - build every example for the Uno ($(FIRMWARE_DIR)), then make chips"
-	@echo "  make chips       - the examples for the other chips and USARTs, as the avr-hal template builds them (target/chips)"
+	@echo "  make chips       - the examples for the other chips and USARTs, and the Uno's that make bench sizes, as the avr-hal template builds them (target/chips)"
 	@echo "  make sizes       - flash and RAM of every firmware (make firmware prints them)"
 	@echo "  make fixtures    - a user's firmware in the template's form for three boards, and make package"
 	@echo "  make package     - the crate as it would be published, built into the Uno fixture"
@@ -31,10 +31,10 @@ help:
 	@echo "  make lint        - make fmt-check, make clippy and make docs, and this list checked against the targets"
 	@echo "  make fmt-check   - cargo fmt --check"
 	@echo "  make clippy      - clippy with -D warnings for the host and the AVR, every feature set"
-	@echo "  make docs        - the API docs, warnings denied, for the host and the AVR"
+	@echo "  make docs        - the API docs, warnings denied, for the host and the AVR, then as docs.rs builds them (.ci/docsrs)"
 	@echo "  make host-test   - every cargo test (host, simulator) under each feature set, after building the firmware"
 	@echo "  make interop     - mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on virtual boards"
-	@echo "  make bench       - size targets (met or not), flash, RAM, stack, interrupt cycles, turnaround -> bench/results.md"
+	@echo "  make bench       - size targets (met or not; flash as the avr-hal template builds), flash, RAM, stack, interrupt cycles, turnaround -> bench/results.md"
 	@echo "  make bench-features - minimal built with each optional feature, for make bench"
 	@echo "  make fuzz        - coverage-guided fuzz targets (FUZZ_SECONDS each), then a long property run"
 	@echo "  make soak        - 100000 mixed transactions against uno_slave in simavr (~15 min; SOAK_TRANSACTIONS)"
@@ -54,6 +54,7 @@ firmware: setup
 	$(CARGO) uno --example ascii --features examples,ascii
 	$(CARGO) uno --example configurable --features examples,eeprom-settings,ascii,device-id,reply-delay,$(OPTIONAL)
 	$(CARGO) uno $(addprefix --example ,$(MASTER_EXAMPLES)) --features examples,master
+	$(CARGO) uno --example ascii_master --features examples,master,ascii
 	$(CARGO) uno --example slow_master --features examples,reply-delay
 	@.ci/sizes $(FIRMWARE)
 	@.ci/no-panic $(FIRMWARE)
@@ -67,35 +68,42 @@ firmware: setup
 # part of it) and shares the host tools; a USART is a cfg of this crate (build.rs), so only
 # the crate rebuilds for it. Then once more with the line settings in EEPROM and ASCII
 # (target/chips/CHIP[-usartN]-settings/…) for the Mega's Serial1 and the Leonardo. Last, the
-# contract (sixteen_each, sixteen_each_bank) for the ATmega328P the same way, into
-# target/chips/atmega328p/…: make bench's flash in the template's form; the gateway (slave on
+# Uno's examples that make bench sizes, the contract (sixteen_each, sixteen_each_bank) and
+# minimal among them, for the ATmega328P the same way, into target/chips/atmega328p/… (those
+# with feature millis into target/chips/atmega328p-millis/…, the master's beside
+# master_boards in target/chips/atmega328p-master/…): the sizes a user of the template sees,
+# which make bench leads with; the gateway (slave on
 # USART0, master on USART1) for the ATmega2560 into target/chips/atmega2560-gateway/; and boards for an
 # 8 MHz ATmega328P and ATmega32U4 (feature clock-8mhz, the Pro Mini and Pro Micro 3.3 V) into
-# target/chips/CHIP-8mhz/.
-CHIPS := atmega168 atmega32u4 atmega1280 atmega2560
-MEGA_USARTS := 1 2 3
+# target/chips/CHIP-8mhz/, and master_boards for them into target/chips/CHIP-8mhz-master/.
+# The chips and USARTs, from chips/chips.txt: CHIP: (the board's pins 0/1), then CHIP:N for
+# each of its other USARTs.
+CHIP_BUILDS := $(shell awk '$$1 == "chip" { chip = $$2; print chip ":" } \
+	$$1 == "usart" && $$7 != "pins-0/1" { print chip ":" substr($$2, 6) }' chips/chips.txt)
+TEMPLATE_EXAMPLES := minimal busy_loop lab_lights sixteen_each sixteen_each_bank
+TEMPLATE_MILLIS_EXAMPLES := uno_slave dip_switch
+TEMPLATE_MASTER_EXAMPLES := poll_holding poll_four master_mirror plc_poller
 chips: setup
-	@for chip in $(CHIPS); do \
-		usarts=""; case $$chip in atmega1280|atmega2560) usarts="$(MEGA_USARTS)";; esac; \
-		for usart in "" $$usarts; do \
-			.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart} examples,millis boards || exit 1; \
-		done; \
+	@for build in $(filter-out atmega328p:%,$(CHIP_BUILDS)); do \
+		chip=$${build%%:*}; usart=$${build##*:}; \
+		.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart} examples,millis boards || exit 1; \
 	done
 	@for build in atmega2560:1 atmega32u4:; do \
 		chip=$${build%%:*}; usart=$${build##*:}; \
 		.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart}-settings \
 			examples,millis,eeprom-settings,ascii boards || exit 1; \
 	done
-	@.ci/chip-build atmega328p "" atmega328p examples sixteen_each sixteen_each_bank
+	@.ci/chip-build atmega328p "" atmega328p examples $(TEMPLATE_EXAMPLES)
+	@.ci/chip-build atmega328p "" atmega328p-millis examples,millis $(TEMPLATE_MILLIS_EXAMPLES)
 	@.ci/chip-build atmega2560 "" atmega2560-gateway examples,master gateway
-	@for chip in atmega328p $(CHIPS); do \
-		usarts=""; case $$chip in atmega1280|atmega2560) usarts="$(MEGA_USARTS)";; esac; \
-		for usart in "" $$usarts; do \
-			.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart}-master examples,master master_boards || exit 1; \
-		done; \
+	@for build in $(CHIP_BUILDS); do \
+		chip=$${build%%:*}; usart=$${build##*:}; \
+		examples=master_boards; [ "$$build" != atmega328p: ] || examples="master_boards $(TEMPLATE_MASTER_EXAMPLES)"; \
+		.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart}-master examples,master $$examples || exit 1; \
 	done
 	@for chip in atmega328p atmega32u4; do \
 		.ci/chip-build $$chip "" $$chip-8mhz examples,millis,clock-8mhz boards || exit 1; \
+		.ci/chip-build $$chip "" $$chip-8mhz-master examples,master,clock-8mhz master_boards || exit 1; \
 	done
 	@.ci/sizes target/chips/*/avr-none/release/examples/*.elf
 	@.ci/no-panic target/chips/*/avr-none/release/examples/*.elf
@@ -152,18 +160,24 @@ clippy: setup
 	$(CARGO) clippy -p avr-modbus --all-targets --features clock-8mhz,ascii -- -D warnings
 	$(CARGO) clippy -p avr-modbus --all-targets --features $(OPTIONAL),eeprom-settings,ufmt -- -D warnings
 	$(CARGO) clippy -p avr-modbus --all-targets --features master,ufmt -- -D warnings
+	$(CARGO) clippy -p avr-modbus --all-targets --features master,ascii -- -D warnings
 	$(CARGO) clippy -p avr-modbus --all-targets --features reply-delay,eeprom-settings,ascii -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples -- -D warnings
 	$(CARGO) uno-clippy --examples --features examples,millis,ascii,device-id,$(OPTIONAL),eeprom-settings,ufmt,reply-delay -- -D warnings
 	$(CARGO) uno-clippy $(addprefix --example ,$(MASTER_EXAMPLES)) --features examples,master,ufmt -- -D warnings
+	$(CARGO) uno-clippy --example ascii_master --features examples,master,ascii -- -D warnings
 	$(CARGO) uno-clippy --example slow_master --features examples,reply-delay -- -D warnings
+	$(CARGO) uno-clippy --example master_boards --features examples,master,ascii,reply-delay -- -D warnings
 	CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega2560" $(CARGO) clippy --release -Zbuild-std=core --target avr-none \
 		--example gateway --features examples,master -- -D warnings
 
+# The API docs, warnings denied: for the host (no AVR layer), for the Uno, and as docs.rs builds
+# them (the host, `--cfg docsrs`: the AVR layer too), checked against the README's API tables.
 docs: setup
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus --features $(OPTIONAL),eeprom-settings,ufmt,device-id,ascii,master,reply-delay
 	RUSTDOCFLAGS="-D warnings -C target-cpu=atmega328p" $(CARGO) doc --no-deps -p avr-modbus --release \
 		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings,ufmt,millis,ascii,master,reply-delay
+	.ci/docsrs
 
 lint: fmt-check clippy docs
 	@.ci/help-check
@@ -172,7 +186,8 @@ lint: fmt-check clippy docs
 # has the features it declares in Cargo.toml, a simulator test under the first such set).
 # A test with a new combination of features needs its set here; no test is named.
 TEST_FEATURE_SETS := default $(OPTIONAL) $(OPTIONAL),eeprom-settings $(OPTIONAL),eeprom-settings,ascii \
-	ufmt device-id ascii clock-8mhz,ascii master reply-delay eeprom-settings,reply-delay eeprom-settings,reply-delay,ascii
+	ufmt device-id ascii clock-8mhz,ascii master master,ascii reply-delay eeprom-settings,reply-delay \
+	eeprom-settings,reply-delay,ascii
 
 host-test: setup firmware fixtures bootloaders
 	$(CARGO) test --workspace --exclude avr-modbus --exclude virtual-uno

@@ -2,43 +2,158 @@
 //! that the firmware never names it twice: the last `-C target-cpu=NAME` of the build
 //! (the avr-hal template's way, seen here in `CARGO_ENCODED_RUSTFLAGS`), else a JSON
 //! target named `avr-NAME` (`avr-atmega328p.json`, as this repository and avr-hal's older
-//! template name theirs). It sets `cfg(avr_chip = "NAME")`, which picks the chip's table in
-//! `src/avr/chip.rs`; a chip the crate has no table for stops the build there, naming the
-//! chips it supports. Host builds get no `avr_chip` at all.
+//! template name theirs). It sets `cfg(avr_chip = "NAME")` and writes that chip's table,
+//! from its block of `chips/chips.txt`, into `OUT_DIR/chip.rs`, which `src/avr/chip.rs`
+//! includes: `CHIP` and the `__chip!` macro that names its vectors. A chip the file does not
+//! describe stops the build there, naming the chips it does. Host builds get no `avr_chip`
+//! at all, and the first chip's `CHIP` for the docs built on the host (see `src/lib.rs`).
 //!
 //! For this repository's examples only (feature `examples`): `AVR_MODBUS_EXAMPLE_USART=N`
 //! sets `cfg(example_usart = "N")`, the USART `examples/boards.rs` serves on, so that
 //! `make firmware` builds it for each USART without rebuilding anything but this crate.
 
 use std::env;
+use std::fmt::Write as _;
+use std::fs;
+use std::path::Path;
 
-/// The chips with a table in `src/avr/chip.rs`.
-const CHIPS: [&str; 5] = ["atmega328p", "atmega168", "atmega32u4", "atmega1280", "atmega2560"];
+#[allow(dead_code)] // tools/sim reads the rest of each chip's facts
+#[path = "chips/table.rs"]
+mod table;
+
+use table::Facts;
 
 fn main() {
     println!("cargo::rerun-if-changed=build.rs");
+    println!("cargo::rerun-if-changed=chips/chips.txt");
+    println!("cargo::rerun-if-changed=chips/table.rs");
     println!("cargo::rerun-if-env-changed=AVR_MODBUS_EXAMPLE_USART");
-    let mut chips = CHIPS.map(|chip| format!("\"{chip}\"")).join(", ");
-    chips.push_str(", \"unsupported\"");
-    println!("cargo::rustc-check-cfg=cfg(avr_chip, values({chips}))");
+    let dir = env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR");
+    let text = fs::read_to_string(Path::new(&dir).join("chips/chips.txt")).expect("chips/chips.txt");
+    let chips = table::parse(&text).unwrap_or_else(|error| panic!("{error}"));
+    let mut values: Vec<String> = chips.iter().map(|chip| format!("\"{}\"", chip.cpu)).collect();
+    values.push("\"unsupported\"".to_owned());
+    println!("cargo::rustc-check-cfg=cfg(avr_chip, values({}))", values.join(", "));
     println!("cargo::rustc-check-cfg=cfg(example_usart, values(\"0\", \"1\", \"2\", \"3\"))");
 
+    let out = Path::new(&env::var("OUT_DIR").expect("cargo sets OUT_DIR")).join("chip.rs");
     if env::var("CARGO_CFG_TARGET_ARCH").as_deref() != Ok("avr") {
+        fs::write(out, table_of(&chips[0])).expect("OUT_DIR/chip.rs");
         return;
     }
     let flags = env::var("CARGO_ENCODED_RUSTFLAGS").unwrap_or_default();
     let target = env::var("TARGET").unwrap_or_default();
     let cpu = target_cpu(flags.split('\x1f')).or_else(|| json_target_cpu(&target));
-    match cpu {
-        Some(cpu) if CHIPS.contains(&cpu.as_str()) => println!("cargo::rustc-cfg=avr_chip=\"{cpu}\""),
-        other => {
-            println!("cargo::rustc-cfg=avr_chip=\"unsupported\"");
-            let seen = other.unwrap_or_else(|| format!("no -C target-cpu, target {target}"));
-            println!("cargo::rustc-env=AVR_MODBUS_CPU={seen}");
+    let generated = match cpu.as_deref().and_then(|cpu| chips.iter().find(|chip| chip.cpu == cpu)) {
+        Some(chip) => {
+            println!("cargo::rustc-cfg=avr_chip=\"{}\"", chip.cpu);
+            table_of(chip) + &macro_of(chip)
         }
-    }
+        None => {
+            println!("cargo::rustc-cfg=avr_chip=\"unsupported\"");
+            unsupported(&chips, &cpu.unwrap_or_else(|| format!("no -C target-cpu, target {target}")))
+        }
+    };
+    fs::write(out, generated).expect("OUT_DIR/chip.rs");
     if let Ok(usart) = env::var("AVR_MODBUS_EXAMPLE_USART") {
         println!("cargo::rustc-cfg=example_usart=\"{usart}\"");
+    }
+}
+
+/// `chip`'s `CHIP`.
+fn table_of(chip: &Facts) -> String {
+    let usarts = (0..4).map(|number| match chip.usarts.iter().find(|usart| usart.number == number) {
+        Some(usart) => format!("Some({:#X})", usart.block),
+        None => "None".to_owned(),
+    });
+    let (pin, bit) = chip.led;
+    format!(
+        "/// The {name}'s facts ({boards}).\n\
+         pub(crate) const CHIP: Chip = Chip {{ usarts: [{usarts}], eeprom_size: {eeprom}, led: ({pin:#X}, {bit}) }};\n",
+        name = chip.part,
+        boards = chip.boards,
+        usarts = usarts.collect::<Vec<_>>().join(", "),
+        eeprom = chip.eeprom,
+    )
+}
+
+/// `chip`'s `__chip!`: its vectors' symbols (`__vector_N`) by name, its USARTs' numbers, a
+/// build error for a USART it lacks, and the roles' default USART (the board's pins 0/1).
+fn macro_of(chip: &Facts) -> String {
+    let mut arms = String::new();
+    for (name, vector) in ["TIMER0_COMPA", "TIMER0_COMPB", "TIMER0_OVF"].iter().zip(chip.timer0) {
+        writeln!(arms, "    (vector {name}) => {{ \"__vector_{vector}\" }};").unwrap();
+    }
+    for usart in &chip.usarts {
+        for (what, vector) in ["RX", "UDRE", "TX"].iter().zip(usart.vectors) {
+            writeln!(arms, "    (vector USART{} {what}) => {{ \"__vector_{vector}\" }};", usart.number).unwrap();
+        }
+    }
+    for usart in &chip.usarts {
+        writeln!(arms, "    (usart USART{0}) => {{ {0} }};", usart.number).unwrap();
+    }
+    let names: Vec<String> = chip.usarts.iter().map(|usart| format!("USART{}", usart.number)).collect();
+    let contiguous = chip.usarts.windows(2).all(|pair| pair[1].number == pair[0].number + 1);
+    let theirs = match &names[..] {
+        [one] => format!("one USART, {one} (pins 0/1)"),
+        [first, .., last] if contiguous => format!("{first} to {last}"),
+        _ => join(&names, "and"),
+    };
+    let verb = if chip.family.contains(" and ") { "have" } else { "has" };
+    let default = chip.pins_0_1().number;
+    format!(
+        "\n/// The {name}'s vectors (`__vector_N`) and USARTs.\n\
+         #[doc(hidden)]\n\
+         #[macro_export]\n\
+         macro_rules! __chip {{\n\
+         {arms}    \
+             (usart $other:ident) => {{\n        \
+                 ::core::compile_error!(::core::concat!(\n            \
+                     \"the {family} {verb} {theirs}, not \",\n            \
+                     ::core::stringify!($other)\n        \
+                 ))\n    \
+             }};\n    \
+             (vector $other:ident $what:ident) => {{ \"\" }};\n    \
+             (default $($slave:tt)*) => {{ $crate::slave!(@on USART{default} $($slave)*); }};\n    \
+             (default_master $($master:tt)*) => {{ $crate::master!(@on USART{default} $($master)*); }};\n\
+         }}\n",
+        name = chip.part,
+        family = chip.family,
+    )
+}
+
+/// The build error for a chip `chips` does not describe (`seen`), a table and a
+/// `__chip!` that add none of their own.
+fn unsupported(chips: &[Facts], seen: &str) -> String {
+    let names: Vec<String> = chips.iter().map(|chip| chip.part.clone()).collect();
+    let cpus: Vec<String> = chips.iter().map(|chip| chip.cpu.clone()).collect();
+    let message = format!(
+        "avr-modbus runs on the {} (build with -C target-cpu={}); this build is for {seen}",
+        join(&names, "and"),
+        join(&cpus, "or")
+    );
+    format!(
+        "::core::compile_error!({message:?});\n\n\
+         /// No table, so that the only error is the one above.\n\
+         pub(crate) const CHIP: Chip = Chip {{ usarts: [None; 4], eeprom_size: 0, led: (0, 0) }};\n\n\
+         /// No vectors either.\n\
+         #[doc(hidden)]\n\
+         #[macro_export]\n\
+         macro_rules! __chip {{\n    \
+             (vector $($what:ident)*) => {{ \"\" }};\n    \
+             (usart $what:ident) => {{ 0 }};\n    \
+             (default $($slave:tt)*) => {{ $crate::slave!(@on USART0 $($slave)*); }};\n    \
+             (default_master $($master:tt)*) => {{ $crate::master!(@on USART0 $($master)*); }};\n\
+         }}\n"
+    )
+}
+
+/// `a, b, c and d` (or `or`).
+fn join(words: &[String], last: &str) -> String {
+    match words {
+        [] => String::new(),
+        [one] => one.clone(),
+        [rest @ .., final_word] => format!("{} {last} {final_word}", rest.join(", ")),
     }
 }
 

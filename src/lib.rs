@@ -3,96 +3,100 @@
 #![cfg_attr(target_arch = "avr", feature(asm_experimental_arch, const_type_name))]
 #![cfg_attr(all(target_arch = "avr", feature = "millis"), feature(abi_avr_interrupt))]
 #![deny(missing_docs)]
+// The docs as docs.rs builds them (`[package.metadata.docs.rs]`): each item shows the
+// features and the target it needs.
+#![cfg_attr(docsrs, feature(doc_cfg))]
+#![cfg_attr(docsrs, doc(auto_cfg(hide(docsrs))))]
 
-#[cfg(target_arch = "avr")]
+// The AVR layer (`Slave`, `slave!`, `Master`, `master!`, `board`, `millis`, `NoPin`) is the
+// firmware's: only an AVR build compiles it. docs.rs documents a crate for a host target (it
+// takes its targets from rustup, which has none for the AVR), so given `--cfg docsrs`
+// rustdoc documents the layer on the host too: the module itself, its real signatures and
+// docs. rustdoc neither type-checks nor compiles function bodies, so their `asm!` stays as
+// it is; only the interrupt handler the crate binds itself (`avr::clock`) is left out, and
+// the Uno's chip table is the one named. `doc` keeps all this out of every rustc build, even
+// one given `--cfg docsrs`. The `doc(cfg)`s below give each item its badge (the automatic
+// one would read "(AVR)" and repeat "AVR" on every method).
+#[cfg(any(target_arch = "avr", all(doc, docsrs)))]
+#[cfg_attr(docsrs, doc(cfg(target_arch = "avr")))]
 mod avr;
-mod bank;
-mod config;
-mod crc;
-#[cfg(feature = "diagnostics")]
-mod diagnostics;
-mod engine;
 mod error;
-mod framer;
-mod map;
+mod limits;
+mod link;
 #[cfg(feature = "master")]
 pub mod master;
-mod model;
-mod pdu;
-#[cfg(any(target_arch = "avr", test))]
+#[cfg(any(target_arch = "avr", all(doc, docsrs), test))]
 mod peripheral;
-mod reference;
-#[cfg(feature = "eeprom-settings")]
-mod settings;
-mod storage;
-mod timing;
+mod slave;
 mod wide;
 
 #[cfg(target_arch = "avr")]
 #[doc(hidden)]
 pub use avr::__private;
-#[cfg(target_arch = "avr")]
-#[cfg(all(target_arch = "avr", feature = "millis"))]
+#[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "millis"))]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "millis"))))]
 pub use avr::millis;
-#[cfg(all(target_arch = "avr", feature = "master"))]
+#[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "master"))]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "master"))))]
 pub use avr::Master;
-#[cfg(target_arch = "avr")]
+#[cfg(any(target_arch = "avr", all(doc, docsrs)))]
+#[cfg_attr(docsrs, doc(cfg(target_arch = "avr")))]
 pub use avr::{board, NoPin, Slave};
-pub use bank::{bit_bytes, Bank};
-#[cfg(feature = "ascii")]
-pub use config::Mode;
-pub use config::{Config, Parity, SlaveId, StopBits};
-pub use engine::Counters;
 pub use error::Error;
-pub use model::DataModel;
-pub use pdu::device_id::Identification;
-pub use pdu::Exception;
-pub use reference::{IntoReference, Reference, Table};
+#[cfg(feature = "ascii")]
+pub use link::config::Mode;
+pub use link::config::{Config, Parity, SlaveId, StopBits};
+pub use slave::bank::{bit_bytes, Bank};
+pub use slave::engine::Counters;
+pub use slave::model::DataModel;
+pub use slave::pdu::device_id::Identification;
+pub use slave::pdu::Exception;
+pub use slave::reference::{IntoReference, Reference, Table};
 #[cfg(feature = "eeprom-settings")]
-pub use settings::Configurable;
+pub use slave::settings::Configurable;
 pub use wide::{Wide, WordOrder};
 
 /// The protocol engine's parts, for this crate's tests, simulator and benchmarks: not
 /// part of the API, and they change without notice.
 #[doc(hidden)]
 pub mod internal {
-    pub use crate::crc::{crc16, Crc16};
-    pub use crate::engine::{EndOfFrame, Engine};
-    pub use crate::framer::{FrameError, Framer, UartError, MAX_FRAME, MIN_FRAME};
-    pub use crate::model::Access;
-    pub use crate::pdu::{encode_exception, respond, FunctionCode, Request};
-    pub use crate::timing::{BaudDivisor, CharTimes, Deadline, TimerPlan, Uptime};
+    pub use crate::link::crc::{crc16, Crc16};
+    pub use crate::link::framer::{FrameError, Framer, UartError, MAX_FRAME, MIN_FRAME};
+    pub use crate::link::timing::{BaudDivisor, CharTimes, Deadline, TimerPlan, Uptime};
+    pub use crate::slave::engine::{EndOfFrame, Engine};
+    pub use crate::slave::model::Access;
+    pub use crate::slave::pdu::{encode_exception, respond, FunctionCode, Request};
 
     /// The compile-time register map's parts, for [`crate::register_map!`].
     pub mod map {
-        pub use crate::map::{Layout, Span};
-        pub use crate::storage::Values;
+        pub use crate::slave::map::{Layout, Span};
+        pub use crate::slave::storage::Values;
     }
     /// FC 43 / MEI 14: what [`crate::identification!`] expands to.
     pub mod device_id {
-        pub use crate::pdu::device_id::*;
+        pub use crate::slave::pdu::device_id::*;
     }
     /// The PDU engine.
     pub mod pdu {
-        pub use crate::pdu::*;
+        pub use crate::slave::pdu::*;
     }
     /// Character times and the USART and Timer0 arithmetic.
     pub mod timing {
-        pub use crate::timing::*;
+        pub use crate::link::timing::*;
     }
     /// ASCII framing: LRC, hex, the reply's characters.
     #[cfg(feature = "ascii")]
     pub mod ascii {
-        pub use crate::framer::ascii::*;
+        pub use crate::link::framer::ascii::*;
     }
     /// FC 7, 8, 11 and 17.
     #[cfg(feature = "diagnostics")]
     pub mod diagnostics {
-        pub use crate::diagnostics::*;
+        pub use crate::slave::diagnostics::*;
     }
     /// The settings record and block.
     #[cfg(feature = "eeprom-settings")]
     pub mod settings {
-        pub use crate::settings::*;
+        pub use crate::slave::settings::*;
     }
 }

@@ -1,6 +1,7 @@
 //! The slave built for an 8 MHz board (feature `clock-8mhz`: the SparkFun Pro Mini and Pro
 //! Micro 3.3 V): `examples/boards.rs` for an 8 MHz ATmega328P and ATmega32U4 (`make chips`),
-//! slave 1 at 19200 8E1 on the board's pins 0/1, run in simavr.
+//! slave 1 at 19200 8E1 on the board's pins 0/1, run in simavr; and the master
+//! (`examples/master_boards.rs`, feature `master` too) for the same two chips.
 //!
 //! The simulated chip runs at 16 MHz. A chip does everything in cycles of its own clock, so
 //! the 8 MHz firmware on it behaves as on an 8 MHz board with time running twice as fast:
@@ -14,7 +15,7 @@ mod sim;
 use sim::{
     chip_variant_firmware, read_request, registers_reply, with_crc, write_register_request, Exchange, Line, Rtu, ID,
 };
-use uno_sim::Chip;
+use uno_sim::{Chip, Options, Uno};
 
 /// Cycles of the board's clock per microsecond.
 const CYCLES_PER_US: u64 = 8;
@@ -125,5 +126,57 @@ fn the_clock_counts_8_000_000_cycles_a_second() {
         let seconds = read_at / 8_000_000;
         assert_eq!(seconds, 2, "{chip}: ran {read_at} cycles");
         assert_eq!(reply, registers_reply(ID, 0x04, &[seconds as u16]), "{chip}: 30001 after {read_at} cycles");
+    }
+}
+
+/// The master built for an 8 MHz board (`master_boards`, features `master` and `clock-8mhz`,
+/// `make chips`) against a scripted slave 1: its FC 3 request at the firmware's bit time
+/// (416 cycles, as the slave's), its response timeout of 1000 ms as 8 000 000 cycles
+/// (then its one retry), and a reply taken: the next request after T3.5 of silence at 8 MHz,
+/// long before a timeout. The 16 MHz build sends 832-cycle bits and waits twice as long.
+#[test]
+fn the_master_sends_at_19200_8e1_and_times_out_after_1000_ms_at_8_mhz() {
+    for (chip, usart) in BOARDS {
+        let elf = chip_variant_firmware(chip, usart, "-8mhz-master", "master_boards");
+        let mut uno = Uno::load_with(&elf, Options::new().usart(usart)).expect("master_boards loads");
+        assert_eq!(uno.chip(), chip, "{} names another chip", elf.display());
+        let char_cycles = CHAR_BITS * 416;
+        let request = read_request(ID, 0x03, 0, 10);
+
+        // The first request: 40001-40010 of slave 1, 11 bits of 416 cycles a character, back to back.
+        let first = uno.run_until_tx_idle(2 * char_cycles, 8_000_000).expect("firmware runs");
+        assert_eq!(first.iter().map(|t| t.byte).collect::<Vec<u8>>(), request, "{chip}: the request");
+        assert_eq!(uno.wire_char_cycles(), Some(char_cycles), "{chip}: UBRRn 25 at 8 MHz");
+        for (i, t) in first.iter().enumerate() {
+            assert_eq!(t.end_cycle - t.start_cycle, char_cycles, "{chip}: character {i}'s length");
+            if i > 0 {
+                assert_eq!(t.start_cycle, first[i - 1].end_cycle, "{chip}: a gap before character {i}");
+            }
+        }
+
+        // No answer: the same request again 1000 ms (8 000 000 cycles) after the first one ended.
+        let first_end = first.last().unwrap().end_cycle;
+        let retry = uno.run_until_tx_idle(2 * char_cycles, first_end + 10_000_000).expect("firmware runs");
+        assert_eq!(retry.iter().map(|t| t.byte).collect::<Vec<u8>>(), request, "{chip}: the retry");
+        let waited = retry[0].start_cycle - first_end;
+        assert!(
+            (8_000_000 - 8 * 1000..=8_000_000 + 8 * 2000 + t35()).contains(&waited),
+            "{chip}: the retry came {waited} cycles after the request, the timeout is 8 000 000 (1000 ms)"
+        );
+
+        // Answered: the next request T3.5 (at 8 MHz) after the reply, not a timeout later.
+        let values: Vec<u16> = (0..10).map(|i| 0x1000 + i).collect();
+        let reply_end = uno
+            .send_frame(&registers_reply(ID, 0x03, &values), retry.last().unwrap().end_cycle + t35(), 0)
+            .expect("the reply is scheduled");
+        let next = uno.run_until_tx_idle(2 * char_cycles, reply_end + 8_000_000).expect("firmware runs");
+        assert_eq!(next.iter().map(|t| t.byte).collect::<Vec<u8>>(), request, "{chip}: the next request");
+        let silence = next[0].start_cycle - reply_end;
+        assert!(
+            (t35()..t35() + 8 * 2000).contains(&silence),
+            "{chip}: the next request came {silence} cycles after the reply, T3.5 is {}",
+            t35()
+        );
+        eprintln!("{chip} at 8 MHz: retry after {waited} cycles, next request {silence} cycles after a reply");
     }
 }

@@ -833,6 +833,27 @@ fn a_reply_with_a_bad_crc_is_dropped_and_counted_and_the_retry_answer_is_taken()
     assert_eq!(counters, Counters { requests: CLEAN_PASS.requests + 1, retries: 1, crc_errors: 1, ..CLEAN_PASS });
 }
 
+/// Step 2's write (FC 5, coil 3 on) is answered first with the echo of another coil (4), a
+/// good frame from the slave asked that does not answer the request: not taken, counted as
+/// unexpected, and the request goes again; the right echo to the retry is the one reported.
+/// (The echo is compared with the request byte for byte: on the AVR, a `memcmp`.)
+#[test]
+fn a_write_answered_with_a_wrong_echo_is_not_taken_and_the_retry_answer_is() {
+    let mut bus = Bus::boot();
+    let steps = steps();
+    for step in &steps[..2] {
+        bus.serve(step);
+    }
+    let (step, request) = (&steps[2], steps[2].request.clone().expect("step 2 sends a request"));
+    let first = bus.expect(&request, "step 2");
+    bus.answer(&first, &with_crc(&[POLLED, 0x05, 0x00, 0x04, 0xFF, 0x00]));
+    let retry = bus.expect(&request, "step 2: the retry after a wrong echo");
+    bus.answer(&retry, step.reply.as_ref().expect("step 2 is answered"));
+    bus.report(2, &step.report);
+    let counters = rest_of_pass(&mut bus, 3);
+    assert_eq!(counters, Counters { requests: CLEAN_PASS.requests + 1, retries: 1, unexpected: 1, ..CLEAN_PASS });
+}
+
 /// Step 0 answered first by slave 3 (a good frame, other values), then, within the
 /// timeout, by slave 1: slave 3's frame is ignored and counted as unexpected, slave 1's is
 /// taken, and no retry goes out (the next frame is the report).

@@ -8,7 +8,7 @@ use core::cell::UnsafeCell;
 
 use super::reg::{self, TCNT0, TIFR0};
 use super::timer::{Exclusive, TOV0};
-use crate::timing::Uptime;
+use crate::link::timing::Uptime;
 
 /// TIMSK0's overflow interrupt enable (TOIE0).
 pub(crate) const OVERFLOW_INTERRUPT: u8 = 1 << 0;
@@ -38,8 +38,10 @@ pub(crate) fn millis() -> u32 {
 
 /// TIMER0_OVF: Timer0 overflowed (every 1.024 ms, 2.048 at 8 MHz), the clock moves on. Bound here rather
 /// than by [`crate::slave!`]: it touches nothing of the slave's, and a firmware without
-/// the feature has no handler at all (the interrupt stays off).
-#[export_name = crate::__chip!(vector TIMER0_OVF)]
+/// the feature has no handler at all (the interrupt stays off). The firmware's alone: the
+/// host has no AVR interrupt ABI, so the docs built there (`--cfg docsrs`) leave it out.
+#[cfg(target_arch = "avr")]
+#[export_name = __chip!(vector TIMER0_OVF)]
 unsafe extern "avr-interrupt" fn timer0_overflow() {
     // SAFETY: the overflow interrupt handler, which runs with interrupts disabled.
     unsafe { CLOCK.with(|c| c.uptime = c.uptime.after_overflow()) }

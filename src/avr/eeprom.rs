@@ -17,9 +17,9 @@ use super::reg::{self, claim, EEARH, EEARL, EECR, EEDR};
 use crate::error::Error;
 
 #[cfg(feature = "eeprom-settings")]
-use crate::config::Config;
+use crate::link::config::Config;
 #[cfg(feature = "eeprom-settings")]
-use crate::settings::{Slots, SLOTS_LEN};
+use crate::slave::settings::{Slots, SLOTS_LEN};
 
 const EERE: u8 = 1 << 0;
 const EEPE: u8 = 1 << 1;

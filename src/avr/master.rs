@@ -3,7 +3,8 @@
 //! interrupts once the line has been quiet for T3.5, the reply is received, checked and
 //! kept, timeouts and retries run from Timer0's compare interrupt, and the application
 //! collects the outcome when it likes. The link is the slave's: the same USART driver,
-//! Timer0 deadlines and framer.
+//! Timer0 deadlines and framer. In ASCII framing (feature `ascii`, `Config::ascii`) the
+//! interrupts take the paths of `ascii`.
 
 use core::ops::Deref;
 
@@ -11,14 +12,18 @@ use embedded_hal::digital::OutputPin;
 
 use super::clock;
 use super::pins::NoPin;
+use super::receive::receive;
 use super::started::Started;
 use super::timer::{FrameTimer, Passed, A};
 use super::usart::Usart;
-use crate::config::Config;
 use crate::error::Error;
-use crate::framer::MAX_FRAME;
+use crate::link::config::Config;
+use crate::link::framer::MAX_FRAME;
 use crate::master::internal::{Action, Engine};
 use crate::master::{Counters, Failure, Reply, Request, Timeouts};
+
+#[cfg(feature = "ascii")]
+mod ascii;
 
 /// The running master: its peripherals, protocol state with `N`-byte buffers, the RS-485
 /// driver-enable pin and the communication LED.
@@ -38,9 +43,34 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
         let _ = led.set_low();
         let mut timer = FrameTimer::new(config.timer_plan());
         let usart = Usart::new(&config);
-        // The power-up wait: T3.5 of silence before the first request.
+        // The power-up wait: T3.5 of silence before the first request (none in ASCII).
         timer.restart();
-        Running { engine: Engine::new(), usart, timer, tx_next: 0, driver_enable, led }
+        #[allow(unused_mut)]
+        let mut engine = Engine::new();
+        #[cfg(feature = "ascii")]
+        engine.set_ascii(timer.set_mode(&config));
+        Running { engine, usart, timer, tx_next: 0, driver_enable, led }
+    }
+
+    /// Character `index` of the request on the wire: its byte, or in ASCII framing its
+    /// character.
+    #[inline(always)]
+    fn request_char(&self, index: usize) -> u8 {
+        #[cfg(feature = "ascii")]
+        if self.engine.is_ascii() {
+            return self.engine.request_char(index);
+        }
+        self.engine.request_byte(index)
+    }
+
+    /// Characters of the request on the wire.
+    #[inline(always)]
+    fn request_chars(&self) -> usize {
+        #[cfg(feature = "ascii")]
+        if self.engine.is_ascii() {
+            return self.engine.request_chars();
+        }
+        self.engine.request_len()
     }
 
     /// Sends the request from its first byte: driver enabled, the address into the USART,
@@ -50,7 +80,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
         if action == Action::Send {
             let _ = self.driver_enable.set_high();
             let _ = self.led.set_high();
-            self.usart.write(self.engine.request_byte(0));
+            self.usart.write(self.request_char(0));
             self.tx_next = 1;
             self.usart.start_feeding();
         }
@@ -58,16 +88,17 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
 
     #[inline(always)]
     fn on_usart_rx(&mut self) {
-        match self.usart.read() {
-            Ok(byte) => self.engine.on_byte(byte),
-            Err(e) => self.engine.on_error(e),
-        }
+        receive(&self.usart, &mut self.timer, &mut self.engine);
     }
 
     /// Timer0 compare A: T1.5, T3.5, or a turn of the timer with neither (about once a
     /// millisecond), when the response timeout and the turnaround delay are checked.
     #[inline(always)]
     fn on_timer_compare(&mut self) {
+        #[cfg(feature = "ascii")]
+        if self.engine.is_ascii() {
+            return self.on_ascii_compare();
+        }
         let action = match self.timer.on_compare() {
             Passed::Gap => {
                 self.engine.on_gap_deadline();
@@ -84,6 +115,9 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
             // The clock is read only while a timeout runs: an idle turn costs a few cycles.
             Passed::Nothing if self.engine.is_timing() => self.engine.on_tick(clock::millis()),
             Passed::Nothing => return,
+            // The slave's reply delay, on compare B: the master sets none on compare A.
+            #[cfg(feature = "reply-delay")]
+            Passed::Delayed => return,
         };
         self.act(action);
     }
@@ -91,9 +125,9 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
     #[inline(always)]
     fn on_usart_udre(&mut self) {
         let next = self.tx_next;
-        self.usart.write(self.engine.request_byte(next));
+        self.usart.write(self.request_char(next));
         self.tx_next = next + 1;
-        if self.tx_next >= self.engine.request_len() {
+        if self.tx_next >= self.request_chars() {
             self.usart.last_written();
         }
     }
@@ -110,7 +144,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
     }
 }
 
-/// The Modbus RTU master (feature `master`): declare it with [`crate::master!`], start it
+/// The Modbus master (feature `master`), RTU or with feature `ascii` ASCII: declare it with [`crate::master!`], start it
 /// with the application's USART (the one `master!` names) and `TC0`, then send requests
 /// and collect their outcomes; nothing waits.
 ///
@@ -143,7 +177,8 @@ impl<const N: usize, const U: u8> Master<NoPin, NoPin, N, U> {
     /// Starts the master: takes the USART that [`crate::master!`] named and `TC0` from the
     /// application's `Peripherals` (arduino-hal's or `avr-device`'s, any version),
     /// configures them for `config` (its slave id is not used), and enables interrupts.
-    /// The first request goes out after T3.5 of silence.
+    /// The first request goes out after T3.5 of silence (with an ASCII `config`, feature
+    /// `ascii`: at once, unless a frame is on the line).
     pub fn start<P: Deref, T: Deref>(&self, config: Config, usart: P, tc0: T) -> Result<(), Error>
     where
         P::Target: Sized,
@@ -175,7 +210,8 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
 
     /// Starts `request` to `slave` (1–247, or 0 to broadcast a write) and returns at once:
     /// the request is checked and built now, and goes out as soon as the line has been
-    /// quiet for T3.5 (at once if it has). [`Error::Busy`] while another is under way (it
+    /// quiet for T3.5 (at once if it has; in ASCII, as soon as no frame is on the line).
+    /// [`Error::Busy`] while another is under way (it
     /// goes on) or its outcome waits to be collected with [`Master::poll`] (nothing is ever
     /// dropped), [`Error::NotStarted`] before [`Master::start`]; a quantity outside the
     /// spec's limits, a broadcast read, a request or reply longer than the buffers are

@@ -1,15 +1,26 @@
-//! The AVR layer: a USART (USART0 on the Uno's pins 0/1, any of the chip's), Timer0 as the
-//! silence detector and the application's millisecond clock, and the interrupt-driven
-//! [`Slave`] that ties them to the protocol engine (Modbus over Serial Line v1.02
-//! §2.5.1.1 and §3.3). What differs between the chips is in one table each, `chip`.
+//! The AVR layer: the link's drivers, a USART (USART0 on the Uno's pins 0/1, any of the
+//! chip's) and Timer0 as the silence detector and the application's millisecond clock, and
+//! the two roles on them, the interrupt-driven [`Slave`] and (feature `master`) [`Master`],
+//! each tying them to its protocol engine (Modbus over Serial Line v1.02 §2.5.1.1 and
+//! §3.3). What differs between the chips is data, `chips/chips.txt`; the chosen chip's table
+//! is `chip`.
 //!
-//! Everything here is thin: register writes and reads, and calls into the pure core. The
-//! slave takes the USART and `TC0` the application gets from its HAL's
+//! The link: `usart`, `receive` (a character to either role), `timer` (Timer0's deadlines,
+//! a compare unit each role), `clock` (`millis()`), `started` (the cell a role lives in),
+//! `reg`, `mem`. The roles: `slave`,
+//! `master`. The board, for firmware without a HAL: `pins`, `adc`, `eeprom`.
+//!
+//! Everything here is thin: register writes and reads, and calls into the pure core. A
+//! role takes the USART and `TC0` the application gets from its HAL's
 //! `Peripherals::take()` (arduino-hal's, or `avr-device`'s of any version), and reaches
 //! their registers by address, so no PAC version is part of this crate's API.
 #![allow(unsafe_code)]
 
 mod adc;
+// `__chip!` is written into this module by build.rs (an `include!`): the crate's own code
+// names it in textual scope, `__chip!`, as a macro-expanded `#[macro_export]` macro cannot be
+// named by its path inside the crate that defines it.
+#[macro_use]
 mod chip;
 #[cfg(feature = "millis")]
 mod clock;
@@ -23,9 +34,11 @@ mod clock {
 mod eeprom;
 #[cfg(feature = "master")]
 mod master;
+mod mem;
 mod pins;
+mod receive;
 mod reg;
-mod rtu;
+mod slave;
 mod started;
 mod timer;
 mod usart;
@@ -33,7 +46,7 @@ mod usart;
 #[cfg(feature = "master")]
 pub use master::Master;
 pub use pins::NoPin;
-pub use rtu::Slave;
+pub use slave::Slave;
 
 /// Small drivers for firmware written without a HAL (this crate's examples): the Uno's
 /// pins by their board names and the ADC (ATmega328P and ATmega168 only: their numbering
@@ -98,6 +111,7 @@ pub mod __private {
 /// `#![feature(abi_avr_interrupt)]`, as every AVR interrupt handler does. Nothing else in
 /// the firmware may handle these interrupts, nor Timer0's overflow (no `default_serial!` on
 /// the slave's USART, nothing on TC0).
+#[cfg_attr(docsrs, doc(cfg(target_arch = "avr")))]
 #[macro_export]
 macro_rules! slave {
     (@on $usart:ident $name:ident : $model:ty, $de:ty, $led:ty) => {
@@ -140,6 +154,7 @@ macro_rules! slave {
 /// [`Master::start`] then takes that USART. A master and a slave on two USARTs of one chip
 /// share Timer0 (a gateway): hand the first one started `&dp.TC0`, the second `dp.TC0`.
 #[cfg(feature = "master")]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "master"))))]
 #[macro_export]
 macro_rules! master {
     (@on $usart:ident $name:ident : $n:expr, $de:ty, $led:ty) => {

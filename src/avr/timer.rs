@@ -3,7 +3,7 @@
 //! It runs freely in normal mode at clk/64 from the first role's start and is never stopped
 //! or written again. Each received character sets the role's compare unit to the gap
 //! deadline relative to the counter's current value; when that passes, the compare
-//! interrupt moves it on to T3.5, counting the whole turns still to wait (`src/timing.rs`
+//! interrupt moves it on to T3.5, counting the whole turns still to wait (`src/link/timing/plan.rs`
 //! has the arithmetic, [`TimerPlan`]). One compare unit and one interrupt serve both
 //! silences of a line: compare B the slave's ([`B`]), compare A the master's ([`A`]), so that
 //! a gateway runs both roles on one timer. The compare interrupt stays enabled: with no
@@ -20,10 +20,13 @@ use core::marker::PhantomData;
 #[cfg(feature = "master")]
 use super::reg::OCR0A;
 use super::reg::{Reg, OCR0B, TCCR0A, TCCR0B, TCNT0, TIFR0, TIMSK0};
+pub(crate) use crate::link::timing::Passed;
+use crate::link::timing::{Schedule, TimerPlan, TIMER0_CLOCK_SELECT};
+
 #[cfg(feature = "ascii")]
-use crate::timing::Deadline;
-pub(crate) use crate::timing::Passed;
-use crate::timing::{Schedule, TimerPlan, TIMER0_CLOCK_SELECT};
+mod ascii;
+#[cfg(feature = "ascii")]
+use ascii::AsciiTimer;
 
 const OCIE0A: u8 = 1 << 1;
 const OCIE0B: u8 = 1 << 2;
@@ -106,27 +109,6 @@ pub(crate) struct Deadlines {
     delay: (u8, bool),
 }
 
-/// The compare interrupt's part in ASCII framing: it comes once a turn (1.024 ms, 2.048 ms
-/// at 8 MHz) and counts the turns since the last character against the inter-character
-/// timeout, and it brings the end of a frame (or of one a `:` dropped) out of the receive
-/// interrupt once the character that ended it has left the line (`end`: from its receive
-/// flag to its end).
-#[cfg(feature = "ascii")]
-#[derive(Clone, Copy)]
-struct AsciiTimer {
-    on: bool,
-    /// The timeout in turns, 0 for none.
-    timeout: u16,
-    /// Turns since the last character (up to the timeout).
-    idle: u16,
-    /// A frame's outcome is due: reported at the compare match `end` sets.
-    end_due: bool,
-    /// From a character's receive flag to its end on the line.
-    end: Deadline,
-    /// Matches of the compare value still to let pass before the outcome is reported.
-    end_turns: u8,
-}
-
 /// All zero until [`FrameTimer::new`] writes the plan and parks the deadlines, before any
 /// of Timer0's interrupts is enabled: in `.bss`, with no initial value kept in flash.
 static DEADLINES_B: Exclusive<Deadlines> = Exclusive(UnsafeCell::new(Deadlines::zero()));
@@ -142,14 +124,7 @@ impl Deadlines {
             plan: Schedule::NONE,
             stale: 0,
             #[cfg(feature = "ascii")]
-            ascii: AsciiTimer {
-                on: false,
-                timeout: 0,
-                idle: 0,
-                end_due: false,
-                end: Deadline { low: 0, turns: 0 },
-                end_turns: 0,
-            },
+            ascii: AsciiTimer::OFF,
             #[cfg(feature = "reply-delay")]
             delay: (0, false),
         }
@@ -231,29 +206,6 @@ impl Deadlines {
     }
 }
 
-#[cfg(feature = "ascii")]
-impl AsciiTimer {
-    /// A compare interrupt (once a turn, or brought forward by [`FrameTimer::end_now`]).
-    #[inline(always)]
-    fn on_compare(&mut self) -> Passed {
-        if self.end_due {
-            if self.end_turns != 0 {
-                self.end_turns -= 1;
-                return Passed::Nothing;
-            }
-            self.end_due = false;
-            return Passed::End;
-        }
-        if self.timeout != 0 && self.idle < self.timeout {
-            self.idle += 1;
-            if self.idle == self.timeout {
-                return Passed::Gap;
-            }
-        }
-        Passed::Nothing
-    }
-}
-
 /// Sets the deadlines of unit `U` from now, outside the receive interrupt.
 #[inline(never)]
 fn set_now<U: Unit>() {
@@ -309,37 +261,6 @@ impl<U: Unit> FrameTimer<U> {
     /// disabled.
     pub(crate) fn restart(&mut self) {
         set_now::<U>();
-    }
-
-    /// ASCII framing (feature `ascii`) with an inter-character timeout of `timeout` turns
-    /// (0: none), or RTU; `end`: from a character's receive flag to its end on the line.
-    /// Interrupts must be disabled.
-    #[cfg(feature = "ascii")]
-    pub(crate) fn set_ascii(&mut self, on: bool, timeout: u16, end: Deadline) {
-        // SAFETY: called with interrupts disabled (the slave's start and its settings switch).
-        unsafe {
-            U::deadlines().with(|d| d.ascii = AsciiTimer { on, timeout, idle: 0, end_due: false, end, end_turns: 0 })
-        }
-    }
-
-    /// ASCII: a frame's outcome is due (its LF came, or a `:` dropped it): the compare
-    /// interrupt reports [`Passed::End`] once the character just received has left the line
-    /// (its receive flag came half a bit before its end, or one and a half with two stop
-    /// bits), within two ticks after that, so that a reply never starts under its stop bits.
-    /// A compare flag already set is noted, as [`Deadlines::set`] notes it. Only from the
-    /// receive interrupt.
-    #[cfg(feature = "ascii")]
-    #[inline(always)]
-    pub(crate) fn end_now(&mut self) {
-        // SAFETY: called from the receive interrupt handler, with interrupts disabled.
-        unsafe {
-            U::deadlines().with(|d| {
-                U::OCR.write(TCNT0.read().wrapping_add(d.ascii.end.low));
-                d.stale = TIFR0.read();
-                d.ascii.end_turns = d.ascii.end.turns;
-                d.ascii.end_due = true;
-            })
-        }
     }
 
     /// Called at T3.5 from the compare interrupt: [`Passed::Delayed`] comes `ticks` (≥ 1)

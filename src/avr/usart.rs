@@ -6,8 +6,8 @@ use core::arch::asm;
 
 use super::chip::CHIP;
 use super::reg::Reg;
-use crate::config::{Config, Parity, StopBits};
-use crate::framer::UartError;
+use crate::link::config::{Config, Parity, StopBits};
+use crate::link::framer::UartError;
 
 const RXC0: u8 = 1 << 7;
 const TXC0: u8 = 1 << 6;

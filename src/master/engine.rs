@@ -12,11 +12,17 @@
 //! The AVR layer forwards its interrupts here as the slave's does: characters and damage
 //! to the shared [`Framer`], Timer0's silences, the millisecond clock, the end of the
 //! request on the wire. Host tests script the same calls.
+//!
+//! In ASCII framing (feature `ascii`) the states are the same; what differs, the request's
+//! LRC and characters, the receiver's events and when the line is free, is in `ascii`.
 
 use super::reply::{Reply, Verdict};
 use super::request::{seal, Expect, Request};
 use crate::error::Error;
-use crate::framer::{FrameError, Framer, UartError, MAX_FRAME};
+use crate::link::framer::{FrameError, Framer, UartError, MAX_FRAME};
+
+#[cfg(feature = "ascii")]
+mod ascii;
 
 /// How long the master waits, and how often it tries again.
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
@@ -77,7 +83,9 @@ pub struct Counters {
     /// Frames dropped for a bad CRC (or LRC).
     pub crc_errors: u16,
     /// Frames dropped for a gap over T1.5, a parity, framing or overrun error, or a length
-    /// under 4 or over 256 bytes.
+    /// under 4 or over 256 bytes; in ASCII framing also for a character that is not a hex
+    /// digit, an odd number of them, the inter-character timeout inside a frame, or a
+    /// frame a `:` cut short.
     pub malformed: u16,
     /// Good frames that were no answer: from another slave, not answering the request,
     /// or with no request waiting.
@@ -236,14 +244,40 @@ impl<const N: usize> Engine<N> {
         Ok(self.send_if_quiet())
     }
 
-    /// Appends the CRC to the request [`Engine::begin`] built.
+    /// Appends the CRC (in ASCII framing the LRC) to the request [`Engine::begin`] built.
     pub fn seal(&mut self) {
+        #[cfg(feature = "ascii")]
+        if self.framer.is_ascii() {
+            return self.seal_lrc();
+        }
         self.request_len = seal(&mut self.request, self.request_len);
+    }
+
+    /// True when a request may go out: T3.5 of silence has passed (in ASCII framing, the
+    /// receiver is outside a frame).
+    #[inline(always)]
+    fn line_free(&self) -> bool {
+        #[cfg(feature = "ascii")]
+        if self.framer.is_ascii() {
+            return self.ascii_line_free();
+        }
+        self.quiet
+    }
+
+    /// True when the frame just dropped was cut short by a `:` that started the next one
+    /// (ASCII framing): a fragment, which ends no attempt (the reply may be the frame that
+    /// follows). Never in RTU.
+    #[inline(always)]
+    fn cut_short(&self) -> bool {
+        #[cfg(feature = "ascii")]
+        return self.framer.is_ascii() && self.framer.is_in_frame();
+        #[cfg(not(feature = "ascii"))]
+        false
     }
 
     /// From `Due`: sends when the line is quiet.
     fn send_if_quiet(&mut self) -> Action {
-        if self.state == State::Due && self.quiet {
+        if self.state == State::Due && self.line_free() {
             self.state = State::Sending;
             self.quiet = false;
             // What the line carries while the request goes out is the request itself (a
@@ -256,7 +290,8 @@ impl<const N: usize> Engine<N> {
         }
     }
 
-    /// The request's bytes as sent (address to CRC).
+    /// The request's bytes as sent (address to CRC; in ASCII framing address to LRC, before
+    /// they are written out in hex).
     pub fn request(&self) -> &[u8] {
         self.request.get(..self.request_len).unwrap_or_default()
     }
@@ -317,7 +352,7 @@ impl<const N: usize> Engine<N> {
             Some(Ok(len)) => self.on_frame(len),
             Some(Err(error)) => {
                 self.count(if error == FrameError::BadCrc { Count::CrcErrors } else { Count::Malformed });
-                if self.state == State::Waiting {
+                if self.state == State::Waiting && !self.cut_short() {
                     self.attempt_failed(Failure::BadReply);
                 }
             }
@@ -422,5 +457,29 @@ impl<const N: usize> Engine<N> {
             self.state = State::Idle;
             self.framer.release();
         }
+    }
+}
+
+impl<const N: usize> crate::link::Receive for Engine<N> {
+    #[inline(always)]
+    fn on_byte(&mut self, byte: u8) {
+        Engine::on_byte(self, byte);
+    }
+
+    #[inline(always)]
+    fn on_error(&mut self, error: UartError) {
+        Engine::on_error(self, error);
+    }
+
+    #[cfg(feature = "ascii")]
+    #[inline(always)]
+    fn is_ascii(&self) -> bool {
+        Engine::is_ascii(self)
+    }
+
+    #[cfg(feature = "ascii")]
+    #[inline(always)]
+    fn on_char(&mut self, c: u8) -> bool {
+        Engine::on_char(self, c)
     }
 }

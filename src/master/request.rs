@@ -2,9 +2,11 @@
 //! §6.17: each checked against the spec's limits before a byte is built, then written as
 //! an RTU frame (address, PDU, CRC) with what its reply must look like.
 
-use crate::crc::Crc16;
 use crate::error::Error;
-use crate::pdu::{MAX_READ_BITS, MAX_READ_REGISTERS, MAX_READ_WRITE_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS};
+use crate::limits::{
+    MAX_READ_BITS, MAX_READ_REGISTERS, MAX_READ_WRITE_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS,
+};
+use crate::link::crc::Crc16;
 
 /// What the master asks of a slave. Addresses are protocol addresses, counted from 0:
 /// holding register 40001 is address 0, coil 00001 address 0, input register 30005

@@ -33,7 +33,7 @@ fn parity_code(parity: Parity) -> u8 {
 }
 
 /// The record for `id` and `line` stored as number `sequence`, built from the layout
-/// documented in `src/settings/record.rs`: magic 0x4E, sequence number, id, baud (u32
+/// documented in `src/slave/settings/record.rs`: magic 0x4E, sequence number, id, baud (u32
 /// LE), parity code, stop bits, CRC.
 pub fn record(sequence: u8, id: u8, line: Line) -> Vec<u8> {
     let mut bytes = vec![0x4E, sequence, id];

@@ -488,6 +488,45 @@ static void post_step(wire_t *w)
 /* MCUSR, the same data address on every chip simulated here */
 #define R_MCUSR 0x54
 
+/* MCUSR's flags are set by the resets alone: a write clears the flags written as zero
+ * and sets none (simavr keeps whatever is written). A program overrunning its stack into
+ * the I/O registers (a bootloader jumping to erased flash, over and over) must not fake
+ * a reset cause. */
+static void mcusr_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
+{
+	(void)param;
+	avr->data[addr] &= v;
+}
+
+/* EEARH has as many bits as the EEPROM needs (two on the 328P); the others read as zero.
+ * simavr keeps the whole byte and logs every read beyond the EEPROM. */
+static void eearh_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
+{
+	(void)param;
+	avr->data[addr] = v & (uint8_t)(avr->e2end >> 8);
+}
+
+/* A stack pointer decremented past 0 (a program pushing without end: a bootloader jumping
+ * to erased flash again and again, its return address left on the stack each time) wraps
+ * on the chip into addresses with no memory, whose writes are lost, and comes down into
+ * SRAM again. simavr stops the core at the first such write. Here it wraps to RAMEND at
+ * once: the same writes, sooner. (Every RAMEND here ends in 0xFF, so no program setting SP
+ * high byte first passes through a value above it.) A push of two or three bytes from SP 0
+ * still stops the core. */
+static void sph_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
+{
+	(void)param;
+	avr->data[addr] = v;
+	uint32_t sp = avr->data[R_SPL] | (uint32_t)v << 8;
+	if (sp > avr->ramend) {
+		sp = (sp + avr->ramend + 1) & 0xFFFF;
+		while (sp > avr->ramend)
+			sp -= avr->ramend + 1;
+		avr->data[R_SPL] = (uint8_t)sp;
+		avr->data[R_SPH] = (uint8_t)(sp >> 8);
+	}
+}
+
 /* simavr enables every transmitter at reset "to allow printf"; the chip does not. */
 static void uarts_off(avr_t *avr)
 {
@@ -684,6 +723,11 @@ uno_shim_t *uno_new(const char *path, const char *mcu, int usart, uint16_t base,
 
 	for (int i = 0; i < avr->interrupts.vector_count; i++)
 		avr_irq_register_notify(&avr->interrupts.vector[i]->irq[AVR_INT_IRQ_RUNNING], isr_running_irq, s);
+	avr_register_io_write(avr, R_MCUSR, mcusr_write, NULL);
+	avr_register_io_write(avr, R_SPH, sph_write, NULL);
+	for (avr_io_t *io = avr->io_port; io; io = io->next)
+		if (!strcmp(io->kind, "eeprom") && ((avr_eeprom_t *)io)->r_eearh)
+			avr_register_io_write(avr, ((avr_eeprom_t *)io)->r_eearh, eearh_write, NULL);
 
 	free(f->flash);
 	free(f->eeprom);

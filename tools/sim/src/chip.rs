@@ -1,11 +1,14 @@
 //! The chips the simulator runs and what differs between them, as data: one table row per chip
-//! (USART register blocks, interrupt vector numbers, the interrupt response time).
-//!
-//! Sources: avr-libc's `io*.h` (register addresses, `__vector_N` numbers), the data sheets'
-//! "Interrupt Response Time" sections, and simavr 1.6's cores (checked to agree).
+//! (USART register blocks, interrupt vector numbers, the interrupt response time), read from
+//! the firmware's own description of its chips, `chips/chips.txt` (sources there).
 
 use std::fmt;
 use std::str::FromStr;
+use std::sync::OnceLock;
+
+#[allow(dead_code)] // the firmware's build reads the rest of each chip's facts
+#[path = "../../../chips/table.rs"]
+mod table;
 
 /// A microcontroller the simulator can run, named as avr-gcc's `-mmcu` names it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -64,138 +67,85 @@ impl UsartRegs {
         UsartRegs { ucsra: base, ucsrb: base + 1, ucsrc: base + 2, ubrrl: base + 4, ubrrh: base + 5, udr: base + 6 }
     }
 
-    /// USARTn's block (0-3) at its address on every chip here, whether or not a chip has it:
-    /// USART0 0xC0, USART1 0xC8, USART2 0xD0, USART3 0x130.
-    pub const fn usart(n: u8) -> Option<UsartRegs> {
-        match n {
-            0 => Some(UsartRegs::at(0xC0)),
-            1 => Some(UsartRegs::at(0xC8)),
-            2 => Some(UsartRegs::at(0xD0)),
-            3 => Some(UsartRegs::at(0x130)),
-            _ => None,
-        }
+    /// USARTn's block at its address on every chip here that has it, whether or not a given
+    /// chip has it: USART0 0xC0, USART1 0xC8, USART2 0xD0, USART3 0x130.
+    pub fn usart(n: u8) -> Option<UsartRegs> {
+        table()
+            .iter()
+            .flat_map(|info| &info.facts.usarts)
+            .find(|usart| usart.number == n)
+            .map(|u| UsartRegs::at(u.block))
     }
 }
 
 /// One chip's facts.
 struct Info {
     chip: Chip,
-    name: &'static str,
-    /// Vector numbers of TIMER0_COMPA, TIMER0_COMPB and TIMER0_OVF.
-    timer0: (u8, u8, u8),
-    /// (USART number, vectors RX, UDRE, TX), first the one a board's Modbus wire uses by default.
-    usarts: &'static [(u8, [u8; 3])],
-    /// Bytes of a return address (the program counter pushed by CALL and interrupts).
-    pc_bytes: u8,
-    /// ADC channels the multiplexer can select (single-ended): 0..adc.
-    adc: u8,
-    /// Ports B, C, D wired as on the Uno (Arduino pins 0-19).
-    uno_pins: bool,
+    /// Its block of `chips/chips.txt`.
+    facts: table::Facts,
 }
 
-const MEGA_USARTS: &[(u8, [u8; 3])] = &[(0, [25, 26, 27]), (1, [36, 37, 38]), (2, [51, 52, 53]), (3, [54, 55, 56])];
-
-/// Every chip, in the order of [`Chip::ALL`].
-const TABLE: [Info; 5] = [
-    Info {
-        chip: Chip::Atmega328p,
-        name: "atmega328p",
-        timer0: (14, 15, 16),
-        usarts: &[(0, [18, 19, 20])],
-        pc_bytes: 2,
-        adc: 8,
-        uno_pins: true,
-    },
-    Info {
-        chip: Chip::Atmega168,
-        name: "atmega168",
-        timer0: (14, 15, 16),
-        usarts: &[(0, [18, 19, 20])],
-        pc_bytes: 2,
-        adc: 8,
-        uno_pins: true,
-    },
-    Info {
-        chip: Chip::Atmega32u4,
-        name: "atmega32u4",
-        timer0: (21, 22, 23),
-        usarts: &[(1, [25, 26, 27])],
-        pc_bytes: 2,
-        adc: 14,
-        uno_pins: false,
-    },
-    Info {
-        chip: Chip::Atmega1280,
-        name: "atmega1280",
-        timer0: (21, 22, 23),
-        usarts: MEGA_USARTS,
-        pc_bytes: 2,
-        adc: 16,
-        uno_pins: false,
-    },
-    Info {
-        chip: Chip::Atmega2560,
-        name: "atmega2560",
-        timer0: (21, 22, 23),
-        usarts: MEGA_USARTS,
-        pc_bytes: 3,
-        adc: 16,
-        uno_pins: false,
-    },
-];
+/// Every chip, in the order of [`Chip::ALL`], which is the order of `chips/chips.txt`.
+fn table() -> &'static [Info] {
+    static TABLE: OnceLock<Vec<Info>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        let chips = table::parse(include_str!("../../../chips/chips.txt")).unwrap_or_else(|error| panic!("{error}"));
+        assert_eq!(chips.len(), Chip::ALL.len(), "chips/chips.txt describes a chip Chip::ALL lacks, or the reverse");
+        Chip::ALL.into_iter().zip(chips).map(|(chip, facts)| Info { chip, facts }).collect()
+    })
+}
 
 impl Chip {
     /// Every supported chip.
     pub const ALL: [Chip; 5] =
         [Chip::Atmega328p, Chip::Atmega168, Chip::Atmega32u4, Chip::Atmega1280, Chip::Atmega2560];
 
-    fn info(self) -> &'static Info {
-        // TABLE is in the order of ALL, and ALL lists every variant.
-        &TABLE[Chip::ALL.iter().position(|&c| c == self).unwrap_or(0)]
+    fn info(self) -> &'static table::Facts {
+        // The table is in the order of ALL, and ALL lists every variant.
+        &table()[Chip::ALL.iter().position(|&c| c == self).unwrap_or(0)].facts
     }
 
     /// avr-gcc's name for it (`-mmcu`), also simavr's core name: `"atmega2560"`.
     pub fn name(self) -> &'static str {
-        self.info().name
+        &self.info().cpu
     }
 
     /// The chip avr-gcc calls `name` (any case), if supported.
     pub fn from_name(name: &str) -> Option<Chip> {
-        TABLE.iter().find(|i| i.name.eq_ignore_ascii_case(name)).map(|i| i.chip)
+        table().iter().find(|i| i.facts.cpu.eq_ignore_ascii_case(name)).map(|i| i.chip)
     }
 
     /// Its USARTs' numbers, the default one first: `[0]`, `[1]` (32U4), `[0, 1, 2, 3]` (Megas).
     pub fn usarts(self) -> Vec<u8> {
-        self.info().usarts.iter().map(|u| u.0).collect()
+        let default = self.default_usart();
+        let others = self.info().usarts.iter().map(|u| u.number).filter(|&n| n != default);
+        std::iter::once(default).chain(others).collect()
     }
 
     /// The USART a board's serial pins use unless told otherwise: USART0, or USART1 on the 32U4.
     pub fn default_usart(self) -> u8 {
-        self.info().usarts[0].0
+        self.info().pins_0_1().number
     }
 
     /// Whether it has USARTn.
     pub fn has_usart(self, n: u8) -> bool {
-        self.info().usarts.iter().any(|u| u.0 == n)
+        self.info().usarts.iter().any(|u| u.number == n)
     }
 
     /// USARTn's register addresses, if the chip has it.
     pub fn usart_regs(self, n: u8) -> Option<UsartRegs> {
-        if self.has_usart(n) {
-            UsartRegs::usart(n)
-        } else {
-            None
-        }
+        self.info().usarts.iter().find(|u| u.number == n).map(|u| UsartRegs::at(u.block))
     }
 
     /// Timer0's and USARTn's vector numbers, if the chip has USARTn.
     pub fn vectors(self, usart: u8) -> Option<Vectors> {
         let info = self.info();
-        let &(_, [rx, udre, tx]) = info.usarts.iter().find(|u| u.0 == usart)?;
+        let [rx, udre, tx] = info.usarts.iter().find(|u| u.number == usart)?.vectors;
+        let [compa, compb, ovf] = info.timer0;
         Some(Vectors {
-            timer0_compa: info.timer0.0,
-            timer0_compb: info.timer0.1,
-            timer0_ovf: info.timer0.2,
+            timer0_compa: compa,
+            timer0_compb: compb,
+            timer0_ovf: ovf,
             usart_rx: rx,
             usart_udre: udre,
             usart_tx: tx,
@@ -204,7 +154,7 @@ impl Chip {
 
     /// Bytes a CALL or an interrupt pushes: 2, or 3 with the 2560's 22-bit program counter.
     pub fn return_address_bytes(self) -> u8 {
-        self.info().pc_bytes
+        self.info().return_address_bytes
     }
 
     /// Cycles from an interrupt being taken to the first instruction at its vector: 4 with a
@@ -216,7 +166,7 @@ impl Chip {
     /// avr-gcc builds it as `avr51` (2-byte return addresses) and simavr's core pops two bytes,
     /// so the 1280 is counted like the 328P (the early ATmega644 data sheet had the same slip).
     pub fn interrupt_response_cycles(self) -> u64 {
-        2 + u64::from(self.info().pc_bytes)
+        2 + u64::from(self.info().return_address_bytes)
     }
 
     /// Cycles an interrupt that wakes the CPU from sleep adds on top of the response: as many
@@ -251,7 +201,7 @@ impl FromStr for Chip {
 
     fn from_str(s: &str) -> Result<Chip, String> {
         Chip::from_name(s).ok_or_else(|| {
-            let names: Vec<&str> = TABLE.iter().map(|i| i.name).collect();
+            let names: Vec<&str> = table().iter().map(|i| i.facts.cpu.as_str()).collect();
             format!("unsupported chip `{s}` (supported: {})", names.join(", "))
         })
     }
@@ -263,9 +213,11 @@ mod tests {
 
     #[test]
     fn table_matches_all() {
-        for (info, chip) in TABLE.iter().zip(Chip::ALL) {
+        for (info, chip) in table().iter().zip(Chip::ALL) {
             assert_eq!(info.chip, chip);
-            assert_eq!(Chip::from_name(info.name), Some(chip));
+            // chips/chips.txt names each chip as its variant does: Atmega2560 is atmega2560.
+            assert_eq!(format!("{chip:?}").to_lowercase(), info.facts.cpu);
+            assert_eq!(Chip::from_name(&info.facts.cpu), Some(chip));
             assert_eq!(chip.name().parse::<Chip>(), Ok(chip));
         }
         assert_eq!(Chip::from_name("ATmega2560"), Some(Chip::Atmega2560));

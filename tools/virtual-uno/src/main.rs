@@ -206,7 +206,7 @@ fn run(args: &args::Args) -> Result<(), String> {
         sources.push(CommandSource::new("stdin", File::from(fd)));
     }
 
-    let mut wire = Wire::default();
+    let mut wire = Wire::new(usart);
     let mut clock = Clock::new(uno.now());
     let mut serial: Option<Settings> = None;
     let mut pins = String::new();
@@ -248,7 +248,11 @@ fn run(args: &args::Args) -> Result<(), String> {
             let n = pty.read(&mut buf).map_err(|e| format!("reading the pty: {e}"))?;
             if n > 0 {
                 let master = pty.master_settings().map_err(|e| format!("reading the pty's settings: {e}"))?;
-                wire.receive(&mut uno, &buf[..n], master).map_err(|e| e.to_string())?;
+                match wire.receive(&mut uno, &buf[..n], master).map_err(|e| e.to_string())? {
+                    Some(report) if report.is_trouble() => eprintln!("virtual-uno: {report}"),
+                    Some(report) => println!("line: {report}"),
+                    None => {}
+                }
             }
         }
         let open: Vec<usize> = (0..sources.len()).filter(|&i| sources[i].open).collect();

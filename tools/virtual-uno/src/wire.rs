@@ -1,24 +1,27 @@
-//! The serial wire between the pty and the simulated USART (USART0 on the Uno), in simulated time.
+//! A serial wire between a pty and one of the simulated chip's USARTs (USART0 on the Uno), in
+//! simulated time.
 //!
-//! Master to Uno: each byte's stop bit ends one character time after the previous byte's, or
+//! Master to chip: each byte's stop bit ends one character time after the previous byte's, or
 //! after the byte reached us if that is later (the simulated USART flags it half a bit before,
 //! one and a half bits with two stop bits, as the chip's does); a master whose line settings
 //! differ from the firmware's delivers its bytes with the framing or parity error a real UART
 //! would see.
-//! Uno to master: a byte goes to the pty once its stop bit has ended.
+//! Chip to master: a byte goes to the pty once its stop bit has ended.
 
 use std::collections::VecDeque;
+use std::fmt;
 use std::io;
 
-use uno_sim::{Error, TxByte, Uno};
+use uno_sim::{Error, LineError, TxByte, Uno};
 
 use crate::line::{receive_error, Settings};
 use crate::pty::Pty;
 
-/// State of both directions.
-#[derive(Default)]
+/// State of both directions of the wire on one USART.
 pub struct Wire {
-    /// End cycle of the last byte scheduled towards the Uno.
+    /// The USART: the chip's wire or its second wire (`uno_sim::Options::second_usart`).
+    usart: u8,
+    /// End cycle of the last byte scheduled towards the chip.
     last_rx_end: u64,
     /// Firmware bytes not yet due on the pty.
     tx: VecDeque<TxByte>,
@@ -28,28 +31,81 @@ pub struct Wire {
     tx_count: u64,
 }
 
+/// What the master's line settings mean against the firmware's, told once per change.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LineReport {
+    /// The firmware's USART is off: the master's bytes are lost.
+    Off {
+        /// The master's settings.
+        master: Settings,
+        /// The USART.
+        usart: u8,
+    },
+    /// They differ: the bytes arrive with this error.
+    Mismatch {
+        /// The master's settings.
+        master: Settings,
+        /// The firmware's.
+        firmware: Settings,
+        /// What the firmware's USART flags on each byte.
+        error: LineError,
+    },
+    /// They agree.
+    Match {
+        /// The master's settings.
+        master: Settings,
+        /// The firmware's.
+        firmware: Settings,
+    },
+}
+
+impl LineReport {
+    /// Whether the master gets no answer because of it.
+    pub fn is_trouble(&self) -> bool {
+        !matches!(self, LineReport::Match { .. })
+    }
+}
+
+impl fmt::Display for LineReport {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            LineReport::Off { master, usart } => {
+                write!(f, "the master sends at {master}, but the firmware's USART{usart} is off")
+            }
+            LineReport::Mismatch { master, firmware, error } => write!(
+                f,
+                "line settings differ: master {master}, firmware {firmware}; its bytes arrive with {} errors",
+                match error {
+                    LineError::Framing => "framing",
+                    LineError::Parity => "parity",
+                }
+            ),
+            LineReport::Match { master, firmware } => write!(f, "master {master} matches the firmware ({firmware})"),
+        }
+    }
+}
+
 impl Wire {
-    /// Schedules bytes the master just wrote, sent with `master` settings.
-    pub fn receive(&mut self, uno: &mut Uno, bytes: &[u8], master: Settings) -> Result<(), Error> {
-        let firmware = uno.serial_config();
+    /// The wire on USART`usart`, which must be the chip's wire or its second wire.
+    pub fn new(usart: u8) -> Wire {
+        Wire { usart, last_rx_end: 0, tx: VecDeque::new(), reported: None, rx_count: 0, tx_count: 0 }
+    }
+
+    /// Schedules bytes the master just wrote, sent with `master` settings. Returns what the
+    /// settings mean, when that changed.
+    pub fn receive(&mut self, uno: &mut Uno, bytes: &[u8], master: Settings) -> Result<Option<LineReport>, Error> {
+        let usart = self.usart;
+        let firmware = uno.serial_config_on(usart);
         let error = firmware.as_ref().and_then(|fw| receive_error(&master, fw));
         let fw_settings = firmware.as_ref().map(Settings::of_firmware);
+        let mut report = None;
         if self.reported != Some((master, fw_settings)) {
             self.reported = Some((master, fw_settings));
-            match (fw_settings, error) {
-                (None, _) => eprintln!(
-                    "virtual-uno: the master sends at {master}, but the firmware's USART{} is off",
-                    uno.usart()
-                ),
-                (Some(fw), Some(e)) => eprintln!(
-                    "virtual-uno: line settings differ: master {master}, firmware {fw}; its bytes arrive with {} errors",
-                    match e {
-                        uno_sim::LineError::Framing => "framing",
-                        uno_sim::LineError::Parity => "parity",
-                    }
-                ),
-                (Some(fw), None) => println!("line: master {master} matches the firmware ({fw})"),
-            }
+            report = Some(match (fw_settings, error) {
+                (None, _) => LineReport::Off { master, usart },
+                (Some(firmware), Some(error)) => LineReport::Mismatch { master, firmware, error },
+                (Some(firmware), None) => LineReport::Match { master, firmware },
+            });
         }
         // On a matching line the firmware's own character time is the wire's; otherwise the master's.
         let char_cycles = match (&firmware, error) {
@@ -58,23 +114,23 @@ impl Wire {
         };
         // The USART flags a byte before its end: never before now, however short the master's
         // characters are beside the firmware's bits.
-        let lead = uno.rx_flag_lead().unwrap_or(0);
+        let lead = uno.rx_flag_lead_on(usart).unwrap_or(0);
         for &byte in bytes {
             let end = (self.last_rx_end.max(uno.now()) + char_cycles).max(uno.now() + lead);
             match error {
-                None => uno.send_byte(byte, end)?,
-                Some(e) => uno.send_byte_with_error(byte, end, e)?,
+                None => uno.send_byte_on(usart, byte, end)?,
+                Some(e) => uno.send_byte_with_error_on(usart, byte, end, e)?,
             }
             self.last_rx_end = end;
         }
         self.rx_count += bytes.len() as u64;
-        Ok(())
+        Ok(report)
     }
 
     /// Writes every firmware byte whose stop bit has ended to the pty. Bytes nobody reads are
     /// dropped once the pty's buffer is full, as a wire would lose them.
     pub fn transmit(&mut self, uno: &mut Uno, pty: &mut Pty) -> io::Result<()> {
-        self.tx.extend(uno.take_tx());
+        self.tx.extend(uno.take_tx_on(self.usart).map_err(io::Error::other)?);
         let now = uno.now();
         let due = self.tx.iter().take_while(|t| t.end_cycle <= now).count();
         if due > 0 {

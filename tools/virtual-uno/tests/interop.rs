@@ -661,6 +661,27 @@ fn opening_the_port_resets_the_board_into_optiboot_unless_it_is_open_already() {
     assert_eq!(uno.port_resets(), 3);
 }
 
+/// An Uno fresh from the factory with optiboot and nothing else: optiboot leaves for the
+/// erased program, which runs into optiboot again, over and over (tools/sim's boot tests
+/// say why nothing else happens on the chip). For 3 s nothing resets it and nothing sets up
+/// its USART; flashed through the port, the program starts and answers.
+#[test]
+fn an_erased_board_neither_resets_nor_sets_up_its_usart_until_flashed() {
+    let _one = serialise();
+    let state = State::fresh("erased");
+    let uno = VirtualUno::board(&state, None);
+    assert!(uno.log().contains("program: none (flash erased)"), "{}", uno.log());
+    thread::sleep(Duration::from_secs(3));
+    let log = uno.log();
+    assert!(!log.contains("reset: watchdog") && !log.contains("serial:"), "{log}");
+    assert_eq!(log.lines().filter(|l| l.starts_with("reset:")).count(), 1, "the power-on alone:\n{log}");
+
+    let flashed = avrdude(&uno, &firmware("uno_slave"));
+    let _port = hold_port(&uno, "19200 8E1");
+    let out = mbpoll(&uno, "-a 1 -t 4 -r 1 -c 2", "");
+    assert_eq!(mbpoll_values(&out), [500, 512], "{}", transcript(&(flashed + &out), &uno));
+}
+
 #[test]
 fn configurable_keeps_its_line_settings_in_eeprom_across_a_reflash_and_a_restart() {
     let _one = serialise();

@@ -6,19 +6,26 @@
 //!
 //! Needs the firmware: `make firmware`, or `cargo uno --example lab_lights --example
 //! poll_four --example minimal --features examples` and `cargo uno --example lab_control
-//! --features examples,master`.
+//! --features examples,master`; and for the gateway `make chips` (examples/gateway.rs for the
+//! ATmega2560), mbpoll and pymodbus (`$INTEROP_PYTHON`, else Debian's python3).
 
 use std::io::Read;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use uno_sim::built::{built, target_dir};
+use uno_sim::built::{built, target_dir, workspace};
 
 /// `$CARGO_TARGET_DIR` (or `<workspace>/target`)`/avr-atmega328p/release/examples/NAME.elf`;
 /// missing, it skips these tests or fails them under `make` and in CI (`uno_sim::built`).
 fn firmware(name: &str) -> String {
     let elf = target_dir().join("avr-atmega328p/release/examples").join(format!("{name}.elf"));
     built(elf, "make firmware").display().to_string()
+}
+
+/// `<target>/chips/BUILD/avr-none/release/examples/NAME.elf`, as `make chips` builds it.
+fn chip_firmware(build: &str, name: &str) -> String {
+    let elf = target_dir().join("chips").join(build).join("avr-none/release/examples").join(format!("{name}.elf"));
+    built(elf, "make chips").display().to_string()
 }
 
 /// One printed line: simulated seconds and the text after the time stamp.
@@ -332,4 +339,131 @@ fn a_board_holding_de_high_garbles_the_others() {
     // Both of the master's frames garbled whole: the lamps (10 characters), the buttons (8).
     assert!(run.summary("DE high over another's characters") >= 18, "{out}");
     assert!(!run.frames().iter().any(|f| f.1 == "box"), "the box heard a garbled request:\n{out}");
+}
+
+/// `mbpoll -m rtu -b 19200 -P even -o 1 -1 ARGS PORT`: its output, after the command line.
+fn mbpoll_on(port: &Path, args: &str) -> String {
+    let out = Command::new("mbpoll")
+        .args("-m rtu -b 19200 -P even -o 1 -1".split(' '))
+        .args(args.split_whitespace())
+        .arg(port)
+        .output()
+        .expect("mbpoll runs (apt-get install mbpoll)");
+    format!("$ mbpoll {args}\n{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr))
+}
+
+/// The values of mbpoll's `[ref]: value` lines.
+fn mbpoll_values(out: &str) -> Vec<i64> {
+    out.lines().filter(|l| l.starts_with('[')).filter_map(|l| l.split(':').nth(1)?.trim().parse().ok()).collect()
+}
+
+/// The numbers of the flat JSON array `"key":[...]` in `json` (`null` as -1).
+fn json_numbers(json: &str, key: &str) -> Vec<i64> {
+    let start = json.find(&format!("\"{key}\":[")).unwrap_or_else(|| panic!("no `{key}` in {json}")) + key.len() + 4;
+    let body = &json[start..start + json[start..].find(']').unwrap()];
+    body.split(',').filter(|v| !v.is_empty()).map(|v| if v == "null" { -1 } else { v.parse().unwrap() }).collect()
+}
+
+/// The Mega gateway (examples/gateway.rs as `make chips` builds it): its master on USART1 on
+/// the line, DE on PB7 (the Mega's pin 13), polls a field device, pymodbus's serial server
+/// (`demo/pymodbus_server.py`, unit 1: holding registers 0x1000 + i) on a pty of the line;
+/// its slave on USART0, on a pty of its own, is polled by mbpoll meanwhile. mbpoll reads
+/// 40001-40010 as pymodbus holds them, and the gateway's answer counter (30001) goes up
+/// between mbpoll's reads while its failure counter (30002) stands still. Paced to the wall
+/// clock: mbpoll and pymodbus time out in wall time.
+#[test]
+fn mbpoll_reads_the_gateways_mirror_of_a_pymodbus_field_device_while_it_polls() {
+    let gateway = chip_firmware("atmega2560-gateway", "gateway");
+    let tmp = std::env::temp_dir();
+    let (scada, field) = (
+        tmp.join(format!("vline-{}-gateway", std::process::id())),
+        tmp.join(format!("vline-{}-field", std::process::id())),
+    );
+    let mut child = Command::new(env!("CARGO_BIN_EXE_virtual-line"))
+        .args(["--no-stdin", "--until", "120"])
+        .args(["--board", &format!("gw={gateway}"), "usart=1", "de=PB7"])
+        .arg(format!("usart0=pty:{}", scada.display()))
+        .args(["--pty", &format!("field={}", field.display())])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("virtual-line starts");
+    let mut stdout = child.stdout.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = stdout.read_to_string(&mut s);
+        s
+    });
+    let started = Instant::now();
+    while (std::fs::read_link(&scada).is_err() || std::fs::read_link(&field).is_err())
+        && started.elapsed() < Duration::from_secs(10)
+    {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let python = std::env::var("INTEROP_PYTHON").unwrap_or_else(|_| "/usr/bin/python3".into());
+    let server = Command::new(&python)
+        .arg(workspace().join("demo/pymodbus_server.py"))
+        .arg(&field)
+        .args(["--seconds", "12"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("pymodbus_server.py starts");
+
+    // The gateway's first answer from the field device (its requests time out until pymodbus
+    // has opened the port), then three rounds of reads.
+    let mut transcript = String::new();
+    let deadline = Instant::now() + Duration::from_secs(8);
+    loop {
+        let out = mbpoll_on(&scada, "-a 1 -t 3 -r 1 -c 3");
+        transcript += &out;
+        if mbpoll_values(&out).first().is_some_and(|&answers| answers > 0) || Instant::now() > deadline {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let mut rounds = Vec::new();
+    for _ in 0..3 {
+        let counters = mbpoll_on(&scada, "-a 1 -t 3 -r 1 -c 3");
+        let holding = mbpoll_on(&scada, "-a 1 -t 4 -r 1 -c 10");
+        rounds.push((mbpoll_values(&counters), mbpoll_values(&holding)));
+        transcript += &(counters + &holding);
+        std::thread::sleep(Duration::from_millis(700));
+    }
+    let server = server.wait_with_output().expect("pymodbus_server.py ends");
+    let served = String::from_utf8_lossy(&server.stdout).into_owned();
+    nix::sys::signal::kill(nix::unistd::Pid::from_raw(child.id() as i32), nix::sys::signal::Signal::SIGTERM).unwrap();
+    let _ = child.wait();
+    let out = reader.join().unwrap();
+    let transcript = format!(
+        "{transcript}--- pymodbus_server.py ---\n{served}{}\n--- virtual-line ---\n{out}",
+        String::from_utf8_lossy(&server.stderr)
+    );
+    assert!(server.status.success(), "pymodbus_server.py failed (python: {python}):\n{transcript}");
+    let json = served.lines().find(|l| l.starts_with("{\"")).unwrap_or_else(|| panic!("no JSON:\n{transcript}"));
+    let held = &json_numbers(json, "unit1_holding")[..10];
+
+    // Every round: all ten mirrored values are pymodbus's, and the counters were answered.
+    for (i, (counters, holding)) in rounds.iter().enumerate() {
+        assert_eq!(counters.len(), 3, "round {i}: 30001-30003 unanswered:\n{transcript}");
+        assert_eq!(holding[..], held[..], "round {i}: 40001-40010 are not the field device's:\n{transcript}");
+    }
+    // The gateway kept polling between mbpoll's reads (every 100 ms of simulated time; the
+    // reads are 1.4 s of wall time apart, however slowly a busy machine simulates), and none
+    // of those polls failed.
+    let (first, last) = (&rounds[0].0, &rounds[2].0);
+    assert!(last[0].wrapping_sub(first[0]) & 0xFFFF >= 1, "answers {first:?} -> {last:?}:\n{transcript}");
+    assert_eq!(last[1], first[1], "field failures while mbpoll read:\n{transcript}");
+
+    // The line: the gateway's reads of 10 registers and pymodbus's answers, clean.
+    assert!(out.contains("frame from gw: 01 03 00 00 00 0A C5 CD"), "{transcript}");
+    assert!(out.contains("frame from field: 01 03 14 10 00 10 01 10 02"), "{transcript}");
+    assert!(out.contains("gw serial: 19200 8E1 (USART0, on its pty)"), "{transcript}");
+    assert!(out.contains("collisions: 0"), "{transcript}");
+    assert!(out.contains("cut by DE: 0; sent with DE low: 0"), "{transcript}");
+    assert!(out.contains("DE of gw (PB7): high"), "{transcript}");
+    let side = out.lines().find(|l| l.contains("gw USART0 on its pty")).unwrap_or_else(|| panic!("{transcript}"));
+    assert!(!side.contains(" 0 bytes"), "{transcript}");
 }

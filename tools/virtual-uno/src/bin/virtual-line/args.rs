@@ -1,6 +1,7 @@
 //! Command-line options of `virtual-line`.
 
-use std::path::PathBuf;
+use std::fmt;
+use std::path::{Path, PathBuf};
 
 use uno_sim::{Chip, F_CPU};
 
@@ -25,8 +26,13 @@ SIGTERM): a summary line, each DE pin's timing, and the speed against real time.
 options:
   --board NAME=ELF [OPT...]  a simulated board; the chip is the one the ELF names. Its
                    options follow as separate words:
-                     de=PIN          Uno pin gating its transmitter (RS-485 DE, high = drive)
+                     de=PIN          the pin gating its transmitter (RS-485 DE, high =
+                                     drive): an Uno pin (13), or by port and bit (PB7,
+                                     a Mega's pin 13) on any chip
                      usart=N         the USART on the line (default: the chip's)
+                     usartN=pty:PATH USART N (another than the line's) on a pty of its
+                                     own, off the line, PATH a symlink to it: a Mega
+                                     gateway's other side for a master (one a board)
                      chip=NAME       override the chip the ELF names
                      pinN=low|high|z drive input pin N from the start (e.g. pin12=low)
                      watch=LIST      pins printed when they change: 4,5,6,7 or none
@@ -52,6 +58,43 @@ commands (stdin, --control or --at), one per line:
   at SECONDS COMMAND          run COMMAND at that simulated time
 ";
 
+/// The pin a board's `de=` names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DePin {
+    /// An Arduino Uno pin number (0-19), on the chips wired like the Uno.
+    Uno(u8),
+    /// A port and bit, `('B', 7)` for PB7, on any chip.
+    Port(char, u8),
+}
+
+impl DePin {
+    /// Its direction and level.
+    pub fn state(self, uno: &uno_sim::Uno) -> Result<uno_sim::PinState, uno_sim::Error> {
+        match self {
+            DePin::Uno(pin) => uno.pin(pin),
+            DePin::Port(port, bit) => uno.port_pin(port, bit),
+        }
+    }
+}
+
+impl fmt::Display for DePin {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            DePin::Uno(pin) => write!(f, "pin {pin}"),
+            DePin::Port(port, bit) => write!(f, "P{port}{bit}"),
+        }
+    }
+}
+
+/// A board's `usartN=pty:PATH`: a USART off the line, on a pty of its own.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SideArgs {
+    /// The USART.
+    pub usart: u8,
+    /// The symlink to the pty.
+    pub link: PathBuf,
+}
+
 /// One `--board`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BoardArgs {
@@ -64,7 +107,9 @@ pub struct BoardArgs {
     /// `usart=`.
     pub usart: Option<u8>,
     /// `de=`.
-    pub de: Option<u8>,
+    pub de: Option<DePin>,
+    /// `usartN=pty:PATH`.
+    pub side: Option<SideArgs>,
     /// `pinN=` presets, in order.
     pub initial: Vec<Command>,
     /// `watch=`.
@@ -199,6 +244,7 @@ fn parse_board(spec: &str) -> Result<BoardArgs, String> {
         chip: None,
         usart: None,
         de: None,
+        side: None,
         initial: Vec::new(),
         watch: DEFAULT_WATCH.to_vec(),
     })
@@ -208,7 +254,7 @@ fn board_option(board: &mut BoardArgs, opt: &str) -> Result<(), String> {
     let bad = |why: &str| format!("--board {}: option `{opt}`: {why}", board.name);
     let (key, value) = opt.split_once('=').ok_or_else(|| bad("expected KEY=VALUE"))?;
     match key {
-        "de" => board.de = Some(parse_pin(value).ok_or_else(|| bad("not an Uno pin (0-19)"))?),
+        "de" => board.de = Some(parse_de(value).ok_or_else(|| bad("not an Uno pin (0-19) nor a port pin (PB7)"))?),
         "usart" => board.usart = Some(value.parse().ok().filter(|&n| n <= 3).ok_or_else(|| bad("0-3"))?),
         "chip" => board.chip = Some(value.parse::<Chip>().map_err(|e| bad(&e.to_string()))?),
         "watch" if value == "none" || value.is_empty() => board.watch.clear(),
@@ -221,7 +267,15 @@ fn board_option(board: &mut BoardArgs, opt: &str) -> Result<(), String> {
         k if k.starts_with("pin") => {
             board.initial.push(Command::parse_pin_option(&format!("{}={value}", &k[3..])).map_err(|e| bad(&e))?);
         }
-        _ => return Err(bad("unknown (de, usart, chip, pinN, watch)")),
+        k if k.starts_with("usart") => {
+            let usart = k[5..].parse().ok().filter(|&n: &u8| n <= 3).ok_or_else(|| bad("usart0-usart3"))?;
+            let path = value.strip_prefix("pty:").filter(|p| !p.is_empty()).ok_or_else(|| bad("expected pty:PATH"))?;
+            if board.side.is_some() {
+                return Err(bad("one USART on a pty of its own per board"));
+            }
+            board.side = Some(SideArgs { usart, link: Path::new(path).to_owned() });
+        }
+        _ => return Err(bad("unknown (de, usart, usartN, chip, pinN, watch)")),
     }
     Ok(())
 }
@@ -230,6 +284,15 @@ fn parse_pin(text: &str) -> Option<u8> {
     match text.strip_prefix(['A', 'a']) {
         Some(n) => n.parse::<u8>().ok().filter(|&n| n <= 5).map(|n| uno_sim::A0 + n),
         None => text.parse::<u8>().ok().filter(|&n| n <= 19),
+    }
+}
+
+fn parse_de(text: &str) -> Option<DePin> {
+    match text.as_bytes() {
+        [b'P' | b'p', port, bit] if port.is_ascii_alphabetic() && (b'0'..=b'7').contains(bit) => {
+            Some(DePin::Port(port.to_ascii_uppercase() as char, bit - b'0'))
+        }
+        _ => parse_pin(text).map(DePin::Uno),
     }
 }
 
@@ -310,7 +373,7 @@ mod tests {
         ))
         .unwrap();
         assert_eq!(a.boards.len(), 2);
-        assert_eq!(a.boards[0].de, Some(10));
+        assert_eq!(a.boards[0].de, Some(DePin::Uno(10)));
         assert_eq!(a.boards[0].watch, DEFAULT_WATCH);
         assert_eq!(a.boards[1].initial, vec![Command::Pin(12, Some(false))]);
         assert_eq!(a.boards[1].watch, vec![4, 5]);
@@ -320,6 +383,20 @@ mod tests {
         assert_eq!(a.line.to_string(), "19200 8E1");
         assert!(parse(words("--board a=x.elf --board a=y.elf")).unwrap_err().unwrap().contains("two participants"));
         assert!(parse(words("--board a=x.elf frob=1")).is_err());
+    }
+
+    #[test]
+    fn a_gateway_with_de_by_port_and_a_usart_on_a_pty_of_its_own() {
+        let a = parse(words("--board gw=g.elf de=PB7 usart=1 usart0=pty:/tmp/ttyGW --pty field")).unwrap();
+        let gw = &a.boards[0];
+        assert_eq!((gw.de, gw.usart), (Some(DePin::Port('B', 7)), Some(1)));
+        assert_eq!(gw.side, Some(SideArgs { usart: 0, link: "/tmp/ttyGW".into() }));
+        assert_eq!(DePin::Port('B', 7).to_string(), "PB7");
+        let err = |s: &str| parse(words(s)).unwrap_err().unwrap();
+        assert!(err("--board gw=g.elf usart0=/tmp/x").contains("expected pty:PATH"));
+        assert!(err("--board gw=g.elf usart4=pty:/tmp/x").contains("usart0-usart3"));
+        assert!(err("--board gw=g.elf usart0=pty:/a usart2=pty:/b").contains("one USART"));
+        assert!(err("--board gw=g.elf de=PB8").contains("port pin"));
     }
 
     #[test]

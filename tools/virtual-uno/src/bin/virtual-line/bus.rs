@@ -26,10 +26,11 @@ use std::collections::VecDeque;
 
 use uno_sim::{Error, LineError, Uno, F_CPU};
 
-use crate::args::char_cycles;
+use crate::args::{char_cycles, DePin};
 use crate::control::Command;
 use crate::line::{receive_error, Settings};
 use crate::pty::{Link, Pty};
+use crate::side::Side;
 
 /// `[   1.234567] ` for a cycle.
 pub fn stamp(cycle: u64) -> String {
@@ -43,7 +44,9 @@ pub struct Board {
     /// The chip.
     pub uno: Uno,
     /// The DE pin, if any.
-    pub de: Option<u8>,
+    pub de: Option<DePin>,
+    /// A USART off the line, on a pty of its own.
+    pub side: Option<Side>,
     /// Watched pins.
     pub watch: Vec<u8>,
     pins_shown: String,
@@ -70,12 +73,13 @@ pub struct Board {
 
 impl Board {
     /// A board around a loaded chip.
-    pub fn new(name: String, uno: Uno, de: Option<u8>, watch: Vec<u8>) -> Board {
+    pub fn new(name: String, uno: Uno, de: Option<DePin>, side: Option<Side>, watch: Vec<u8>) -> Board {
         let resets = uno.resets().0;
         Board {
             name,
             uno,
             de,
+            side,
             watch,
             pins_shown: String::new(),
             serial: None,
@@ -96,7 +100,7 @@ impl Board {
     fn de_level(&self) -> bool {
         match self.de {
             None => true,
-            Some(pin) => self.uno.pin(pin).map(|s| s.output && s.level).unwrap_or(false),
+            Some(pin) => pin.state(&self.uno).map(|s| s.output && s.level).unwrap_or(false),
         }
     }
 
@@ -303,8 +307,11 @@ impl Bus {
         t
     }
 
-    /// Bytes an outside program wrote to pty `k`: on the line from now, back to back.
-    pub fn pty_sent(&mut self, k: usize, bytes: &[u8]) -> Result<(), String> {
+    /// Bytes an outside program wrote to pty `k`: on the line from cycle `at` (not before
+    /// now), back to back. Paced, `at` is the cycle the wall clock says: a simulation that
+    /// fell behind (a busy machine) does not see an outside program answer sooner, in
+    /// simulated time, than it could have.
+    pub fn pty_sent(&mut self, k: usize, bytes: &[u8], at: u64) -> Result<(), String> {
         let port = &mut self.ptys[k];
         let settings =
             port.pty.master_settings().map_err(|e| format!("{}: reading the pty's settings: {e}", port.name))?;
@@ -328,7 +335,7 @@ impl Bus {
             if same { (self.char_cycles, self.line) } else { (settings.char_cycles().max(1), settings) };
         let src = self.boards.len() + k;
         for &byte in bytes {
-            let start = self.ptys[k].tx_last_end.max(self.now);
+            let start = self.ptys[k].tx_last_end.max(self.now).max(at);
             let end = start + char_cycles;
             self.ptys[k].tx_last_end = end;
             self.pending.push(Char {
@@ -414,7 +421,24 @@ impl Bus {
         }
         self.end_frame_if_quiet();
         self.flush_ptys()?;
+        for b in &mut self.boards {
+            if let Some(side) = &mut b.side {
+                side.transmit(&mut b.uno).map_err(|e| format!("{} USART{}: {e}", b.name, side.usart))?;
+            }
+        }
         self.report_boards();
+        Ok(())
+    }
+
+    /// Bytes an outside program wrote to board `i`'s pty of its own: on their way to its USART.
+    pub fn side_sent(&mut self, i: usize, bytes: &[u8]) -> Result<(), String> {
+        let b = &mut self.boards[i];
+        let Some(side) = &mut b.side else { return Ok(()) };
+        let report = side.received(&mut b.uno, bytes).map_err(|e| format!("{} USART{}: {e}", b.name, side.usart))?;
+        if let Some(report) = report {
+            let msg = format!("{} USART{} pty: {report}", b.name, side.usart);
+            self.say(&msg);
+        }
         Ok(())
     }
 
@@ -642,7 +666,17 @@ impl Bus {
             if pins != b.pins_shown {
                 self.say(&format!("{} pins: {pins}", b.name));
             }
+            if let Some(side) = &b.side {
+                let serial = b.uno.serial_config_on(side.usart).map(|cfg| Settings::of_firmware(&cfg));
+                if serial != side.serial {
+                    let what = serial.map_or("off".to_owned(), |s| s.to_string());
+                    self.say(&format!("{} serial: {what} (USART{}, on its pty)", b.name, side.usart));
+                }
+            }
             let b = &mut self.boards[i];
+            if let Some(side) = &mut b.side {
+                side.serial = b.uno.serial_config_on(side.usart).map(|cfg| Settings::of_firmware(&cfg));
+            }
             b.resets = resets;
             b.serial = serial;
             b.pins_shown = pins;
@@ -658,15 +692,32 @@ impl Bus {
             .filter_map(|b| {
                 let pin = b.de?;
                 Some(match (b.de_lead, b.de_tail) {
-                    (None, None) => format!("DE of {} (pin {pin}): never high around a character", b.name),
+                    (None, None) => format!("DE of {} ({pin}): never high around a character", b.name),
                     (lead, tail) => format!(
-                        "DE of {} (pin {pin}): high {} us before a frame's first start bit, low {} us after its last stop bit (DE sampled every {} us)",
+                        "DE of {} ({pin}): high {} us before a frame's first start bit, low {} us after its last stop bit (DE sampled every {} us)",
                         b.name,
                         range(lead),
                         range(tail),
                         us(self.slice)
                     ),
                 })
+            })
+            .collect()
+    }
+
+    /// What went through each board's pty of its own.
+    pub fn side_report(&self) -> Vec<String> {
+        self.boards
+            .iter()
+            .filter_map(|b| {
+                let side = b.side.as_ref()?;
+                let (received, sent) = side.counts();
+                Some(format!(
+                    "{} USART{} on its pty ({}): {received} bytes received, {sent} sent",
+                    b.name,
+                    side.usart,
+                    side.link_path.display()
+                ))
             })
             .collect()
     }

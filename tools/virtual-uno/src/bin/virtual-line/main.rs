@@ -8,6 +8,14 @@
 //!              --board tower=lab_lights.elf de=10 pin12=low watch=4,5,6,7 \
 //!              --at 2 'set box pin2 low' --at 2.3 'set box pin2 z'
 //! ```
+//!
+//! A Mega gateway: its master's USART1 on the line (DE on PB7, the Mega's pin 13), its
+//! slave's USART0 on a pty of its own for an outside master, a field device on a pty:
+//!
+//! ```text
+//! virtual-line --board gw=gateway.elf usart=1 de=PB7 usart0=pty:/tmp/ttyGW \
+//!              --pty field=/tmp/ttyFIELD
+//! ```
 
 #[allow(dead_code)]
 mod args;
@@ -25,6 +33,10 @@ mod pace;
 #[allow(dead_code)]
 #[path = "../../pty.rs"]
 mod pty;
+mod side;
+#[allow(dead_code)]
+#[path = "../../wire.rs"]
+mod wire;
 
 use std::fs::File;
 use std::io;
@@ -42,6 +54,7 @@ use bus::{stamp, Board, Bus, PtyPort};
 use commands::{CommandSource, ControlFifo};
 use pace::{cycles_to_duration, Clock};
 use pty::{Link, Pty};
+use side::Side;
 
 /// Falling behind the wall clock by more than this is reported.
 const LAG_WARN: Duration = Duration::from_millis(50);
@@ -97,12 +110,15 @@ fn execute(bus: &mut Bus, scheduled: &mut Vec<(u64, String)>, line: &str) {
 fn run(args: args::Args) -> Result<(), String> {
     let mut boards = Vec::new();
     for b in &args.boards {
-        let options = Options { chip: b.chip, usart: b.usart, ..Options::new() };
+        let second_usart = b.side.as_ref().map(|s| s.usart);
+        let options = Options { chip: b.chip, usart: b.usart, second_usart, ..Options::new() };
         let mut uno = Uno::load_with(&b.elf, options).map_err(|e| format!("{}: {e}", b.name))?;
+        if second_usart == Some(uno.usart()) {
+            return Err(format!("{}: USART{} is on the line; its pty needs another", b.name, uno.usart()));
+        }
         let has_pins = uno.chip().has_uno_pinout();
-        if !has_pins
-            && (b.de.is_some() || !b.initial.is_empty() || b.watch != args::DEFAULT_WATCH && !b.watch.is_empty())
-        {
+        let uno_de = matches!(b.de, Some(args::DePin::Uno(_)));
+        if !has_pins && (uno_de || !b.initial.is_empty() || b.watch != args::DEFAULT_WATCH && !b.watch.is_empty()) {
             return Err(format!("{}: pin numbers are the Uno's; the {} has none of them", b.name, uno.chip()));
         }
         for cmd in &b.initial {
@@ -116,9 +132,26 @@ fn run(args: args::Args) -> Result<(), String> {
             b.elf.display(),
             uno.chip(),
             uno.usart(),
-            b.de.map_or(String::new(), |p| format!(", DE on pin {p}"))
+            b.de.map_or(String::new(), |p| format!(", DE on {p}"))
         );
-        boards.push(Board::new(b.name.clone(), uno, b.de, watch));
+        let side = match &b.side {
+            Some(s) => {
+                let pty = Pty::open().map_err(|e| format!("cannot open a pseudo-terminal: {e}"))?;
+                let link =
+                    Link::create(&s.link, pty.path()).map_err(|e| format!("cannot link {}: {e}", s.link.display()))?;
+                println!(
+                    "{} board {}: USART{} on {} (link {}), off the line",
+                    stamp(0),
+                    b.name,
+                    s.usart,
+                    pty.path().display(),
+                    s.link.display()
+                );
+                Some(Side::new(s.usart, pty, s.link.clone(), link))
+            }
+            None => None,
+        };
+        boards.push(Board::new(b.name.clone(), uno, b.de, side, watch));
     }
     let mut ptys = Vec::new();
     for p in &args.ptys {
@@ -174,6 +207,14 @@ fn run(args: args::Args) -> Result<(), String> {
         let timeout = if !args.pace || behind > 0 { PollTimeout::ZERO } else { PollTimeout::from(1u8) };
         let mut fds = vec![PollFd::new(signal_fd.as_fd(), PollFlags::POLLIN)];
         fds.extend(bus.ptys.iter().map(|p| PollFd::new(p.pty.fd(), PollFlags::POLLIN)));
+        let first_side = fds.len();
+        let sides: Vec<usize> = (0..bus.boards.len()).filter(|&i| bus.boards[i].side.is_some()).collect();
+        fds.extend(
+            sides
+                .iter()
+                .filter_map(|&i| bus.boards[i].side.as_ref())
+                .map(|s| PollFd::new(s.pty.fd(), PollFlags::POLLIN)),
+        );
         let first_source = fds.len();
         fds.extend(sources.iter().filter(|s| s.open).map(|s| PollFd::new(s.file.as_fd(), PollFlags::POLLIN)));
         match poll(&mut fds, timeout) {
@@ -193,7 +234,17 @@ fn run(args: args::Args) -> Result<(), String> {
             if ready[1 + k] {
                 let n = bus.ptys[k].pty.read(&mut buf).map_err(|e| format!("reading the pty: {e}"))?;
                 if n > 0 {
-                    bus.pty_sent(k, &buf[..n])?;
+                    let at = if args.pace { clock.due() } else { bus.now };
+                    bus.pty_sent(k, &buf[..n], at)?;
+                }
+            }
+        }
+        for (k, &i) in sides.iter().enumerate() {
+            if ready[first_side + k] {
+                let Some(side) = &mut bus.boards[i].side else { continue };
+                let n = side.pty.read(&mut buf).map_err(|e| format!("reading the pty: {e}"))?;
+                if n > 0 {
+                    bus.side_sent(i, &buf[..n])?;
                 }
             }
         }
@@ -253,7 +304,7 @@ fn run(args: args::Args) -> Result<(), String> {
     bus.finish();
     let wall = wall_start.elapsed().as_secs_f64();
     println!("{} {}", stamp(bus.now), bus.summary());
-    for line in bus.de_report() {
+    for line in bus.de_report().into_iter().chain(bus.side_report()) {
         println!("{} {line}", stamp(bus.now));
     }
     println!(

@@ -1,0 +1,31 @@
+//! The link layer both roles share, Modbus over Serial Line v1.02 §2.5: the line's
+//! configuration, the character times and Timer0's arithmetic, the RTU framer (frames by
+//! silence, CRC-16) and ASCII framing (frames by `:` and CR LF, LRC). The slave
+//! (`crate::slave`) and the master (`crate::master`) sit above it; the AVR layer
+//! (`crate::avr`) drives it from the USART's and Timer0's interrupts.
+
+pub(crate) mod config;
+pub(crate) mod crc;
+pub(crate) mod framer;
+pub(crate) mod timing;
+
+use framer::UartError;
+
+/// What a role's protocol state takes from the line, the same for the slave and the
+/// master: characters of RTU frames and their damage, or with feature `ascii` the
+/// characters of ASCII frames. The AVR layer's receive interrupt hands each one over
+/// through this, whichever role it serves.
+#[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
+pub(crate) trait Receive {
+    /// A character of an RTU frame arrived.
+    fn on_byte(&mut self, byte: u8);
+    /// A damaged character arrived (parity, framing, overrun).
+    fn on_error(&mut self, error: UartError);
+    /// True in ASCII framing.
+    #[cfg(feature = "ascii")]
+    fn is_ascii(&self) -> bool;
+    /// A character of an ASCII frame arrived: true when the frame's outcome is due, once
+    /// the character has left the line.
+    #[cfg(feature = "ascii")]
+    fn on_char(&mut self, c: u8) -> bool;
+}

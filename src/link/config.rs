@@ -1,0 +1,316 @@
+//! Serial-line configuration, Modbus over Serial Line v1.02 §2.5.1 (character format) and
+//! §2.2 (addresses).
+//!
+//! A configuration is plain data. [`Config::new`] is a `const fn` meant for constants: a
+//! bad value there stops the build. [`Config::try_new`] is for values read at run time
+//! (EEPROM, jumpers) and returns an error instead.
+
+use crate::error::Error;
+#[cfg(feature = "ascii")]
+use crate::link::timing::Deadline;
+use crate::link::timing::{rx_flag_to_end_cycles, BaudDivisor, CharTimes, TimerPlan, CLOCK_HZ};
+
+#[cfg(feature = "ascii")]
+mod ascii;
+#[cfg(feature = "ascii")]
+use ascii::timeout_turns;
+#[cfg(feature = "ascii")]
+pub use ascii::Mode;
+
+/// A slave (server) address on the serial line: 1–247.
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct SlaveId(u8);
+
+impl SlaveId {
+    /// The broadcast address: writes are executed, nothing is answered.
+    pub const BROADCAST: u8 = 0;
+
+    /// Checks that `id` is a unicast slave address (1–247).
+    pub const fn new(id: u8) -> Result<Self, Error> {
+        match id {
+            1..=247 => Ok(SlaveId(id)),
+            _ => Err(Error::SlaveId),
+        }
+    }
+
+    /// The address as a byte.
+    pub const fn get(self) -> u8 {
+        self.0
+    }
+}
+
+/// Parity of each character.
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Parity {
+    /// No parity bit (the spec then asks for 2 stop bits; 1 is common in the field).
+    None = 0,
+    /// Even parity: the spec's required default.
+    Even = 2,
+    /// Odd parity.
+    Odd = 1,
+}
+
+/// Stop bits of each character.
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopBits {
+    /// One stop bit.
+    One,
+    /// Two stop bits.
+    Two,
+}
+
+/// Everything the slave needs to know about its place on the serial line, with the
+/// USART divisor and Timer0 plan derived from it: built in a `const`, the firmware does no
+/// division at run time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Config {
+    slave_id: SlaveId,
+    baud: u32,
+    parity: Parity,
+    stop_bits: StopBits,
+    divisor: BaudDivisor,
+    timer_plan: TimerPlan,
+    /// RTU or ASCII (feature `ascii`).
+    #[cfg(feature = "ascii")]
+    mode: Mode,
+    /// ASCII's inter-character timeout in milliseconds (0: none), and in Timer0 turns
+    /// ([`TURN_US`] each), as the compare interrupt counts it.
+    #[cfg(feature = "ascii")]
+    char_timeout: (u16, u16),
+    /// ASCII: from a character's receive flag to its end on the line, as a Timer0 deadline
+    /// (the reply waits for the LF to leave the line).
+    #[cfg(feature = "ascii")]
+    char_end: Deadline,
+    /// The reply delay after T3.5 in Timer0 ticks (feature `reply-delay`; 0: none).
+    #[cfg(feature = "reply-delay")]
+    reply_delay: u16,
+}
+
+impl Config {
+    /// Slowest supported rate.
+    pub const MIN_BAUD: u32 = 1200;
+    /// Fastest supported rate (16 MHz / 16; at 8 MHz with double speed).
+    pub const MAX_BAUD: u32 = 1_000_000;
+
+    /// The serial-line spec's default: 19200 bps, 8 data bits, even parity, 1 stop bit.
+    pub const fn default_for(slave_id: SlaveId) -> Self {
+        match Self::try_new(slave_id.get(), 19_200, Parity::Even, StopBits::One) {
+            Ok(config) => config,
+            Err(e) => panic!("{}", e.message()),
+        }
+    }
+
+    /// A configuration for a constant: invalid values stop the build.
+    ///
+    /// ```
+    /// use avr_modbus::{Config, Parity, StopBits};
+    /// const CONFIG: Config = Config::new(17, 9600, Parity::None, StopBits::Two);
+    /// assert_eq!(CONFIG.slave_id().get(), 17);
+    /// ```
+    ///
+    /// ```compile_fail
+    /// use avr_modbus::{Config, Parity, StopBits};
+    /// const CONFIG: Config = Config::new(248, 9600, Parity::None, StopBits::Two);
+    /// ```
+    ///
+    /// Called outside a constant it would panic on bad input: use [`Config::try_new`]
+    /// for run-time values.
+    pub const fn new(slave_id: u8, baud: u32, parity: Parity, stop_bits: StopBits) -> Self {
+        match Self::try_new(slave_id, baud, parity, stop_bits) {
+            Ok(config) => config,
+            Err(e) => panic!("{}", e.message()),
+        }
+    }
+
+    /// A configuration from run-time values.
+    pub const fn try_new(slave_id: u8, baud: u32, parity: Parity, stop_bits: StopBits) -> Result<Self, Error> {
+        let slave_id = match SlaveId::new(slave_id) {
+            Ok(id) => id,
+            Err(e) => return Err(e),
+        };
+        if baud < Self::MIN_BAUD || baud > Self::MAX_BAUD {
+            return Err(Error::Baud);
+        }
+        let divisor = match BaudDivisor::new(baud, CLOCK_HZ) {
+            Some(divisor) => divisor,
+            None => return Err(Error::BaudError),
+        };
+        let times = CharTimes::new(baud, bits_per_char(8, parity, stop_bits));
+        let flag_to_end = rx_flag_to_end_cycles(divisor, matches!(stop_bits, StopBits::Two));
+        let timer_plan = TimerPlan::new(times, CLOCK_HZ, flag_to_end);
+        Ok(Config {
+            slave_id,
+            baud,
+            parity,
+            stop_bits,
+            divisor,
+            timer_plan,
+            #[cfg(feature = "ascii")]
+            mode: Mode::Rtu,
+            #[cfg(feature = "ascii")]
+            char_timeout: timeout_turns(Self::ASCII_CHAR_TIMEOUT_MS),
+            #[cfg(feature = "ascii")]
+            char_end: Deadline::after_flag(flag_to_end),
+            #[cfg(feature = "reply-delay")]
+            reply_delay: 0,
+        })
+    }
+
+    /// The longest reply delay, in microseconds: 65 535 Timer0 ticks (262 ms at 16 MHz).
+    #[cfg(feature = "reply-delay")]
+    pub const MAX_REPLY_DELAY_US: u32 = 65_535 * 1000 / crate::link::timing::TICKS_PER_MS;
+
+    /// The slave waits `microseconds` after T3.5 before it answers (feature
+    /// `reply-delay`): for a master whose USB–RS-485 adapter or transceiver turns around
+    /// slowly and loses the first bytes of a reply that comes at once. Rounded to Timer0's
+    /// ticks (4 µs, 8 µs at 8 MHz), at most [`Config::MAX_REPLY_DELAY_US`] (more is that);
+    /// RTU only (an ASCII reply waits for nothing). 0, the default, is none.
+    #[cfg(feature = "reply-delay")]
+    pub const fn with_reply_delay(mut self, microseconds: u32) -> Self {
+        let us = if microseconds > Self::MAX_REPLY_DELAY_US { Self::MAX_REPLY_DELAY_US } else { microseconds };
+        self.reply_delay = ((us * crate::link::timing::TICKS_PER_MS + 500) / 1000) as u16;
+        self
+    }
+
+    /// The reply delay in microseconds, as Timer0 ticks make it (feature `reply-delay`).
+    #[cfg(feature = "reply-delay")]
+    pub const fn reply_delay_us(&self) -> u32 {
+        self.reply_delay as u32 * 1000 / crate::link::timing::TICKS_PER_MS
+    }
+
+    /// The reply delay in Timer0 ticks (feature `reply-delay`): 0 in ASCII framing, whose
+    /// reply waits for nothing.
+    #[cfg(feature = "reply-delay")]
+    #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
+    pub(crate) const fn reply_delay_ticks(&self) -> u16 {
+        #[cfg(feature = "ascii")]
+        if !matches!(self.mode, Mode::Rtu) {
+            return 0;
+        }
+        self.reply_delay
+    }
+
+    /// Data bits of each character: 8, or 7 in ASCII mode.
+    pub const fn data_bits(&self) -> u32 {
+        #[cfg(feature = "ascii")]
+        if matches!(self.mode, Mode::Ascii) {
+            return 7;
+        }
+        8
+    }
+
+    /// The same line settings for another slave address.
+    pub const fn with_slave_id(self, slave_id: SlaveId) -> Self {
+        Config { slave_id, ..self }
+    }
+
+    /// This slave's address.
+    pub const fn slave_id(&self) -> SlaveId {
+        self.slave_id
+    }
+
+    /// Bits per second.
+    pub const fn baud(&self) -> u32 {
+        self.baud
+    }
+
+    /// Parity bit.
+    pub const fn parity(&self) -> Parity {
+        self.parity
+    }
+
+    /// Stop bits.
+    pub const fn stop_bits(&self) -> StopBits {
+        self.stop_bits
+    }
+
+    /// USART0 rate settings.
+    pub const fn divisor(&self) -> BaudDivisor {
+        self.divisor
+    }
+
+    /// Timer0 settings of the silence detector.
+    pub const fn timer_plan(&self) -> TimerPlan {
+        self.timer_plan
+    }
+
+    /// Bits on the wire per character: start, data bits (8, or 7 for ASCII), parity if
+    /// any, stop bits.
+    pub const fn bits_per_char(&self) -> u32 {
+        bits_per_char(self.data_bits(), self.parity, self.stop_bits)
+    }
+
+    /// Character time and the T1.5 / T3.5 silences for this configuration.
+    pub const fn char_times(&self) -> CharTimes {
+        CharTimes::new(self.baud, self.bits_per_char())
+    }
+}
+
+const fn bits_per_char(data_bits: u32, parity: Parity, stop_bits: StopBits) -> u32 {
+    let parity = match parity {
+        Parity::None => 0,
+        Parity::Even | Parity::Odd => 1,
+    };
+    let stop = match stop_bits {
+        StopBits::One => 1,
+        StopBits::Two => 2,
+    };
+    1 + data_bits + parity + stop
+}
+
+/// The line settings as a firmware prints them: `Config { slave_id: 1, baud: 19200, .. }`.
+#[cfg(feature = "ufmt")]
+impl ufmt::uDebug for Config {
+    fn fmt<W: ufmt::uWrite + ?Sized>(&self, f: &mut ufmt::Formatter<'_, W>) -> Result<(), W::Error> {
+        f.debug_struct("Config")?
+            .field("slave_id", &self.slave_id.get())?
+            .field("baud", &self.baud)?
+            .field("parity", &self.parity)?
+            .field("stop_bits", &self.stop_bits)?
+            .finish()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slave_id_accepts_1_to_247_only() {
+        assert_eq!(SlaveId::new(0), Err(Error::SlaveId));
+        assert_eq!(SlaveId::new(1).map(SlaveId::get), Ok(1));
+        assert_eq!(SlaveId::new(247).map(SlaveId::get), Ok(247));
+        assert_eq!(SlaveId::new(248), Err(Error::SlaveId));
+        assert_eq!(SlaveId::new(255), Err(Error::SlaveId));
+    }
+
+    #[test]
+    fn run_time_baud_outside_range_is_an_error() {
+        assert_eq!(Config::try_new(1, 1199, Parity::Even, StopBits::One), Err(Error::Baud));
+        assert_eq!(Config::try_new(1, 1_000_001, Parity::Even, StopBits::One), Err(Error::Baud));
+        assert!(Config::try_new(1, 1200, Parity::Even, StopBits::One).is_ok());
+        // 115 200 is 3.5 % off at 8 MHz (feature clock-8mhz), beyond what is accepted.
+        let at_115200 = Config::try_new(1, 115_200, Parity::None, StopBits::One);
+        assert_eq!(at_115200.is_ok(), CLOCK_HZ == 16_000_000, "{at_115200:?}");
+        assert_eq!(Config::try_new(1, 230_400, Parity::None, StopBits::One), Err(Error::BaudError));
+    }
+
+    #[test]
+    fn default_is_19200_8e1() {
+        let c = Config::default_for(SlaveId::new(5).unwrap());
+        assert_eq!((c.baud(), c.parity(), c.stop_bits()), (19_200, Parity::Even, StopBits::One));
+        assert_eq!(c.bits_per_char(), 11);
+    }
+
+    #[test]
+    fn bits_per_char_counts_parity_and_stop_bits() {
+        let bits = |p, s| Config::new(1, 9600, p, s).bits_per_char();
+        assert_eq!(bits(Parity::None, StopBits::One), 10);
+        assert_eq!(bits(Parity::None, StopBits::Two), 11);
+        assert_eq!(bits(Parity::Odd, StopBits::One), 11);
+        assert_eq!(bits(Parity::Even, StopBits::Two), 12);
+    }
+}

@@ -1,0 +1,17 @@
+//! The slave (server), Modbus Application Protocol v1.1b3 §6: its protocol state above the
+//! link (`engine`), the PDU engine and the optional function codes (`pdu`, `diagnostics`),
+//! and the data it serves: the classic references, the register map fixed at build time,
+//! the run-time bank, the data-model trait, their shared value storage and the line
+//! settings kept as registers.
+
+pub(crate) mod bank;
+#[cfg(feature = "diagnostics")]
+pub(crate) mod diagnostics;
+pub(crate) mod engine;
+pub(crate) mod map;
+pub(crate) mod model;
+pub(crate) mod pdu;
+pub(crate) mod reference;
+#[cfg(feature = "eeprom-settings")]
+pub(crate) mod settings;
+pub(crate) mod storage;
