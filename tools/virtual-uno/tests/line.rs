@@ -10,6 +10,7 @@
 //! ATmega2560), mbpoll and pymodbus (`$INTEROP_PYTHON`, else Debian's python3).
 
 use std::io::Read;
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
