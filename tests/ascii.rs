@@ -1,7 +1,6 @@
 //! Modbus ASCII framing, Modbus over Serial Line v1.02 §2.5.2 (feature `ascii`): the LRC,
 //! the characters of a frame, every way a frame is dropped and how it is counted, and the
 //! same answers as RTU for every request.
-#![cfg(feature = "ascii")]
 
 mod common;
 

@@ -84,8 +84,8 @@ fn touching_bank() -> TouchingBank {
     bank
 }
 
-/// Without the optional function codes, which need 256 bytes.
-const SIZED: bool = !cfg!(any(feature = "diagnostics", feature = "extra-fc"));
+/// Without the optional function codes (FC 7, 8, 11, 17, 22, 23, 43), which need 256 bytes.
+const SIZED: bool = !cfg!(any(feature = "diagnostics", feature = "extra-fc", feature = "device-id"));
 
 // ---- the buffer a map needs ----------------------------------------------------------------
 

@@ -3,8 +3,6 @@
 //! v1.02 §2.4.1 (timeouts, retries, broadcast turnaround, T3.5 before a request), a round
 //! trip through this crate's slave engine against the reference model, and the property
 //! that no frame that does not answer the request is ever taken.
-#![cfg(feature = "master")]
-
 mod common;
 mod model;
 

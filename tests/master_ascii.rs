@@ -5,7 +5,6 @@
 //! an odd count, a bad LRC or the inter-character timeout drop a frame in silence and count
 //! it; a `:` starts a frame over; no T3.5, but no request while a frame is on the line.
 //! Last, the property that the ASCII master takes exactly the replies the RTU master takes.
-#![cfg(all(feature = "master", feature = "ascii"))]
 
 mod common;
 

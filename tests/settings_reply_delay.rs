@@ -4,8 +4,6 @@
 //! without the feature writes as 0 (rates stop at 1 000 000).
 //! `tests/settings.rs` and `tests/settings_ascii.rs` cover the blocks without it.
 
-#![cfg(all(feature = "eeprom-settings", feature = "reply-delay"))]
-
 mod common;
 
 use avr_modbus::internal::settings::{decode, encode, Configurable, Record, RECORD_LEN};

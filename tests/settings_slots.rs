@@ -3,8 +3,6 @@
 //! even one that tears the byte being written, leaves the complete old settings or the
 //! complete new ones, never neither.
 
-#![cfg(feature = "eeprom-settings")]
-
 mod common;
 
 use avr_modbus::internal::settings::{

@@ -13,7 +13,7 @@
 mod sim;
 
 use sim::{
-    chip_examples_dir, read_request, registers_reply, with_crc, write_register_request, Exchange, Line, Rtu, ID,
+    chip_variant_firmware, read_request, registers_reply, with_crc, write_register_request, Exchange, Line, Rtu, ID,
 };
 use uno_sim::{Chip, Options, Uno};
 
@@ -41,8 +41,7 @@ fn t35() -> u64 {
 const BOARDS: [(Chip, u8); 2] = [(Chip::Atmega328p, 0), (Chip::Atmega32u4, 1)];
 
 fn boot(chip: Chip, usart: u8) -> Rtu {
-    let elf = chip_examples_dir(chip, usart, "-8mhz").join("boards.elf");
-    assert!(elf.is_file(), "{} is missing: run `make chips` first", elf.display());
+    let elf = chip_variant_firmware(chip, usart, "-8mhz", "boards");
     // The master's own waits (T3.5 before each request, the time it gives a reply) are those
     // of 19200 8E1 at 16 MHz: twice the 8 MHz board's, so never too short.
     let rtu = Rtu::boot_elf_on(&elf, usart, Line::B19200_8E1, |_| {});
@@ -138,8 +137,7 @@ fn the_clock_counts_8_000_000_cycles_a_second() {
 #[test]
 fn the_master_sends_at_19200_8e1_and_times_out_after_1000_ms_at_8_mhz() {
     for (chip, usart) in BOARDS {
-        let elf = chip_examples_dir(chip, usart, "-8mhz-master").join("master_boards.elf");
-        assert!(elf.is_file(), "{} is missing: run `make chips` first", elf.display());
+        let elf = chip_variant_firmware(chip, usart, "-8mhz-master", "master_boards");
         let mut uno = Uno::load_with(&elf, Options::new().usart(usart)).expect("master_boards loads");
         assert_eq!(uno.chip(), chip, "{} names another chip", elf.display());
         let char_cycles = CHAR_BITS * 416;

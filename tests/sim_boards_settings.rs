@@ -13,14 +13,12 @@ mod sim;
 use std::path::PathBuf;
 
 use configurable::{ascii_frame, Board, SLOT_LEN};
-use sim::{chip_examples_dir, with_crc, Line, ID};
+use sim::{chip_variant_firmware, with_crc, Line, ID};
 use uno_sim::{Chip, Options, Parity, Uno};
 
 /// `boards` with the settings for `chip`, the wire on `usart`, as `make chips` leaves it.
 fn settings_firmware(chip: Chip, usart: u8) -> PathBuf {
-    let elf = chip_examples_dir(chip, usart, "-settings").join("boards.elf");
-    assert!(elf.is_file(), "{} is missing: run `make chips` first", elf.display());
-    elf
+    chip_variant_firmware(chip, usart, "-settings", "boards")
 }
 
 /// 9600 bps, 7 data bits, no parity, 2 stop bits: the new line, in ASCII.

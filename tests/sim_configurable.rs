@@ -5,8 +5,6 @@
 //! 19200 8E1, slave id 1, and so does the recovery jumper (pin 12 to GND). A reset during
 //! a store: `sim_settings_reset`.
 
-#![cfg(feature = "eeprom-settings")]
-
 mod configurable;
 mod sim;
 

@@ -8,9 +8,8 @@
 //! 02 the crate's version, 04 "Uno Modbus slave with stored settings",
 //! 05 "Arduino Uno (ATmega328P)"; no 03 and no 06.
 
-// `make firmware` builds `configurable` with the feature; `make host-test` runs this file
-// with it.
-#![cfg(feature = "device-id")]
+// `make firmware` builds `configurable` with the feature; the test needs it too
+// (`required-features` in Cargo.toml).
 
 mod sim;
 

@@ -11,9 +11,8 @@
 //! "avr-modbus configurable"; no exception status bits. FC 8/04, which is never
 //! answered, is in `sim_silent.rs`.
 
-// The firmware is built with these features (see `make firmware`); `make host-test` runs
-// this file with them.
-#![cfg(all(feature = "diagnostics", feature = "extra-fc"))]
+// The firmware is built with these features (see `make firmware`); the test needs them too
+// (`required-features` in Cargo.toml).
 
 mod sim;
 

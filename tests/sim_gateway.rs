@@ -15,11 +15,9 @@
 //! Build: `.ci/chip-build atmega2560 "" atmega2560-gateway examples,master gateway`.
 //! One character at 19200 8E1 is 11 bits = 572 µs; T1.5 = 859 µs, T3.5 = 2005 µs.
 
-#![cfg(feature = "master")]
-
 mod sim;
 
-use sim::{chip_examples_dir, cycles_to_us, read_request, registers_reply, us_to_cycles, with_crc, Line};
+use sim::{chip_variant_firmware, cycles_to_us, read_request, registers_reply, us_to_cycles, with_crc, Line};
 use uno_sim::{Chip, Options, Parity, TxByte, Uno};
 
 /// The SCADA side's USART (Serial, the USB port).
@@ -172,12 +170,7 @@ struct Gateway {
 impl Gateway {
     /// Boots the gateway with a field device holding `registers`, answering if `!silent`.
     fn boot(registers: [u16; 10], silent: bool) -> Gateway {
-        let elf = chip_examples_dir(Chip::Atmega2560, 0, "-gateway").join("gateway.elf");
-        assert!(
-            elf.is_file(),
-            "{} is missing: run `.ci/chip-build atmega2560 \"\" atmega2560-gateway examples,master gateway`",
-            elf.display()
-        );
+        let elf = chip_variant_firmware(Chip::Atmega2560, 0, "-gateway", "gateway");
         let uno = Uno::load_with(&elf, Options::new().usart(SCADA).second_usart(FIELD)).expect("firmware loads");
         assert_eq!(uno.chip(), Chip::Atmega2560);
         assert_eq!((uno.usart(), uno.second_usart()), (SCADA, Some(FIELD)));

@@ -19,8 +19,6 @@
 //! T3.5 = 2005 µs. The firmware's response timeout is 100 ms, its broadcast turnaround
 //! 20 ms, one retry.
 
-#![cfg(feature = "master")]
-
 mod sim;
 
 use sim::{cycles_to_us, read_request, registers_reply, us_to_cycles, with_crc, Line, Rtu};

@@ -12,7 +12,6 @@
 //! a `:`, silence, and a late reply still on the line when the retry is due. The master's
 //! counters, as it reports them, are checked against the test's own count of each event,
 //! and no request of the master ever starts while a frame is on the line.
-#![cfg(all(feature = "master", feature = "ascii"))]
 
 mod sim;
 

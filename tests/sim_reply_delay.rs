@@ -2,7 +2,6 @@
 //! `examples/slow_master.rs` answers 3 ms after T3.5 of silence, to within the slave's own
 //! turnaround (`examples/minimal.rs`, the same map without a delay, is the reference), at
 //! every phase of Timer0; a frame for another slave still gets no answer.
-#![cfg(feature = "reply-delay")]
 
 mod sim;
 

@@ -7,8 +7,6 @@
 //! ones exactly when the store's last byte is written, and never at the default (19200
 //! 8E1, slave id 1), which neither of them is.
 
-#![cfg(feature = "eeprom-settings")]
-
 mod configurable;
 mod sim;
 

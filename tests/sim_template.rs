@@ -11,18 +11,13 @@ mod sim;
 
 use std::path::PathBuf;
 
-use sim::{read_request, registers_reply, Line, Rtu, ID};
+use sim::{built, read_request, registers_reply, target_dir, Line, Rtu, ID};
 use uno_sim::Chip;
 
 /// The fixture ELF built against avr-device `version` ("0.8" or "0.9") for `board`.
 fn fixture(board: &str, version: &str) -> PathBuf {
-    let target = std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target"));
     let name = format!("template-avr-device-{}.elf", version.replace('.', ""));
-    let elf = target.join("fixtures").join(board).join("avr-none/release").join(name);
-    assert!(elf.is_file(), "{} is missing: run `make fixtures` first", elf.display());
-    elf
+    built(target_dir().join("fixtures").join(board).join("avr-none/release").join(name), "make fixtures")
 }
 
 /// Reads 40001–40004 on `usart`: the fixture sets 40001 to 0x1234 before it starts the slave.

@@ -1,6 +1,5 @@
 //! Feature `ufmt`: the types a firmware prints over arduino-hal's serial implement
 //! `ufmt::uDebug` and print like `core::fmt::Debug` would.
-#![cfg(feature = "ufmt")]
 
 use avr_modbus::{Config, Counters, Error, Exception, Parity, Reference, SlaveId, StopBits, Table};
 use ufmt::{uDebug, uWrite};

@@ -244,7 +244,7 @@ impl Span {
 /// map.set(40001, 1500).unwrap();
 /// assert_eq!(map.get(40001), Ok(1500));
 /// assert_eq!(map.get(40017), Err(avr_modbus::Error::NotFound));
-/// # #[cfg(not(feature = "diagnostics"))] // which keeps FC 7 and 17 data beside the values
+/// # #[cfg(not(any(feature = "diagnostics", feature = "device-id")))] // they keep FC 7, 17, 43 data too
 /// assert_eq!(core::mem::size_of::<Registers>(), 2 * 24 + 4 + 2);
 /// ```
 ///

@@ -18,25 +18,20 @@ use std::path::{Path, PathBuf};
 
 use uno_sim::{Chip, Options, Parity, PinState, TxByte, Uno, F_CPU};
 
-#[allow(unused_imports)] // not every test crate needs both
-pub use uno_sim::{cycles_to_us, us_to_cycles};
+#[allow(unused_imports)] // not every test crate needs each
+pub use uno_sim::{
+    built::{built, target_dir},
+    cycles_to_us, us_to_cycles,
+};
 
 /// The slave id every example answers to.
 pub const ID: u8 = 1;
 
-/// `$CARGO_TARGET_DIR`, else `target/` of this package.
-fn target_dir() -> PathBuf {
-    std::env::var_os("CARGO_TARGET_DIR")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target"))
-}
-
-/// Path of the release ELF of example `name`: `$CARGO_TARGET_DIR` (else `target/` of this
-/// package), then `avr-atmega328p/release/examples/NAME.elf`.
+/// Path of the release ELF of example `name`: `$CARGO_TARGET_DIR` (else `target/` of the
+/// workspace), then `avr-atmega328p/release/examples/NAME.elf`. Built by `make firmware`;
+/// missing, it skips the test binary or fails it under `make` and in CI ([`built`]).
 pub fn firmware(name: &str) -> PathBuf {
-    let path = target_dir().join("avr-atmega328p/release/examples").join(format!("{name}.elf"));
-    assert!(path.is_file(), "{} is missing: run `make firmware` first", path.display());
-    path
+    built(target_dir().join("avr-atmega328p/release/examples").join(format!("{name}.elf")), "make firmware")
 }
 
 /// Where the build puts example `name` for `chip` with the wire on USART`usart`, whether or
@@ -60,11 +55,16 @@ pub fn chip_examples_dir(chip: Chip, usart: u8, variant: &str) -> PathBuf {
     target_dir().join("chips").join(format!("{build}{variant}")).join("avr-none/release/examples")
 }
 
-/// [`chip_firmware_path`], which must exist.
+/// [`chip_firmware_path`], built by `make chips` (the Uno's by `make firmware`), as [`firmware`].
 pub fn chip_firmware(chip: Chip, usart: u8, name: &str) -> PathBuf {
-    let path = chip_firmware_path(chip, usart, name);
-    assert!(path.is_file(), "{} is missing: build the firmware for the {chip} (USART{usart}) first", path.display());
-    path
+    let uno = chip == Chip::Atmega328p && usart == 0;
+    built(chip_firmware_path(chip, usart, name), if uno { "make firmware" } else { "make chips" })
+}
+
+/// The ELF `name` in [`chip_examples_dir`]`(chip, usart, variant)`, built by `make chips`, as
+/// [`firmware`].
+pub fn chip_variant_firmware(chip: Chip, usart: u8, variant: &str, name: &str) -> PathBuf {
+    built(chip_examples_dir(chip, usart, variant).join(format!("{name}.elf")), "make chips")
 }
 
 // ---------------------------------------------------------------------------------------

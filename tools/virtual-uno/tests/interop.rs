@@ -21,6 +21,7 @@ use std::time::{Duration, Instant};
 
 use nix::sys::signal::{kill, Signal};
 use nix::unistd::Pid;
+use uno_sim::built::{built, target_dir};
 
 /// One virtual Uno at a time: each keeps a CPU core busy, and a starved one answers late.
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
@@ -33,12 +34,10 @@ fn workspace() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-/// `$CARGO_TARGET_DIR` (or `<workspace>/target`)`/avr-atmega328p/release/examples/NAME.elf`.
+/// `$CARGO_TARGET_DIR` (or `<workspace>/target`)`/avr-atmega328p/release/examples/NAME.elf`;
+/// missing, it skips these tests or fails them under `make` and in CI (`uno_sim::built`).
 fn firmware(name: &str) -> PathBuf {
-    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| workspace().join("target"), PathBuf::from);
-    let elf = target.join("avr-atmega328p/release/examples").join(format!("{name}.elf"));
-    assert!(elf.is_file(), "{} is missing: run make firmware first", elf.display());
-    elf
+    built(target_dir().join("avr-atmega328p/release/examples").join(format!("{name}.elf")), "make firmware")
 }
 
 /// Collects a child's output as it comes, so that a transcript survives a kill.
@@ -69,8 +68,7 @@ impl VirtualUno {
     /// Starts a whole Uno: optiboot (`make bootloaders`), its flash and EEPROM in `state`,
     /// the program `firmware` if given (else what `state` holds); waits for its power-on.
     fn board(state: &Path, firmware: Option<&Path>) -> VirtualUno {
-        let boot = workspace().join("target/bootloaders/optiboot_atmega328.hex");
-        assert!(boot.is_file(), "{} is missing: run make bootloaders first", boot.display());
+        let boot = built(workspace().join("target/bootloaders/optiboot_atmega328.hex"), "make bootloaders");
         let args = [OsStr::new("--bootloader"), boot.as_os_str(), OsStr::new("--state"), state.as_os_str()];
         VirtualUno::spawn("board", args.into_iter().chain(firmware.map(Path::as_os_str)), "reset: power-on")
     }

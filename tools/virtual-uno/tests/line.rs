@@ -10,28 +10,23 @@
 //! ATmega2560), mbpoll and pymodbus (`$INTEROP_PYTHON`, else Debian's python3).
 
 use std::io::Read;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+use uno_sim::built::{built, target_dir, workspace};
 
-/// `$CARGO_TARGET_DIR` (or `<workspace>/target`)`/avr-atmega328p/release/examples/NAME.elf`.
+/// `$CARGO_TARGET_DIR` (or `<workspace>/target`)`/avr-atmega328p/release/examples/NAME.elf`;
+/// missing, it skips these tests or fails them under `make` and in CI (`uno_sim::built`).
 fn firmware(name: &str) -> String {
-    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| workspace().join("target"), PathBuf::from);
-    let elf = target.join("avr-atmega328p/release/examples").join(format!("{name}.elf"));
-    assert!(elf.is_file(), "{} is missing: run make firmware first", elf.display());
-    elf.display().to_string()
+    let elf = target_dir().join("avr-atmega328p/release/examples").join(format!("{name}.elf"));
+    built(elf, "make firmware").display().to_string()
 }
 
 /// `<target>/chips/BUILD/avr-none/release/examples/NAME.elf`, as `make chips` builds it.
 fn chip_firmware(build: &str, name: &str) -> String {
-    let target = std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| workspace().join("target"), PathBuf::from);
-    let elf = target.join("chips").join(build).join("avr-none/release/examples").join(format!("{name}.elf"));
-    assert!(elf.is_file(), "{} is missing: run make chips first", elf.display());
-    elf.display().to_string()
+    let elf = target_dir().join("chips").join(build).join("avr-none/release/examples").join(format!("{name}.elf"));
+    built(elf, "make chips").display().to_string()
 }
 
 /// One printed line: simulated seconds and the text after the time stamp.

@@ -107,3 +107,8 @@ pub fn rx_log(uno: &Uno) -> Vec<(u8, u8)> {
 pub fn read_u16s(uno: &Uno, name: &str) -> Vec<u16> {
     uno.read_symbol(name).unwrap().chunks(2).map(|c| u16::from_le_bytes([c[0], c[1]])).collect()
 }
+
+/// The baud rate the chip's wire USART runs at now, rounded (None: off).
+pub fn baud(uno: &Uno) -> Option<u32> {
+    uno.serial_config().map(|c| c.baud().round() as u32)
+}
