@@ -65,9 +65,10 @@ impl Uptime {
         self.millis.wrapping_add(extra)
     }
 
-    /// The most whole milliseconds [`Uptime::millis_at`] adds: the ticks past `millis`,
-    /// `fract` and a turn and a pending overflow, are below 2 · 256 + [`TICKS_PER_MS`].
-    const MAX_EXTRA_MS: u16 = ((2 * 256 + TICKS_PER_MS - 1) / TICKS_PER_MS) as u16;
+    /// The most whole milliseconds [`Uptime::millis_at`] adds: the ticks past `millis`
+    /// (`fract`, the count and a pending overflow) are fewer than [`TICKS_PER_MS`] + 2 · 256,
+    /// so they make at most ⌈2 · 256 / [`TICKS_PER_MS`]⌉ whole milliseconds: 3 (5 at 8 MHz).
+    const MAX_EXTRA_MS: u16 = (2 * 256u32).div_ceil(TICKS_PER_MS) as u16;
 }
 
 /// Whether an overflow flag (TOV0) found set just after reading `tcnt` from TCNT0 is an
