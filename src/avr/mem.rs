@@ -1,17 +1,16 @@
-//! `memcpy`, `memset` and `memcmp` for the whole firmware, in a few instructions each, as avr-libc
-//! has them (ATmega328P datasheet's instruction set: `ld`/`st` with post-increment).
+//! `memcpy`, `memset` and `memcmp` for the whole firmware, a few instructions each as
+//! avr-libc has them (the AVR's `ld`/`st` with post-increment).
 //!
-//! The compiler calls these for every copy or fill it doesn't unroll: a frame buffer or a
-//! data model moved into its cell, an array zeroed. Built as the avr-hal template builds
-//! (target `avr-none`, cargo's `build-std`), `core` brings compiler_builtins' own, written
-//! for any machine: 156 B for `memset`, 402 B for `memcpy` and 54 B for `memcmp` on the AVR,
-//! where avr-libc's are 14, 18 and 26 B. Those are weak symbols, so the strong ones here take their place; a
-//! build that links avr-libc (this repository's target) takes these instead of its own
-//! too, as the linker pulls an archive member only for a symbol still undefined.
-//!
-//! The calling convention is avr-gcc's, which LLVM's AVR backend follows for its library
-//! calls: the first argument in r25:r24, the second in r23:r22, the third in r21:r20, the
-//! result in r25:r24; r0, r18–r27, r30 and r31 may be changed, r1 stays zero.
+//! The compiler calls these for every copy, fill or comparison it doesn't unroll: a frame
+//! buffer or a data model moved into its cell, an array zeroed, a write's echo checked.
+//! Built as the avr-hal template builds (target `avr-none`, cargo's `build-std`), `core`
+//! brings compiler_builtins' own, written for any machine: 156 B for `memset`, 402 B for
+//! `memcpy` and 54 B for `memcmp` on the AVR, where avr-libc's are 14, 18 and 26 B. Those
+//! are weak symbols, so the strong ones here take their place. A build that links avr-libc
+//! (this repository's target) takes these too: the linker pulls an archive member only
+//! for a symbol still undefined. `memcmp` is an ordinary call for the compiler, so with
+//! LTO it is inlined where it is called; `memcpy` and `memset` are calls it makes itself
+//! late, and stay functions.
 
 // Inline `asm!` in ordinary functions, not naked ones: a naked function's body is module
 // assembly, which LLVM assembles for the target's default AVR core, where `movw` and
