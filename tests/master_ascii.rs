@@ -6,30 +6,14 @@
 //! it; a `:` starts a frame over; no T3.5, but no request while a frame is on the line.
 //! Last, the property that the ASCII master takes exactly the replies the RTU master takes.
 
+mod ascii_frames;
 mod common;
 
+use ascii_frames::ascii;
 use avr_modbus::master::internal::{Action, Engine};
 use avr_modbus::master::{Counters, Failure, Request, Timeouts};
 use common::{with_crc, ID};
 use proptest::prelude::*;
-
-/// The LRC of §2.5.2.2, written from the spec (not the crate's): the two's complement of
-/// the bytes' sum, kept to 8 bits.
-fn lrc(bytes: &[u8]) -> u8 {
-    let sum: u32 = bytes.iter().map(|&b| u32::from(b)).sum();
-    ((256 - sum % 256) % 256) as u8
-}
-
-/// `bytes` (address and PDU) as an ASCII frame: `:`, upper-case hex pairs with the LRC,
-/// CR LF.
-fn ascii(bytes: &[u8]) -> Vec<u8> {
-    let mut text = String::from(":");
-    for b in bytes.iter().copied().chain([lrc(bytes)]) {
-        text.push_str(&format!("{b:02X}"));
-    }
-    text.push_str("\r\n");
-    text.into_bytes()
-}
 
 /// An ASCII master just after power-up (it needs no silence before its first request).
 fn master() -> Engine {

@@ -3,31 +3,15 @@
 //! class of bad frame dropped in silence and counted (the example publishes its counters as
 //! input registers 30003–30009), the next frame answered.
 
+mod ascii_frames;
 mod sim;
 
+use ascii_frames::ascii;
 use sim::{cycles_to_us, us_to_cycles, Line, Rtu, ID};
 use uno_sim::{LineError, Parity};
 
 /// Time for the main loop to copy inputs and counters into the registers.
 const MAIN_LOOP_US: u64 = 2_000;
-
-/// The LRC of Serial Line v1.02 §2.5.2.2, written from the spec: the two's complement of
-/// the bytes' sum, kept to 8 bits.
-fn lrc(bytes: &[u8]) -> u8 {
-    let sum: u32 = bytes.iter().map(|&b| u32::from(b)).sum();
-    ((256 - sum % 256) % 256) as u8
-}
-
-/// `bytes` (address and PDU) as an ASCII frame: `:`, upper-case hex pairs with the LRC,
-/// CR LF.
-fn ascii(bytes: &[u8]) -> Vec<u8> {
-    let mut text = String::from(":");
-    for b in bytes.iter().copied().chain([lrc(bytes)]) {
-        text.push_str(&format!("{b:02X}"));
-    }
-    text.push_str("\r\n");
-    text.into_bytes()
-}
 
 fn boot() -> Rtu {
     Rtu::boot("ascii", Line::B9600_7E1)

@@ -13,8 +13,10 @@
 //! counters, as it reports them, are checked against the test's own count of each event,
 //! and no request of the master ever starts while a frame is on the line.
 
+mod ascii_frames;
 mod sim;
 
+use ascii_frames::{ascii, lrc};
 use sim::{cycles_to_us, us_to_cycles, Line, Rtu};
 use uno_sim::Parity;
 
@@ -31,23 +33,6 @@ const VALUES: [u16; 4] = [0x1111, 0xA5C3, 0xFFFF, 0x0001];
 
 fn ms(n: u64) -> u64 {
     us_to_cycles(1000 * n)
-}
-
-/// The LRC of §2.5.2.2 from the spec: the two's complement of the bytes' sum, 8 bits.
-fn lrc(bytes: &[u8]) -> u8 {
-    let sum: u32 = bytes.iter().map(|&b| u32::from(b)).sum();
-    ((256 - sum % 256) % 256) as u8
-}
-
-/// `bytes` (address and PDU) as an ASCII frame: `:`, upper-case hex pairs with the LRC,
-/// CR LF.
-fn ascii(bytes: &[u8]) -> Vec<u8> {
-    let mut text = String::from(":");
-    for b in bytes.iter().copied().chain([lrc(bytes)]) {
-        text.push_str(&format!("{b:02X}"));
-    }
-    text.push_str("\r\n");
-    text.into_bytes()
 }
 
 /// The master's counters as the test counts them (the order of the report's registers).
