@@ -74,7 +74,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
     }
 
     /// Sends the request from its first byte: driver enabled, the address into the USART,
-    /// the rest from the data-register-empty interrupt.
+    /// the rest from the transmit-complete interrupt.
     #[inline(always)]
     fn act(&mut self, action: Action) {
         if action == Action::Send {
@@ -82,7 +82,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
             let _ = self.led.set_high();
             self.usart.write(self.request_char(0));
             self.tx_next = 1;
-            self.usart.start_feeding();
+            self.usart.start_sending();
         }
     }
 
@@ -122,20 +122,18 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
         self.act(action);
     }
 
-    #[inline(always)]
-    fn on_usart_udre(&mut self) {
-        let next = self.tx_next;
-        self.usart.write(self.request_char(next));
-        self.tx_next = next + 1;
-        if self.tx_next >= self.request_chars() {
-            self.usart.last_written();
-        }
-    }
-
-    /// The request has left the wire: the response timeout starts, and so do the silence
-    /// deadlines (the next request waits T3.5 after this one even if nothing answers).
+    /// A character of the request has left the wire: the next goes out; after the last,
+    /// the response timeout starts, and so do the silence deadlines (the next request waits
+    /// T3.5 after this one even if nothing answers). One character at a time, from this
+    /// one interrupt: the few cycles it takes between two characters are far inside T1.5.
     #[inline(always)]
     fn on_usart_tx(&mut self) {
+        let next = self.tx_next;
+        if next < self.request_chars() {
+            self.usart.write(self.request_char(next));
+            self.tx_next = next + 1;
+            return;
+        }
         self.usart.finished();
         let _ = self.driver_enable.set_low();
         let _ = self.led.set_low();
@@ -278,17 +276,6 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
     pub unsafe fn on_usart_rx(&self) {
         // SAFETY: the receive interrupt handler (the caller's promise).
         unsafe { self.running.access_in_handler(Running::on_usart_rx) };
-    }
-
-    /// See [`Master::on_usart_rx`].
-    ///
-    /// # Safety
-    /// As for [`Master::on_usart_rx`].
-    #[doc(hidden)]
-    #[inline(always)]
-    pub unsafe fn on_usart_udre(&self) {
-        // SAFETY: as above.
-        unsafe { self.running.access_in_handler(Running::on_usart_udre) };
     }
 
     /// See [`Master::on_usart_rx`].

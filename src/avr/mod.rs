@@ -123,7 +123,7 @@ macro_rules! slave {
             { $crate::__chip!(usart $usart) },
         > = $crate::Slave::new();
 
-        $crate::__bind_role!(__avr_modbus_interrupts, $name, $usart, TIMER0_COMPB, usart_rx_arrived);
+        $crate::__bind_role!(__avr_modbus_interrupts, $name, $usart, TIMER0_COMPB, usart_rx_arrived, on_usart_udre);
     };
     ($name:ident on $usart:ident : $model:ty) => {
         $crate::slave!(@on $usart $name: $model, $crate::NoPin, $crate::NoPin);
@@ -179,14 +179,15 @@ macro_rules! master {
     };
 }
 
-/// The four interrupts a role (`slave!`, `master!`) binds, in module `$module`: Timer0's
+/// The interrupts a role (`slave!`, `master!`) binds, in module `$module`: Timer0's
 /// compare unit `$compare` (its silences, and the master's timeouts), and USART `$usart`'s
 /// RX complete (first `__private::$arrived`, which starts the silence deadlines), data
-/// register empty and TX complete, each calling the static `$name`'s handler.
+/// register empty (the slave's, whose handler is `$feed`; the master sends from TX complete
+/// alone) and TX complete, each calling the static `$name`'s handler.
 #[doc(hidden)]
 #[macro_export]
 macro_rules! __bind_role {
-    ($module:ident, $name:ident, $usart:ident, $compare:ident, $arrived:ident) => {
+    ($module:ident, $name:ident, $usart:ident, $compare:ident, $arrived:ident $(, $feed:ident)?) => {
         #[doc(hidden)]
         #[allow(non_snake_case)]
         mod $module {
@@ -206,14 +207,17 @@ macro_rules! __bind_role {
                 unsafe { super::$name.on_usart_rx() }
             }
 
+            $(
             /// USARTn_UDRE: room for the next character of a frame.
             #[export_name = $crate::__chip!(vector $usart UDRE)]
             unsafe extern "avr-interrupt" fn USART_UDRE() {
                 // SAFETY: as above.
-                unsafe { super::$name.on_usart_udre() }
+                unsafe { super::$name.$feed() }
             }
+            )?
 
-            /// USARTn_TX: the frame has left the wire.
+            /// USARTn_TX: a character (the master's) or the frame (the slave's) has left
+            /// the wire.
             #[export_name = $crate::__chip!(vector $usart TX)]
             unsafe extern "avr-interrupt" fn USART_TX() {
                 // SAFETY: as above.

@@ -170,6 +170,19 @@ impl<const U: u8> Usart<U> {
         self.modify_control(|b| (b & !UDRIE0) | TXCIE0);
     }
 
+    /// The first character is in the buffer: each one that leaves the wire brings the
+    /// transmit-complete interrupt, which writes the next (the master's way: one handler,
+    /// and a few cycles between characters where the slave's data-register-empty feed has
+    /// none).
+    #[cfg(feature = "master")]
+    #[inline(always)]
+    pub(crate) fn start_sending(&self) {
+        // Writing 1 to TXC0 clears a flag left from before; U2X0 is written back unchanged
+        // and the error flags are read-only.
+        Self::UCSRA.modify(|bits| (bits & U2X0) | TXC0);
+        self.modify_control(|b| b | TXCIE0);
+    }
+
     /// True from [`Usart::start_feeding`] until [`Usart::finished`]: a reply is on its
     /// way.
     #[cfg(feature = "eeprom-settings")]

@@ -85,13 +85,17 @@ enum State {
 }
 
 /// The receiver of RTU frames; holds the one frame buffer, of `N` bytes (8 to 256).
+/// `WHOLE`: a frame longer than the buffer is received whole, its CRC checked (the slave,
+/// which answers such a request from its first bytes); without it such a frame is dropped
+/// as too long once it overflows the buffer (the master, whose buffer holds the longest
+/// reply to its request, so that a longer frame can be no answer).
 ///
 /// In declaration order (`repr(C)`), the two fields that start other than zero first: the
 /// rest of a new framer, and of the engine that holds it after its address, is one run of
 /// zeros, which the slave's start writes in one go.
 #[repr(C)]
 #[derive(Clone, Debug)]
-pub struct Framer<const N: usize = MAX_FRAME> {
+pub struct Framer<const N: usize = MAX_FRAME, const WHOLE: bool = true> {
     state: State,
     /// Why the frame is dropped (`Broken`), or the verdict of the checks at the gap
     /// deadline (`Waiting`: `None` for a good frame).
@@ -109,13 +113,13 @@ pub struct Framer<const N: usize = MAX_FRAME> {
     ascii: ascii::Ascii,
 }
 
-impl<const N: usize> Default for Framer<N> {
+impl<const N: usize, const WHOLE: bool> Default for Framer<N, WHOLE> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const N: usize> Framer<N> {
+impl<const N: usize, const WHOLE: bool> Framer<N, WHOLE> {
     const CAPACITY: () = assert!(N >= MIN_CAPACITY && N <= MAX_FRAME, "a frame buffer holds 8 to 256 bytes");
 
     /// A framer just after power-up: it waits for T3.5 of silence (the caller starts its
@@ -167,10 +171,11 @@ impl<const N: usize> Framer<N> {
     }
 
     /// A character of a frame that fills the buffer: folded into the tail's CRC and
-    /// counted, up to 256 bytes in all; one more makes the frame too long.
+    /// counted, up to 256 bytes in all; one more makes the frame too long (without
+    /// `WHOLE`, this one does).
     #[inline(always)]
     fn past_buffer(&mut self, byte: u8) {
-        if N == MAX_FRAME || usize::from(self.past) == MAX_FRAME - N {
+        if N == MAX_FRAME || !WHOLE || usize::from(self.past) == MAX_FRAME - N {
             self.break_frame(FrameError::TooLong);
         } else {
             self.tail = self.tail.step(byte);
@@ -215,7 +220,7 @@ impl<const N: usize> Framer<N> {
     fn idle(&mut self) {
         self.state = State::Idle;
         // A 256-byte buffer holds every frame: nothing is past it, and both stay 0.
-        if N < MAX_FRAME {
+        if N < MAX_FRAME && WHOLE {
             self.past = 0;
             self.tail = Crc16::tail();
         }
@@ -267,7 +272,7 @@ impl<const N: usize> Framer<N> {
     fn crc_checks(&self) -> bool {
         let frame = self.buf.get(..self.stored()).unwrap_or(&self.buf);
         let crc = Crc16::new().update_slice(frame);
-        if N < MAX_FRAME && self.past != 0 {
+        if N < MAX_FRAME && WHOLE && self.past != 0 {
             crc.join(self.tail, u16::from(self.past)).is_residue_ok()
         } else {
             crc.is_residue_ok()

@@ -5,7 +5,8 @@
 //! then goes out → waiting for the reply, the response timeout running (for a broadcast,
 //! the turnaround delay, and no reply) → the reply from the slave asked is checked → done,
 //! until the application collects the outcome. A frame from another slave is ignored and
-//! the timeout keeps running; a damaged frame, or one from the slave that does not answer
+//! the timeout keeps running; a damaged frame (or one longer than any answer), or one from
+//! the slave that does not answer
 //! the request, ends the attempt (the spec's "processing error"); a timeout too. An attempt
 //! that ended so is sent again while retries are left.
 //!
@@ -83,7 +84,8 @@ pub struct Counters {
     /// Frames dropped for a bad CRC (or LRC).
     pub crc_errors: u16,
     /// Frames dropped for a gap over T1.5, a parity, framing or overrun error, or a length
-    /// under 4 or over 256 bytes; in ASCII framing also for a character that is not a hex
+    /// under 4 bytes or over the master's buffer (in RTU: no answer to its request is
+    /// longer); in ASCII framing also for a character that is not a hex
     /// digit, an odd number of them, the inter-character timeout inside a frame, or a
     /// frame a `:` cut short.
     pub malformed: u16,
@@ -138,7 +140,8 @@ pub enum Action {
 /// `N` bytes each way.
 #[derive(Clone, Debug)]
 pub struct Engine<const N: usize = MAX_FRAME> {
-    framer: Framer<N>,
+    /// A reply longer than the buffer is no answer: it is dropped as too long.
+    framer: Framer<N, false>,
     request: [u8; N],
     request_len: usize,
     expect: Expect,
@@ -367,12 +370,8 @@ impl<const N: usize> Engine<N> {
             self.framer.release();
             return;
         }
-        let frame = self.framer.buffer().get(..len);
-        let verdict = match frame {
-            Some(frame) => self.expect.check(self.request(), frame),
-            None => Verdict::Mismatch, // longer than the buffer: no answer to this request
-        };
-        match verdict {
+        // The framer drops a frame longer than its buffer: `len` is at most `N`.
+        match self.expect.check(&self.request, self.framer.buffer(), len) {
             Verdict::Answer => {
                 self.count(Count::Replies);
                 self.finish(None);

@@ -20,30 +20,25 @@ pub(crate) enum Verdict {
 }
 
 impl Expect {
-    /// Judges `frame` (address to CRC, CRC checked) against the request it should answer,
-    /// `request` (address to CRC, as sent).
-    pub(crate) fn check(&self, request: &[u8], frame: &[u8]) -> Verdict {
-        let (Some(&slave), Some(&function)) = (frame.first(), frame.get(1)) else {
-            return Verdict::Mismatch;
-        };
-        if slave != self.slave {
+    /// Judges the frame of `len` bytes at the start of `frame` (address to CRC, CRC
+    /// checked, 4 bytes or more) against the request it should answer, at the start of
+    /// `request` (address to CRC, as sent). Both buffers hold at least 8 bytes
+    /// ([`crate::link::framer::MIN_CAPACITY`]), so every byte read here is inside them.
+    pub(crate) fn check<const N: usize>(&self, request: &[u8; N], frame: &[u8; N], len: usize) -> Verdict {
+        let at = |i: usize| frame.get(i).copied().unwrap_or(0);
+        if at(0) != self.slave {
             return Verdict::OtherSlave;
         }
-        let len = frame.len();
+        let function = at(1);
         if function == self.function | 0x80 {
-            return match frame.get(2) {
-                Some(&code) if len == 5 => Verdict::Exception(code),
-                _ => Verdict::Mismatch,
+            return if len == 5 { Verdict::Exception(at(2)) } else { Verdict::Mismatch };
+        }
+        let fits = function == self.function
+            && match self.shape {
+                Shape::Count(count) => at(2) == count && len == 5 + usize::from(count),
+                Shape::Echo => len == 8 && frame.get(2..6) == request.get(2..6),
+                Shape::Any => len >= 4,
             };
-        }
-        if function != self.function {
-            return Verdict::Mismatch;
-        }
-        let fits = match self.shape {
-            Shape::Count(count) => frame.get(2) == Some(&count) && len == 5 + usize::from(count),
-            Shape::Echo => len == 8 && frame.get(2..6) == request.get(2..6),
-            Shape::Any => len >= 4,
-        };
         if fits {
             Verdict::Answer
         } else {

@@ -161,6 +161,9 @@ impl Request<'_> {
     /// ([`Error::Broadcast`]), a raw function code is not 1–127 ([`Error::Function`]), or
     /// the request or its reply does not fit the master's buffers, `frame` and `reply_room`
     /// bytes ([`Error::TooLong`]).
+    ///
+    /// Every check comes first, the room in `frame` included; the writes that follow
+    /// cannot fail, so they carry no error paths (the firmware's largest part of a request).
     pub(crate) fn encode(&self, slave: u8, frame: &mut [u8], reply_room: usize) -> Result<(usize, Expect), Error> {
         if slave > 247 {
             return Err(Error::SlaveId);
@@ -168,73 +171,101 @@ impl Request<'_> {
         if slave == 0 && !self.may_broadcast() {
             return Err(Error::Broadcast);
         }
-        let mut out = Writer { frame, len: 0, room: reply_room, broadcast: slave == 0 };
         let function = self.function();
-        let (shape, quantity) = match *self {
+        // The two words after the function code, the frame's length without its CRC, the
+        // reply's length with its CRC, and what the reply must be.
+        let (first, second, len, reply, shape, quantity) = match *self {
             Request::ReadCoils { address, quantity } | Request::ReadDiscreteInputs { address, quantity } => {
                 let bytes = checked(quantity, MAX_READ_BITS)?.div_ceil(8);
-                out.fits(6, 5 + bytes)?;
-                out.header(slave, function, address, quantity)?;
-                (Shape::Count(bytes as u8), quantity)
+                (address, quantity, 6, 5 + bytes, Shape::Count(bytes as u8), quantity)
             }
             Request::ReadHoldingRegisters { address, quantity } | Request::ReadInputRegisters { address, quantity } => {
                 let bytes = checked(quantity, MAX_READ_REGISTERS)? * 2;
-                out.fits(6, 5 + bytes)?;
-                out.header(slave, function, address, quantity)?;
-                (Shape::Count(bytes as u8), quantity)
+                (address, quantity, 6, 5 + bytes, Shape::Count(bytes as u8), quantity)
             }
             Request::WriteSingleCoil { address, value } => {
-                out.fits(6, 8)?;
-                out.header(slave, function, address, if value { 0xFF00 } else { 0x0000 })?;
-                (Shape::Echo, 0)
+                (address, if value { 0xFF00 } else { 0x0000 }, 6, 8, Shape::Echo, 0)
             }
-            Request::WriteSingleRegister { address, value } => {
-                out.fits(6, 8)?;
-                out.header(slave, function, address, value)?;
-                (Shape::Echo, 0)
-            }
+            Request::WriteSingleRegister { address, value } => (address, value, 6, 8, Shape::Echo, 0),
             Request::WriteMultipleCoils { address, values } => {
                 let quantity = checked_len(values.len(), MAX_WRITE_COILS)?;
-                out.fits(7 + quantity.div_ceil(8), 8)?;
-                out.header(slave, function, address, quantity)?;
-                out.push(quantity.div_ceil(8) as u8)?;
-                for byte in values.chunks(8) {
-                    let packed = byte.iter().rev().fold(0u8, |bits, &on| (bits << 1) | u8::from(on));
-                    out.push(packed)?;
-                }
-                (Shape::Echo, 0)
+                (address, quantity, 7 + quantity.div_ceil(8), 8, Shape::Echo, 0)
             }
             Request::WriteMultipleRegisters { address, values } => {
                 let quantity = checked_len(values.len(), MAX_WRITE_REGISTERS)?;
-                out.fits(7 + 2 * quantity, 8)?;
-                out.header(slave, function, address, quantity)?;
-                out.registers(values)?;
-                (Shape::Echo, 0)
+                (address, quantity, 7 + 2 * quantity, 8, Shape::Echo, 0)
             }
-            Request::ReadWriteMultipleRegisters { read_address, read_quantity, write_address, values } => {
+            Request::ReadWriteMultipleRegisters { read_address, read_quantity, values, .. } => {
                 let bytes = checked(read_quantity, MAX_READ_REGISTERS)? * 2;
                 let write_quantity = checked_len(values.len(), MAX_READ_WRITE_REGISTERS)?;
-                out.fits(11 + 2 * write_quantity, 5 + bytes)?;
-                out.header(slave, function, read_address, read_quantity)?;
-                out.word(write_address)?;
-                out.word(write_quantity)?;
-                out.registers(values)?;
-                (Shape::Count(bytes as u8), read_quantity)
+                (read_address, read_quantity, 11 + 2 * write_quantity, 5 + bytes, Shape::Count(bytes as u8), read_quantity)
             }
             Request::Raw { function, data } => {
                 if !(1..=0x7F).contains(&function) {
                     return Err(Error::Function);
                 }
-                out.fits(u16::try_from(data.len()).unwrap_or(u16::MAX).saturating_add(2), 5)?;
-                out.push(slave)?;
-                out.push(function)?;
-                for &byte in data {
-                    out.push(byte)?;
-                }
-                (Shape::Any, 0)
+                (0, 0, u16::try_from(data.len()).unwrap_or(u16::MAX).saturating_add(2), 5, Shape::Any, 0)
             }
         };
-        Ok((out.len, Expect { slave, function, shape, quantity }))
+        let len = usize::from(len);
+        // At most 256 bytes with the CRC, and room for it; room for the reply (none comes
+        // to a broadcast).
+        if len > 254 || len + 2 > frame.len() || (slave != 0 && usize::from(reply) > reply_room) {
+            return Err(Error::TooLong);
+        }
+        let Some(frame) = frame.get_mut(..len) else { return Err(Error::TooLong) };
+        put(frame, 0, slave);
+        put(frame, 1, function);
+        match *self {
+            Request::Raw { data, .. } => {
+                for (i, &byte) in data.iter().enumerate() {
+                    put(frame, 2 + i, byte);
+                }
+            }
+            _ => {
+                put_word(frame, 2, first);
+                put_word(frame, 4, second);
+                match *self {
+                    Request::WriteMultipleCoils { values, .. } => {
+                        put(frame, 6, second.div_ceil(8) as u8);
+                        for (i, byte) in values.chunks(8).enumerate() {
+                            put(frame, 7 + i, byte.iter().rev().fold(0u8, |bits, &on| (bits << 1) | u8::from(on)));
+                        }
+                    }
+                    Request::WriteMultipleRegisters { values, .. } => registers(frame, 6, values),
+                    Request::ReadWriteMultipleRegisters { write_address, values, .. } => {
+                        put_word(frame, 6, write_address);
+                        put_word(frame, 8, values.len() as u16);
+                        registers(frame, 10, values);
+                    }
+                    _ => {}
+                }
+            }
+        }
+        Ok((len, Expect { slave, function, shape, quantity }))
+    }
+}
+
+/// Writes `byte` at `at` in `frame`, which [`Request::encode`] sized for it.
+fn put(frame: &mut [u8], at: usize, byte: u8) {
+    if let Some(slot) = frame.get_mut(at) {
+        *slot = byte;
+    }
+}
+
+/// Writes `word` at `at` in `frame`, high byte first.
+fn put_word(frame: &mut [u8], at: usize, word: u16) {
+    let [high, low] = word.to_be_bytes();
+    put(frame, at, high);
+    put(frame, at + 1, low);
+}
+
+/// The byte count and the values of FC 16 and 23, from `at` on.
+fn registers(frame: &mut [u8], at: usize, values: &[u16]) {
+    put(frame, at, (values.len() * 2) as u8);
+    let out = frame.get_mut(at + 1..).unwrap_or_default();
+    for (pair, value) in out.chunks_exact_mut(2).zip(values) {
+        pair.copy_from_slice(&value.to_be_bytes());
     }
 }
 
@@ -260,59 +291,4 @@ fn checked(quantity: u16, max: u16) -> Result<u16, Error> {
 /// The number of values written, inside 1–`max`.
 fn checked_len(len: usize, max: u16) -> Result<u16, Error> {
     checked(u16::try_from(len).unwrap_or(u16::MAX), max)
-}
-
-/// Appends a frame's bytes, refusing to run past the buffer.
-struct Writer<'a> {
-    frame: &'a mut [u8],
-    len: usize,
-    /// The room for the reply.
-    room: usize,
-    /// A broadcast, which gets no reply.
-    broadcast: bool,
-}
-
-impl Writer<'_> {
-    /// Checks, before a byte is written, that a frame of `len` bytes of address and PDU
-    /// fits the buffer and a frame (at most 256 bytes with its CRC), and that a reply of
-    /// `reply` bytes fits its own (no reply to a broadcast): a refused request leaves the
-    /// buffer as it was.
-    fn fits(&self, len: u16, reply: u16) -> Result<(), Error> {
-        let len = usize::from(len);
-        if len > 254 || len + 2 > self.frame.len() || (!self.broadcast && usize::from(reply) > self.room) {
-            Err(Error::TooLong)
-        } else {
-            Ok(())
-        }
-    }
-
-    fn push(&mut self, byte: u8) -> Result<(), Error> {
-        *self.frame.get_mut(self.len).ok_or(Error::TooLong)? = byte;
-        self.len += 1;
-        Ok(())
-    }
-
-    fn word(&mut self, word: u16) -> Result<(), Error> {
-        let [high, low] = word.to_be_bytes();
-        self.push(high)?;
-        self.push(low)
-    }
-
-    /// Address, function code, and the two words every request of FC 1–6, 15, 16 and 23
-    /// starts with.
-    fn header(&mut self, slave: u8, function: u8, first: u16, second: u16) -> Result<(), Error> {
-        self.push(slave)?;
-        self.push(function)?;
-        self.word(first)?;
-        self.word(second)
-    }
-
-    /// The byte count and the values of FC 16 and 23.
-    fn registers(&mut self, values: &[u16]) -> Result<(), Error> {
-        self.push((values.len() * 2) as u8)?;
-        for &value in values {
-            self.word(value)?;
-        }
-        Ok(())
-    }
 }

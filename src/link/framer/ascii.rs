@@ -116,7 +116,7 @@ impl Ascii {
     pub const OFF: Ascii = Ascii { on: false, high: None, sum: 0, chars: 0, after_cr: false, abandoned: None };
 }
 
-impl<const N: usize> Framer<N> {
+impl<const N: usize, const WHOLE: bool> Framer<N, WHOLE> {
     /// Switches between RTU and ASCII framing (from the next frame on). ASCII needs no
     /// silence before its first frame: the receiver listens at once.
     pub fn set_ascii(&mut self, on: bool) {
