@@ -74,8 +74,9 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
     }
 
     /// Sends the request from its first byte: driver enabled, the address into the USART,
-    /// the rest from the transmit-complete interrupt.
-    #[inline(always)]
+    /// the rest from the transmit-complete interrupt. Out of line: the application's
+    /// request and Timer0's compare interrupt both send.
+    #[inline(never)]
     fn act(&mut self, action: Action) {
         if action == Action::Send {
             let _ = self.driver_enable.set_high();

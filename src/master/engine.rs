@@ -138,8 +138,17 @@ pub enum Action {
 /// The master's protocol state: the receive framer (shared with the slave), the request
 /// as sent (kept for retries and for checking the reply's echo), the state, the counters.
 /// `N` bytes each way.
+///
+/// In declaration order (`repr(C)`), the fields that start other than zero first (the
+/// timeouts, no failure, the framer's state): the rest of a new master is one run of zeros,
+/// which its start writes in one go.
+#[repr(C)]
 #[derive(Clone, Debug)]
 pub struct Engine<const N: usize = MAX_FRAME> {
+    timeouts: Timeouts,
+    /// Why the request failed, once `Done`; `None` when it was answered (the reply stays
+    /// in the framer's buffer until collected).
+    failure: Option<Failure>,
     /// A reply longer than the buffer is no answer: it is dropped as too long.
     framer: Framer<N, false>,
     request: [u8; N],
@@ -148,7 +157,6 @@ pub struct Engine<const N: usize = MAX_FRAME> {
     state: State,
     /// Tries left after the current one.
     retries_left: u8,
-    timeouts: Timeouts,
     /// When the response timeout or the turnaround delay started (milliseconds).
     since: u32,
     /// T3.5 has passed since the line's last character (or the request's last).
@@ -156,9 +164,6 @@ pub struct Engine<const N: usize = MAX_FRAME> {
     /// The request is on the wire: characters now are no reply but its own echo (a
     /// transceiver that hears its own transmitter) or a collision, and ignored.
     sending: bool,
-    /// Why the request failed, once `Done`; `None` when it was answered (the reply stays
-    /// in the framer's buffer until collected).
-    failure: Option<Failure>,
     counts: [u16; COUNTS],
 }
 
@@ -445,7 +450,7 @@ impl<const N: usize> Engine<N> {
             Some(failure) => Err(failure),
             None if self.expect.is_broadcast() => Ok(Reply::broadcast(&self.expect)),
             None => {
-                Ok(Reply::new(self.framer.buffer().get(..self.framer.frame_len()).unwrap_or_default(), &self.expect))
+                Ok(Reply::new(self.framer.buffer(), self.framer.frame_len(), &self.expect))
             }
         })
     }

@@ -37,7 +37,8 @@ impl Expect {
             && match self.shape {
                 Shape::Count(count) => at(2) == count && len == 5 + usize::from(count),
                 Shape::Echo => len == 8 && frame.get(2..6) == request.get(2..6),
-                Shape::Any => len >= 4,
+                // In ASCII a frame past the buffer still ends (RTU drops it): no answer.
+                Shape::Any => len >= 4 && len <= N,
             };
         if fits {
             Verdict::Answer
@@ -57,10 +58,11 @@ pub struct Reply<'a> {
 }
 
 impl<'a> Reply<'a> {
-    /// The answer in `frame` (address to CRC) to a request of `expect`.
-    pub(crate) fn new(frame: &'a [u8], expect: &Expect) -> Self {
-        let end = frame.len().saturating_sub(2);
-        Reply { data: frame.get(2..end).unwrap_or_default(), function: expect.function, quantity: expect.quantity }
+    /// The answer of `len` bytes (address to CRC) at the start of `buffer` to a request of
+    /// `expect`.
+    pub(crate) fn new(buffer: &'a [u8], len: usize, expect: &Expect) -> Self {
+        let data = buffer.get(2..len.saturating_sub(2)).unwrap_or_default();
+        Reply { data, function: expect.function, quantity: expect.quantity }
     }
 
     /// What a broadcast of `expect` completes with: no data.
@@ -100,6 +102,16 @@ impl<'a> Reply<'a> {
         }
     }
 
+    /// The values of a read of registers, two bytes each (the master checked that the byte
+    /// count before them is twice the quantity asked); none for any other reply.
+    fn register_bytes(&self) -> &'a [u8] {
+        if matches!(self.function, 0x03 | 0x04 | 0x17) {
+            self.data.get(1..).unwrap_or_default()
+        } else {
+            &[]
+        }
+    }
+
     /// Register `index` of a read of registers (FC 3, 4, 23), counted from the first one
     /// asked; `None` past the last, and for any other reply.
     pub fn register(&self, index: usize) -> Option<u16> {
@@ -113,8 +125,7 @@ impl<'a> Reply<'a> {
     /// The registers read (FC 3, 4, 23), from the first one asked; none for any other
     /// reply (a write's echo is in [`Reply::data`]).
     pub fn registers(&self) -> impl Iterator<Item = u16> + 'a {
-        let values = self.data.get(1..).unwrap_or_default();
-        values.chunks_exact(2).take(self.register_count()).map(|pair| u16::from_be_bytes([pair[0], pair[1]]))
+        self.register_bytes().chunks_exact(2).map(|pair| u16::from_be_bytes([pair[0], pair[1]]))
     }
 
     /// The `u32`, `i32` or `f32` registers `index` and `index + 1` of a read of registers

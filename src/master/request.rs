@@ -94,13 +94,16 @@ pub enum Request<'a> {
 /// What a reply to a request must look like, beside the slave's address and the
 /// function code.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+///
+/// `Any` first: [`Expect::NONE`] is then all zeros, and so is most of a new master, which
+/// its start writes in a few runs of zeros rather than from a copy in flash.
 pub(crate) enum Shape {
+    /// Anything (a raw request).
+    Any,
     /// A byte count, then that many bytes (FC 1–4, 23).
     Count(u8),
     /// An echo of the request's four bytes after the function code (FC 5, 6, 15, 16).
     Echo,
-    /// Anything (a raw request).
-    Any,
 }
 
 /// What the master waits for: a reply from `slave` to `function`, of `shape`, with

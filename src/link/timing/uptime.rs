@@ -56,13 +56,13 @@ impl Uptime {
         // for each whole millisecond the ticks reach. Written as comparisons, not as a loop
         // that subtracts a millisecond at a time: the compiler turns such a loop into a
         // division by multiplication, a 32-bit multiply on the AVR.
-        let mut extra = 0;
+        let mut extra = 0u8;
         let mut k = 1;
         while k <= Self::MAX_EXTRA_MS {
-            extra += (ticks >= k * TICKS_PER_MS as u16) as u32;
+            extra += (ticks >= k * TICKS_PER_MS as u16) as u8;
             k += 1;
         }
-        self.millis.wrapping_add(extra)
+        self.millis.wrapping_add(extra as u32)
     }
 
     /// The most whole milliseconds [`Uptime::millis_at`] adds: the ticks past `millis`
