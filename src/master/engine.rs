@@ -161,9 +161,6 @@ pub struct Engine<const N: usize = MAX_FRAME> {
     since: u32,
     /// T3.5 has passed since the line's last character (or the request's last).
     quiet: bool,
-    /// The request is on the wire: characters now are no reply but its own echo (a
-    /// transceiver that hears its own transmitter) or a collision, and ignored.
-    sending: bool,
     counts: [u16; COUNTS],
 }
 
@@ -186,7 +183,6 @@ impl<const N: usize> Engine<N> {
             timeouts: Timeouts::DEFAULT,
             since: 0,
             quiet: false,
-            sending: false,
             failure: None,
             counts: [0; COUNTS],
         }
@@ -286,11 +282,11 @@ impl<const N: usize> Engine<N> {
     /// From `Due`: sends when the line is quiet.
     fn send_if_quiet(&mut self) -> Action {
         if self.state == State::Due && self.line_free() {
+            // What the line carries while the request goes out (`Sending`) is the request
+            // itself (a transceiver that hears its own transmitter echoes it) or a
+            // collision: no reply, ignored.
             self.state = State::Sending;
             self.quiet = false;
-            // What the line carries while the request goes out is the request itself (a
-            // transceiver that hears its own transmitter echoes it) or a collision: no reply.
-            self.sending = true;
             self.count(Count::Requests);
             Action::Send
         } else {
@@ -319,18 +315,25 @@ impl<const N: usize> Engine<N> {
     /// A character arrived.
     #[inline(always)]
     pub fn on_byte(&mut self, byte: u8) {
-        self.quiet = false;
-        if !self.sending {
+        if self.hears() {
             self.framer.on_byte(byte);
         }
     }
 
     /// A damaged character arrived.
     pub fn on_error(&mut self, error: UartError) {
-        self.quiet = false;
-        if !self.sending {
+        if self.hears() {
             self.framer.on_error(error);
         }
+    }
+
+    /// A character arrived, damaged or not: the line is no longer quiet, and the character
+    /// is for the framer unless the request is going out (it is then its echo, or a
+    /// collision).
+    #[inline(always)]
+    fn hears(&mut self) -> bool {
+        self.quiet = false;
+        self.state != State::Sending
     }
 
     /// The gap deadline (T1.5) passed since the last character.
@@ -345,7 +348,6 @@ impl<const N: usize> Engine<N> {
     /// many answer sooner (pymodbus's server, for one), and their replies are taken.
     pub fn on_sent(&mut self, now: u32) {
         if self.state == State::Sending {
-            self.sending = false;
             self.since = now;
             self.state = if self.expect.is_broadcast() { State::Turnaround } else { State::Waiting };
         }

@@ -29,7 +29,7 @@ impl<const N: usize> Engine<N> {
     /// the request goes out are its echo, ignored.
     #[inline(always)]
     pub fn on_char(&mut self, c: u8) -> bool {
-        !self.sending && self.framer.on_char(c)
+        self.hears() && self.framer.on_char(c)
     }
 
     /// The inter-character timeout passed (ASCII): a frame in progress is dropped and
