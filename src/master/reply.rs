@@ -61,7 +61,7 @@ impl<'a> Reply<'a> {
     /// The answer of `len` bytes (address to CRC) at the start of `buffer` to a request of
     /// `expect`.
     pub(crate) fn new(buffer: &'a [u8], len: usize, expect: &Expect) -> Self {
-        let data = buffer.get(2..len.saturating_sub(2)).unwrap_or_default();
+        let data = buffer.get(..len).and_then(|frame| frame.get(2..len.wrapping_sub(2))).unwrap_or_default();
         Reply { data, function: expect.function, quantity: expect.quantity }
     }
 
