@@ -220,7 +220,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
             .locked(|m| {
                 let action = m.engine.begin(slave, request)?;
                 // The address goes out first; the CRC is worked out while it is on the wire
-                // (the rest follows from the data-register-empty interrupt, once this
+                // (the rest follows from the transmit-complete interrupt, once this
                 // critical section ends).
                 m.act(action);
                 m.engine.seal();
