@@ -243,7 +243,7 @@ impl<const N: usize> Engine<N> {
         self.request_len = len;
         self.expect = expect;
         self.retries_left = self.timeouts.retries;
-        self.framer.release();
+        // Idle, the framer holds no frame: an answer stays until `collect`, which frees it.
         self.state = State::Due;
         Ok(self.send_if_quiet())
     }
@@ -279,7 +279,9 @@ impl<const N: usize> Engine<N> {
         false
     }
 
-    /// From `Due`: sends when the line is quiet.
+    /// From `Due`: sends when the line is quiet. Out of line: a request, T3.5 and the
+    /// clock's turns all end here.
+    #[inline(never)]
     fn send_if_quiet(&mut self) -> Action {
         if self.state == State::Due && self.line_free() {
             // What the line carries while the request goes out (`Sending`) is the request
