@@ -26,13 +26,15 @@ use crate::master::{Counters, Failure, Reply, Request, Timeouts};
 mod ascii;
 
 /// The running master: its peripherals, protocol state with `N`-byte buffers, the RS-485
-/// driver-enable pin and the communication LED.
+/// driver-enable pin and the communication LED. `repr(C)`, the engine first: its run of
+/// zeros at the start goes on through `tx_next`.
+#[repr(C)]
 pub(crate) struct Running<DE, LED, const N: usize, const U: u8> {
     engine: Engine<N>,
-    usart: Usart<U>,
-    timer: FrameTimer<A>,
     /// Index of the request's next byte.
     tx_next: usize,
+    usart: Usart<U>,
+    timer: FrameTimer<A>,
     driver_enable: DE,
     led: LED,
 }
