@@ -139,13 +139,15 @@ pub enum Action {
 /// as sent (kept for retries and for checking the reply's echo), the state, the counters.
 /// `N` bytes each way.
 ///
-/// In declaration order (`repr(C)`), the fields that start other than zero first (the
-/// timeouts, no failure, the framer's state): the rest of a new master is one run of zeros,
-/// which its start writes in one go.
+/// In declaration order (`repr(C)`), the fields that start other than zero near the start
+/// (no failure, the framer's state): the rest of a new master is one run of zeros, which
+/// its start writes in one go.
 #[repr(C)]
 #[derive(Clone, Debug)]
 pub struct Engine<const N: usize = MAX_FRAME> {
-    timeouts: Timeouts,
+    /// The timeouts set, `None` for [`Timeouts::DEFAULT`]: a new master's timeouts are
+    /// then zeros too, and its start copies nothing from flash.
+    timeouts: Option<Timeouts>,
     /// Why the request failed, once `Done`; `None` when it was answered (the reply stays
     /// in the framer's buffer until collected).
     failure: Option<Failure>,
@@ -180,7 +182,7 @@ impl<const N: usize> Engine<N> {
             expect: Expect::NONE,
             state: State::Idle,
             retries_left: 0,
-            timeouts: Timeouts::DEFAULT,
+            timeouts: None,
             since: 0,
             quiet: false,
             failure: None,
@@ -191,12 +193,12 @@ impl<const N: usize> Engine<N> {
     /// Sets the response timeout, the turnaround delay and the retries, from the next
     /// request on.
     pub fn set_timeouts(&mut self, timeouts: Timeouts) {
-        self.timeouts = timeouts;
+        self.timeouts = Some(timeouts);
     }
 
     /// The timeouts in use.
     pub fn timeouts(&self) -> Timeouts {
-        self.timeouts
+        self.timeouts.unwrap_or(Timeouts::DEFAULT)
     }
 
     /// The counters.
@@ -242,7 +244,7 @@ impl<const N: usize> Engine<N> {
         let (len, expect) = request.encode(slave, &mut self.request, N)?;
         self.request_len = len;
         self.expect = expect;
-        self.retries_left = self.timeouts.retries;
+        self.retries_left = self.timeouts().retries;
         // Idle, the framer holds no frame: an answer stays until `collect`, which frees it.
         self.state = State::Due;
         Ok(self.send_if_quiet())
@@ -434,11 +436,11 @@ impl<const N: usize> Engine<N> {
     pub fn on_tick(&mut self, now: u32) -> Action {
         let elapsed = now.wrapping_sub(self.since);
         match self.state {
-            State::Waiting if elapsed > u32::from(self.timeouts.response_ms) => {
+            State::Waiting if elapsed > u32::from(self.timeouts().response_ms) => {
                 self.count(Count::Timeouts);
                 self.attempt_failed(Failure::Timeout);
             }
-            State::Turnaround if elapsed > u32::from(self.timeouts.turnaround_ms) => self.finish(None),
+            State::Turnaround if elapsed > u32::from(self.timeouts().turnaround_ms) => self.finish(None),
             _ => {}
         }
         self.send_if_quiet()
