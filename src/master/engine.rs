@@ -163,6 +163,8 @@ pub struct Engine<const N: usize = MAX_FRAME> {
     since: u32,
     /// T3.5 has passed since the line's last character (or the request's last).
     quiet: bool,
+    /// The answer's PDU bytes after the function code (0 after a broadcast).
+    answer: u8,
     counts: [u16; COUNTS],
 }
 
@@ -185,6 +187,7 @@ impl<const N: usize> Engine<N> {
             timeouts: None,
             since: 0,
             quiet: false,
+            answer: 0,
             failure: None,
             counts: [0; COUNTS],
         }
@@ -245,6 +248,8 @@ impl<const N: usize> Engine<N> {
         self.request_len = len;
         self.expect = expect;
         self.retries_left = self.timeouts().retries;
+        // A broadcast's outcome carries no data.
+        self.answer = 0;
         // Idle, the framer holds no frame: an answer stays until `collect`, which frees it.
         self.state = State::Due;
         Ok(self.send_if_quiet())
@@ -385,6 +390,8 @@ impl<const N: usize> Engine<N> {
         match self.expect.check(&self.request, self.framer.buffer(), len) {
             Verdict::Answer => {
                 self.count(Count::Replies);
+                // An answer is 4 to `N` bytes long.
+                self.answer = len.wrapping_sub(4) as u8;
                 self.finish(None);
                 // The framer keeps the reply until it is collected.
                 return;
@@ -454,10 +461,7 @@ impl<const N: usize> Engine<N> {
         }
         Some(match self.failure {
             Some(failure) => Err(failure),
-            None if self.expect.is_broadcast() => Ok(Reply::broadcast(&self.expect)),
-            None => {
-                Ok(Reply::new(self.framer.buffer(), self.framer.frame_len(), &self.expect))
-            }
+            None => Ok(Reply::new(self.framer.buffer(), self.answer, &self.expect)),
         })
     }
 

@@ -58,16 +58,11 @@ pub struct Reply<'a> {
 }
 
 impl<'a> Reply<'a> {
-    /// The answer of `len` bytes (address to CRC) at the start of `buffer` to a request of
-    /// `expect`.
-    pub(crate) fn new(buffer: &'a [u8], len: usize, expect: &Expect) -> Self {
-        let data = buffer.get(..len).and_then(|frame| frame.get(2..len.wrapping_sub(2))).unwrap_or_default();
+    /// The answer at the start of `buffer` (address, function code, `len` bytes of PDU
+    /// data, CRC) to a request of `expect`; after a broadcast, `len` is 0.
+    pub(crate) fn new(buffer: &'a [u8], len: u8, expect: &Expect) -> Self {
+        let data = buffer.get(2..2 + usize::from(len)).unwrap_or_default();
         Reply { data, function: expect.function, quantity: expect.quantity }
-    }
-
-    /// What a broadcast of `expect` completes with: no data.
-    pub(crate) fn broadcast(expect: &Expect) -> Self {
-        Reply { data: &[], function: expect.function, quantity: 0 }
     }
 
     /// The function code answered.
