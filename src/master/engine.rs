@@ -159,8 +159,9 @@ pub struct Engine<const N: usize = MAX_FRAME> {
     state: State,
     /// Tries left after the current one.
     retries_left: u8,
-    /// When the response timeout or the turnaround delay started (milliseconds).
-    since: u32,
+    /// When the response timeout or the turnaround delay ends (milliseconds): it has passed
+    /// once the clock reads past it.
+    deadline: u32,
     /// T3.5 has passed since the line's last character (or the request's last).
     quiet: bool,
     /// The answer's PDU bytes after the function code (0 after a broadcast).
@@ -185,7 +186,7 @@ impl<const N: usize> Engine<N> {
             state: State::Idle,
             retries_left: 0,
             timeouts: None,
-            since: 0,
+            deadline: 0,
             quiet: false,
             answer: 0,
             failure: None,
@@ -351,14 +352,21 @@ impl<const N: usize> Engine<N> {
     }
 
     /// The request's last character has left the wire, at `now` (milliseconds, rounded
-    /// down): the response timeout starts (for a broadcast, the turnaround delay). The
+    /// down): the response timeout starts (for a broadcast, the turnaround delay), its
+    /// deadline set from the timeouts in use. The
     /// caller starts the silence deadlines from here, so that the next request waits T3.5.
     /// From here on characters are heard: a slave should wait T3.5 before it answers, but
     /// many answer sooner (pymodbus's server, for one), and their replies are taken.
     pub fn on_sent(&mut self, now: u32) {
         if self.state == State::Sending {
-            self.since = now;
-            self.state = if self.expect.is_broadcast() { State::Turnaround } else { State::Waiting };
+            let Timeouts { response_ms, turnaround_ms, .. } = self.timeouts();
+            let limit;
+            (self.state, limit) = if self.expect.is_broadcast() {
+                (State::Turnaround, turnaround_ms)
+            } else {
+                (State::Waiting, response_ms)
+            };
+            self.deadline = now.wrapping_add(u32::from(limit));
         }
     }
 
@@ -441,14 +449,14 @@ impl<const N: usize> Engine<N> {
     /// turn). Both clock readings are rounded down, so a wait ends only once the count has
     /// gone one past the setting: never shorter than it, at most 2 ms longer.
     pub fn on_tick(&mut self, now: u32) -> Action {
-        let elapsed = now.wrapping_sub(self.since);
-        match self.state {
-            State::Waiting if elapsed > u32::from(self.timeouts().response_ms) => {
+        // Past the deadline: `now` is later than it, by less than half the clock's range.
+        if self.is_timing() && (now.wrapping_sub(self.deadline) as i32) > 0 {
+            if self.state == State::Waiting {
                 self.count(Count::Timeouts);
                 self.attempt_failed(Failure::Timeout);
+            } else {
+                self.finish(None);
             }
-            State::Turnaround if elapsed > u32::from(self.timeouts().turnaround_ms) => self.finish(None),
-            _ => {}
         }
         self.send_if_quiet()
     }
