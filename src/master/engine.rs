@@ -159,8 +159,10 @@ pub struct Engine<const N: usize = MAX_FRAME> {
     state: State,
     /// Tries left after the current one.
     retries_left: u8,
-    /// When the response timeout or the turnaround delay ends (milliseconds): it has passed
-    /// once the clock reads past it.
+    /// The request's response timeout, or for a broadcast its turnaround delay
+    /// (milliseconds), from the timeouts in use when it was started.
+    wait: u16,
+    /// When that wait ends (milliseconds): it has passed once the clock reads past it.
     deadline: u32,
     /// T3.5 has passed since the line's last character (or the request's last).
     quiet: bool,
@@ -186,6 +188,7 @@ impl<const N: usize> Engine<N> {
             state: State::Idle,
             retries_left: 0,
             timeouts: None,
+            wait: 0,
             deadline: 0,
             quiet: false,
             answer: 0,
@@ -248,7 +251,9 @@ impl<const N: usize> Engine<N> {
         let (len, expect) = request.encode(slave, &mut self.request, N)?;
         self.request_len = len;
         self.expect = expect;
-        self.retries_left = self.timeouts().retries;
+        let timeouts = self.timeouts();
+        self.retries_left = timeouts.retries;
+        self.wait = if expect.is_broadcast() { timeouts.turnaround_ms } else { timeouts.response_ms };
         // A broadcast's outcome carries no data.
         self.answer = 0;
         // Idle, the framer holds no frame: an answer stays until `collect`, which frees it.
@@ -352,21 +357,14 @@ impl<const N: usize> Engine<N> {
     }
 
     /// The request's last character has left the wire, at `now` (milliseconds, rounded
-    /// down): the response timeout starts (for a broadcast, the turnaround delay), its
-    /// deadline set from the timeouts in use. The
+    /// down): the response timeout starts (for a broadcast, the turnaround delay). The
     /// caller starts the silence deadlines from here, so that the next request waits T3.5.
     /// From here on characters are heard: a slave should wait T3.5 before it answers, but
     /// many answer sooner (pymodbus's server, for one), and their replies are taken.
     pub fn on_sent(&mut self, now: u32) {
         if self.state == State::Sending {
-            let Timeouts { response_ms, turnaround_ms, .. } = self.timeouts();
-            let limit;
-            (self.state, limit) = if self.expect.is_broadcast() {
-                (State::Turnaround, turnaround_ms)
-            } else {
-                (State::Waiting, response_ms)
-            };
-            self.deadline = now.wrapping_add(u32::from(limit));
+            self.state = if self.expect.is_broadcast() { State::Turnaround } else { State::Waiting };
+            self.deadline = now.wrapping_add(u32::from(self.wait));
         }
     }
 
