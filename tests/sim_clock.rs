@@ -141,6 +141,35 @@ fn at_115200_millis_keeps_simulated_time_for_60_s() {
     millis_keeps_simulated_time_for_60_s(4);
 }
 
+/// The overflow handler (written in assembly) against `Uptime::after_overflow` where its
+/// carries go furthest: the milliseconds just below each byte's wrap and 2³², the fraction
+/// on either side of a whole millisecond. Each clock is written into RAM just after an
+/// overflow interrupt, and read back after the next.
+#[test]
+fn the_overflow_handler_carries_through_every_byte_of_the_milliseconds() {
+    let mut rtu = Rtu::boot_dip(0);
+    let clock = ClockInRam::find(&rtu.uno);
+    let uno = &mut rtu.uno;
+    // Runs until an overflow interrupt has come and gone.
+    let next_overflow = |uno: &mut Uno| {
+        let entries = uno.isr_stats(vector::TIMER0_OVF).entries;
+        while uno.isr_stats(vector::TIMER0_OVF).entries == entries || uno.in_isr() == Some(vector::TIMER0_OVF) {
+            uno.step().expect("firmware runs");
+        }
+    };
+    let t = TICKS_PER_MS as u8;
+    for millis in [0xFF, 0xFFFF, 0xFF_FFFF, 0xFFFF_FFFE, 0xFFFF_FFFF] {
+        for fract in [0, t - 7, t - 6, t - 1] {
+            let before = Uptime { millis, fract };
+            next_overflow(uno);
+            uno.write_ram(clock.millis, &millis.to_le_bytes()).expect("RAM");
+            uno.write_ram(clock.fract, &[fract]).expect("RAM");
+            next_overflow(uno);
+            assert_eq!(clock.read(uno).0, before.after_overflow(), "one turn after {before:?}");
+        }
+    }
+}
+
 /// `uno_slave` publishes `millis() / 1000` as input register 30004.
 #[test]
 fn uno_slave_counts_its_uptime_in_seconds() {

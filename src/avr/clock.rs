@@ -40,9 +40,52 @@ pub(crate) fn millis() -> u32 {
 /// than by [`crate::slave!`]: it touches nothing of the slave's, and a firmware without
 /// the feature has no handler at all (the interrupt stays off). The firmware's alone: the
 /// host has no AVR interrupt ABI, so the docs built there (`--cfg docsrs`) leave it out.
+///
+/// [`Uptime::after_overflow`] in place, written in assembly: the compiler adds the turn's
+/// milliseconds to the `u32` through four registers (three of them zeros) and saves ten;
+/// this adds a byte with carry and saves four, 40 B fewer in every firmware with a clock.
+/// The host tests check `after_overflow`'s arithmetic; `tests/sim_clock.rs` checks this
+/// handler's against Timer0 on the simulated chip, over the clock's whole range.
 #[cfg(target_arch = "avr")]
 #[export_name = __chip!(vector TIMER0_OVF)]
 unsafe extern "avr-interrupt" fn timer0_overflow() {
-    // SAFETY: the overflow interrupt handler, which runs with interrupts disabled.
-    unsafe { CLOCK.with(|c| c.uptime = c.uptime.after_overflow()) }
+    use crate::link::timing::TICKS_PER_MS;
+    const _: () = assert!(core::mem::offset_of!(Uptime, millis) == 0 && core::mem::offset_of!(Uptime, fract) == 4);
+    // SAFETY: the overflow interrupt handler, which runs with interrupts disabled, so
+    // nothing else touches the clock; Z points at it: `millis` little-endian at 0 to 3,
+    // `fract` at 4. `fract` + the spare ticks stays below 256 (`after_overflow`).
+    unsafe {
+        core::arch::asm!(
+            // fract += the turn's spare ticks; a whole millisecond more when it reaches one.
+            "ldd {f}, Z+4",
+            "subi {f}, {minus_spare}",
+            "ldi {ms}, {turn_ms}",
+            "cpi {f}, {ticks}",
+            "brlo 1f",
+            "subi {f}, {ticks}",
+            "inc {ms}",
+            "1: std Z+4, {f}",
+            // millis += ms, a byte at a time with the carry (`ldi` and `st` leave it alone).
+            "ld {f}, Z",
+            "add {f}, {ms}",
+            "st Z, {f}",
+            "ldi {ms}, 0",
+            "ldd {f}, Z+1",
+            "adc {f}, {ms}",
+            "std Z+1, {f}",
+            "ldd {f}, Z+2",
+            "adc {f}, {ms}",
+            "std Z+2, {f}",
+            "ldd {f}, Z+3",
+            "adc {f}, {ms}",
+            "std Z+3, {f}",
+            f = out(reg_upper) _,
+            ms = out(reg_upper) _,
+            minus_spare = const 256 - 256 % TICKS_PER_MS,
+            turn_ms = const 256 / TICKS_PER_MS,
+            ticks = const TICKS_PER_MS,
+            inout("Z") CLOCK.0.get() => _,
+            options(nostack),
+        );
+    }
 }

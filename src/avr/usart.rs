@@ -100,7 +100,10 @@ impl<const U: u8> Usart<U> {
         let Format { ucsra, ucsrc, ubrr: [ubrr_high, ubrr_low] } = Format::of(config);
         Self::UCSRB.write(0);
         Self::UCSRC.write(ucsrc);
-        Self::UCSRA.write(ucsra);
+        // Writing 1 to TXCn clears a transmit-complete flag left from before (a bootloader
+        // that jumps to the application without a reset): from here on each one is the
+        // role's own, cleared by the interrupt it brings.
+        Self::UCSRA.write(ucsra | TXC0);
         Self::UBRRH.write(ubrr_high);
         Self::UBRRL.write(ubrr_low);
         Self::UCSRB.write(RXCIE0 | RXEN0 | TXEN0);
@@ -174,12 +177,12 @@ impl<const U: u8> Usart<U> {
     /// transmit-complete interrupt, which writes the next (the master's way: one handler,
     /// and a few cycles between characters where the slave's data-register-empty feed has
     /// none).
+    /// No transmit-complete flag is left from before: [`Usart::configure`] cleared the
+    /// last one not the master's, and the flag of each character it sends is cleared by
+    /// the interrupt it brings.
     #[cfg(feature = "master")]
     #[inline(always)]
     pub(crate) fn start_sending(&self) {
-        // Writing 1 to TXC0 clears a flag left from before; U2X0 is written back unchanged
-        // and the error flags are read-only.
-        Self::UCSRA.modify(|bits| (bits & U2X0) | TXC0);
         self.modify_control(|b| b | TXCIE0);
     }
 
