@@ -201,7 +201,14 @@ impl Request<'_> {
             Request::ReadWriteMultipleRegisters { read_address, read_quantity, values, .. } => {
                 let bytes = checked(read_quantity, MAX_READ_REGISTERS)? * 2;
                 let write_quantity = checked_len(values.len(), MAX_READ_WRITE_REGISTERS)?;
-                (read_address, read_quantity, 11 + 2 * write_quantity, 5 + bytes, Shape::Count(bytes as u8), read_quantity)
+                (
+                    read_address,
+                    read_quantity,
+                    11 + 2 * write_quantity,
+                    5 + bytes,
+                    Shape::Count(bytes as u8),
+                    read_quantity,
+                )
             }
             Request::Raw { function, data } => {
                 if !(1..=0x7F).contains(&function) {
