@@ -6,9 +6,9 @@
 //! the turnaround delay, and no reply) → the reply from the slave asked is checked → done,
 //! until the application collects the outcome. A frame from another slave is ignored and
 //! the timeout keeps running; a damaged frame (or one longer than any answer), or one from
-//! the slave that does not answer
-//! the request, ends the attempt (the spec's "processing error"); a timeout too. An attempt
-//! that ended so is sent again while retries are left.
+//! the slave asked that does not answer the request, ends the attempt (the spec's
+//! "processing error"); a timeout too. An attempt that ended so is sent again while
+//! retries are left.
 //!
 //! The AVR layer forwards its interrupts here as the slave's does: characters and damage
 //! to the shared [`Framer`], Timer0's silences, the millisecond clock, the end of the
@@ -84,10 +84,10 @@ pub struct Counters {
     /// Frames dropped for a bad CRC (or LRC).
     pub crc_errors: u16,
     /// Frames dropped for a gap over T1.5, a parity, framing or overrun error, or a length
-    /// under 4 bytes or over the master's buffer (in RTU: no answer to its request is
-    /// longer); in ASCII framing also for a character that is not a hex
-    /// digit, an odd number of them, the inter-character timeout inside a frame, or a
-    /// frame a `:` cut short.
+    /// under 4 bytes or, in RTU, over the master's buffer (no answer to its request is
+    /// longer); in ASCII framing also for a character that is not a hex digit, an odd
+    /// number of them, the inter-character timeout inside a frame, or a frame a `:` cut
+    /// short.
     pub malformed: u16,
     /// Good frames that were no answer: from another slave, not answering the request,
     /// or with no request waiting.
