@@ -425,11 +425,14 @@ fn a_flood_longer_than_the_buffer_never_overruns_it_and_is_not_taken() {
     m.set_timeouts(Timeouts { retries: 0, ..Timeouts::DEFAULT });
     assert_eq!(m.start(1, &Request::ReadHoldingRegisters { address: 0, quantity: 2 }), Ok(Action::Send));
     sent(&mut m, 0);
-    // A good frame of 200 bytes whose byte count claims them all.
+    // A good frame of 200 bytes whose byte count claims them all: dropped as too long once
+    // it overflows the buffer (no answer is longer), its CRC never checked.
     let mut frame = vec![1, 0x03, 196];
     frame.extend((0..196).map(|i| i as u8));
     deliver(&mut m, &with_crc(&frame));
     assert_eq!(m.outcome(), Some(Err(Failure::BadReply)));
+    let counters = m.counters();
+    assert_eq!((counters.malformed, counters.crc_errors, counters.unexpected), (1, 0, 0), "{counters:?}");
     // 300 bytes without a pause: too long for any frame.
     let mut m: Engine<16> = Engine::new();
     m.on_end_deadline();
