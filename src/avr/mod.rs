@@ -140,9 +140,11 @@ macro_rules! slave {
 }
 
 /// Declares the master `NAME` (feature `master`) with buffers of `N` bytes each way (the
-/// request as sent, the reply; 256 when left out) and binds the four interrupts it needs,
-/// as [`crate::slave!`] does for a slave: its USART's RX complete, data register empty and
-/// TX complete, and Timer0 compare A (the silences, the timeouts; the slave has compare B).
+/// request as sent, the reply; 256 when left out) and binds the three interrupts it needs,
+/// as [`crate::slave!`] does for a slave: its USART's RX complete and TX complete (each
+/// character of a request is written when the one before has left; the data register empty
+/// interrupt stays free), and Timer0 compare A (the silences, the timeouts; the slave has
+/// compare B).
 ///
 /// ```ignore
 /// avr_modbus::master!(MASTER);                       // the board's pins 0/1, 256-byte buffers
