@@ -13,7 +13,7 @@ use embedded_hal::digital::OutputPin;
 use super::clock;
 use super::pins::NoPin;
 use super::receive::receive;
-use super::started::Started;
+use super::started::{open_line, Started};
 use super::timer::{FrameTimer, Passed, A};
 use super::usart::Usart;
 use crate::error::Error;
@@ -41,12 +41,9 @@ pub(crate) struct Running<DE, LED, const N: usize, const U: u8> {
 
 impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED, N, U> {
     fn new(config: Config, mut driver_enable: DE, mut led: LED) -> Self {
-        let _ = driver_enable.set_low();
-        let _ = led.set_low();
-        let mut timer = FrameTimer::new(config.timer_plan());
-        let usart = Usart::new(&config);
         // The power-up wait: T3.5 of silence before the first request (none in ASCII).
-        timer.restart();
+        #[allow(unused_mut)]
+        let (usart, mut timer) = open_line(&config, &mut driver_enable, &mut led);
         #[allow(unused_mut)]
         let mut engine = Engine::new();
         #[cfg(feature = "ascii")]

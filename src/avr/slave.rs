@@ -10,7 +10,7 @@ use embedded_hal::digital::OutputPin;
 use super::pins::NoPin;
 use super::receive::receive;
 use super::reg;
-use super::started::Started;
+use super::started::{open_line, Started};
 use super::timer::{FrameTimer, Passed, B};
 use super::usart::Usart;
 use crate::error::Error;
@@ -57,11 +57,8 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
     /// silence before the first frame; none in ASCII framing).
     fn new(config: Config, model: M, mut driver_enable: DE, mut led: LED) -> Self {
         const { assert!(N >= M::FRAME, "the slave's frame buffer is smaller than its data model needs") };
-        let _ = driver_enable.set_low();
-        let _ = led.set_low();
-        let mut timer = FrameTimer::new(config.timer_plan());
-        let usart = Usart::new(&config);
-        timer.restart();
+        #[allow(unused_mut)]
+        let (usart, mut timer) = open_line(&config, &mut driver_enable, &mut led);
         #[allow(unused_mut)]
         let mut engine = Engine::new(config.slave_id());
         #[cfg(feature = "ascii")]

@@ -6,9 +6,13 @@ use core::cell::UnsafeCell;
 use core::mem::MaybeUninit;
 use core::ops::Deref;
 
+use embedded_hal::digital::OutputPin;
+
 use super::reg::{self, claim};
+use super::timer::{FrameTimer, Unit};
 use super::usart::Usart;
 use crate::error::Error;
+use crate::link::config::Config;
 use crate::peripheral::may_be_usart;
 
 const EMPTY: u8 = 0;
@@ -120,4 +124,22 @@ impl<R> Started<R> {
         // SAFETY: interrupts are disabled for the whole access.
         reg::free(|| unsafe { self.access(f) })
     }
+}
+
+/// A role's line as it starts, the same for the slave and the master: the RS-485 driver
+/// and the LED off, Timer0's compare unit `T` and USART `U` configured for `config`, and
+/// the power-up wait begun (T3.5 of silence before the first frame; none in ASCII framing,
+/// which the role sets up next). Call with interrupts disabled, from the role's `start`.
+#[inline(always)]
+pub(crate) fn open_line<T: Unit, const U: u8>(
+    config: &Config,
+    driver_enable: &mut impl OutputPin,
+    led: &mut impl OutputPin,
+) -> (Usart<U>, FrameTimer<T>) {
+    let _ = driver_enable.set_low();
+    let _ = led.set_low();
+    let mut timer = FrameTimer::new(config.timer_plan());
+    let usart = Usart::new(config);
+    timer.restart();
+    (usart, timer)
 }
