@@ -21,6 +21,7 @@
 
 mod sim;
 
+use avr_modbus::master::Counters;
 use sim::{cycles_to_us, read_request, registers_reply, us_to_cycles, with_crc, Line, Rtu};
 use uno_sim::{TxByte, CYCLES_PER_US};
 
@@ -240,7 +241,7 @@ impl Bus {
         assert_eq!((address, values.len()), (240, 9), "counters: report at {address} of {values:04X?}");
         assert_eq!(frame.bytes, write_multiple_request(TOLD, 240, &values), "counters: the frame");
         self.answer(&frame, &write_multiple_reply(TOLD, 240, 9));
-        (Counters::from_registers(&values), values[8])
+        (counters_from_registers(&values), values[8])
     }
 
     /// Serves `step` as a good slave 1: its request (if one goes out) answered with the
@@ -615,31 +616,18 @@ fn steps() -> Vec<Step> {
     ]
 }
 
-/// The firmware's counters (registers 240–247 of its last report).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-struct Counters {
-    requests: u16,
-    replies: u16,
-    exceptions: u16,
-    timeouts: u16,
-    retries: u16,
-    crc_errors: u16,
-    malformed: u16,
-    unexpected: u16,
-}
-
-impl Counters {
-    fn from_registers(r: &[u16]) -> Counters {
-        Counters {
-            requests: r[0],
-            replies: r[1],
-            exceptions: r[2],
-            timeouts: r[3],
-            retries: r[4],
-            crc_errors: r[5],
-            malformed: r[6],
-            unexpected: r[7],
-        }
+/// The firmware's counters, from registers 240–247 of its last report (the order of
+/// [`Counters`]'s fields).
+fn counters_from_registers(r: &[u16]) -> Counters {
+    Counters {
+        requests: r[0],
+        replies: r[1],
+        exceptions: r[2],
+        timeouts: r[3],
+        retries: r[4],
+        crc_errors: r[5],
+        malformed: r[6],
+        unexpected: r[7],
     }
 }
 

@@ -17,6 +17,7 @@ mod ascii_frames;
 mod sim;
 
 use ascii_frames::{ascii, lrc};
+use avr_modbus::master::Counters;
 use sim::{cycles_to_us, us_to_cycles, Line, Rtu};
 use uno_sim::Parity;
 
@@ -35,32 +36,19 @@ fn ms(n: u64) -> u64 {
     us_to_cycles(1000 * n)
 }
 
-/// The master's counters as the test counts them (the order of the report's registers).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-struct Counts {
-    requests: u16,
-    replies: u16,
-    exceptions: u16,
-    timeouts: u16,
-    retries: u16,
-    crc_errors: u16,
-    malformed: u16,
-    unexpected: u16,
-}
-
-impl Counts {
-    fn registers(&self) -> [u16; 8] {
-        [
-            self.requests,
-            self.replies,
-            self.exceptions,
-            self.timeouts,
-            self.retries,
-            self.crc_errors,
-            self.malformed,
-            self.unexpected,
-        ]
-    }
+/// The master's counters in the order of the report's registers (the order of
+/// [`Counters`]'s fields).
+fn report_registers(counts: &Counters) -> [u16; 8] {
+    [
+        counts.requests,
+        counts.replies,
+        counts.exceptions,
+        counts.timeouts,
+        counts.retries,
+        counts.crc_errors,
+        counts.malformed,
+        counts.unexpected,
+    ]
 }
 
 /// The line: the simulated master, the end of the last frame either side put on it, and
@@ -69,7 +57,7 @@ struct Bus {
     rtu: Rtu,
     /// End of the last character on the line (cycles).
     line_busy_until: u64,
-    counts: Counts,
+    counts: Counters,
 }
 
 /// A frame the master sent: its bytes (address and PDU, the LRC checked and removed) and
@@ -83,7 +71,7 @@ struct Sent {
 impl Bus {
     fn boot() -> Bus {
         let rtu = Rtu::boot("ascii_master", Line::B9600_7E1);
-        Bus { rtu, line_busy_until: 0, counts: Counts::default() }
+        Bus { rtu, line_busy_until: 0, counts: Counters::default() }
     }
 
     /// Runs until the master has sent a frame and returns it: `:`, upper-case hex pairs,
@@ -148,7 +136,7 @@ impl Bus {
     fn report(&mut self, step: u16, status: u16, values: [u16; 4], what: &str) {
         let mut registers = vec![status];
         registers.extend(values);
-        registers.extend(self.counts.registers());
+        registers.extend(report_registers(&self.counts));
         let mut frame = vec![TOLD, 0x10, 0x00, (16 * step) as u8, 0x00, 13, 26];
         for r in &registers {
             frame.extend(r.to_be_bytes());
