@@ -177,6 +177,7 @@ impl<const U: u8> Usart<U> {
     /// transmit-complete interrupt, which writes the next (the master's way: one handler,
     /// and a few cycles between characters where the slave's data-register-empty feed has
     /// none).
+    ///
     /// No transmit-complete flag is left from before: [`Usart::configure`] cleared the
     /// last one not the master's, and the flag of each character it sends is cleared by
     /// the interrupt it brings.

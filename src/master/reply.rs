@@ -87,16 +87,6 @@ impl<'a> Reply<'a> {
         self.data
     }
 
-    /// How many registers the reply carries: the quantity of a read of registers (FC 3, 4,
-    /// 23), none for anything else.
-    fn register_count(&self) -> usize {
-        if matches!(self.function, 0x03 | 0x04 | 0x17) {
-            self.len()
-        } else {
-            0
-        }
-    }
-
     /// The values of a read of registers, two bytes each (the master checked that the byte
     /// count before them is twice the quantity asked); none for any other reply.
     fn register_bytes(&self) -> &'a [u8] {
@@ -110,11 +100,9 @@ impl<'a> Reply<'a> {
     /// Register `index` of a read of registers (FC 3, 4, 23), counted from the first one
     /// asked; `None` past the last, and for any other reply.
     pub fn register(&self, index: usize) -> Option<u16> {
-        if index >= self.register_count() {
-            return None;
-        }
-        let at = 1 + 2 * index;
-        Some(u16::from_be_bytes([*self.data.get(at)?, *self.data.get(at + 1)?]))
+        let at = index.checked_mul(2)?;
+        let pair = self.register_bytes().get(at..at.checked_add(2)?)?;
+        Some(u16::from_be_bytes([pair[0], pair[1]]))
     }
 
     /// The registers read (FC 3, 4, 23), from the first one asked; none for any other
