@@ -4,6 +4,7 @@ SHELL := /bin/bash
 .DEFAULT_GOAL := help
 
 CARGO := .ci/cargo
+comma := ,
 # Under make a test whose firmware, fixture or bootloader is missing fails (a plain `cargo
 # test` skips it with what to run: tools/sim/src/built.rs). CI=true does the same.
 export AVR_MODBUS_REQUIRE_FIRMWARE := 1
@@ -12,7 +13,7 @@ EXAMPLES := $(filter-out gateway,$(patsubst examples/%.rs,%,$(wildcard examples/
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: help setup bootloaders demos demo-lab firmware chips fixtures package sizes lint fmt-check clippy docs host-test test demo serve interop bench bench-features fuzz soak
+.PHONY: help setup bootloaders demos demo-lab firmware chips fixtures package sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
 
 help:
 	@echo "Two commands do everything: make demo and make test. Every target:"
@@ -20,7 +21,8 @@ help:
 	@echo "  make demo-lab    - the lab's control application: a master and two slaves on a virtual RS-485 line"
 	@echo "  make demos       - make demo for the Uno and the Mega 2560, then make demo-lab (what make test runs)"
 	@echo "  make serve       - keep a virtual board running for QModMaster or any master (EXAMPLE=uno_slave, BOARD=mega2560 USART=1)"
-	@echo "  make test        - set up, lint, build every firmware, run all tests (what CI runs)"
+	@echo "  make test        - make check, make matrix, make docs, every firmware, make sim-test, make interop, make demos (what CI runs)"
+	@echo "  make check       - the edit loop: make fmt-check, make clippy and make unit (about a minute warm)"
 	@echo "  make setup       - install and check the toolchain, simulator, masters and flashing tools"
 	@echo "  make firmware    - build every example for the Uno ($(FIRMWARE_DIR)), then make chips"
 	@echo "  make chips       - the examples for the other chips and USARTs, and the Uno's that make bench sizes, as the avr-hal template builds them (target/chips)"
@@ -28,15 +30,18 @@ help:
 	@echo "  make fixtures    - a user's firmware in the template's form for three boards, and make package"
 	@echo "  make package     - the crate as it would be published, built into the Uno fixture"
 	@echo "  make bootloaders - the virtual boards' bootloaders (optiboot, stk500v2)"
-	@echo "  make lint        - make fmt-check, make clippy and make docs, and this list checked against the targets"
+	@echo "  make lint        - make fmt-check, make clippy, make matrix and make docs, and this list checked against the targets"
 	@echo "  make fmt-check   - cargo fmt --check"
-	@echo "  make clippy      - clippy with -D warnings for the host and the AVR, every feature set"
+	@echo "  make clippy      - clippy with -D warnings on the host, tests included: no feature, every feature that adds, the 8 MHz clock"
+	@echo "  make matrix      - the check-only feature matrix: the library linted under each feature and combination, host and Uno; the examples"
 	@echo "  make docs        - the API docs, warnings denied, for the host and the AVR, then as docs.rs builds them (.ci/docsrs)"
-	@echo "  make host-test   - every cargo test (host, simulator) under each feature set, after building the firmware"
+	@echo "  make unit        - the host tests (library, doctests, tests/*.rs but the simulator's) under TEST_FEATURE_SETS"
+	@echo "  make sim-test    - the simulator tests once each and the tools' tests, after building the firmware, fixtures, bootloaders"
 	@echo "  make interop     - mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on virtual boards"
 	@echo "  make bench       - size targets (met or not; flash as the avr-hal template builds), flash, RAM, stack, interrupt cycles, turnaround -> bench/results.md"
 	@echo "  make bench-features - minimal built with each optional feature, for make bench"
 	@echo "  make fuzz        - coverage-guided fuzz targets (FUZZ_SECONDS each), then a long property run"
+	@echo "  make mutants     - cargo-mutants over the protocol core, a quarter of its mutants (~1 h on 2 cores; MUTANTS_SHARD) -> bench/results.md"
 	@echo "  make soak        - 100000 mixed transactions against uno_slave in simavr (~15 min; SOAK_TRANSACTIONS)"
 	@echo "  make help        - this list"
 
@@ -57,25 +62,26 @@ firmware: setup
 	$(CARGO) uno --example ascii_master --features examples,master,ascii
 	$(CARGO) uno --example slow_master --features examples,reply-delay
 	@.ci/sizes $(FIRMWARE)
-	@.ci/no-panic $(FIRMWARE)
+	@.ci/firmware-check $(FIRMWARE)
 	@$(MAKE) --no-print-directory chips
 
-# examples/boards.rs on the other chips, as the avr-hal template builds (.ci/chip-build:
-# target avr-none, -C target-cpu=CHIP), on each of their USARTs, copied to
-# target/chips/CHIP/avr-none/release/examples/ (the board's pins 0/1: USART0, the 32U4's
-# USART1) and target/chips/CHIP-usartN/…
-# for the Mega's other USARTs. Cargo keeps each CHIP's build apart in target/ (its flags are
-# part of it) and shares the host tools; a USART is a cfg of this crate (build.rs), so only
-# the crate rebuilds for it. Then once more with the line settings in EEPROM and ASCII
-# (target/chips/CHIP[-usartN]-settings/…) for the Mega's Serial1 and the Leonardo. Last, the
-# Uno's examples that make bench sizes, the contract (sixteen_each, sixteen_each_bank) and
-# minimal among them, for the ATmega328P the same way, into target/chips/atmega328p/… (those
-# with feature millis into target/chips/atmega328p-millis/…, the master's beside
-# master_boards in target/chips/atmega328p-master/…): the sizes a user of the template sees,
-# which make bench leads with; the gateway (slave on
-# USART0, master on USART1) for the ATmega2560 into target/chips/atmega2560-gateway/; and boards for an
-# 8 MHz ATmega328P and ATmega32U4 (feature clock-8mhz, the Pro Mini and Pro Micro 3.3 V) into
-# target/chips/CHIP-8mhz/, and master_boards for them into target/chips/CHIP-8mhz-master/.
+# examples/boards.rs and examples/master_boards.rs on the other chips, as the avr-hal template
+# builds (.ci/chip-build: target avr-none, -C target-cpu=CHIP), on each of their USARTs, in one
+# build each with feature master (boards is byte for byte the one built with millis alone):
+# boards into target/chips/CHIP/avr-none/release/examples/ (the board's pins 0/1: USART0, the
+# 32U4's USART1) or target/chips/CHIP-usartN/… for the Mega's other USARTs, master_boards
+# into target/chips/CHIP[-usartN]-master/…. Cargo keeps each CHIP's build apart in target/
+# (its flags are part of it) and shares the host tools; a USART is a cfg of this crate
+# (build.rs), so only the crate rebuilds for it. Then boards once more with the line settings
+# in EEPROM and ASCII (target/chips/CHIP[-usartN]-settings/…) for the Mega's Serial1 and the
+# Leonardo. The Uno's examples that make bench sizes, the contract (sixteen_each,
+# sixteen_each_bank) and minimal among them, for the ATmega328P the same way, into
+# target/chips/atmega328p/… (those with feature millis into target/chips/atmega328p-millis/…,
+# the master's beside master_boards in target/chips/atmega328p-master/…): the sizes a user of
+# the template sees, which make bench leads with; the gateway (slave on USART0, master on
+# USART1) for the ATmega2560 into target/chips/atmega2560-gateway/; and boards and
+# master_boards for an 8 MHz ATmega328P and ATmega32U4 (feature clock-8mhz, the Pro Mini and
+# Pro Micro 3.3 V) into target/chips/CHIP-8mhz/ and target/chips/CHIP-8mhz-master/.
 # The chips and USARTs, from chips/chips.txt: CHIP: (the board's pins 0/1), then CHIP:N for
 # each of its other USARTs.
 CHIP_BUILDS := $(shell awk '$$1 == "chip" { chip = $$2; print chip ":" } \
@@ -83,10 +89,16 @@ CHIP_BUILDS := $(shell awk '$$1 == "chip" { chip = $$2; print chip ":" } \
 TEMPLATE_EXAMPLES := minimal busy_loop lab_lights sixteen_each sixteen_each_bank
 TEMPLATE_MILLIS_EXAMPLES := uno_slave dip_switch
 TEMPLATE_MASTER_EXAMPLES := poll_holding poll_four master_mirror plc_poller
+# .ci/chip-build into DIR-master, then boards moved from there to DIR.
+boards_and_master = .ci/chip-build $(1) "$(2)" $(3)-master $(4) $(5) && mkdir -p target/chips/$(3)/avr-none/release/examples && mv target/chips/$(3)-master/avr-none/release/examples/boards.elf target/chips/$(3)/avr-none/release/examples/
 chips: setup
-	@for build in $(filter-out atmega328p:%,$(CHIP_BUILDS)); do \
-		chip=$${build%%:*}; usart=$${build##*:}; \
-		.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart} examples,millis boards || exit 1; \
+	@for build in $(CHIP_BUILDS); do \
+		chip=$${build%%:*}; usart=$${build##*:}; dir=$$chip$${usart:+-usart$$usart}; \
+		if [ "$$build" = atmega328p: ]; then \
+			.ci/chip-build $$chip "" $$dir-master examples,master master_boards $(TEMPLATE_MASTER_EXAMPLES) || exit 1; \
+		else \
+			$(call boards_and_master,$$chip,$$usart,$$dir,examples$(comma)master,boards master_boards) || exit 1; \
+		fi; \
 	done
 	@for build in atmega2560:1 atmega32u4:; do \
 		chip=$${build%%:*}; usart=$${build##*:}; \
@@ -96,24 +108,21 @@ chips: setup
 	@.ci/chip-build atmega328p "" atmega328p examples $(TEMPLATE_EXAMPLES)
 	@.ci/chip-build atmega328p "" atmega328p-millis examples,millis $(TEMPLATE_MILLIS_EXAMPLES)
 	@.ci/chip-build atmega2560 "" atmega2560-gateway examples,master gateway
-	@for build in $(CHIP_BUILDS); do \
-		chip=$${build%%:*}; usart=$${build##*:}; \
-		examples=master_boards; [ "$$build" != atmega328p: ] || examples="master_boards $(TEMPLATE_MASTER_EXAMPLES)"; \
-		.ci/chip-build $$chip "$$usart" $$chip$${usart:+-usart$$usart}-master examples,master $$examples || exit 1; \
-	done
 	@for chip in atmega328p atmega32u4; do \
-		.ci/chip-build $$chip "" $$chip-8mhz examples,millis,clock-8mhz boards || exit 1; \
-		.ci/chip-build $$chip "" $$chip-8mhz-master examples,master,clock-8mhz master_boards || exit 1; \
+		$(call boards_and_master,$$chip,,$$chip-8mhz,examples$(comma)master$(comma)clock-8mhz,boards master_boards) || exit 1; \
 	done
 	@.ci/sizes target/chips/*/avr-none/release/examples/*.elf
-	@.ci/no-panic target/chips/*/avr-none/release/examples/*.elf
+	@.ci/firmware-check target/chips/*/avr-none/release/examples/*.elf
 
 sizes: firmware
 
 # A user's firmware in the avr-hal template's form (fixtures/), outside the workspace, built
 # against avr-device 0.8.1 (arduino-hal's) and 0.9, for three of the template's boards as it
 # builds them (its board's -C target-cpu and HAL feature): tests/sim_template.rs runs each
-# ELF, target/fixtures/BOARD/avr-none/release/template-avr-device-0N.elf.
+# ELF, target/fixtures/BOARD/avr-none/release/template-avr-device-0N.elf. They build in the
+# workspace's target directory, sharing its core and host tools with make chips. Then
+# fixtures/r0-clobber, the reproducer of the AVR backend's r0 clobber that
+# tools/sim/tests/miscompile.rs runs and checks (target/fixtures/r0-clobber/…), and make package.
 FIXTURES := $(wildcard fixtures/template-*)
 FIXTURE_BOARDS := uno:atmega328p mega2560:atmega2560 leonardo:atmega32u4
 fixtures: setup
@@ -121,14 +130,20 @@ fixtures: setup
 		for board in $(FIXTURE_BOARDS); do \
 			echo "fixture: $$f, $${board%%:*}"; \
 			(cd $$f && ../../.ci/cargo build --release --locked --features $${board%%:*} \
-				--config "build.rustflags = ['-C', 'target-cpu=$${board##*:}']" --target-dir ../../target/fixtures); \
+				--config "build.rustflags = ['-C', 'target-cpu=$${board##*:}']" --target-dir ../../target); \
 			elf=$$(sed -n 's/^name = "\(template-.*\)"$$/\1/p' $$f/Cargo.toml | head -n 1).elf; \
 			mkdir -p target/fixtures/$${board%%:*}/avr-none/release; \
-			cp target/fixtures/avr-none/release/$$elf target/fixtures/$${board%%:*}/avr-none/release/; \
+			cp target/avr-none/release/$$elf target/fixtures/$${board%%:*}/avr-none/release/; \
 		done; \
 	done
+	@echo "fixture: fixtures/r0-clobber, uno"
+	cd fixtures/r0-clobber && ../../.ci/cargo build --release --locked --target-dir ../../target
+	@mkdir -p target/fixtures/r0-clobber/avr-none/release
+	@cp target/avr-none/release/r0-clobber-stack.elf target/avr-none/release/r0-clobber-static.elf \
+		target/fixtures/r0-clobber/avr-none/release/
 	@$(MAKE) --no-print-directory package
 	@.ci/sizes target/fixtures/*/avr-none/release/template-*.elf
+	@.ci/firmware-check --r0-only target/fixtures/*/avr-none/release/template-*.elf
 
 # The crate as it would be published (`cargo package`, no upload), unpacked, and the Uno
 # fixture built against it instead of this tree (target/fixtures/packaged/…): a file the
@@ -141,60 +156,72 @@ package: setup
 	@version=$$(sed -n 's/^version = "\(.*\)"$$/\1/p' Cargo.toml | head -n 1); \
 		sed -i "s|path = \"../..\"|path = \"../package/avr-modbus-$$version\"|" $(PACKAGE_FIXTURE)/Cargo.toml; \
 		grep -q "package/avr-modbus-$$version" $(PACKAGE_FIXTURE)/Cargo.toml
-	cd $(PACKAGE_FIXTURE) && ../../.ci/cargo build --release --locked --features uno --target-dir ../fixtures
+	cd $(PACKAGE_FIXTURE) && ../../.ci/cargo build --release --locked --features uno --target-dir ..
 	@mkdir -p target/fixtures/packaged/avr-none/release
-	@cp target/fixtures/avr-none/release/template-avr-device-08.elf target/fixtures/packaged/avr-none/release/
-
+	@cp target/avr-none/release/template-avr-device-08.elf target/fixtures/packaged/avr-none/release/
 
 fmt-check: setup
 	$(CARGO) fmt --all --check
 
 # The optional function codes, checked and tested as a second build.
 OPTIONAL := diagnostics,extra-fc,write-protect
+# Every feature that adds (all but clock-8mhz, which switches the clock, and examples).
+ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id
 
+# The host's lints, tests included: the workspace with no feature, the crate with every feature
+# that adds, and the 8 MHz clock. Every other feature set is linted by make matrix.
 clippy: setup
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 	$(CARGO) clippy -p virtual-uno --test interop -- -D warnings # test = false: not in --all-targets
-	$(CARGO) clippy -p avr-modbus --all-targets --features $(OPTIONAL),device-id -- -D warnings
-	$(CARGO) clippy -p avr-modbus --all-targets --features ascii -- -D warnings
-	$(CARGO) clippy -p avr-modbus --all-targets --features clock-8mhz,ascii -- -D warnings
-	$(CARGO) clippy -p avr-modbus --all-targets --features $(OPTIONAL),eeprom-settings,ufmt -- -D warnings
-	$(CARGO) clippy -p avr-modbus --all-targets --features master,ufmt -- -D warnings
-	$(CARGO) clippy -p avr-modbus --all-targets --features master,ascii -- -D warnings
-	$(CARGO) clippy -p avr-modbus --all-targets --features reply-delay,eeprom-settings,ascii -- -D warnings
-	$(CARGO) uno-clippy --examples --features examples -- -D warnings
-	$(CARGO) uno-clippy --examples --features examples,millis,ascii,device-id,$(OPTIONAL),eeprom-settings,ufmt,reply-delay -- -D warnings
-	$(CARGO) uno-clippy $(addprefix --example ,$(MASTER_EXAMPLES)) --features examples,master,ufmt -- -D warnings
-	$(CARGO) uno-clippy --example ascii_master --features examples,master,ascii -- -D warnings
-	$(CARGO) uno-clippy --example slow_master --features examples,reply-delay -- -D warnings
-	$(CARGO) uno-clippy --example master_boards --features examples,master,ascii,reply-delay -- -D warnings
+	$(CARGO) clippy -p avr-modbus --all-targets --features $(ALL_FEATURES) -- -D warnings
+	$(CARGO) clippy -p avr-modbus --all-targets --features clock-8mhz,master,ascii -- -D warnings
+
+# The feature sets the crate's host tests run under (.ci/host-test: a test target runs under
+# each set that has the features it declares in Cargo.toml and gives the features its source
+# names values no earlier set gave them; the library and its doctests under every set; a
+# simulator test once, under the first set that has its features). A test with a new
+# combination of features needs its set here; no test is named.
+TEST_FEATURE_SETS := all default clock-8mhz,ascii master eeprom-settings eeprom-settings,ascii eeprom-settings,reply-delay
+
+# The host tests (no firmware needed): the library, its doctests and every tests/*.rs but the
+# simulator's, under TEST_FEATURE_SETS.
+unit: setup
+	.ci/host-test host $(TEST_FEATURE_SETS)
+
+# The edit loop: format, lints and the host tests (about a minute warm on 2 cores).
+check: fmt-check clippy unit
+
+# Every single feature and the combinations the README names, compiled and linted without
+# building a test: the library for the host and for the Uno (.ci/feature-matrix), then the
+# Uno's examples with every feature and the Mega's gateway.
+FEATURE_COMBOS := $(ALL_FEATURES) $(ALL_FEATURES),clock-8mhz master,ascii master,ufmt eeprom-settings,ascii \
+	eeprom-settings,reply-delay,ascii clock-8mhz,master clock-8mhz,ascii,millis
+matrix: setup
+	.ci/feature-matrix $(FEATURE_COMBOS)
+	$(CARGO) uno-clippy --examples --features examples,$(ALL_FEATURES) -- -D warnings
 	CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega2560" $(CARGO) clippy --release -Zbuild-std=core --target avr-none \
 		--example gateway --features examples,master -- -D warnings
 
 # The API docs, warnings denied: for the host (no AVR layer), for the Uno, and as docs.rs builds
 # them (the host, `--cfg docsrs`: the AVR layer too), checked against the README's API tables.
 docs: setup
-	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus --features $(OPTIONAL),eeprom-settings,ufmt,device-id,ascii,master,reply-delay
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus --features $(ALL_FEATURES)
 	RUSTDOCFLAGS="-D warnings -C target-cpu=atmega328p" $(CARGO) doc --no-deps -p avr-modbus --release \
-		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(OPTIONAL),eeprom-settings,ufmt,millis,ascii,master,reply-delay
+		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(ALL_FEATURES)
 	.ci/docsrs
 
-lint: fmt-check clippy docs
+lint: fmt-check clippy matrix docs
 	@.ci/help-check
 
-# The feature sets the crate's tests run under (.ci/host-test: each test under every set that
-# has the features it declares in Cargo.toml, a simulator test under the first such set).
-# A test with a new combination of features needs its set here; no test is named.
-TEST_FEATURE_SETS := default $(OPTIONAL) $(OPTIONAL),eeprom-settings $(OPTIONAL),eeprom-settings,ascii \
-	ufmt device-id ascii clock-8mhz,ascii master master,ascii reply-delay eeprom-settings,reply-delay \
-	eeprom-settings,reply-delay,ascii
+# What needs the firmware, the fixtures and the bootloaders: each simulator test once, and the
+# tools' own tests (the simulator, the bench, the virtual Uno and its line).
+sim-test: setup firmware fixtures bootloaders
+	.ci/host-test sim $(TEST_FEATURE_SETS)
+	$(CARGO) test --workspace --exclude avr-modbus
 
-host-test: setup firmware fixtures bootloaders
-	$(CARGO) test --workspace --exclude avr-modbus --exclude virtual-uno
-	$(CARGO) test -p virtual-uno
-	.ci/host-test $(TEST_FEATURE_SETS)
-
-test: lint firmware host-test interop demos
+# What the README's second command and CI run.
+test: check matrix docs firmware sim-test interop demos
+	@.ci/help-check
 
 # make demo for both boards, as a user runs it: flashed with cargo run through the
 # bootloader, then polled; and make demo-lab.
