@@ -198,7 +198,7 @@ FEATURE_COMBOS := $(ALL_FEATURES) $(ALL_FEATURES),clock-8mhz master,ascii master
 	eeprom-settings,reply-delay,ascii clock-8mhz,master clock-8mhz,ascii,millis
 matrix: setup
 	.ci/feature-matrix $(FEATURE_COMBOS)
-	$(CARGO) uno-clippy --examples --features examples,$(ALL_FEATURES) -- -D warnings
+	$(CARGO) uno-clippy $(addprefix --example ,$(EXAMPLES)) --features examples,$(ALL_FEATURES) -- -D warnings
 	CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega2560" $(CARGO) clippy --release -Zbuild-std=core --target avr-none \
 		--example gateway --features examples,master -- -D warnings
 
@@ -302,6 +302,13 @@ fuzz: setup
 	FUZZ_CASES=$(PROPERTY_CASES) FUZZ_SEED=$${FUZZ_SEED:-$$(date +%s)} $(CARGO) test --release -p avr-modbus \
 		--features $(FUZZ_PROPERTY_FEATURES) --test random_frames -- --nocapture
 	@echo "fuzz: $(PROPERTY_CASES) cases per property, 4 properties, features $(FUZZ_PROPERTY_FEATURES)"
+
+# Mutation testing of the protocol core (.ci/mutants, .cargo/mutants.toml): a round-robin
+# quarter of its mutants, the host tests with every feature that adds; the counts go to
+# bench/mutants.md and bench/results.md. Not part of make test: about an hour on 2 cores.
+MUTANTS_SHARD ?= 0/4
+mutants: setup
+	MUTANTS_SHARD=$(MUTANTS_SHARD) .ci/mutants $(ALL_FEATURES)
 
 # Long mixed-request run against uno_slave at 19200 8E1 with a reference model of its bank
 # (100000: ~1400 s simulated, ~15 min wall). `make test` runs 2000.

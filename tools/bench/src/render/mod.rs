@@ -35,8 +35,18 @@ pub(crate) fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
     turnaround::section(&mut md, &r.timing)?;
     busy::section(&mut md, &r.timing)?;
     throughput::section(&mut md, &r.timing)?;
+    mutants(&mut md, root)?;
     footer(&mut md, log)?;
     Ok(md)
+}
+
+/// The last `make mutants` run (bench/mutants.md, which it writes), as it reported it.
+fn mutants(md: &mut String, root: &Path) -> Result<()> {
+    match std::fs::read_to_string(root.join("bench/mutants.md")) {
+        Ok(section) => writeln!(md, "{section}")?,
+        Err(_) => writeln!(md, "## Mutation testing (`make mutants`)\n\nNot run yet.\n")?,
+    }
+    Ok(())
 }
 
 /// "met" or "**not met**", for the targets' last column.
