@@ -13,7 +13,7 @@ EXAMPLES := $(filter-out gateway,$(patsubst examples/%.rs,%,$(wildcard examples/
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: help setup bootloaders demos demo-lab firmware chips fixtures package sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
+.PHONY: help setup bootloaders demos demo-lab firmware firmware-uno chips virtual-test fixtures package sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
 
 help:
 	@echo "Two commands do everything: make demo and make test. Every target:"
@@ -21,10 +21,11 @@ help:
 	@echo "  make demo-lab    - the lab's control application: a master and two slaves on a virtual RS-485 line"
 	@echo "  make demos       - make demo for the Uno and the Mega 2560, then make demo-lab (what make test runs)"
 	@echo "  make serve       - keep a virtual board running for QModMaster or any master (EXAMPLE=uno_slave, BOARD=mega2560 USART=1)"
-	@echo "  make test        - make check, make matrix, make docs, every firmware, make sim-test, make interop, make demos (what CI runs)"
+	@echo "  make test        - make check, matrix, docs, firmware, fixtures, sim-test, interop, demos, virtual-test, in three lanes (.ci/test; what CI runs)"
 	@echo "  make check       - the edit loop: make fmt-check, make clippy and make unit (about a minute warm)"
 	@echo "  make setup       - install and check the toolchain, simulator, masters and flashing tools"
-	@echo "  make firmware    - build every example for the Uno ($(FIRMWARE_DIR)), then make chips"
+	@echo "  make firmware    - make firmware-uno, then make chips"
+	@echo "  make firmware-uno - every example for the Uno ($(FIRMWARE_DIR)), with sizes and the firmware check"
 	@echo "  make chips       - the examples for the other chips and USARTs, and the Uno's that make bench sizes, as the avr-hal template builds them (target/chips)"
 	@echo "  make sizes       - flash and RAM of every firmware (make firmware prints them)"
 	@echo "  make fixtures    - a user's firmware in the template's form for three boards, and make package"
@@ -36,7 +37,8 @@ help:
 	@echo "  make matrix      - the check-only feature matrix: the library linted under each feature and combination, host and Uno; the examples"
 	@echo "  make docs        - the API docs, warnings denied, for the host and the AVR, then as docs.rs builds them (.ci/docsrs)"
 	@echo "  make unit        - the host tests (library, doctests, tests/*.rs but the simulator's) under TEST_FEATURE_SETS"
-	@echo "  make sim-test    - the simulator tests once each and the tools' tests, after building the firmware, fixtures, bootloaders"
+	@echo "  make sim-test    - the simulator tests once each, the simulator's and the bench's tests (after the firmware, fixtures, bootloaders)"
+	@echo "  make virtual-test - the virtual Uno's and virtual line's tests (boards paced to real time on ptys)"
 	@echo "  make interop     - mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on virtual boards"
 	@echo "  make bench       - size targets (met or not; flash as the avr-hal template builds), flash, RAM, stack, interrupt cycles, turnaround -> bench/results.md"
 	@echo "  make bench-features - minimal built with each optional feature, for make bench"
@@ -51,9 +53,12 @@ setup:
 # The master's examples (feature master).
 MASTER_EXAMPLES := plc_poller master_mirror poll_holding poll_four lab_control master_boards
 
+# Every firmware: the Uno's examples (firmware-uno), then the other chips' (chips).
+firmware: firmware-uno chips
+
 # The examples that keep the clock (feature millis) are a build of their own, so that the
 # others carry no clock.
-firmware: setup
+firmware-uno: setup
 	$(CARGO) uno --examples --features examples
 	$(CARGO) uno --example uno_slave --example dip_switch --example boards --features examples,millis
 	$(CARGO) uno --example ascii --features examples,ascii
@@ -63,7 +68,6 @@ firmware: setup
 	$(CARGO) uno --example slow_master --features examples,reply-delay
 	@.ci/sizes $(FIRMWARE)
 	@.ci/firmware-check $(FIRMWARE)
-	@$(MAKE) --no-print-directory chips
 
 # examples/boards.rs and examples/master_boards.rs on the other chips, as the avr-hal template
 # builds (.ci/chip-build: target avr-none, -C target-cpu=CHIP), on each of their USARTs, in one
@@ -120,7 +124,9 @@ sizes: firmware
 # against avr-device 0.8.1 (arduino-hal's) and 0.9, for three of the template's boards as it
 # builds them (its board's -C target-cpu and HAL feature): tests/sim_template.rs runs each
 # ELF, target/fixtures/BOARD/avr-none/release/template-avr-device-0N.elf. They build in the
-# workspace's target directory, sharing its core and host tools with make chips. Then
+# workspace's target directory, sharing its core and host tools with make chips: the board's
+# -C target-cpu goes in CARGO_TARGET_AVR_NONE_RUSTFLAGS as .ci/chip-build gives it (passed
+# as build.rustflags, the same flags name a build of core cargo keeps apart). Then
 # fixtures/r0-clobber, the reproducer of the AVR backend's r0 clobber that
 # tools/sim/tests/miscompile.rs runs and checks (target/fixtures/r0-clobber/…), and make package.
 FIXTURES := $(wildcard fixtures/template-*)
@@ -129,15 +135,16 @@ fixtures: setup
 	@for f in $(FIXTURES); do \
 		for board in $(FIXTURE_BOARDS); do \
 			echo "fixture: $$f, $${board%%:*}"; \
-			(cd $$f && ../../.ci/cargo build --release --locked --features $${board%%:*} \
-				--config "build.rustflags = ['-C', 'target-cpu=$${board##*:}']" --target-dir ../../target); \
+			(cd $$f && CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=$${board##*:}" ../../.ci/cargo build \
+				--release --locked --features $${board%%:*} --target-dir ../../target); \
 			elf=$$(sed -n 's/^name = "\(template-.*\)"$$/\1/p' $$f/Cargo.toml | head -n 1).elf; \
 			mkdir -p target/fixtures/$${board%%:*}/avr-none/release; \
 			cp target/avr-none/release/$$elf target/fixtures/$${board%%:*}/avr-none/release/; \
 		done; \
 	done
 	@echo "fixture: fixtures/r0-clobber, uno"
-	cd fixtures/r0-clobber && ../../.ci/cargo build --release --locked --target-dir ../../target
+	cd fixtures/r0-clobber && CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega328p" \
+		../../.ci/cargo build --release --locked --target-dir ../../target
 	@mkdir -p target/fixtures/r0-clobber/avr-none/release
 	@cp target/avr-none/release/r0-clobber-stack.elf target/avr-none/release/r0-clobber-static.elf \
 		target/fixtures/r0-clobber/avr-none/release/
@@ -156,7 +163,8 @@ package: setup
 	@version=$$(sed -n 's/^version = "\(.*\)"$$/\1/p' Cargo.toml | head -n 1); \
 		sed -i "s|path = \"../..\"|path = \"../package/avr-modbus-$$version\"|" $(PACKAGE_FIXTURE)/Cargo.toml; \
 		grep -q "package/avr-modbus-$$version" $(PACKAGE_FIXTURE)/Cargo.toml
-	cd $(PACKAGE_FIXTURE) && ../../.ci/cargo build --release --locked --features uno --target-dir ..
+	cd $(PACKAGE_FIXTURE) && CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega328p" \
+		../../.ci/cargo build --release --locked --features uno --target-dir ..
 	@mkdir -p target/fixtures/packaged/avr-none/release
 	@cp target/avr-none/release/template-avr-device-08.elf target/fixtures/packaged/avr-none/release/
 
@@ -213,15 +221,22 @@ docs: setup
 lint: fmt-check clippy matrix docs
 	@.ci/help-check
 
-# What needs the firmware, the fixtures and the bootloaders: each simulator test once, and the
-# tools' own tests (the simulator, the bench, the virtual Uno and its line).
+# What runs the firmware in simulated time (cycles, never the wall clock): each simulator test
+# once, and the simulator's and the bench's own tests; after the firmware, fixtures and
+# bootloaders.
 sim-test: setup firmware fixtures bootloaders
 	.ci/host-test sim $(TEST_FEATURE_SETS)
-	$(CARGO) test --workspace --exclude avr-modbus
+	$(CARGO) test -p uno-sim -p bench
 
-# What the README's second command and CI run.
-test: check matrix docs firmware sim-test interop demos
-	@.ci/help-check
+# The virtual Uno's and the virtual line's own tests: boards paced to real time on ptys.
+virtual-test: setup firmware bootloaders
+	$(CARGO) test -p virtual-uno
+
+# What the README's second command and CI run: everything above, in three lanes at once
+# (.ci/test): the host's lints and tests, the AVR builds, and what runs in real time (interop,
+# the demos, the virtual boards' tests) as soon as its firmware is built.
+test:
+	@.ci/test
 
 # make demo for both boards, as a user runs it: flashed with cargo run through the
 # bootloader, then polled; and make demo-lab.
@@ -273,7 +288,7 @@ serve: $(if $(filter atmega328p,$(SERVE_CHIP)),firmware,chips)
 	SERVE_BOARD=$(BOARD) SERVE_CHIP=$(SERVE_CHIP) SERVE_USART=$(SERVE_USART) SERVE_ELF=$(SERVE_ELF) demo/serve.sh $(SERVE_EXAMPLE) $(ARGS)
 
 # mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on the virtual Uno, with answer rates.
-interop: firmware bootloaders
+interop: firmware-uno bootloaders
 	$(CARGO) test -p virtual-uno --test interop -- --nocapture --test-threads=1
 
 bench: setup firmware bench-features
