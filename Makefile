@@ -13,7 +13,7 @@ EXAMPLES := $(filter-out gateway,$(patsubst examples/%.rs,%,$(wildcard examples/
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: help setup bootloaders demos demo-lab firmware firmware-uno chips virtual-test fixtures package sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
+.PHONY: help setup bootloaders demos demo-lab firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
 
 help:
 	@echo "Two commands do everything: make demo and make test. Every target:"
@@ -35,6 +35,10 @@ help:
 	@echo "  make fmt-check   - cargo fmt --check"
 	@echo "  make clippy      - clippy with -D warnings on the host, tests included: no feature, every feature that adds, the 8 MHz clock"
 	@echo "  make matrix      - the check-only feature matrix: the library linted under each feature and combination, host and Uno; the examples"
+	@echo "  make matrix-host - make matrix's host half"
+	@echo "  make matrix-avr  - make matrix's Uno half and the examples"
+	@echo "  make docs-host   - the host's docs and docs.rs's"
+	@echo "  make docs-avr    - the Uno's docs"
 	@echo "  make docs        - the API docs, warnings denied, for the host and the AVR, then as docs.rs builds them (.ci/docsrs)"
 	@echo "  make unit        - the host tests (library, doctests, tests/*.rs but the simulator's) under TEST_FEATURE_SETS"
 	@echo "  make sim-test    - the simulator tests once each, the simulator's and the bench's tests (after the firmware, fixtures, bootloaders)"
@@ -177,12 +181,11 @@ OPTIONAL := diagnostics,extra-fc,write-protect
 ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id
 
 # The host's lints, tests included: the workspace with no feature, the crate with every feature
-# that adds, and the 8 MHz clock. Every other feature set is linted by make matrix.
+# that adds. Every other feature set (the 8 MHz clock among them) is linted by make matrix.
 clippy: setup
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 	$(CARGO) clippy -p virtual-uno --test interop -- -D warnings # test = false: not in --all-targets
 	$(CARGO) clippy -p avr-modbus --all-targets --features $(ALL_FEATURES) -- -D warnings
-	$(CARGO) clippy -p avr-modbus --all-targets --features clock-8mhz,master,ascii -- -D warnings
 
 # The feature sets the crate's host tests run under (.ci/host-test: a test target runs under
 # each set that has the features it declares in Cargo.toml and gives the features its source
@@ -204,19 +207,24 @@ check: fmt-check clippy unit
 # Uno's examples with every feature and the Mega's gateway.
 FEATURE_COMBOS := $(ALL_FEATURES) $(ALL_FEATURES),clock-8mhz master,ascii master,ufmt eeprom-settings,ascii \
 	eeprom-settings,reply-delay,ascii clock-8mhz,master clock-8mhz,ascii,millis
-matrix: setup
-	.ci/feature-matrix $(FEATURE_COMBOS)
+matrix: matrix-host matrix-avr
+matrix-host: setup
+	.ci/feature-matrix host $(FEATURE_COMBOS)
+matrix-avr: setup
+	.ci/feature-matrix avr $(FEATURE_COMBOS)
 	$(CARGO) uno-clippy $(addprefix --example ,$(EXAMPLES)) --features examples,$(ALL_FEATURES) -- -D warnings
 	CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega2560" $(CARGO) clippy --release -Zbuild-std=core --target avr-none \
 		--example gateway --features examples,master -- -D warnings
 
-# The API docs, warnings denied: for the host (no AVR layer), for the Uno, and as docs.rs builds
-# them (the host, `--cfg docsrs`: the AVR layer too), checked against the README's API tables.
-docs: setup
+# The API docs, warnings denied: for the host (no AVR layer) and as docs.rs builds them (the
+# host, `--cfg docsrs`: the AVR layer too), checked against the README's API tables; for the Uno.
+docs: docs-host docs-avr
+docs-host: setup
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p avr-modbus --features $(ALL_FEATURES)
+	.ci/docsrs
+docs-avr: setup
 	RUSTDOCFLAGS="-D warnings -C target-cpu=atmega328p" $(CARGO) doc --no-deps -p avr-modbus --release \
 		-Zjson-target-spec -Zbuild-std=core --target avr-atmega328p.json --features $(ALL_FEATURES)
-	.ci/docsrs
 
 lint: fmt-check clippy matrix docs
 	@.ci/help-check
