@@ -13,7 +13,7 @@ EXAMPLES := $(filter-out gateway,$(patsubst examples/%.rs,%,$(wildcard examples/
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: help setup bootloaders virtual-boards demos demo-lab firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
+.PHONY: help setup bootloaders virtual-boards demo-firmware demos demo-lab firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
 
 help:
 	@echo "Two commands do everything: make demo and make test. Every target:"
@@ -30,7 +30,8 @@ help:
 	@echo "  make sizes       - flash and RAM of every firmware (make firmware prints them)"
 	@echo "  make fixtures    - a user's firmware in the template's form for three boards, and make package"
 	@echo "  make package     - the crate as it would be published, built into the Uno fixture"
-	@echo "  make virtual-boards - the virtual Uno and virtual line, and the demos' firmware, built"
+	@echo "  make virtual-boards - the virtual Uno and the virtual line, built (release)"
+	@echo "  make demo-firmware - the demos' firmware (demo/uno, demo/mega2560), built as make demo builds it"
 	@echo "  make bootloaders - the virtual boards' bootloaders (optiboot, stk500v2)"
 	@echo "  make lint        - make fmt-check, make clippy, make matrix and make docs, and this list checked against the targets"
 	@echo "  make fmt-check   - cargo fmt --check"
@@ -247,11 +248,14 @@ virtual-test: setup firmware bootloaders
 test:
 	@.ci/test
 
-# What the real-time checks run besides the firmware: the virtual Uno and the virtual line
-# (release), and the demos' firmware (demo/uno, demo/mega2560) built as demo/demo.sh's cargo
-# run builds it, so that make interop and make demos start with nothing left to build.
+# The virtual Uno and the virtual line (release), which make interop, make demos and make
+# virtual-test run.
 virtual-boards: setup
 	$(CARGO) build --release -p virtual-uno --bins
+
+# The demos' firmware (demo/uno, demo/mega2560) built as demo/demo.sh's `cargo run` builds it,
+# so that make demos starts with nothing left to build.
+demo-firmware: setup
 	@for board in uno:atmega328p mega2560:atmega2560; do \
 		(cd demo/$${board%%:*} && CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=$${board##*:}" \
 			../../.ci/cargo build --release --locked --target-dir ../../target) || exit 1; \
