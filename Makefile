@@ -182,12 +182,14 @@ OPTIONAL := diagnostics,extra-fc,write-protect
 # Every feature that adds (all but clock-8mhz, which switches the clock, and examples).
 ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id
 
-# The host's lints, tests included: the workspace with no feature, the crate with every feature
-# that adds. Every other feature set (the 8 MHz clock among them) is linted by make matrix.
+# The host's lints, tests included: the tools (the simulator, the virtual Uno, the bench) once,
+# and the crate's library and test targets as make unit and make sim-test build them (under
+# TEST_FEATURE_SETS: a simulator test under the first set, every other under each set that
+# tells its cases apart). Every other feature set of the library is linted by make matrix.
 clippy: setup
-	$(CARGO) clippy --workspace --all-targets -- -D warnings
+	$(CARGO) clippy --workspace --exclude avr-modbus --all-targets -- -D warnings
 	$(CARGO) clippy -p virtual-uno --test interop -- -D warnings # test = false: not in --all-targets
-	$(CARGO) clippy -p avr-modbus --all-targets --features $(ALL_FEATURES) -- -D warnings
+	.ci/host-test clippy $(TEST_FEATURE_SETS)
 
 # The feature sets the crate's host tests run under (.ci/host-test: a test target runs under
 # each set that has the features it declares in Cargo.toml and gives the features its source

@@ -791,7 +791,7 @@ int uno_run(uno_shim_t *s, uint64_t target, int stop_on_tx)
 	avr_t *avr = s->avr;
 	if (avr->cycle < target)
 		avr_cycle_timer_register(avr, target - avr->cycle, stop_timer, s);
-	size_t tx0[WIRES];
+	size_t tx0[WIRES] = {0};
 	tx_logged(s, stop_on_tx, tx0);
 	while (avr->cycle < target && runnable(s)) {
 		step_once(s);
