@@ -13,7 +13,7 @@ EXAMPLES := $(filter-out gateway,$(patsubst examples/%.rs,%,$(wildcard examples/
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: help setup bootloaders virtual-boards demo-firmware demos demo-lab firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
+.PHONY: clippy-tools help setup bootloaders virtual-boards demo-firmware demos demo-lab firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
 
 help:
 	@echo "Two commands do everything: make demo and make test. Every target:"
@@ -22,7 +22,7 @@ help:
 	@echo "  make demos       - make demo for the Uno and the Mega 2560, then make demo-lab (what make test runs)"
 	@echo "  make serve       - keep a virtual board running for QModMaster or any master (EXAMPLE=uno_slave, BOARD=mega2560 USART=1)"
 	@echo "  make test        - make check, matrix, docs, firmware, fixtures, sim-test, interop, demos, virtual-test, in three lanes (.ci/test; what CI runs)"
-	@echo "  make check       - the edit loop: make fmt-check, make clippy and make unit (about a minute warm)"
+	@echo "  make check       - the edit loop: make fmt-check, make clippy-tools and make unit (lints as it builds)"
 	@echo "  make setup       - install and check the toolchain, simulator, masters and flashing tools"
 	@echo "  make firmware    - make firmware-uno, then make chips"
 	@echo "  make firmware-uno - every example for the Uno ($(FIRMWARE_DIR)), with sizes and the firmware check"
@@ -35,14 +35,15 @@ help:
 	@echo "  make bootloaders - the virtual boards' bootloaders (optiboot, stk500v2)"
 	@echo "  make lint        - make fmt-check, make clippy, make matrix and make docs, and this list checked against the targets"
 	@echo "  make fmt-check   - cargo fmt --check"
-	@echo "  make clippy      - clippy with -D warnings on the host, tests included: no feature, every feature that adds, the 8 MHz clock"
+	@echo "  make clippy      - clippy with -D warnings on the host, check builds: make clippy-tools, the crate under TEST_FEATURE_SETS"
+	@echo "  make clippy-tools - clippy with -D warnings on the tools (simulator, virtual Uno, bench), tests included"
 	@echo "  make matrix      - the check-only feature matrix: the library linted under each feature and combination, host and Uno; the examples"
 	@echo "  make matrix-host - make matrix's host half"
 	@echo "  make matrix-avr  - make matrix's Uno half and the examples"
 	@echo "  make docs-host   - the host's docs and docs.rs's"
 	@echo "  make docs-avr    - the Uno's docs"
 	@echo "  make docs        - the API docs, warnings denied, for the host and the AVR, then as docs.rs builds them (.ci/docsrs)"
-	@echo "  make unit        - the host tests (library, doctests, tests/*.rs but the simulator's) under TEST_FEATURE_SETS"
+	@echo "  make unit        - the host tests (library, doctests, tests/*.rs but the simulator's) under TEST_FEATURE_SETS, linted"
 	@echo "  make sim-test    - the simulator tests once each, the simulator's and the bench's tests (after the firmware, fixtures, bootloaders)"
 	@echo "  make virtual-test - the virtual Uno's and virtual line's tests (boards paced to real time on ptys)"
 	@echo "  make interop     - mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on virtual boards"
@@ -182,14 +183,18 @@ OPTIONAL := diagnostics,extra-fc,write-protect
 # Every feature that adds (all but clock-8mhz, which switches the clock, and examples).
 ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id
 
-# The host's lints, tests included: the tools (the simulator, the virtual Uno, the bench) once,
-# and the crate's library and test targets as make unit and make sim-test build them (under
+# The host's lints, tests included, check builds only: the tools (clippy-tools) and the crate's
+# library and test targets as make unit and make sim-test build them (under
 # TEST_FEATURE_SETS: a simulator test under the first set, every other under each set that
-# tells its cases apart). Every other feature set of the library is linted by make matrix.
-clippy: setup
+# tells its cases apart). make unit and make sim-test lint what they build as they build it;
+# every other feature set of the library is linted by make matrix.
+clippy: clippy-tools
+	.ci/host-test clippy $(TEST_FEATURE_SETS)
+
+# The tools (the simulator, the virtual Uno, the bench), their tests included.
+clippy-tools: setup
 	$(CARGO) clippy --workspace --exclude avr-modbus --all-targets -- -D warnings
 	$(CARGO) clippy -p virtual-uno --test interop -- -D warnings # test = false: not in --all-targets
-	.ci/host-test clippy $(TEST_FEATURE_SETS)
 
 # The feature sets the crate's host tests run under (.ci/host-test: a test target runs under
 # each set that has the features it declares in Cargo.toml and gives the features its source
@@ -199,12 +204,12 @@ clippy: setup
 TEST_FEATURE_SETS := all default clock-8mhz,ascii master $(OPTIONAL),eeprom-settings eeprom-settings,ascii eeprom-settings,reply-delay
 
 # The host tests (no firmware needed): the library, its doctests and every tests/*.rs but the
-# simulator's, under TEST_FEATURE_SETS.
+# simulator's, under TEST_FEATURE_SETS, built with clippy as the compiler (warnings denied).
 unit: setup
-	.ci/host-test host $(TEST_FEATURE_SETS)
+	.ci/host-test --lint host $(TEST_FEATURE_SETS)
 
-# The edit loop: format, lints and the host tests (about a minute warm on 2 cores).
-check: fmt-check clippy unit
+# The edit loop: format, the tools' lints, and the host tests linted as they build.
+check: fmt-check clippy-tools unit
 
 # Every single feature and the combinations the README names, compiled and linted without
 # building a test: the library for the host and for the Uno (.ci/feature-matrix), then the
@@ -237,8 +242,8 @@ lint: fmt-check clippy matrix docs
 # once, and the simulator's and the bench's own tests; after the firmware, fixtures and
 # bootloaders.
 sim-test: setup firmware fixtures bootloaders
-	.ci/host-test sim $(TEST_FEATURE_SETS)
-	$(CARGO) test -p uno-sim -p bench
+	.ci/host-test --lint sim $(TEST_FEATURE_SETS)
+	RUSTC_WORKSPACE_WRAPPER=clippy-driver RUSTFLAGS="-D warnings" $(CARGO) test -p uno-sim -p bench # as --lint: uno-sim built once
 
 # The virtual Uno's and the virtual line's own tests: boards paced to real time on ptys.
 virtual-test: setup firmware bootloaders
