@@ -13,7 +13,7 @@ EXAMPLES := $(filter-out gateway,$(patsubst examples/%.rs,%,$(wildcard examples/
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: clippy-tools help setup bootloaders virtual-boards demo-firmware demos demo-lab firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
+.PHONY: sim-test-uno sim-test-chips clippy-tools help setup bootloaders virtual-boards demo-firmware demos demo-lab firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
 
 help:
 	@echo "Two commands do everything: make demo and make test. Every target:"
@@ -45,6 +45,8 @@ help:
 	@echo "  make docs        - the API docs, warnings denied, for the host and the AVR, then as docs.rs builds them (.ci/docsrs)"
 	@echo "  make unit        - the host tests (library, doctests, tests/*.rs but the simulator's) under TEST_FEATURE_SETS, linted"
 	@echo "  make sim-test    - the simulator tests once each, the simulator's and the bench's tests (after the firmware, fixtures, bootloaders)"
+	@echo "  make sim-test-uno - make sim-test's tests that run only the Uno's firmware"
+	@echo "  make sim-test-chips - make sim-test's tests that run other chips' firmware or the fixtures (SIM_CHIPS), the tools' tests"
 	@echo "  make virtual-test - the virtual Uno's and virtual line's tests (boards paced to real time on ptys)"
 	@echo "  make interop     - mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on virtual boards"
 	@echo "  make bench       - size targets (met or not; flash as the avr-hal template builds), flash, RAM, stack, interrupt cycles, turnaround -> bench/results.md"
@@ -240,10 +242,28 @@ lint: fmt-check clippy matrix docs
 
 # What runs the firmware in simulated time (cycles, never the wall clock): each simulator test
 # once, and the simulator's and the bench's own tests; after the firmware, fixtures and
-# bootloaders.
-sim-test: setup firmware fixtures bootloaders
-	.ci/host-test --lint sim $(TEST_FEATURE_SETS)
-	RUSTC_WORKSPACE_WRAPPER=clippy-driver RUSTFLAGS="-D warnings" $(CARGO) test -p uno-sim -p bench # as --lint: uno-sim built once
+# bootloaders. In two halves, so that make test runs the first while the other chips build.
+sim-test: sim-test-uno sim-test-chips
+
+# The simulator tests that run what make chips or make fixtures build; every other needs only
+# the Uno's firmware and the bootloaders. (One missing here fails under make test: its ELF is
+# not built yet when sim-test-uno runs it.)
+SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_gateway,sim_template
+
+# Every simulator test built, those that need only the Uno's firmware run; the tools' tests
+# built (make sim-test-chips runs them).
+sim-test-uno: setup firmware-uno bootloaders
+	.ci/host-test --lint --skip=$(SIM_CHIPS) sim $(TEST_FEATURE_SETS)
+	$(LINTED) $(CARGO) test -p uno-sim -p bench --no-run
+
+# The simulator tests of SIM_CHIPS, and the simulator's and the bench's own tests.
+sim-test-chips: setup firmware fixtures bootloaders
+	.ci/host-test --lint --only=$(SIM_CHIPS) sim $(TEST_FEATURE_SETS)
+	$(LINTED) $(CARGO) test -p uno-sim -p bench
+
+# As .ci/host-test --lint builds: clippy as the compiler, warnings denied (the same flags, so
+# that uno-sim, which the crate's tests use, is built once).
+LINTED := RUSTC_WORKSPACE_WRAPPER=clippy-driver RUSTFLAGS="-D warnings"
 
 # The virtual Uno's and the virtual line's own tests: boards paced to real time on ptys.
 virtual-test: setup firmware bootloaders
