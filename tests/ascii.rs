@@ -227,6 +227,26 @@ fn frame_of_513_characters_is_received_and_514_is_too_long() {
     long.extend(b"00");
     long.extend(&chars[chars.len() - 4..]);
     dropped(&long, FrameError::TooLong, |c| c.overruns);
+    // Its 256th byte (the 513th character) breaks it; the LF after reports it at once.
+    let mut framer = avr_modbus::internal::Framer::<256>::new();
+    framer.set_ascii(true);
+    let due: Vec<usize> = (0..long.len()).filter(|&i| framer.on_char(long[i])).collect();
+    assert_eq!(due, [514]);
+    assert_eq!(framer.on_end_deadline(), Some(Err(FrameError::TooLong)));
+}
+
+#[test]
+fn bytes_past_a_small_buffer_are_counted_in_the_frame_s_length() {
+    // 40 bytes and the LRC into a 16-byte buffer: the first 16 kept, the frame's length
+    // (counted as an RTU frame's: the bytes and one) all 41 and one.
+    let mut sealed: Vec<u8> = (1..=40).collect();
+    sealed.push(lrc(&sealed));
+    let mut framer = avr_modbus::internal::Framer::<16>::new();
+    framer.set_ascii(true);
+    let due = (0..encoded_len(sealed.len())).filter(|&i| framer.on_char(encoded_char(&sealed, i))).count();
+    assert_eq!(due, 1);
+    assert_eq!(framer.on_end_deadline(), Some(Ok(sealed.len() + 1)));
+    assert_eq!(&framer.buffer()[..16], &sealed[..16]);
 }
 
 #[test]

@@ -75,7 +75,7 @@ fn fc1_read_coils_20_to_38_is_the_spec_example() {
     let expected = [1, 0, 1, 1, 0, 0, 1, 1, 1, 1, 0, 1, 0, 1, 1, 0, 1, 0, 1].map(|b| b == 1);
     assert_eq!(bits, expected);
     assert_eq!(reply.bit(19), None);
-    assert_eq!(reply.len(), 19);
+    assert_eq!((reply.function(), reply.len(), reply.is_empty()), (0x01, 19, false));
 }
 
 #[test]
@@ -120,6 +120,7 @@ fn fc5_write_coil_173_on_is_the_spec_example_and_its_echo_is_the_answer() {
     // The echo is the reply's data; a write reads no registers nor bits.
     assert_eq!(reply.data(), &[0x00, 0xAC, 0xFF, 0x00]);
     assert_eq!((reply.registers().count(), reply.register(0), reply.bit(0)), (0, None, None));
+    assert_eq!((reply.function(), reply.len(), reply.is_empty()), (0x05, 0, true));
     m.collect();
     send(&mut m, ID, Request::WriteSingleCoil { address: 172, value: false }, &[ID, 0x05, 0x00, 0xAC, 0x00, 0x00]);
 }
@@ -252,6 +253,8 @@ fn reads_are_never_broadcast_and_reserved_addresses_are_refused() {
     assert_eq!(m.start(248, &Request::WriteSingleRegister { address: 0, value: 1 }), Err(Error::SlaveId));
     assert_eq!(m.start(ID, &Request::Raw { function: 0, data: &[] }), Err(Error::Function));
     assert_eq!(m.start(ID, &Request::Raw { function: 0x80, data: &[] }), Err(Error::Function));
+    // The highest unicast address is a slave's.
+    assert_eq!(m.start(247, &Request::WriteSingleRegister { address: 0, value: 1 }), Ok(Action::Send));
 }
 
 #[test]
@@ -263,6 +266,11 @@ fn a_request_or_reply_longer_than_the_buffer_is_refused() {
     // 4 registers written take 17 bytes.
     assert_eq!(small.start(1, &Request::WriteMultipleRegisters { address: 0, values: &[1; 4] }), Err(Error::TooLong));
     assert_eq!(small.start(1, &Request::ReadHoldingRegisters { address: 0, quantity: 5 }), Ok(Action::Send));
+    // 88 coils answer in 16 bytes (11 data bytes): the buffer's size is room enough; 89 take 17.
+    let mut small: Engine<16> = Engine::new();
+    small.on_end_deadline();
+    assert_eq!(small.start(1, &Request::ReadCoils { address: 0, quantity: 89 }), Err(Error::TooLong));
+    assert_eq!(small.start(1, &Request::ReadCoils { address: 0, quantity: 88 }), Ok(Action::Send));
     // A raw request of more than 253 bytes of PDU does not fit a frame.
     let mut m = master();
     assert_eq!(m.start(1, &Request::Raw { function: 0x41, data: &[0; 253] }), Err(Error::TooLong));

@@ -299,6 +299,14 @@ mod tests {
     }
 
     #[test]
+    fn with_slave_id_changes_the_slave_id_only() {
+        let c = Config::new(5, 9600, Parity::Odd, StopBits::Two);
+        let moved = c.with_slave_id(SlaveId::new(247).unwrap());
+        assert_eq!(moved.slave_id().get(), 247);
+        assert_eq!((moved.baud(), moved.parity(), moved.stop_bits()), (c.baud(), c.parity(), c.stop_bits()));
+    }
+
+    #[test]
     fn default_is_19200_8e1() {
         let c = Config::default_for(SlaveId::new(5).unwrap());
         assert_eq!((c.baud(), c.parity(), c.stop_bits()), (19_200, Parity::Even, StopBits::One));
@@ -312,5 +320,29 @@ mod tests {
         assert_eq!(bits(Parity::None, StopBits::Two), 11);
         assert_eq!(bits(Parity::Odd, StopBits::One), 11);
         assert_eq!(bits(Parity::Even, StopBits::Two), 12);
+    }
+
+    #[cfg(feature = "reply-delay")]
+    #[test]
+    fn a_reply_delay_above_the_longest_is_the_longest() {
+        let delay = |us| Config::new(1, 9600, Parity::Even, StopBits::One).with_reply_delay(us).reply_delay_us();
+        let max = Config::MAX_REPLY_DELAY_US;
+        assert_eq!(delay(max), max);
+        for us in [max + 1, max + 100, 1_000_000, u32::MAX / 1000] {
+            assert_eq!(delay(us), max, "{us} µs");
+        }
+    }
+
+    #[cfg(feature = "reply-delay")]
+    #[test]
+    fn the_reply_delay_is_counted_in_timer0_ticks_and_is_none_in_ascii() {
+        use crate::link::timing::TICKS_PER_MS;
+        let rtu = Config::new(1, 9600, Parity::Even, StopBits::One);
+        assert_eq!(rtu.reply_delay_ticks(), 0);
+        assert_eq!(u32::from(rtu.with_reply_delay(3_000).reply_delay_ticks()), 3 * TICKS_PER_MS);
+        #[cfg(feature = "ascii")]
+        for mode in [Mode::Ascii, Mode::Ascii8] {
+            assert_eq!(rtu.with_reply_delay(3_000).with_mode(mode).reply_delay_ticks(), 0, "{mode:?}");
+        }
     }
 }

@@ -475,15 +475,22 @@ fn full(table: Table) -> Error {
     }
 }
 
+/// The longest runs of bits and of registers a bank of `bit_bytes` bytes of bits and `regs`
+/// registers holds, for [`frame_for`]: past 2000 bits and 125 registers, every request's
+/// limit, the count matters no more (and is kept from overflowing).
+const fn longest_runs(bit_bytes: usize, regs: usize) -> (u32, u32) {
+    let bits = if bit_bytes < 0x1000 { bit_bytes as u32 * 8 } else { 0x8000 };
+    let registers = if regs < 0x1000 { regs as u32 } else { 0x1000 };
+    (bits, registers)
+}
+
 impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECTED: usize, const PAIRS: usize> DataModel
     for Bank<RUNS, REGS, BIT_BYTES, PROTECTED, PAIRS>
 {
     /// Sized from the capacity: no run holds more than `BIT_BYTES × 8` bits or `REGS`
     /// registers.
     const FRAME: usize = {
-        // Past 2000 bits and 125 registers, every request's limit, the count matters no more.
-        let bits = if BIT_BYTES < 0x1000 { BIT_BYTES as u32 * 8 } else { 0x8000 };
-        let registers = if REGS < 0x1000 { REGS as u32 } else { 0x1000 };
+        let (bits, registers) = longest_runs(BIT_BYTES, REGS);
         frame_for(bits, bits, registers, registers)
     };
     const FRAME_HOLDS_ALL: bool = true;
@@ -550,5 +557,18 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         let qty = u16::try_from(values.len() / 2).map_err(|_| Exception::IllegalDataValue)?;
         let at = self.writable(Table::HoldingRegisters, start, qty);
         self.values.write_words(at, values)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::longest_runs;
+
+    #[test]
+    fn a_bank_s_longest_runs_are_its_capacity_up_to_past_every_request_s_limit() {
+        assert_eq!(longest_runs(2, 3), (16, 3));
+        assert_eq!(longest_runs(0x0FFF, 0x0FFF), (0x7FF8, 0x0FFF));
+        assert_eq!(longest_runs(0x1000, 0x1000), (0x8000, 0x1000));
+        assert_eq!(longest_runs(usize::MAX, usize::MAX), (0x8000, 0x1000));
     }
 }

@@ -139,6 +139,27 @@ mod tests {
     }
 
     #[test]
+    fn past_1_percent_the_divisor_closer_in_ppm_wins_and_a_tie_keeps_normal_speed() {
+        // 40 405 Bd: 40 000 at normal speed (UBRR 24, −1.00 %), 40 816 at double (UBRR 48,
+        // +1.02 %): normal is closer.
+        let d = BaudDivisor::new(40_405, MHZ16).unwrap();
+        assert_eq!((d.ubrr, d.double_speed), (24, false));
+        // 41 240 Bd: UBRR 23 at normal speed and 47 at double make the same 41 667: normal
+        // speed, the more tolerant receiver.
+        let d = BaudDivisor::new(41_240, MHZ16).unwrap();
+        assert_eq!((d.ubrr, d.double_speed), (23, false));
+    }
+
+    #[test]
+    fn ubrr_holds_12_bits() {
+        // 300 Bd from a 19.6608 MHz crystal: 4096 × 16 cycles a bit, UBRR 4095, the largest.
+        let d = BaudDivisor::new(300, 19_660_800).unwrap();
+        assert_eq!((d.ubrr, d.double_speed, d.error_ppm(300, 19_660_800)), (4095, false, 0));
+        // 244 Bd at 16 MHz would take UBRR 4097 (0.04 % off): too slow for the register.
+        assert_eq!(BaudDivisor::new(244, MHZ16), None);
+    }
+
+    #[test]
     fn baud_with_more_than_2_5_percent_error_is_refused() {
         assert_eq!(BaudDivisor::new(300_000, MHZ16), None);
         assert_eq!(BaudDivisor::new(230_400, MHZ16), None);

@@ -320,3 +320,30 @@ macro_rules! identification {
         };
     };
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The basic objects, the vendor name `vendor_len` bytes long.
+    fn objects(vendor_len: usize) -> Objects {
+        Objects {
+            vendor_name: "a".repeat(vendor_len).leak(),
+            product_code: "P",
+            major_minor_revision: "1",
+            ..Objects::NONE
+        }
+    }
+
+    #[test]
+    fn an_object_of_244_bytes_fits_a_reply() {
+        assert_eq!(MAX_OBJECT, 244);
+        assert_eq!(objects(244).encoded_len(), (2 + 244) + (2 + 1) + (2 + 1));
+    }
+
+    #[test]
+    #[should_panic(expected = "longer than 244 bytes")]
+    fn an_object_of_245_bytes_is_refused() {
+        objects(245).encoded_len();
+    }
+}
