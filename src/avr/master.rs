@@ -285,7 +285,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
     #[doc(hidden)]
     #[inline(always)]
     pub unsafe fn on_usart_tx(&self) {
-        // SAFETY: as above.
+        // SAFETY: the transmit-complete interrupt handler (the caller's promise).
         unsafe { self.running.access_in_handler(Running::on_usart_tx) };
     }
 
@@ -296,7 +296,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
     #[doc(hidden)]
     #[inline(always)]
     pub unsafe fn on_timer_compare(&self) {
-        // SAFETY: as above.
+        // SAFETY: the timer compare interrupt handler (the caller's promise).
         unsafe { self.running.access_in_handler(Running::on_timer_compare) };
     }
 }

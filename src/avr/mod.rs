@@ -203,9 +203,11 @@ macro_rules! __bind_role {
             /// USARTn_RX: a character arrived.
             #[export_name = $crate::__chip!(vector $usart RX)]
             unsafe extern "avr-interrupt" fn USART_RX() {
-                // SAFETY: as above; the handler's first call.
+                // SAFETY: the first statement of the USART's receive interrupt handler,
+                // which runs with interrupts disabled.
                 unsafe { $crate::__private::$arrived() };
-                // SAFETY: as above.
+                // SAFETY: the receive interrupt handler, interrupts disabled, and it does
+                // not enable them.
                 unsafe { super::$name.on_usart_rx() }
             }
 
@@ -213,7 +215,8 @@ macro_rules! __bind_role {
             /// USARTn_UDRE: room for the next character of a frame.
             #[export_name = $crate::__chip!(vector $usart UDRE)]
             unsafe extern "avr-interrupt" fn USART_UDRE() {
-                // SAFETY: as above.
+                // SAFETY: the data-register-empty interrupt handler, interrupts disabled,
+                // and it does not enable them.
                 unsafe { super::$name.$feed() }
             }
             )?
@@ -222,7 +225,8 @@ macro_rules! __bind_role {
             /// the wire.
             #[export_name = $crate::__chip!(vector $usart TX)]
             unsafe extern "avr-interrupt" fn USART_TX() {
-                // SAFETY: as above.
+                // SAFETY: the transmit-complete interrupt handler, interrupts disabled, and
+                // it does not enable them.
                 unsafe { super::$name.on_usart_tx() }
             }
         }

@@ -353,7 +353,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> S
     #[doc(hidden)]
     #[inline(always)]
     pub unsafe fn on_usart_tx(&self) {
-        // SAFETY: as above.
+        // SAFETY: the transmit-complete interrupt handler (the caller's promise).
         unsafe { self.access_in_handler(Running::on_usart_tx) };
     }
 
