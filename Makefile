@@ -208,7 +208,12 @@ TEST_FEATURE_SETS := all default clock-8mhz,ascii master $(OPTIONAL),eeprom-sett
 # The host tests (no firmware needed): the library, its doctests and every tests/*.rs but the
 # simulator's, under TEST_FEATURE_SETS, built with clippy as the compiler (warnings denied).
 unit: setup
-	.ci/host-test --lint host $(TEST_FEATURE_SETS)
+	$(LINTED) .ci/host-test host $(TEST_FEATURE_SETS)
+
+# How make unit and make sim-test build the tests: clippy as the compiler, warnings denied, so
+# that the build that runs the tests is also their lint (and, the flags being the same,
+# uno-sim, which the crate's tests use, is built once for both).
+LINTED := RUSTC_WORKSPACE_WRAPPER=clippy-driver RUSTFLAGS="-D warnings"
 
 # The edit loop: format, the tools' lints, and the host tests linted as they build.
 check: fmt-check clippy-tools unit
@@ -253,17 +258,13 @@ SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_gateway,sim_template
 # Every simulator test built, those that need only the Uno's firmware run; the tools' tests
 # built (make sim-test-chips runs them).
 sim-test-uno: setup firmware-uno bootloaders
-	.ci/host-test --lint --skip=$(SIM_CHIPS) sim $(TEST_FEATURE_SETS)
+	$(LINTED) .ci/host-test --skip=$(SIM_CHIPS) sim $(TEST_FEATURE_SETS)
 	$(LINTED) $(CARGO) test -p uno-sim -p bench --no-run
 
 # The simulator tests of SIM_CHIPS, and the simulator's and the bench's own tests.
 sim-test-chips: setup firmware fixtures bootloaders
-	.ci/host-test --lint --only=$(SIM_CHIPS) sim $(TEST_FEATURE_SETS)
+	$(LINTED) .ci/host-test --only=$(SIM_CHIPS) sim $(TEST_FEATURE_SETS)
 	$(LINTED) $(CARGO) test -p uno-sim -p bench
-
-# As .ci/host-test --lint builds: clippy as the compiler, warnings denied (the same flags, so
-# that uno-sim, which the crate's tests use, is built once).
-LINTED := RUSTC_WORKSPACE_WRAPPER=clippy-driver RUSTFLAGS="-D warnings"
 
 # The virtual Uno's and the virtual line's own tests: boards paced to real time on ptys.
 virtual-test: setup firmware bootloaders
