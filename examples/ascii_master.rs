@@ -21,12 +21,12 @@
 #![feature(abi_avr_interrupt)]
 
 use avr_modbus::master::{Failure, Reply, Request, Timeouts};
-use avr_modbus::{board, Config, Parity, StopBits};
+use avr_modbus::{board, Line, Parity, SlaveId, StopBits};
 use panic_halt as _;
 
-const LINE: Config = Config::ascii(1, 9600, Parity::Even, StopBits::One);
-const POLLED: u8 = 1;
-const TOLD: u8 = 2;
+const LINE: Line = Line::ascii(9600, Parity::Even, StopBits::One);
+const POLLED: SlaveId = SlaveId::new(1);
+const TOLD: SlaveId = SlaveId::new(2);
 
 // The longest frame: the report, FC 16 of 13 registers (35 bytes).
 avr_modbus::master!(MASTER: 40);
@@ -43,7 +43,7 @@ fn outcome(outcome: Result<Reply<'_>, Failure>) -> Report {
                 *slot = value;
             }
         }
-        Err(Failure::Exception(code)) => report[0] = u16::from(code),
+        Err(Failure::Exception(code)) => report[0] = u16::from(code.code()),
         Err(Failure::Timeout) => report[0] = 0x100,
         Err(Failure::BadReply) => report[0] = 0x200,
     }
@@ -52,7 +52,7 @@ fn outcome(outcome: Result<Reply<'_>, Failure>) -> Report {
 
 /// Sends `request` to `slave` and waits for its outcome (this firmware has nothing else to
 /// do); `None` when it could not be sent.
-fn ask<R>(slave: u8, request: &Request<'_>, f: impl FnOnce(Result<Reply<'_>, Failure>) -> R) -> Option<R> {
+fn ask<R>(slave: SlaveId, request: &Request<'_>, f: impl FnOnce(Result<Reply<'_>, Failure>) -> R) -> Option<R> {
     MASTER.send(slave, request).ok()?;
     MASTER.wait_blocking(f)
 }

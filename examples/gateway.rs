@@ -25,7 +25,7 @@
 
 use avr_modbus::board::{self, Pin};
 use avr_modbus::master::{Failure, Request};
-use avr_modbus::{millis, Config, NoPin, Parity, StopBits};
+use avr_modbus::{millis, Config, Line, NoPin, Parity, SlaveId, StopBits};
 use panic_halt as _;
 
 #[cfg(avr_chip = "atmega1280")]
@@ -36,8 +36,8 @@ use avr_device::atmega2560 as pac;
 compile_error!("the gateway needs two USARTs: build it for the Mega (-C target-cpu=atmega2560 or atmega1280)");
 
 const SCADA_SIDE: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
-const FIELD_LINE: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
-const FIELD_DEVICE: u8 = 1;
+const FIELD_LINE: Line = Line::new(19_200, Parity::Even, StopBits::One);
+const FIELD_DEVICE: SlaveId = SlaveId::new(1);
 
 avr_modbus::register_map! {
     /// What the SCADA sees.
@@ -90,7 +90,7 @@ fn main() -> ! {
             Some(Err(failure)) => {
                 failures = failures.wrapping_add(1);
                 let code = match failure {
-                    Failure::Exception(code) => u16::from(code),
+                    Failure::Exception(code) => u16::from(code.code()),
                     Failure::Timeout => 0x100,
                     Failure::BadReply => 0x200,
                 };

@@ -22,12 +22,12 @@
 
 use avr_modbus::board::{self, Pin, Pins};
 use avr_modbus::master::{Request, Timeouts};
-use avr_modbus::{millis, Config, NoPin, Parity, StopBits};
+use avr_modbus::{millis, FunctionCode, Line, NoPin, Parity, SlaveId, StopBits};
 use panic_halt as _;
 
-const LINE: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
-const BUTTON_BOX: u8 = 1;
-const LIGHT_TOWER: u8 = 2;
+const LINE: Line = Line::new(19_200, Parity::Even, StopBits::One);
+const BUTTON_BOX: SlaveId = SlaveId::new(1);
+const LIGHT_TOWER: SlaveId = SlaveId::new(2);
 
 avr_modbus::master!(MASTER: 16, Pin, NoPin);
 
@@ -68,7 +68,8 @@ fn main() -> ! {
         // START and STOP when the buttons were read, nothing when the lamps were set.
         let outcome = MASTER.poll(|outcome| {
             outcome.map(|reply| {
-                (reply.function() == 0x02).then(|| (reply.bit(0) == Some(true), reply.bit(1) == Some(true)))
+                (reply.function() == FunctionCode::ReadDiscreteInputs)
+                    .then(|| (reply.bit(0) == Some(true), reply.bit(1) == Some(true)))
             })
         });
         match outcome {

@@ -40,10 +40,7 @@ use avr_modbus::{bit_bytes, Bank, Config, Error, Parity, SlaveId, StopBits};
 use panic_halt as _;
 
 const BUTTON_BOX: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
-const LIGHT_TOWER: SlaveId = match SlaveId::new(2) {
-    Ok(id) => id,
-    Err(_) => panic!("bad id"),
-};
+const LIGHT_TOWER: SlaveId = SlaveId::new(2);
 
 type Bits = Bank<1, 0, { bit_bytes(4) }>;
 

@@ -25,7 +25,7 @@
 #![feature(abi_avr_interrupt)]
 
 use avr_modbus::master::Request;
-use avr_modbus::{board, Config, Parity, StopBits};
+use avr_modbus::{board, Line, Parity, SlaveId, StopBits};
 use panic_halt as _;
 
 // The chip's peripherals, as the build's `-C target-cpu` chose the chip (build.rs).
@@ -40,7 +40,7 @@ use avr_device::atmega328p as pac;
 #[cfg(avr_chip = "atmega32u4")]
 use avr_device::atmega32u4 as pac;
 
-const LINE: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
+const LINE: Line = Line::new(19_200, Parity::Even, StopBits::One);
 
 // The USART `make chips` builds this for (AVR_MODBUS_EXAMPLE_USART, see build.rs); in a
 // firmware of your own, one line: `master!(MASTER on USART1: 25)` or `master!(MASTER: 25)`.
@@ -87,7 +87,7 @@ fn main() -> ! {
             }
         });
         // Busy while the last request is under way: it goes on, and this one waits.
-        let _ = MASTER.send(1, &request);
+        let _ = MASTER.send(SlaveId::new(1), &request);
         core::hint::black_box(&values);
     }
 }

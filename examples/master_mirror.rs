@@ -30,21 +30,21 @@
  * | 13   | raw FC 3 of 0 registers (exception 03 expected)   |           |
  * | 14   | FC 3, holding registers 16–19: two f32, high word first then low word first | each × 2, high word first (4 registers) |
  *
- * After the last step: the master's counters at slave 2's registers 240–247 (requests,
- * replies, exceptions, timeouts, retries, CRC errors, malformed, unexpected), then again
- * from step 0 with the pass count at register 248.
+ * After the last step: the master's counters at slave 2's registers 240–249 (requests,
+ * CRC errors, UART errors, overruns, malformed, replies, exceptions, timeouts, retries,
+ * unexpected), then again from step 0 with the pass count at register 250.
  */
 #![no_std]
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
 use avr_modbus::master::{Failure, Reply, Request, Timeouts};
-use avr_modbus::{board, Config, Parity, StopBits, WordOrder};
+use avr_modbus::{board, Error, FunctionCode, Line, Parity, SlaveId, StopBits, WordOrder};
 use panic_halt as _;
 
-const LINE: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
-const POLLED: u8 = 1;
-const TOLD: u8 = 2;
+const LINE: Line = Line::new(19_200, Parity::Even, StopBits::One);
+const POLLED: SlaveId = SlaveId::new(1);
+const TOLD: SlaveId = SlaveId::new(2);
 const STEPS: u16 = 15;
 
 avr_modbus::master!(MASTER: 64);
@@ -52,7 +52,8 @@ avr_modbus::master!(MASTER: 64);
 /// What a step's report says: status, then up to 4 values read.
 type Report = ([u16; 5], usize);
 
-fn request(step: u16) -> (u8, Request<'static>) {
+/// Step `step`'s request and whom it goes to (`None`: every slave, a broadcast).
+fn request(step: u16) -> (Option<SlaveId>, Request<'static>) {
     const COILS: [bool; 4] = [true, false, true, true];
     const PAIR: [u16; 2] = [0x1234, 0x5678];
     const SEVEN: [u16; 1] = [7];
@@ -73,13 +74,21 @@ fn request(step: u16) -> (u8, Request<'static>) {
         },
         9 => Request::ReadHoldingRegisters { address: 0, quantity: 126 },
         10 => Request::ReadHoldingRegisters { address: 9999, quantity: 1 },
-        11 => return (0, Request::WriteSingleRegister { address: 14, value: 0x0B0B }),
-        12 => Request::Raw { function: 0x41, data: &[0x00] },
+        11 => return (None, Request::WriteSingleRegister { address: 14, value: 0x0B0B }),
+        12 => Request::Raw { function: FunctionCode::custom(0x41), data: &[0x00] },
         // What the master refuses to build as FC 3 (a quantity of 0), sent raw.
-        13 => Request::Raw { function: 0x03, data: &[0, 0, 0, 0] },
+        13 => Request::Raw { function: FunctionCode::ReadHoldingRegisters, data: &[0, 0, 0, 0] },
         _ => Request::ReadHoldingRegisters { address: 16, quantity: 4 },
     };
-    (POLLED, request)
+    (Some(POLLED), request)
+}
+
+/// Starts `request` to `slave`, or to every slave.
+fn send(slave: Option<SlaveId>, request: &Request<'_>) -> Result<(), Error> {
+    match slave {
+        Some(slave) => MASTER.send(slave, request),
+        None => MASTER.broadcast(request),
+    }
 }
 
 /// How a step's reply is reported.
@@ -119,7 +128,7 @@ fn report(outcome: Result<Reply<'_>, Failure>, read: Read) -> Report {
                 len += 1;
             }
         }
-        Err(Failure::Exception(code)) => values[0] = u16::from(code),
+        Err(Failure::Exception(code)) => values[0] = u16::from(code.code()),
         Err(Failure::Timeout) => values[0] = 0x100,
         Err(Failure::BadReply) => values[0] = 0x200,
     }
@@ -127,7 +136,7 @@ fn report(outcome: Result<Reply<'_>, Failure>, read: Read) -> Report {
 }
 
 /// Sends `request` and waits for its outcome (this firmware has nothing else to do).
-fn ask<R>(slave: u8, request: &Request<'_>, f: impl FnOnce(Result<Reply<'_>, Failure>) -> R) -> Option<R> {
+fn ask<R>(slave: SlaveId, request: &Request<'_>, f: impl FnOnce(Result<Reply<'_>, Failure>) -> R) -> Option<R> {
     while MASTER.send(slave, request).is_err() {}
     MASTER.wait_blocking(f)
 }
@@ -151,7 +160,7 @@ fn main() -> ! {
                 _ if step == 14 => Read::Floats,
                 _ => Read::Registers,
             };
-            let (values, len) = match MASTER.send(slave, &request) {
+            let (values, len) = match send(slave, &request) {
                 Ok(()) => MASTER.wait_blocking(|outcome| report(outcome, read)).unwrap_or(([0x400, 0, 0, 0, 0], 1)),
                 Err(_) => ([0x300, 0, 0, 0, 0], 1),
             };
@@ -161,8 +170,19 @@ fn main() -> ! {
         }
         let c = MASTER.counters();
         pass = pass.wrapping_add(1);
-        let counters =
-            [c.requests, c.replies, c.exceptions, c.timeouts, c.retries, c.crc_errors, c.malformed, c.unexpected, pass];
+        let counters = [
+            c.requests,
+            c.crc_errors,
+            c.uart_errors,
+            c.overruns,
+            c.malformed,
+            c.replies,
+            c.exceptions,
+            c.timeouts,
+            c.retries,
+            c.unexpected,
+            pass,
+        ];
         ask(TOLD, &Request::WriteMultipleRegisters { address: 240, values: &counters }, |_| ());
     }
 }

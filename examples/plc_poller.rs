@@ -19,11 +19,11 @@
 
 use avr_modbus::board::{self, Pin, Pins};
 use avr_modbus::master::{Request, Timeouts};
-use avr_modbus::{millis, Config, NoPin, Parity, StopBits};
+use avr_modbus::{millis, Line, NoPin, Parity, SlaveId, StopBits};
 use panic_halt as _;
 
-const LINE: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
-const PLC: u8 = 1;
+const LINE: Line = Line::new(19_200, Parity::Even, StopBits::One);
+const PLC: SlaveId = SlaveId::new(1);
 const REGISTERS: u16 = 5;
 
 // A reply to one register is 7 bytes, the request 8: 16-byte buffers.

@@ -13,10 +13,10 @@
 #![feature(abi_avr_interrupt)]
 
 use avr_modbus::master::Request;
-use avr_modbus::{board, millis, Config, Parity, StopBits};
+use avr_modbus::{board, millis, FunctionCode, Line, Parity, SlaveId, StopBits};
 use panic_halt as _;
 
-const LINE: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
+const LINE: Line = Line::new(19_200, Parity::Even, StopBits::One);
 
 // FC 3 × 10 is answered in 25 bytes; FC 16 × 2 takes 13.
 avr_modbus::master!(MASTER: 25);
@@ -35,12 +35,12 @@ fn main() -> ! {
     let mut last = 0;
     loop {
         MASTER.poll(|outcome| match outcome {
-            Ok(reply) if reply.function() == 0x03 => {
+            Ok(reply) if reply.function() == FunctionCode::ReadHoldingRegisters => {
                 for (slot, value) in registers.iter_mut().zip(reply.registers()) {
                     *slot = value;
                 }
             }
-            Ok(reply) if reply.function() == 0x01 => {
+            Ok(reply) if reply.function() == FunctionCode::ReadCoils => {
                 for (i, coil) in coils.iter_mut().enumerate() {
                     *coil = reply.bit(i) == Some(true);
                 }
@@ -57,7 +57,7 @@ fn main() -> ! {
                 2 => Request::ReadCoils { address: 0, quantity: 8 },
                 _ => Request::WriteSingleCoil { address: 8, value: coils[0] },
             };
-            if MASTER.send(1, &request).is_ok() {
+            if MASTER.send(SlaveId::new(1), &request).is_ok() {
                 step = (step + 1) % 4;
             }
         }

@@ -13,10 +13,10 @@
 #![feature(abi_avr_interrupt)]
 
 use avr_modbus::master::Request;
-use avr_modbus::{board, millis, Config, Parity, StopBits};
+use avr_modbus::{board, millis, Line, Parity, SlaveId, StopBits};
 use panic_halt as _;
 
-const LINE: Config = Config::new(1, 19_200, Parity::Even, StopBits::One);
+const LINE: Line = Line::new(19_200, Parity::Even, StopBits::One);
 
 // FC 3 × 10 is answered in 25 bytes.
 avr_modbus::master!(MASTER: 25);
@@ -52,5 +52,5 @@ fn main() -> ! {
 /// first start bit from this function's entry, the moment the application asks.
 #[inline(never)]
 fn ask() -> Result<(), avr_modbus::Error> {
-    MASTER.send(1, &Request::ReadHoldingRegisters { address: 0, quantity: 10 })
+    MASTER.send(SlaveId::new(1), &Request::ReadHoldingRegisters { address: 0, quantity: 10 })
 }

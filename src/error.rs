@@ -51,6 +51,9 @@ pub enum Error {
     TooLong,
     /// The master was not started.
     NotStarted,
+    /// A reference in a table the request does not reach: a master's write to a discrete
+    /// input or an input register, a coil's reference for a register write.
+    WrongTable,
 }
 
 impl Error {
@@ -77,6 +80,7 @@ impl Error {
             Error::Function => "function code must be 1-127",
             Error::TooLong => "request or reply longer than the buffer",
             Error::NotStarted => "not started",
+            Error::WrongTable => "reference in another table",
         }
     }
 }

@@ -21,12 +21,12 @@
 #[cfg_attr(docsrs, doc(cfg(target_arch = "avr")))]
 mod avr;
 mod error;
-mod limits;
 mod link;
 #[cfg(feature = "master")]
 pub mod master;
 #[cfg(any(target_arch = "avr", all(doc, docsrs), test))]
 mod peripheral;
+pub(crate) mod protocol;
 mod slave;
 mod wide;
 
@@ -45,13 +45,14 @@ pub use avr::{board, NoPin, Slave};
 pub use error::Error;
 #[cfg(feature = "ascii")]
 pub use link::config::Mode;
-pub use link::config::{Config, Parity, SlaveId, StopBits};
+pub use link::config::{Config, Line, Parity, StopBits};
+pub use protocol::reference::{IntoReference, Reference, Table};
+pub use protocol::SlaveId;
+pub use protocol::{Exception, FunctionCode};
 pub use slave::bank::{bit_bytes, Bank};
-pub use slave::engine::Counters;
+pub use slave::engine::SlaveCounters;
 pub use slave::model::DataModel;
 pub use slave::pdu::device_id::Identification;
-pub use slave::pdu::Exception;
-pub use slave::reference::{IntoReference, Reference, Table};
 #[cfg(feature = "eeprom-settings")]
 pub use slave::settings::Configurable;
 pub use wide::{Wide, WordOrder};

@@ -9,7 +9,7 @@ mod engine;
 mod reply;
 mod request;
 
-pub use engine::{Counters, Failure, Timeouts};
+pub use engine::{Failure, MasterCounters, Timeouts};
 pub use reply::Reply;
 pub use request::Request;
 

@@ -11,7 +11,6 @@ pub(crate) mod engine;
 pub(crate) mod map;
 pub(crate) mod model;
 pub(crate) mod pdu;
-pub(crate) mod reference;
 #[cfg(feature = "eeprom-settings")]
 pub(crate) mod settings;
 pub(crate) mod storage;

@@ -3,8 +3,8 @@
 //! single) takes two, in one of two word orders devices disagree on: [`WordOrder`].
 
 use crate::error::Error;
+use crate::protocol::reference::Reference;
 use crate::slave::model::DataModel;
-use crate::slave::reference::Reference;
 
 /// Which register of a pair holds the value's high 16 bits.
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]

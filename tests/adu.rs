@@ -192,7 +192,7 @@ fn a_frame_for_another_slave_is_not_answered_or_executed() {
 #[test]
 fn every_valid_slave_id_answers_only_its_own_address() {
     for id in [1u8, 2, 100, 246, 247] {
-        let mut slave: avr_modbus::internal::Engine = avr_modbus::internal::Engine::new(SlaveId::new(id).unwrap());
+        let mut slave: avr_modbus::internal::Engine = avr_modbus::internal::Engine::new(SlaveId::new(id));
         let mut bank = spec_bank();
         let mine = with_crc(&[id, 0x03, 0x00, 0x00, 0x00, 0x01]);
         let theirs = with_crc(&[id % 247 + 1, 0x03, 0x00, 0x00, 0x00, 0x01]);

@@ -6,7 +6,7 @@ mod common;
 
 use avr_modbus::internal::ascii::{encoded_char, encoded_len, hex_digit, hex_value, lrc, MAX_CHARS};
 use avr_modbus::internal::{EndOfFrame, Engine, FrameError, UartError};
-use avr_modbus::{Config, Counters, Mode, Parity, SlaveId, StopBits};
+use avr_modbus::{Config, Mode, Parity, SlaveCounters, SlaveId, StopBits};
 use common::{read_pdu, spec_bank, write_multiple_pdu, TestBank, ID};
 use proptest::prelude::*;
 
@@ -37,7 +37,7 @@ fn to_slave(pdu: &[u8]) -> Vec<u8> {
 
 /// The slave under test in ASCII mode.
 fn ascii_slave() -> Engine {
-    let mut slave: Engine = Engine::new(SlaveId::new(ID).unwrap());
+    let mut slave: Engine = Engine::new(SlaveId::new(ID));
     slave.set_ascii(true);
     slave
 }
@@ -55,7 +55,7 @@ fn feed(slave: &mut Engine, bank: &mut TestBank, chars: &[u8]) -> (EndOfFrame, V
     (end, text)
 }
 
-fn counters_of(slave: &Engine) -> Counters {
+fn counters_of(slave: &Engine) -> SlaveCounters {
     slave.counters()
 }
 
@@ -111,13 +111,13 @@ fn encoded_frame_is_colon_hex_pairs_cr_lf() {
 #[test]
 fn ascii_config_has_seven_data_bits_and_a_one_second_timeout() {
     const C: Config = Config::ascii(1, 9600, Parity::Even, StopBits::One);
-    assert_eq!((C.mode(), C.data_bits(), C.bits_per_char()), (Mode::Ascii, 7, 10));
-    assert_eq!(C.char_timeout_ms(), 1000);
-    assert_eq!(C.with_mode(Mode::Ascii8).bits_per_char(), 11);
+    assert_eq!((C.mode(), C.line().data_bits(), C.line().bits_per_char()), (Mode::Ascii, 7, 10));
+    assert_eq!(C.line().char_timeout_ms(), 1000);
+    assert_eq!(C.with_mode(Mode::Ascii8).line().bits_per_char(), 11);
     // 7N2, the spec's format without parity.
     let run_time = Config::try_new(1, 9600, Parity::None, StopBits::Two).unwrap().with_mode(Mode::Ascii);
-    assert_eq!(run_time.bits_per_char(), 10);
-    assert_eq!(C.with_char_timeout(250).char_timeout_ms(), 250);
+    assert_eq!(run_time.line().bits_per_char(), 10);
+    assert_eq!(C.with_char_timeout(250).line().char_timeout_ms(), 250);
     assert_eq!(Config::new(1, 9600, Parity::Even, StopBits::One).mode(), Mode::Rtu);
 }
 
@@ -161,7 +161,7 @@ fn a_colon_inside_a_frame_drops_it_and_starts_the_next() {
 
 /// Feeds `chars` and checks that the frame is dropped for `error`, counted in the
 /// counter `counted` picks, and that the next good frame is answered.
-fn dropped(chars: &[u8], error: FrameError, counted: fn(&Counters) -> u16) {
+fn dropped(chars: &[u8], error: FrameError, counted: fn(&SlaveCounters) -> u16) {
     let mut slave = ascii_slave();
     let mut bank = spec_bank();
     let (end, reply) = feed(&mut slave, &mut bank, chars);
@@ -351,14 +351,14 @@ fn characters_while_a_frame_waits_for_processing_are_ignored() {
 }
 
 /// How a slave ended a frame, its reply without the check, and its counters.
-type Outcome = (EndOfFrame, Vec<u8>, Counters);
+type Outcome = (EndOfFrame, Vec<u8>, SlaveCounters);
 
 /// The RTU slave's reply to `pdu` without its CRC, and the ASCII slave's without its LRC,
 /// and their counters: ASCII answers every request as RTU does.
 fn both_modes(pdu: &[u8], address: u8) -> (Outcome, Outcome) {
     let mut frame = vec![address];
     frame.extend_from_slice(pdu);
-    let mut rtu: Engine = Engine::new(SlaveId::new(ID).unwrap());
+    let mut rtu: Engine = Engine::new(SlaveId::new(ID));
     let mut rtu_bank = spec_bank();
     let rtu_end = rtu.handle_frame(&common::with_crc(&frame), &mut rtu_bank);
     let rtu_reply = rtu.reply().get(..rtu.reply().len().saturating_sub(2)).unwrap_or(&[]).to_vec();

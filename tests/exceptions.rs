@@ -710,10 +710,10 @@ fn respond_leaves_the_request_in_place_on_an_exception() {
 
 #[test]
 fn exception_codes_have_their_spec_values() {
-    assert_eq!(Exception::IllegalFunction as u8, 0x01);
-    assert_eq!(Exception::IllegalDataAddress as u8, 0x02);
-    assert_eq!(Exception::IllegalDataValue as u8, 0x03);
-    assert_eq!(Exception::ServerDeviceFailure as u8, 0x04);
+    assert_eq!(Exception::IllegalFunction.code(), 0x01);
+    assert_eq!(Exception::IllegalDataAddress.code(), 0x02);
+    assert_eq!(Exception::IllegalDataValue.code(), 0x03);
+    assert_eq!(Exception::ServerDeviceFailure.code(), 0x04);
 }
 
 #[test]

@@ -6,7 +6,7 @@
 mod common;
 
 use avr_modbus::internal::{EndOfFrame, Engine, FrameError, Framer};
-use avr_modbus::{bit_bytes, Bank, Counters, DataModel, SlaveId};
+use avr_modbus::{bit_bytes, Bank, DataModel, SlaveCounters, SlaveId};
 use common::{exception_reply, with_crc, ID};
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -138,7 +138,7 @@ fn the_engine_is_smaller_by_what_the_buffer_is() {
 // ---- one frame through both buffers ------------------------------------------------------
 
 /// What one frame led to: the end of frame, the reply (empty for silence), the counters.
-type Outcome = (EndOfFrame, Vec<u8>, Counters);
+type Outcome = (EndOfFrame, Vec<u8>, SlaveCounters);
 
 /// Ends whatever `slave` was doing (T3.5), then feeds `frame` as the interrupts would,
 /// with the gap deadline before T3.5 when `gap`, and processes it.
@@ -160,7 +160,7 @@ fn deliver<const N: usize, M: DataModel>(slave: &mut Engine<N>, model: &mut M, f
 }
 
 fn slave<const N: usize>() -> Engine<N> {
-    Engine::new(SlaveId::new(ID).unwrap())
+    Engine::new(SlaveId::new(ID))
 }
 
 /// `frame` sent to a fresh `Sixteen` slave with the sized buffer and to one with 256

@@ -7,8 +7,8 @@ mod common;
 mod model;
 
 use avr_modbus::master::internal::{Action, Engine};
-use avr_modbus::master::{Counters, Failure, Request, Timeouts};
-use avr_modbus::{Error, Reference, Table};
+use avr_modbus::master::{Failure, MasterCounters, Request, Timeouts};
+use avr_modbus::{Error, Exception, FunctionCode, Reference, Table};
 use common::{with_crc, ID};
 use proptest::prelude::*;
 
@@ -49,8 +49,8 @@ fn outcome(m: &mut Engine) -> Option<Result<Vec<u8>, Failure>> {
     out
 }
 
-fn counters(requests: u16, replies: u16) -> Counters {
-    Counters { requests, replies, ..Counters::default() }
+fn counters(requests: u16, replies: u16) -> MasterCounters {
+    MasterCounters { requests, replies, ..MasterCounters::default() }
 }
 
 // ---- requests, as the Application Protocol's examples -----------------------------------
@@ -75,7 +75,7 @@ fn fc1_read_coils_20_to_38_is_the_spec_example() {
     let expected = [1, 0, 1, 1, 0, 0, 1, 1, 1, 1, 0, 1, 0, 1, 1, 0, 1, 0, 1].map(|b| b == 1);
     assert_eq!(bits, expected);
     assert_eq!(reply.bit(19), None);
-    assert_eq!((reply.function(), reply.len(), reply.is_empty()), (0x01, 19, false));
+    assert_eq!((reply.function(), reply.len(), reply.is_empty()), (FunctionCode::ReadCoils, 19, false));
 }
 
 #[test]
@@ -120,7 +120,7 @@ fn fc5_write_coil_173_on_is_the_spec_example_and_its_echo_is_the_answer() {
     // The echo is the reply's data; a write reads no registers nor bits.
     assert_eq!(reply.data(), &[0x00, 0xAC, 0xFF, 0x00]);
     assert_eq!((reply.registers().count(), reply.register(0), reply.bit(0)), (0, None, None));
-    assert_eq!((reply.function(), reply.len(), reply.is_empty()), (0x05, 0, true));
+    assert_eq!((reply.function(), reply.len(), reply.is_empty()), (FunctionCode::WriteSingleCoil, 0, true));
     m.collect();
     send(&mut m, ID, Request::WriteSingleCoil { address: 172, value: false }, &[ID, 0x05, 0x00, 0xAC, 0x00, 0x00]);
 }
@@ -196,7 +196,7 @@ fn fc23_read_write_registers_is_the_spec_example() {
 #[test]
 fn raw_fc17_report_server_id_hands_back_the_reply_pdu() {
     let mut m = master();
-    send(&mut m, ID, Request::Raw { function: 0x11, data: &[] }, &[ID, 0x11]);
+    send(&mut m, ID, Request::Raw { function: FunctionCode::from_code(0x11), data: &[] }, &[ID, 0x11]);
     deliver(&mut m, &with_crc(&[ID, 0x11, 0x03, 0x2A, 0xFF, 0x07]));
     assert_eq!(outcome(&mut m), Some(Ok(vec![0x03, 0x2A, 0xFF, 0x07])));
 }
@@ -240,7 +240,7 @@ fn quantities_outside_the_spec_are_refused_before_sending() {
         let mut m = master();
         assert_eq!(m.start(ID, &request), Ok(Action::Send), "{request:?}");
     }
-    assert_eq!(m.counters(), Counters::default());
+    assert_eq!(m.counters(), MasterCounters::default());
 }
 
 #[test]
@@ -251,8 +251,8 @@ fn reads_are_never_broadcast_and_reserved_addresses_are_refused() {
         Request::ReadWriteMultipleRegisters { read_address: 0, read_quantity: 1, write_address: 0, values: &[1] };
     assert_eq!(m.start(0, &fc23), Err(Error::Broadcast));
     assert_eq!(m.start(248, &Request::WriteSingleRegister { address: 0, value: 1 }), Err(Error::SlaveId));
-    assert_eq!(m.start(ID, &Request::Raw { function: 0, data: &[] }), Err(Error::Function));
-    assert_eq!(m.start(ID, &Request::Raw { function: 0x80, data: &[] }), Err(Error::Function));
+    assert_eq!(m.start(ID, &Request::Raw { function: FunctionCode::from_code(0), data: &[] }), Err(Error::Function));
+    assert_eq!(m.start(ID, &Request::Raw { function: FunctionCode::from_code(0x80), data: &[] }), Err(Error::Function));
     // The highest unicast address is a slave's.
     assert_eq!(m.start(247, &Request::WriteSingleRegister { address: 0, value: 1 }), Ok(Action::Send));
 }
@@ -273,8 +273,14 @@ fn a_request_or_reply_longer_than_the_buffer_is_refused() {
     assert_eq!(small.start(1, &Request::ReadCoils { address: 0, quantity: 88 }), Ok(Action::Send));
     // A raw request of more than 253 bytes of PDU does not fit a frame.
     let mut m = master();
-    assert_eq!(m.start(1, &Request::Raw { function: 0x41, data: &[0; 253] }), Err(Error::TooLong));
-    assert_eq!(m.start(1, &Request::Raw { function: 0x41, data: &[0; 252] }), Ok(Action::Send));
+    assert_eq!(
+        m.start(1, &Request::Raw { function: FunctionCode::from_code(0x41), data: &[0; 253] }),
+        Err(Error::TooLong)
+    );
+    assert_eq!(
+        m.start(1, &Request::Raw { function: FunctionCode::from_code(0x41), data: &[0; 252] }),
+        Ok(Action::Send)
+    );
 }
 
 // ---- the master's states ------------------------------------------------------------------
@@ -325,7 +331,7 @@ fn a_silent_slave_times_out_after_each_retry_and_the_failure_is_a_timeout() {
     sent(&mut m, 420);
     assert_eq!(m.on_tick(621), Action::None);
     assert_eq!(outcome(&mut m), Some(Err(Failure::Timeout)));
-    assert_eq!(m.counters(), Counters { requests: 3, timeouts: 3, retries: 2, ..Counters::default() });
+    assert_eq!(m.counters(), MasterCounters { requests: 3, timeouts: 3, retries: 2, ..MasterCounters::default() });
     assert!(!m.is_busy());
 }
 
@@ -353,8 +359,11 @@ fn an_exception_reply_of_five_bytes_is_the_answer_with_its_code() {
         let mut m = master();
         send(&mut m, ID, Request::ReadHoldingRegisters { address: 0, quantity: 1 }, &[ID, 0x03, 0, 0, 0, 1]);
         deliver(&mut m, &with_crc(&[ID, 0x83, code]));
-        assert_eq!(outcome(&mut m), Some(Err(Failure::Exception(code))));
-        assert_eq!(m.counters(), Counters { requests: 1, replies: 1, exceptions: 1, ..Counters::default() });
+        assert_eq!(outcome(&mut m), Some(Err(Failure::Exception(Exception::from_code(code)))));
+        assert_eq!(
+            m.counters(),
+            MasterCounters { requests: 1, replies: 1, exceptions: 1, ..MasterCounters::default() }
+        );
     }
 }
 
@@ -388,7 +397,10 @@ fn a_damaged_reply_is_counted_and_the_request_is_sent_again() {
     m.on_byte(0x00);
     m.on_end_deadline();
     assert_eq!(outcome(&mut m), Some(Err(Failure::BadReply)));
-    assert_eq!(m.counters(), Counters { requests: 2, retries: 1, crc_errors: 1, malformed: 1, ..Counters::default() });
+    assert_eq!(
+        m.counters(),
+        MasterCounters { requests: 2, retries: 1, crc_errors: 1, malformed: 1, ..MasterCounters::default() }
+    );
 }
 
 #[test]
@@ -427,7 +439,7 @@ fn replies_that_do_not_answer_the_request_are_never_taken() {
 }
 
 #[test]
-fn a_flood_longer_than_the_buffer_never_overruns_it_and_is_not_taken() {
+fn a_flood_longer_than_the_buffer_never_overruns_it_is_not_taken_and_counts_as_the_slaves_does() {
     let mut m: Engine<16> = Engine::new();
     m.on_end_deadline();
     m.set_timeouts(Timeouts { retries: 0, ..Timeouts::DEFAULT });
@@ -440,14 +452,18 @@ fn a_flood_longer_than_the_buffer_never_overruns_it_and_is_not_taken() {
     deliver(&mut m, &with_crc(&frame));
     assert_eq!(m.outcome(), Some(Err(Failure::BadReply)));
     let counters = m.counters();
-    assert_eq!((counters.malformed, counters.crc_errors, counters.unexpected), (1, 0, 0), "{counters:?}");
+    assert_eq!(
+        (counters.overruns, counters.malformed, counters.crc_errors, counters.unexpected),
+        (1, 0, 0, 0),
+        "{counters:?}"
+    );
     // 300 bytes without a pause: too long for any frame.
     let mut m: Engine<16> = Engine::new();
     m.on_end_deadline();
     m.start(1, &Request::ReadHoldingRegisters { address: 0, quantity: 2 }).unwrap();
     sent(&mut m, 0);
     deliver(&mut m, &[0x01; 300]);
-    assert_eq!(m.counters().malformed, 1);
+    assert_eq!(m.counters().overruns, 1);
 }
 
 #[test]
@@ -527,7 +543,7 @@ fn round_trip_through_the_slave_engine_matches_the_reference_model() {
         deliver(&mut m, &reply);
         match m.outcome().unwrap() {
             Ok(_) => assert_eq!(reply.len(), 8),
-            Err(Failure::Exception(code)) => assert_eq!(reply[2], code),
+            Err(Failure::Exception(code)) => assert_eq!(reply[2], code.code()),
             Err(other) => panic!("{other:?}"),
         }
         m.collect();
@@ -710,7 +726,7 @@ proptest! {
                 prop_assert_eq!(expected, Some(Ok(())), "taken: {:02X?} for {:02X?}", frame, sent);
                 prop_assert_eq!(reply.data(), &frame[2..frame.len() - 2]);
             }
-            Some(Err(Failure::Exception(code))) => prop_assert_eq!(expected, Some(Err(code))),
+            Some(Err(Failure::Exception(code))) => prop_assert_eq!(expected, Some(Err(code.code()))),
             Some(Err(failure)) => {
                 prop_assert_eq!(failure, Failure::BadReply);
                 // From the slave asked, or too short to say whose.

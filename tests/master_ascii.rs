@@ -11,7 +11,8 @@ mod common;
 
 use ascii_frames::ascii;
 use avr_modbus::master::internal::{Action, Engine};
-use avr_modbus::master::{Counters, Failure, Request, Timeouts};
+use avr_modbus::master::{Failure, MasterCounters, Request, Timeouts};
+use avr_modbus::{Exception, FunctionCode};
 use common::{with_crc, ID};
 use proptest::prelude::*;
 
@@ -102,7 +103,7 @@ fn requests_of_every_function_code_are_written_in_upper_case_hex_with_their_lrc(
             Request::WriteMultipleRegisters { address: 1, values: &[0x000A, 0x0102] },
             vec![ID, 0x10, 0x00, 0x01, 0x00, 0x02, 0x04, 0x00, 0x0A, 0x01, 0x02],
         ),
-        (Request::Raw { function: 0x11, data: &[] }, vec![ID, 0x11]),
+        (Request::Raw { function: FunctionCode::from_code(0x11), data: &[] }, vec![ID, 0x11]),
     ];
     for (request, bytes) in cases {
         let mut m = master();
@@ -126,7 +127,7 @@ fn a_good_reply_is_taken() {
     assert_eq!(reply.registers().collect::<Vec<_>>(), [0x1234, 0xABCD]);
     assert_eq!(reply.data(), &[0x04, 0x12, 0x34, 0xAB, 0xCD], "the LRC is no part of the PDU");
     m.collect();
-    assert_eq!(m.counters(), Counters { requests: 1, replies: 1, ..Counters::default() });
+    assert_eq!(m.counters(), MasterCounters { requests: 1, replies: 1, ..MasterCounters::default() });
 }
 
 #[test]
@@ -156,8 +157,11 @@ fn an_exception_reply_is_the_answer_with_its_code() {
         let mut m = master();
         send(&mut m, ID, READ_TWO, &read_two());
         deliver(&mut m, &ascii(&[ID, 0x83, code]));
-        assert_eq!(outcome(&mut m), Some(Err(Failure::Exception(code))));
-        assert_eq!(m.counters(), Counters { requests: 1, replies: 1, exceptions: 1, ..Counters::default() });
+        assert_eq!(outcome(&mut m), Some(Err(Failure::Exception(Exception::from_code(code)))));
+        assert_eq!(
+            m.counters(),
+            MasterCounters { requests: 1, replies: 1, exceptions: 1, ..MasterCounters::default() }
+        );
     }
 }
 
@@ -195,7 +199,10 @@ fn a_bad_lrc_is_a_crc_error_and_the_request_is_sent_again() {
     deliver(&mut m, &two_values());
     assert_eq!(m.outcome().unwrap().unwrap().register(0), Some(0x1234));
     m.collect();
-    assert_eq!(m.counters(), Counters { requests: 2, replies: 1, retries: 1, crc_errors: 1, ..Counters::default() });
+    assert_eq!(
+        m.counters(),
+        MasterCounters { requests: 2, replies: 1, retries: 1, crc_errors: 1, ..MasterCounters::default() }
+    );
 }
 
 #[test]
@@ -215,7 +222,7 @@ fn bad_hex_and_an_odd_count_are_malformed_and_the_last_try_fails() {
         send(&mut m, ID, READ_TWO, &read_two());
         deliver(&mut m, &bad);
         assert_eq!(outcome(&mut m), Some(Err(Failure::BadReply)), "{}", String::from_utf8_lossy(&bad));
-        assert_eq!(m.counters(), Counters { requests: 1, malformed: 1, ..Counters::default() });
+        assert_eq!(m.counters(), MasterCounters { requests: 1, malformed: 1, ..MasterCounters::default() });
     }
 }
 
@@ -230,7 +237,7 @@ fn a_frame_from_another_slave_is_ignored_and_the_timeout_keeps_running() {
     assert_eq!(m.on_tick(50), Action::None);
     m.on_tick(51);
     assert_eq!(outcome(&mut m), Some(Err(Failure::Timeout)));
-    assert_eq!(m.counters(), Counters { requests: 1, timeouts: 1, unexpected: 1, ..Counters::default() });
+    assert_eq!(m.counters(), MasterCounters { requests: 1, timeouts: 1, unexpected: 1, ..MasterCounters::default() });
     // Another slave's frame, then the answer: taken.
     send(&mut m, ID, READ_TWO, &read_two());
     deliver(&mut m, &ascii(&[ID + 1, 0x83, 0x02]));
@@ -248,7 +255,7 @@ fn a_colon_starts_the_frame_over_and_the_reply_after_it_is_taken() {
     assert_eq!(deliver(&mut m, &chars), Action::None);
     assert_eq!(m.outcome().unwrap().unwrap().register(0), Some(0x1234));
     m.collect();
-    assert_eq!(m.counters(), Counters { requests: 1, replies: 1, malformed: 1, ..Counters::default() });
+    assert_eq!(m.counters(), MasterCounters { requests: 1, replies: 1, malformed: 1, ..MasterCounters::default() });
 }
 
 #[test]
@@ -260,7 +267,10 @@ fn the_inter_character_timeout_inside_a_reply_drops_it_and_the_request_goes_agai
     // Nothing goes out while a frame is on the line.
     assert_eq!(m.on_tick(2000), Action::None);
     assert_eq!(m.on_char_timeout(), Action::Send);
-    assert_eq!(m.counters(), Counters { requests: 2, timeouts: 1, retries: 1, malformed: 1, ..Counters::default() });
+    assert_eq!(
+        m.counters(),
+        MasterCounters { requests: 2, timeouts: 1, retries: 1, malformed: 1, ..MasterCounters::default() }
+    );
 }
 
 #[test]
@@ -276,7 +286,7 @@ fn damaged_characters_break_a_reply_but_not_the_line_outside_one() {
     m.on_error(UartError::Parity);
     deliver(&mut m, &good[5..]);
     assert_eq!(outcome(&mut m), Some(Err(Failure::BadReply)));
-    assert_eq!(m.counters(), Counters { requests: 1, malformed: 1, ..Counters::default() });
+    assert_eq!(m.counters(), MasterCounters { requests: 1, uart_errors: 1, ..MasterCounters::default() });
 }
 
 // ---- when a request goes out ----------------------------------------------------------
@@ -301,7 +311,7 @@ fn a_request_goes_out_at_power_up_and_waits_only_for_a_frame_on_the_line() {
     assert_eq!(m.start(ID, &READ_TWO), Ok(Action::None));
     assert_eq!(m.on_tick(5), Action::None);
     assert_eq!(deliver(&mut m, &other[9..]), Action::Send);
-    assert_eq!(m.counters(), Counters { requests: 3, replies: 2, unexpected: 1, ..Counters::default() });
+    assert_eq!(m.counters(), MasterCounters { requests: 3, replies: 2, unexpected: 1, ..MasterCounters::default() });
 }
 
 #[test]
@@ -351,7 +361,7 @@ fn a_flood_never_overruns_the_buffer_and_is_not_taken() {
     m.collect();
     // 10000 characters of noise without a `:`: nothing at all.
     deliver(&mut m, &vec![b'7'; 10_000]);
-    assert_eq!(m.counters(), Counters { requests: 2, malformed: 1, unexpected: 1, ..Counters::default() });
+    assert_eq!(m.counters(), MasterCounters { requests: 2, overruns: 1, unexpected: 1, ..MasterCounters::default() });
     // And the next reply is taken.
     m.start(ID, &READ_TWO).unwrap();
     m.on_sent(0);
@@ -363,7 +373,7 @@ fn a_flood_never_overruns_the_buffer_and_is_not_taken() {
 
 /// What a master makes of `reply` (address and PDU) to FC 3 of two registers from [`ID`]:
 /// the outcome and the counters.
-fn judged(ascii_mode: bool, reply: &[u8]) -> (Option<Result<Vec<u8>, Failure>>, Counters) {
+fn judged(ascii_mode: bool, reply: &[u8]) -> (Option<Result<Vec<u8>, Failure>>, MasterCounters) {
     let mut m = if ascii_mode { master() } else { Engine::new() };
     m.set_timeouts(Timeouts { retries: 0, ..Timeouts::DEFAULT });
     if !ascii_mode {

@@ -222,7 +222,7 @@ mod diagnostics {
         let restart = to_slave(&[0x08, 0x00, 0x01, 0x00, 0x00]);
         assert_eq!(slave.handle_frame(&restart, &mut bank), EndOfFrame::Silent, "restart is not answered");
         assert!(!slave.is_listen_only());
-        assert_eq!(slave.counters(), avr_modbus::Counters::new(), "restart clears the counters");
+        assert_eq!(slave.counters(), avr_modbus::SlaveCounters::new(), "restart clears the counters");
         assert_eq!(ask(&mut slave, &mut bank, &read_1()), to_slave(&[0x03, 0x02, 0x00, 0x00]));
     }
 
@@ -306,7 +306,7 @@ mod diagnostics {
         for data in [0x00, 0xFF] {
             let restart = to_slave(&[0x08, 0x00, 0x01, data, 0x00]);
             assert_eq!(ask(&mut slave, &mut bank, &restart), restart);
-            assert_eq!(slave.counters(), avr_modbus::Counters::new());
+            assert_eq!(slave.counters(), avr_modbus::SlaveCounters::new());
         }
     }
 

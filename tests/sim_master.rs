@@ -21,7 +21,7 @@
 
 mod sim;
 
-use avr_modbus::master::Counters;
+use avr_modbus::master::MasterCounters;
 use sim::{cycles_to_us, read_request, registers_reply, us_to_cycles, with_crc, Line, Rtu};
 use uno_sim::{TxByte, CYCLES_PER_US};
 
@@ -230,18 +230,18 @@ impl Bus {
         values
     }
 
-    /// Expects the counters' report (registers 240–248), acknowledges it, and returns
+    /// Expects the counters' report (registers 240–250), acknowledges it, and returns
     /// what it says.
-    fn counters(&mut self) -> (Counters, u16) {
+    fn counters(&mut self) -> (MasterCounters, u16) {
         let frame = self
             .next_frame(ms(FRAME_WITHIN_MS))
             .unwrap_or_else(|| panic!("counters: the master sent nothing within {FRAME_WITHIN_MS} ms"));
         let (address, values) = decode_write_multiple(&frame.bytes)
             .unwrap_or_else(|| panic!("counters: the master sent {:02X?}, not an FC 16 to slave 2", frame.bytes));
-        assert_eq!((address, values.len()), (240, 9), "counters: report at {address} of {values:04X?}");
+        assert_eq!((address, values.len()), (240, 11), "counters: report at {address} of {values:04X?}");
         assert_eq!(frame.bytes, write_multiple_request(TOLD, 240, &values), "counters: the frame");
-        self.answer(&frame, &write_multiple_reply(TOLD, 240, 9));
-        (counters_from_registers(&values), values[8])
+        self.answer(&frame, &write_multiple_reply(TOLD, 240, 11));
+        (counters_from_registers(&values), values[10])
     }
 
     /// Serves `step` as a good slave 1: its request (if one goes out) answered with the
@@ -616,31 +616,35 @@ fn steps() -> Vec<Step> {
     ]
 }
 
-/// The firmware's counters, from registers 240–247 of its last report (the order of
-/// [`Counters`]'s fields).
-fn counters_from_registers(r: &[u16]) -> Counters {
-    Counters {
+/// The firmware's counters, from registers 240–249 of its last report (the order of
+/// [`MasterCounters`]'s fields).
+fn counters_from_registers(r: &[u16]) -> MasterCounters {
+    MasterCounters {
         requests: r[0],
-        replies: r[1],
-        exceptions: r[2],
-        timeouts: r[3],
-        retries: r[4],
-        crc_errors: r[5],
-        malformed: r[6],
-        unexpected: r[7],
+        crc_errors: r[1],
+        uart_errors: r[2],
+        overruns: r[3],
+        malformed: r[4],
+        replies: r[5],
+        exceptions: r[6],
+        timeouts: r[7],
+        retries: r[8],
+        unexpected: r[9],
     }
 }
 
 /// After one pass where every request was answered at the first try: 14 requests to
 /// slave 1 or broadcast (step 9 none) and 15 reports; 10 answers, the 3 exceptions and the
 /// 15 acknowledgements (a broadcast gets no answer).
-const CLEAN_PASS: Counters = Counters {
+const CLEAN_PASS: MasterCounters = MasterCounters {
     requests: 29,
     replies: 28,
     exceptions: 3,
     timeouts: 0,
     retries: 0,
     crc_errors: 0,
+    uart_errors: 0,
+    overruns: 0,
     malformed: 0,
     unexpected: 0,
 };
@@ -648,7 +652,7 @@ const CLEAN_PASS: Counters = Counters {
 /// Serves the steps from `from` to the end ([`Bus::serve`]: the reports' status checked,
 /// their values are the concern of the function-code test) and returns what the
 /// counters' report says, after checking that it is the first pass's.
-fn rest_of_pass(bus: &mut Bus, from: usize) -> Counters {
+fn rest_of_pass(bus: &mut Bus, from: usize) -> MasterCounters {
     for step in &steps()[from..] {
         bus.serve(step);
     }
@@ -818,7 +822,7 @@ fn a_reply_with_a_bad_crc_is_dropped_and_counted_and_the_retry_answer_is_taken()
     bus.answer(&retry, &registers_reply(POLLED, 0x03, &STEP0_VALUES));
     bus.report(0, &[&[ANSWERED][..], &STEP0_VALUES].concat());
     let counters = rest_of_pass(&mut bus, 1);
-    assert_eq!(counters, Counters { requests: CLEAN_PASS.requests + 1, retries: 1, crc_errors: 1, ..CLEAN_PASS });
+    assert_eq!(counters, MasterCounters { requests: CLEAN_PASS.requests + 1, retries: 1, crc_errors: 1, ..CLEAN_PASS });
 }
 
 /// Step 2's write (FC 5, coil 3 on) is answered first with the echo of another coil (4), a
@@ -839,7 +843,7 @@ fn a_write_answered_with_a_wrong_echo_is_not_taken_and_the_retry_answer_is() {
     bus.answer(&retry, step.reply.as_ref().expect("step 2 is answered"));
     bus.report(2, &step.report);
     let counters = rest_of_pass(&mut bus, 3);
-    assert_eq!(counters, Counters { requests: CLEAN_PASS.requests + 1, retries: 1, unexpected: 1, ..CLEAN_PASS });
+    assert_eq!(counters, MasterCounters { requests: CLEAN_PASS.requests + 1, retries: 1, unexpected: 1, ..CLEAN_PASS });
 }
 
 /// Step 0 answered first by slave 3 (a good frame, other values), then, within the
@@ -855,7 +859,7 @@ fn a_reply_from_another_slave_is_ignored_and_the_right_one_after_it_is_taken() {
     println!("slave 1's reply ends {} after the request", fmt_us(right.end - first.end));
     bus.report(0, &[&[ANSWERED][..], &STEP0_VALUES].concat());
     let counters = rest_of_pass(&mut bus, 1);
-    assert_eq!(counters, Counters { unexpected: 1, ..CLEAN_PASS });
+    assert_eq!(counters, MasterCounters { unexpected: 1, ..CLEAN_PASS });
 }
 
 /// Step 0's first reply (a good CRC over all its bytes, other values) has an idle gap of
@@ -872,7 +876,7 @@ fn a_reply_with_a_gap_over_t15_inside_is_dropped_as_malformed_and_the_request_se
     bus.answer(&retry, &registers_reply(POLLED, 0x03, &STEP0_VALUES));
     bus.report(0, &[&[ANSWERED][..], &STEP0_VALUES].concat());
     let counters = rest_of_pass(&mut bus, 1);
-    assert_eq!(counters, Counters { requests: CLEAN_PASS.requests + 1, retries: 1, malformed: 1, ..CLEAN_PASS });
+    assert_eq!(counters, MasterCounters { requests: CLEAN_PASS.requests + 1, retries: 1, malformed: 1, ..CLEAN_PASS });
 }
 
 /// Step 0's reply ends 90 ms after the request's end (its T3.5 is over by 92 ms, inside

@@ -17,7 +17,7 @@ mod ascii_frames;
 mod sim;
 
 use ascii_frames::{ascii, lrc};
-use avr_modbus::master::Counters;
+use avr_modbus::master::MasterCounters;
 use sim::{cycles_to_us, us_to_cycles, Line, Rtu};
 use uno_sim::Parity;
 
@@ -37,8 +37,8 @@ fn ms(n: u64) -> u64 {
 }
 
 /// The master's counters in the order of the report's registers (the order of
-/// [`Counters`]'s fields).
-fn report_registers(counts: &Counters) -> [u16; 8] {
+/// [`MasterCounters`]'s fields).
+fn report_registers(counts: &MasterCounters) -> [u16; 8] {
     [
         counts.requests,
         counts.replies,
@@ -57,7 +57,7 @@ struct Bus {
     rtu: Rtu,
     /// End of the last character on the line (cycles).
     line_busy_until: u64,
-    counts: Counters,
+    counts: MasterCounters,
 }
 
 /// A frame the master sent: its bytes (address and PDU, the LRC checked and removed) and
@@ -71,7 +71,7 @@ struct Sent {
 impl Bus {
     fn boot() -> Bus {
         let rtu = Rtu::boot("ascii_master", Line::B9600_7E1);
-        Bus { rtu, line_busy_until: 0, counts: Counters::default() }
+        Bus { rtu, line_busy_until: 0, counts: MasterCounters::default() }
     }
 
     /// Runs until the master has sent a frame and returns it: `:`, upper-case hex pairs,

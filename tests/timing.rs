@@ -100,7 +100,7 @@ fn check(deadline: Deadline, exact: Exact, what: &str) -> Late {
 /// Cycles from the USART's receive flag, at the middle of the first stop bit, to the end of
 /// the character: (stop bits − ½) bits of the rate `config`'s UBRRn and U2Xn make.
 fn flag_to_end_cycles(config: &Config) -> u128 {
-    let divisor = config.divisor();
+    let divisor = config.line().divisor();
     let bit = (u128::from(divisor.ubrr) + 1) * if divisor.double_speed { 8 } else { 16 };
     let stop = match config.stop_bits() {
         StopBits::One => 1,
@@ -112,8 +112,8 @@ fn flag_to_end_cycles(config: &Config) -> u128 {
 fn check_config(baud: u32, parity: Parity, stop_bits: StopBits) -> Option<[Late; 2]> {
     let config = Config::try_new(1, baud, parity, stop_bits).ok()?;
     let what = format!("{baud} {parity:?} {stop_bits:?}");
-    let plan = config.timer_plan();
-    let (gap, t35) = exact_times(baud, config.bits_per_char());
+    let plan = config.line().timer_plan();
+    let (gap, t35) = exact_times(baud, config.line().bits_per_char());
     // From the flag: the gap deadline as it is, T3.5 after the character's end.
     let t35 = Exact { num: t35.num + flag_to_end_cycles(&config) * t35.den, den: t35.den };
     let late = [check(plan.gap, gap, &format!("{what} gap")), check(plan.end, t35, &format!("{what} T3.5"))];
@@ -216,7 +216,7 @@ fn one_compare_unit_reports_both_deadlines_at_their_edges_however_late_the_move(
     for baud in (Config::MIN_BAUD..=Config::MAX_BAUD).step_by(100) {
         for (parity, stop_bits) in FORMATS {
             let Ok(config) = Config::try_new(1, baud, parity, stop_bits) else { continue };
-            let plan = config.timer_plan();
+            let plan = config.line().timer_plan();
             configs += 1;
             for t0 in [0, 1, 127, 254, 255] {
                 // Up to 16 edges late (1024 cycles): the longest interrupt or critical section.

@@ -74,7 +74,7 @@ fn block(writes: &[u8]) {
     let mut bank = Bank::new();
     bank.add_range(40001, 4).unwrap();
     let mut model: Registers = Configurable::new(bank, 40101, default).unwrap();
-    let mut slave: Engine = Engine::new(SlaveId::new(1).unwrap());
+    let mut slave: Engine = Engine::new(SlaveId::new(1));
     for chunk in writes.chunks(8) {
         let [op, address, a, b, c, d, e, f] = <[u8; 8]>::try_from(chunk).unwrap_or([0; 8]);
         // Addresses 96–107: around the block at 100–103.

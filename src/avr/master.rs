@@ -17,10 +17,11 @@ use super::started::{open_line, Started};
 use super::timer::{FrameTimer, Passed, A};
 use super::usart::Usart;
 use crate::error::Error;
-use crate::link::config::Config;
+use crate::link::config::Line;
 use crate::link::framer::MAX_FRAME;
 use crate::master::internal::{Action, Engine};
-use crate::master::{Counters, Failure, Reply, Request, Timeouts};
+use crate::master::{Failure, MasterCounters, Reply, Request, Timeouts};
+use crate::protocol::SlaveId;
 
 #[cfg(feature = "ascii")]
 mod ascii;
@@ -40,14 +41,14 @@ pub(crate) struct Running<DE, LED, const N: usize, const U: u8> {
 }
 
 impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED, N, U> {
-    fn new(config: Config, mut driver_enable: DE, mut led: LED) -> Self {
+    fn new(line: Line, mut driver_enable: DE, mut led: LED) -> Self {
         // The power-up wait: T3.5 of silence before the first request (none in ASCII).
         #[allow(unused_mut)]
-        let (usart, mut timer) = open_line(&config, &mut driver_enable, &mut led);
+        let (usart, mut timer) = open_line(&line, &mut driver_enable, &mut led);
         #[allow(unused_mut)]
         let mut engine = Engine::new();
         #[cfg(feature = "ascii")]
-        engine.set_ascii(timer.set_mode(&config));
+        engine.set_ascii(timer.set_mode(&line));
         Running { engine, usart, timer, tx_next: 0, driver_enable, led }
     }
 
@@ -174,15 +175,15 @@ impl<DE, LED, const N: usize, const U: u8> Master<DE, LED, N, U> {
 impl<const N: usize, const U: u8> Master<NoPin, NoPin, N, U> {
     /// Starts the master: takes the USART that [`crate::master!`] named and `TC0` from the
     /// application's `Peripherals` (arduino-hal's or `avr-device`'s, any version),
-    /// configures them for `config` (its slave id is not used), and enables interrupts.
-    /// The first request goes out after T3.5 of silence (with an ASCII `config`, feature
-    /// `ascii`: at once, unless a frame is on the line).
-    pub fn start<P: Deref, T: Deref>(&self, config: Config, usart: P, tc0: T) -> Result<(), Error>
+    /// configures them for `line`, and enables interrupts. The first request goes out
+    /// after T3.5 of silence (on an ASCII `line`, feature `ascii`: at once, unless a frame
+    /// is on the line).
+    pub fn start<P: Deref, T: Deref>(&self, line: Line, usart: P, tc0: T) -> Result<(), Error>
     where
         P::Target: Sized,
         T::Target: Sized,
     {
-        self.start_with_pins(config, usart, tc0, NoPin, NoPin)
+        self.start_with_pins(line, usart, tc0, NoPin, NoPin)
     }
 }
 
@@ -193,7 +194,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
     /// `embedded-hal` output pin, arduino-hal's included, or [`crate::NoPin`].
     pub fn start_with_pins<P: Deref, T: Deref>(
         &self,
-        config: Config,
+        line: Line,
         usart: P,
         tc0: T,
         driver_enable: DE,
@@ -203,18 +204,29 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
         P::Target: Sized,
         T::Target: Sized,
     {
-        self.running.start_on::<_, _, U>(usart, tc0, || Running::new(config, driver_enable, led))
+        self.running.start_on::<_, _, U>(usart, tc0, || Running::new(line, driver_enable, led))
     }
 
-    /// Starts `request` to `slave` (1–247, or 0 to broadcast a write) and returns at once:
-    /// the request is checked and built now, and goes out as soon as the line has been
-    /// quiet for T3.5 (at once if it has; in ASCII, as soon as no frame is on the line).
-    /// [`Error::Busy`] while another is under way (it
-    /// goes on) or its outcome waits to be collected with [`Master::poll`] (nothing is ever
-    /// dropped), [`Error::NotStarted`] before [`Master::start`]; a quantity outside the
-    /// spec's limits, a broadcast read, a request or reply longer than the buffers are
+    /// Starts `request` to `slave` and returns at once: the request is checked and built
+    /// now, and goes out as soon as the line has been quiet for T3.5 (at once if it has;
+    /// in ASCII, as soon as no frame is on the line). [`Error::Busy`] while another is
+    /// under way (it goes on) or its outcome waits to be collected with [`Master::poll`]
+    /// (nothing is ever dropped), [`Error::NotStarted`] before [`Master::start`]; a
+    /// quantity outside the spec's limits, a request or reply longer than the buffers are
     /// refused before a byte is sent.
-    pub fn send(&self, slave: u8, request: &Request<'_>) -> Result<(), Error> {
+    pub fn send(&self, slave: SlaveId, request: &Request<'_>) -> Result<(), Error> {
+        self.begin(slave.get(), request)
+    }
+
+    /// Sends the write `request` to every slave (address 0) and returns at once, as
+    /// [`Master::send`] does: no slave answers; its outcome, an empty [`Reply`], is there
+    /// after the turnaround delay ([`Timeouts::turnaround_ms`]). A read is refused
+    /// ([`Error::Broadcast`]): nobody would answer it.
+    pub fn broadcast(&self, request: &Request<'_>) -> Result<(), Error> {
+        self.begin(SlaveId::BROADCAST, request)
+    }
+
+    fn begin(&self, slave: u8, request: &Request<'_>) -> Result<(), Error> {
         self.running
             .locked(|m| {
                 let action = m.engine.begin(slave, request)?;
@@ -262,7 +274,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
     }
 
     /// The master's counters (all zero before [`Master::start`]).
-    pub fn counters(&self) -> Counters {
+    pub fn counters(&self) -> MasterCounters {
         self.running.locked(|m| m.engine.counters()).unwrap_or_default()
     }
 

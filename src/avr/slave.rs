@@ -16,9 +16,9 @@ use super::usart::Usart;
 use crate::error::Error;
 use crate::link::config::Config;
 use crate::link::framer::MAX_FRAME;
-use crate::slave::engine::{Counters, EndOfFrame, Engine};
+use crate::protocol::reference::IntoReference;
+use crate::slave::engine::{EndOfFrame, Engine, SlaveCounters};
 use crate::slave::model::DataModel;
-use crate::slave::reference::IntoReference;
 
 #[cfg(feature = "ascii")]
 mod ascii;
@@ -58,11 +58,11 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
     fn new(config: Config, model: M, mut driver_enable: DE, mut led: LED) -> Self {
         const { assert!(N >= M::FRAME, "the slave's frame buffer is smaller than its data model needs") };
         #[allow(unused_mut)]
-        let (usart, mut timer) = open_line(&config, &mut driver_enable, &mut led);
+        let (usart, mut timer) = open_line(config.line(), &mut driver_enable, &mut led);
         #[allow(unused_mut)]
         let mut engine = Engine::new(config.slave_id());
         #[cfg(feature = "ascii")]
-        set_mode(&mut engine, &mut timer, &config);
+        set_mode(&mut engine, &mut timer, config.line());
         Running {
             usart,
             timer,
@@ -220,22 +220,22 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
     #[inline(always)]
     fn apply_new_settings(&mut self) {
         if let Some(config) = self.model.take_new_settings() {
-            self.usart.configure(&config);
-            self.timer.configure(config.timer_plan());
+            self.usart.configure(config.line());
+            self.timer.configure(config.line().timer_plan());
             self.engine.set_id(config.slave_id());
             #[cfg(feature = "reply-delay")]
             {
                 self.reply_delay = config.reply_delay_ticks();
             }
             #[cfg(feature = "ascii")]
-            set_mode(&mut self.engine, &mut self.timer, &config);
+            set_mode(&mut self.engine, &mut self.timer, config.line());
         }
     }
 }
 
 /// The engine and Timer0 in the framing `config` asks for (feature `ascii`).
 #[cfg(feature = "ascii")]
-fn set_mode<const N: usize>(engine: &mut Engine<N>, timer: &mut FrameTimer<B>, config: &Config) {
+fn set_mode<const N: usize>(engine: &mut Engine<N>, timer: &mut FrameTimer<B>, config: &crate::Line) {
     engine.set_ascii(timer.set_mode(config));
 }
 
@@ -376,7 +376,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> S
     }
 
     /// The slave's counters (all zero before [`Slave::start`]).
-    pub fn counters(&self) -> Counters {
+    pub fn counters(&self) -> SlaveCounters {
         self.locked(|s| s.engine.counters()).unwrap_or_default()
     }
 }

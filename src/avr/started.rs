@@ -12,7 +12,7 @@ use super::reg::{self, claim};
 use super::timer::{FrameTimer, Unit};
 use super::usart::Usart;
 use crate::error::Error;
-use crate::link::config::Config;
+use crate::link::config::Line;
 use crate::peripheral::may_be_usart;
 
 const EMPTY: u8 = 0;
@@ -132,7 +132,7 @@ impl<R> Started<R> {
 /// which the role sets up next). Call with interrupts disabled, from the role's `start`.
 #[inline(always)]
 pub(crate) fn open_line<T: Unit, const U: u8>(
-    config: &Config,
+    config: &Line,
     driver_enable: &mut impl OutputPin,
     led: &mut impl OutputPin,
 ) -> (Usart<U>, FrameTimer<T>) {

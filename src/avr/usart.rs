@@ -6,7 +6,7 @@ use core::arch::asm;
 
 use super::chip::CHIP;
 use super::reg::Reg;
-use crate::link::config::{Config, Parity, StopBits};
+use crate::link::config::{Line, Parity, StopBits};
 use crate::link::framer::UartError;
 
 const RXC0: u8 = 1 << 7;
@@ -35,7 +35,7 @@ struct Format {
 impl Format {
     /// The register values for `config`, worked out apart from the USART they go to (so
     /// that every USART shares this code).
-    fn of(config: &Config) -> Self {
+    fn of(config: &Line) -> Self {
         let divisor = config.divisor();
         let parity = match config.parity() {
             Parity::None => 0b00,
@@ -85,7 +85,7 @@ impl<const U: u8> Usart<U> {
     ///
     /// The frame format (UCSRnC) is written before the rate, and UBRRn's high byte before
     /// its low byte: the low-byte write is what applies the new rate.
-    pub(crate) fn new(config: &Config) -> Self {
+    pub(crate) fn new(config: &Line) -> Self {
         let mut usart = Usart;
         usart.configure(config);
         usart
@@ -96,7 +96,7 @@ impl<const U: u8> Usart<U> {
     /// sent: call it when the reply has left the wire (transmit complete).
     // With the feature it is called twice (start, and a settings switch): once out of line.
     #[cfg_attr(feature = "eeprom-settings", inline(never))]
-    pub(crate) fn configure(&mut self, config: &Config) {
+    pub(crate) fn configure(&mut self, config: &Line) {
         let Format { ucsra, ucsrc, ubrr: [ubrr_high, ubrr_low] } = Format::of(config);
         Self::UCSRB.write(0);
         Self::UCSRC.write(ucsrc);

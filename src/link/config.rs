@@ -9,6 +9,7 @@ use crate::error::Error;
 #[cfg(feature = "ascii")]
 use crate::link::timing::Deadline;
 use crate::link::timing::{rx_flag_to_end_cycles, BaudDivisor, CharTimes, TimerPlan, CLOCK_HZ};
+pub use crate::protocol::SlaveId;
 
 #[cfg(feature = "ascii")]
 mod ascii;
@@ -16,29 +17,6 @@ mod ascii;
 use ascii::timeout_turns;
 #[cfg(feature = "ascii")]
 pub use ascii::Mode;
-
-/// A slave (server) address on the serial line: 1–247.
-#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub struct SlaveId(u8);
-
-impl SlaveId {
-    /// The broadcast address: writes are executed, nothing is answered.
-    pub const BROADCAST: u8 = 0;
-
-    /// Checks that `id` is a unicast slave address (1–247).
-    pub const fn new(id: u8) -> Result<Self, Error> {
-        match id {
-            1..=247 => Ok(SlaveId(id)),
-            _ => Err(Error::SlaveId),
-        }
-    }
-
-    /// The address as a byte.
-    pub const fn get(self) -> u8 {
-        self.0
-    }
-}
 
 /// Parity of each character.
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
@@ -62,12 +40,25 @@ pub enum StopBits {
     Two,
 }
 
-/// Everything the slave needs to know about its place on the serial line, with the
-/// USART divisor and Timer0 plan derived from it: built in a `const`, the firmware does no
-/// division at run time.
+/// The line's settings, Modbus over Serial Line v1.02 §2.5.1: baud rate, parity, stop bits
+/// (and, with feature `ascii`, the transmission mode), with the USART divisor and the
+/// Timer0 plan worked out from them in a `const`: the firmware does no division at run
+/// time. What a master starts with ([`crate::Master::start`]); a slave's [`Config`] is one
+/// of these and its address.
+///
+/// ```
+/// use avr_modbus::{Line, Parity, StopBits};
+/// const LINE: Line = Line::new(9600, Parity::None, StopBits::Two);
+/// assert_eq!(LINE.bits_per_char(), 11);
+/// assert_eq!(Line::DEFAULT.baud(), 19_200);
+/// ```
+///
+/// ```compile_fail
+/// use avr_modbus::{Line, Parity, StopBits};
+/// const LINE: Line = Line::new(300, Parity::None, StopBits::Two);
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Config {
-    slave_id: SlaveId,
+pub struct Line {
     baud: u32,
     parity: Parity,
     stop_bits: StopBits,
@@ -84,22 +75,139 @@ pub struct Config {
     /// (the reply waits for the LF to leave the line).
     #[cfg(feature = "ascii")]
     char_end: Deadline,
-    /// The reply delay after T3.5 in Timer0 ticks (feature `reply-delay`; 0: none).
-    #[cfg(feature = "reply-delay")]
-    reply_delay: u16,
 }
 
-impl Config {
+impl Line {
     /// Slowest supported rate.
     pub const MIN_BAUD: u32 = 1200;
     /// Fastest supported rate (16 MHz / 16; at 8 MHz with double speed).
     pub const MAX_BAUD: u32 = 1_000_000;
 
     /// The serial-line spec's default: 19200 bps, 8 data bits, even parity, 1 stop bit.
-    pub const fn default_for(slave_id: SlaveId) -> Self {
-        match Self::try_new(slave_id.get(), 19_200, Parity::Even, StopBits::One) {
-            Ok(config) => config,
+    pub const DEFAULT: Line = Line::new(19_200, Parity::Even, StopBits::One);
+
+    /// Line settings for a constant: invalid values stop the build. Called outside a
+    /// constant it would panic on bad input: use [`Line::try_new`] for run-time values.
+    pub const fn new(baud: u32, parity: Parity, stop_bits: StopBits) -> Self {
+        match Self::try_new(baud, parity, stop_bits) {
+            Ok(line) => line,
             Err(e) => panic!("{}", e.message()),
+        }
+    }
+
+    /// Line settings from run-time values: [`Error::Baud`] outside
+    /// [`Line::MIN_BAUD`]–[`Line::MAX_BAUD`], [`Error::BaudError`] for a rate the USART
+    /// can't make within 2.5 % at the CPU clock.
+    pub const fn try_new(baud: u32, parity: Parity, stop_bits: StopBits) -> Result<Self, Error> {
+        if baud < Self::MIN_BAUD || baud > Self::MAX_BAUD {
+            return Err(Error::Baud);
+        }
+        let divisor = match BaudDivisor::new(baud, CLOCK_HZ) {
+            Some(divisor) => divisor,
+            None => return Err(Error::BaudError),
+        };
+        let times = CharTimes::new(baud, bits_per_char(8, parity, stop_bits));
+        let flag_to_end = rx_flag_to_end_cycles(divisor, matches!(stop_bits, StopBits::Two));
+        let timer_plan = TimerPlan::new(times, CLOCK_HZ, flag_to_end);
+        Ok(Line {
+            baud,
+            parity,
+            stop_bits,
+            divisor,
+            timer_plan,
+            #[cfg(feature = "ascii")]
+            mode: Mode::Rtu,
+            #[cfg(feature = "ascii")]
+            char_timeout: timeout_turns(Self::ASCII_CHAR_TIMEOUT_MS),
+            #[cfg(feature = "ascii")]
+            char_end: Deadline::after_flag(flag_to_end),
+        })
+    }
+
+    /// Data bits of each character: 8, or 7 in ASCII mode.
+    pub const fn data_bits(&self) -> u32 {
+        #[cfg(feature = "ascii")]
+        if matches!(self.mode, Mode::Ascii) {
+            return 7;
+        }
+        8
+    }
+
+    /// Bits per second.
+    pub const fn baud(&self) -> u32 {
+        self.baud
+    }
+
+    /// Parity bit.
+    pub const fn parity(&self) -> Parity {
+        self.parity
+    }
+
+    /// Stop bits.
+    pub const fn stop_bits(&self) -> StopBits {
+        self.stop_bits
+    }
+
+    /// The USART's rate settings.
+    pub const fn divisor(&self) -> BaudDivisor {
+        self.divisor
+    }
+
+    /// Timer0 settings of the silence detector.
+    pub const fn timer_plan(&self) -> TimerPlan {
+        self.timer_plan
+    }
+
+    /// Bits on the wire per character: start, data bits (8, or 7 for ASCII), parity if
+    /// any, stop bits.
+    pub const fn bits_per_char(&self) -> u32 {
+        bits_per_char(self.data_bits(), self.parity, self.stop_bits)
+    }
+
+    /// Character time and the T1.5 / T3.5 silences of this line.
+    pub const fn char_times(&self) -> CharTimes {
+        CharTimes::new(self.baud, self.bits_per_char())
+    }
+}
+
+impl Default for Line {
+    /// [`Line::DEFAULT`]: 19200 bps, 8E1.
+    fn default() -> Self {
+        Line::DEFAULT
+    }
+}
+
+/// A slave's configuration: its address and its [`Line`] (and, with feature
+/// `reply-delay`, how long it waits before it answers). Built in a `const`, the firmware
+/// does no division at run time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Config {
+    slave_id: SlaveId,
+    line: Line,
+    /// The reply delay after T3.5 in Timer0 ticks (feature `reply-delay`; 0: none).
+    #[cfg(feature = "reply-delay")]
+    reply_delay: u16,
+}
+
+impl Config {
+    /// Slowest supported rate ([`Line::MIN_BAUD`]).
+    pub const MIN_BAUD: u32 = Line::MIN_BAUD;
+    /// Fastest supported rate ([`Line::MAX_BAUD`]).
+    pub const MAX_BAUD: u32 = Line::MAX_BAUD;
+
+    /// The serial-line spec's default line ([`Line::DEFAULT`]: 19200 bps, 8E1) for
+    /// `slave_id`.
+    pub const fn default_for(slave_id: SlaveId) -> Self {
+        Self::on(slave_id, Line::DEFAULT)
+    }
+
+    /// The slave `slave_id` on `line`.
+    pub const fn on(slave_id: SlaveId, line: Line) -> Self {
+        Config {
+            slave_id,
+            line,
+            #[cfg(feature = "reply-delay")]
+            reply_delay: 0,
         }
     }
 
@@ -127,36 +235,14 @@ impl Config {
 
     /// A configuration from run-time values.
     pub const fn try_new(slave_id: u8, baud: u32, parity: Parity, stop_bits: StopBits) -> Result<Self, Error> {
-        let slave_id = match SlaveId::new(slave_id) {
+        let slave_id = match SlaveId::try_new(slave_id) {
             Ok(id) => id,
             Err(e) => return Err(e),
         };
-        if baud < Self::MIN_BAUD || baud > Self::MAX_BAUD {
-            return Err(Error::Baud);
+        match Line::try_new(baud, parity, stop_bits) {
+            Ok(line) => Ok(Self::on(slave_id, line)),
+            Err(e) => Err(e),
         }
-        let divisor = match BaudDivisor::new(baud, CLOCK_HZ) {
-            Some(divisor) => divisor,
-            None => return Err(Error::BaudError),
-        };
-        let times = CharTimes::new(baud, bits_per_char(8, parity, stop_bits));
-        let flag_to_end = rx_flag_to_end_cycles(divisor, matches!(stop_bits, StopBits::Two));
-        let timer_plan = TimerPlan::new(times, CLOCK_HZ, flag_to_end);
-        Ok(Config {
-            slave_id,
-            baud,
-            parity,
-            stop_bits,
-            divisor,
-            timer_plan,
-            #[cfg(feature = "ascii")]
-            mode: Mode::Rtu,
-            #[cfg(feature = "ascii")]
-            char_timeout: timeout_turns(Self::ASCII_CHAR_TIMEOUT_MS),
-            #[cfg(feature = "ascii")]
-            char_end: Deadline::after_flag(flag_to_end),
-            #[cfg(feature = "reply-delay")]
-            reply_delay: 0,
-        })
     }
 
     /// The longest reply delay, in microseconds: 65 535 Timer0 ticks (262 ms at 16 MHz).
@@ -187,24 +273,20 @@ impl Config {
     #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
     pub(crate) const fn reply_delay_ticks(&self) -> u16 {
         #[cfg(feature = "ascii")]
-        if !matches!(self.mode, Mode::Rtu) {
+        if !matches!(self.line.mode, Mode::Rtu) {
             return 0;
         }
         self.reply_delay
     }
 
-    /// Data bits of each character: 8, or 7 in ASCII mode.
-    pub const fn data_bits(&self) -> u32 {
-        #[cfg(feature = "ascii")]
-        if matches!(self.mode, Mode::Ascii) {
-            return 7;
-        }
-        8
-    }
-
-    /// The same line settings for another slave address.
+    /// The same settings for another slave address.
     pub const fn with_slave_id(self, slave_id: SlaveId) -> Self {
         Config { slave_id, ..self }
+    }
+
+    /// The same slave on another line.
+    pub const fn with_line(self, line: Line) -> Self {
+        Config { line, ..self }
     }
 
     /// This slave's address.
@@ -212,40 +294,24 @@ impl Config {
         self.slave_id
     }
 
-    /// Bits per second.
+    /// The line's settings.
+    pub const fn line(&self) -> &Line {
+        &self.line
+    }
+
+    /// Bits per second ([`Line::baud`]).
     pub const fn baud(&self) -> u32 {
-        self.baud
+        self.line.baud
     }
 
-    /// Parity bit.
+    /// Parity bit ([`Line::parity`]).
     pub const fn parity(&self) -> Parity {
-        self.parity
+        self.line.parity
     }
 
-    /// Stop bits.
+    /// Stop bits ([`Line::stop_bits`]).
     pub const fn stop_bits(&self) -> StopBits {
-        self.stop_bits
-    }
-
-    /// USART0 rate settings.
-    pub const fn divisor(&self) -> BaudDivisor {
-        self.divisor
-    }
-
-    /// Timer0 settings of the silence detector.
-    pub const fn timer_plan(&self) -> TimerPlan {
-        self.timer_plan
-    }
-
-    /// Bits on the wire per character: start, data bits (8, or 7 for ASCII), parity if
-    /// any, stop bits.
-    pub const fn bits_per_char(&self) -> u32 {
-        bits_per_char(self.data_bits(), self.parity, self.stop_bits)
-    }
-
-    /// Character time and the T1.5 / T3.5 silences for this configuration.
-    pub const fn char_times(&self) -> CharTimes {
-        CharTimes::new(self.baud, self.bits_per_char())
+        self.line.stop_bits
     }
 }
 
@@ -261,12 +327,24 @@ const fn bits_per_char(data_bits: u32, parity: Parity, stop_bits: StopBits) -> u
     1 + data_bits + parity + stop
 }
 
-/// The line settings as a firmware prints them: `Config { slave_id: 1, baud: 19200, .. }`.
+/// The settings as a firmware prints them: `Config { slave_id: 1, baud: 19200, .. }`.
 #[cfg(feature = "ufmt")]
 impl ufmt::uDebug for Config {
     fn fmt<W: ufmt::uWrite + ?Sized>(&self, f: &mut ufmt::Formatter<'_, W>) -> Result<(), W::Error> {
         f.debug_struct("Config")?
             .field("slave_id", &self.slave_id.get())?
+            .field("baud", &self.line.baud)?
+            .field("parity", &self.line.parity)?
+            .field("stop_bits", &self.line.stop_bits)?
+            .finish()
+    }
+}
+
+/// The settings as a firmware prints them: `Line { baud: 19200, parity: Even, .. }`.
+#[cfg(feature = "ufmt")]
+impl ufmt::uDebug for Line {
+    fn fmt<W: ufmt::uWrite + ?Sized>(&self, f: &mut ufmt::Formatter<'_, W>) -> Result<(), W::Error> {
+        f.debug_struct("Line")?
             .field("baud", &self.baud)?
             .field("parity", &self.parity)?
             .field("stop_bits", &self.stop_bits)?
@@ -277,15 +355,6 @@ impl ufmt::uDebug for Config {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn slave_id_accepts_1_to_247_only() {
-        assert_eq!(SlaveId::new(0), Err(Error::SlaveId));
-        assert_eq!(SlaveId::new(1).map(SlaveId::get), Ok(1));
-        assert_eq!(SlaveId::new(247).map(SlaveId::get), Ok(247));
-        assert_eq!(SlaveId::new(248), Err(Error::SlaveId));
-        assert_eq!(SlaveId::new(255), Err(Error::SlaveId));
-    }
 
     #[test]
     fn run_time_baud_outside_range_is_an_error() {
@@ -301,21 +370,21 @@ mod tests {
     #[test]
     fn with_slave_id_changes_the_slave_id_only() {
         let c = Config::new(5, 9600, Parity::Odd, StopBits::Two);
-        let moved = c.with_slave_id(SlaveId::new(247).unwrap());
+        let moved = c.with_slave_id(SlaveId::new(247));
         assert_eq!(moved.slave_id().get(), 247);
         assert_eq!((moved.baud(), moved.parity(), moved.stop_bits()), (c.baud(), c.parity(), c.stop_bits()));
     }
 
     #[test]
     fn default_is_19200_8e1() {
-        let c = Config::default_for(SlaveId::new(5).unwrap());
+        let c = Config::default_for(SlaveId::new(5));
         assert_eq!((c.baud(), c.parity(), c.stop_bits()), (19_200, Parity::Even, StopBits::One));
-        assert_eq!(c.bits_per_char(), 11);
+        assert_eq!(c.line().bits_per_char(), 11);
     }
 
     #[test]
     fn bits_per_char_counts_parity_and_stop_bits() {
-        let bits = |p, s| Config::new(1, 9600, p, s).bits_per_char();
+        let bits = |p, s| Line::new(9600, p, s).bits_per_char();
         assert_eq!(bits(Parity::None, StopBits::One), 10);
         assert_eq!(bits(Parity::None, StopBits::Two), 11);
         assert_eq!(bits(Parity::Odd, StopBits::One), 11);

@@ -30,7 +30,7 @@ pub const MIN_CAPACITY: usize = 8;
 
 /// Why a frame was dropped in silence (never answered with an exception).
 ///
-/// Half a value is the place of the counter it goes to among the engine's counters (CRC
+/// Half a value is the place of the counter it goes to among either role's counters (CRC
 /// errors 1, UART errors 2, overruns 3, malformed frames 4): a shift, where choosing the
 /// counter took a chain of comparisons. `Uart` is 4 as the receiver's `State::Broken` is,
 /// so that the receive interrupt's error path loads the one value for both.
@@ -52,6 +52,19 @@ pub enum FrameError {
     /// of hex digits, or anything but LF after CR.
     #[cfg(feature = "ascii")]
     Encoding = 10,
+}
+
+impl FrameError {
+    /// The place of the counter a frame dropped for this error goes to, the same among the
+    /// slave's counters and the master's: half the value (CRC errors 1, UART errors 2,
+    /// overruns 3, malformed frames 4); ASCII's encoding errors are malformed frames.
+    pub(crate) const fn counter(self) -> u8 {
+        #[cfg(feature = "ascii")]
+        if matches!(self, FrameError::Encoding) {
+            return 4;
+        }
+        self as u8 >> 1
+    }
 }
 
 /// What the USART reported about a damaged character.

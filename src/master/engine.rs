@@ -21,6 +21,7 @@ use super::reply::{Reply, Verdict};
 use super::request::{seal, Expect, Request};
 use crate::error::Error;
 use crate::link::framer::{FrameError, Framer, UartError, MAX_FRAME};
+use crate::protocol::Exception;
 
 #[cfg(feature = "ascii")]
 mod ascii;
@@ -56,10 +57,10 @@ impl Default for Timeouts {
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Failure {
-    /// The slave answered with this exception code (Application Protocol §7: 0x01 Illegal
-    /// Function, 0x02 Illegal Data Address, 0x03 Illegal Data Value, 0x04 Server Device
-    /// Failure, …).
-    Exception(u8),
+    /// The slave answered with this exception (Application Protocol §7: 01 Illegal
+    /// Function, 02 Illegal Data Address, 03 Illegal Data Value, 04 Server Device
+    /// Failure, …; a code the spec does not name comes as it was sent).
+    Exception(Exception),
     /// No reply within the response timeout, on the last try.
     Timeout,
     /// The last try ended with a damaged frame (CRC or LRC, parity, a gap over T1.5), or
@@ -67,47 +68,64 @@ pub enum Failure {
     BadReply,
 }
 
-/// What the master counted since it started (each wraps at 65535).
+/// What the master counted since it started (each wraps at 65535). The fields both roles
+/// have ([`crate::SlaveCounters`]) count alike: a frame dropped for the same fault goes to
+/// the same name.
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Counters {
-    /// Requests sent, retries included.
+pub struct MasterCounters {
+    /// Requests sent, retries included (a broadcast too).
     pub requests: u16,
+    /// Frames dropped for a bad CRC (or LRC).
+    pub crc_errors: u16,
+    /// Frames dropped for a parity or framing error.
+    pub uart_errors: u16,
+    /// Frames dropped for a lost character (USART overrun) or for being longer than the
+    /// master's buffer (no answer to its request is longer).
+    pub overruns: u16,
+    /// Frames dropped for being shorter than 4 bytes or for a gap over T1.5; in ASCII
+    /// framing also for a character that is not a hex digit, an odd number of them, the
+    /// inter-character timeout inside a frame, or a frame a `:` cut short.
+    pub malformed: u16,
     /// Answers taken: replies that answer their request, exception replies included.
     pub replies: u16,
     /// Exception replies.
     pub exceptions: u16,
-    /// Tries that got no reply within the response timeout.
+    /// Tries that got no reply within the response timeout: a request that is sent once
+    /// more after a timeout and times out again counts 2.
     pub timeouts: u16,
-    /// Requests sent again.
+    /// Requests sent again (after a timeout, a damaged reply or one that does not answer).
     pub retries: u16,
-    /// Frames dropped for a bad CRC (or LRC).
-    pub crc_errors: u16,
-    /// Frames dropped for a gap over T1.5, a parity, framing or overrun error, or a length
-    /// under 4 bytes or, in RTU, over the master's buffer (no answer to its request is
-    /// longer); in ASCII framing also for a character that is not a hex digit, an odd
-    /// number of them, the inter-character timeout inside a frame, or a frame a `:` cut
-    /// short.
-    pub malformed: u16,
-    /// Good frames that were no answer: from another slave, not answering the request,
-    /// or with no request waiting.
+    /// Good frames that were no answer: from another slave, from the slave asked but not
+    /// answering the request (another function code, a wrong byte count or echo, a reply
+    /// too short for its byte count), or with no request waiting.
     pub unexpected: u16,
 }
 
-/// A counter's place in [`Engine::counts`]: the order of [`Counters`]'s fields.
+/// A counter's place in [`Engine::counts`]: the order of [`MasterCounters`]'s fields. A
+/// damaged frame's counter is at [`FrameError::counter`], as in the slave's.
 #[derive(Clone, Copy)]
 enum Count {
     Requests,
+    CrcErrors,
+    UartErrors,
+    Overruns,
+    Malformed,
     Replies,
     Exceptions,
     Timeouts,
     Retries,
-    CrcErrors,
-    Malformed,
     Unexpected,
 }
 
 const COUNTS: usize = Count::Unexpected as usize + 1;
+
+const _: () = {
+    use FrameError::*;
+    assert!(BadCrc.counter() == Count::CrcErrors as u8 && Uart.counter() == Count::UartErrors as u8);
+    assert!(Overrun.counter() == Count::Overruns as u8 && TooLong.counter() == Count::Overruns as u8);
+    assert!(TooShort.counter() == Count::Malformed as u8 && Gap.counter() == Count::Malformed as u8);
+};
 
 /// Where a request is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -209,16 +227,34 @@ impl<const N: usize> Engine<N> {
     }
 
     /// The counters.
-    pub fn counters(&self) -> Counters {
-        let [requests, replies, exceptions, timeouts, retries, crc_errors, malformed, unexpected] = self.counts;
-        Counters { requests, replies, exceptions, timeouts, retries, crc_errors, malformed, unexpected }
+    pub fn counters(&self) -> MasterCounters {
+        let [requests, crc_errors, uart_errors, overruns, malformed, replies, exceptions, timeouts, retries, unexpected] =
+            self.counts;
+        MasterCounters {
+            requests,
+            crc_errors,
+            uart_errors,
+            overruns,
+            malformed,
+            replies,
+            exceptions,
+            timeouts,
+            retries,
+            unexpected,
+        }
+    }
+
+    #[inline(always)]
+    fn count(&mut self, count: Count) {
+        self.count_at(count as u8);
     }
 
     // Out of line: a call is shorter than the increment, and there are a dozen.
     #[inline(never)]
-    fn count(&mut self, count: Count) {
-        let c = &mut self.counts[count as usize];
-        *c = c.wrapping_add(1);
+    fn count_at(&mut self, at: u8) {
+        if let Some(c) = self.counts.get_mut(usize::from(at)) {
+            *c = c.wrapping_add(1);
+        }
     }
 
     /// True from [`Engine::start`] until the outcome is collected ([`Engine::collect`]).
@@ -377,7 +413,7 @@ impl<const N: usize> Engine<N> {
             None => {}
             Some(Ok(len)) => self.on_frame(len),
             Some(Err(error)) => {
-                self.count(if error == FrameError::BadCrc { Count::CrcErrors } else { Count::Malformed });
+                self.count_at(error.counter());
                 if self.state == State::Waiting && !self.cut_short() {
                     self.attempt_failed(Failure::BadReply);
                 }
@@ -406,7 +442,7 @@ impl<const N: usize> Engine<N> {
             Verdict::Exception(code) => {
                 self.count(Count::Replies);
                 self.count(Count::Exceptions);
-                self.finish(Some(Failure::Exception(code)));
+                self.finish(Some(Failure::Exception(Exception::from_code(code))));
             }
             Verdict::OtherSlave => self.count(Count::Unexpected),
             Verdict::Mismatch => {

@@ -4,6 +4,7 @@
 //! echo of a write. The framer has checked the CRC and the silences already.
 
 use super::request::{Expect, Shape};
+use crate::protocol::FunctionCode;
 
 /// What a frame that ended while the master waited is to it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -66,12 +67,12 @@ impl<'a> Reply<'a> {
     }
 
     /// The function code answered.
-    pub fn function(&self) -> u8 {
-        self.function
+    pub fn function(&self) -> FunctionCode {
+        FunctionCode::from_code(self.function)
     }
 
-    /// How many coils, inputs or registers the request read (0 for writes, broadcasts and
-    /// raw requests).
+    /// How many coils, inputs or registers the request asked to read (10 for a read of 10
+    /// coils, whose values come in 2 bytes; 0 for writes, broadcasts and raw requests).
     pub fn len(&self) -> usize {
         usize::from(self.quantity)
     }

@@ -3,14 +3,17 @@
 //! an RTU frame (address, PDU, CRC) with what its reply must look like.
 
 use crate::error::Error;
-use crate::limits::{
+use crate::link::crc::Crc16;
+use crate::protocol::limits::{
     MAX_READ_BITS, MAX_READ_REGISTERS, MAX_READ_WRITE_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS,
 };
-use crate::link::crc::Crc16;
+use crate::protocol::reference::{IntoReference, Reference, Table};
+use crate::protocol::FunctionCode;
 
-/// What the master asks of a slave. Addresses are protocol addresses, counted from 0:
-/// holding register 40001 is address 0, coil 00001 address 0, input register 30005
-/// address 4.
+/// What the master asks of a slave. The fields' addresses are protocol addresses, counted
+/// from 0: holding register 40001 is address 0, coil 00001 address 0, input register 30005
+/// address 4. [`Request::read`] and the `write_*` constructors take the entry as the
+/// slave's API does, a classic reference or a [`Reference`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Request<'a> {
     /// 0x01 Read Coils, §6.1: 1–2000 coils.
@@ -81,11 +84,13 @@ pub enum Request<'a> {
         values: &'a [u16],
     },
     /// Any other function code (1–127) with the request PDU's data as given (FC 8
-    /// Diagnostics, 17 Report Server ID, 43 Read Device Identification …): the reply's
-    /// PDU is handed back unchecked beyond its address, function code and CRC.
+    /// Diagnostics, 17 Report Server ID, 43 Read Device Identification, a
+    /// [`FunctionCode::custom`] one …): the reply's PDU is handed back unchecked beyond its
+    /// address, function code and CRC. Servers frame an answer to a code they do not know
+    /// as they like; only its exception (01) is sure.
     Raw {
         /// The function code.
-        function: u8,
+        function: FunctionCode,
         /// The PDU after the function code.
         data: &'a [u8],
     },
@@ -126,9 +131,77 @@ impl Expect {
     }
 }
 
+impl<'a> Request<'a> {
+    /// A read of `quantity` entries from `first`, named as the slave's API names them: a
+    /// classic reference (`40001`) or a [`Reference`] (`Reference::holding_register(0)`).
+    /// Its table chooses the function code: coils FC 1, discrete inputs FC 2, input
+    /// registers FC 4, holding registers FC 3. [`Error::BadReference`] for a number that is
+    /// no classic reference; the quantity is checked when the request is sent.
+    ///
+    /// ```
+    /// use avr_modbus::master::Request;
+    /// assert_eq!(
+    ///     Request::read(40001, 10),
+    ///     Ok(Request::ReadHoldingRegisters { address: 0, quantity: 10 })
+    /// );
+    /// ```
+    pub fn read(first: impl IntoReference, quantity: u16) -> Result<Self, Error> {
+        let Reference { table, address } = first.into_reference()?;
+        Ok(match table {
+            Table::Coils => Request::ReadCoils { address, quantity },
+            Table::DiscreteInputs => Request::ReadDiscreteInputs { address, quantity },
+            Table::InputRegisters => Request::ReadInputRegisters { address, quantity },
+            Table::HoldingRegisters => Request::ReadHoldingRegisters { address, quantity },
+        })
+    }
+
+    /// A write of one coil (FC 5) at a coil's reference (`1` is coil 00001, address 0);
+    /// [`Error::WrongTable`] for another table's.
+    pub fn write_coil(at: impl IntoReference, value: bool) -> Result<Self, Error> {
+        let address = in_table(at, Table::Coils)?;
+        Ok(Request::WriteSingleCoil { address, value })
+    }
+
+    /// A write of one holding register (FC 6) at its reference (`40001` is address 0);
+    /// [`Error::WrongTable`] for another table's.
+    pub fn write_register(at: impl IntoReference, value: u16) -> Result<Self, Error> {
+        let address = in_table(at, Table::HoldingRegisters)?;
+        Ok(Request::WriteSingleRegister { address, value })
+    }
+
+    /// A write of coils from `first` (FC 15), one `bool` each: a byte of RAM per coil
+    /// where the frame packs eight to a byte.
+    pub fn write_coils(first: impl IntoReference, values: &'a [bool]) -> Result<Self, Error> {
+        let address = in_table(first, Table::Coils)?;
+        Ok(Request::WriteMultipleCoils { address, values })
+    }
+
+    /// A write of holding registers from `first` (FC 16). A 32-bit value or a float takes
+    /// two: `Request::write_registers(40001, &WordOrder::HighFirst.split(1234.5f32))`.
+    pub fn write_registers(first: impl IntoReference, values: &'a [u16]) -> Result<Self, Error> {
+        let address = in_table(first, Table::HoldingRegisters)?;
+        Ok(Request::WriteMultipleRegisters { address, values })
+    }
+}
+
+/// The protocol address of `at`, which must be in `table`.
+fn in_table(at: impl IntoReference, table: Table) -> Result<u16, Error> {
+    let reference = at.into_reference()?;
+    if reference.table == table {
+        Ok(reference.address)
+    } else {
+        Err(Error::WrongTable)
+    }
+}
+
 impl Request<'_> {
     /// The function code.
-    pub const fn function(&self) -> u8 {
+    pub const fn function(&self) -> FunctionCode {
+        FunctionCode::from_code(self.code())
+    }
+
+    /// The function code's byte.
+    pub(crate) const fn code(&self) -> u8 {
         match self {
             Request::ReadCoils { .. } => 0x01,
             Request::ReadDiscreteInputs { .. } => 0x02,
@@ -139,7 +212,7 @@ impl Request<'_> {
             Request::WriteMultipleCoils { .. } => 0x0F,
             Request::WriteMultipleRegisters { .. } => 0x10,
             Request::ReadWriteMultipleRegisters { .. } => 0x17,
-            Request::Raw { function, .. } => *function,
+            Request::Raw { function, .. } => function.code(),
         }
     }
 
@@ -174,7 +247,7 @@ impl Request<'_> {
         if slave == 0 && !self.may_broadcast() {
             return Err(Error::Broadcast);
         }
-        let function = self.function();
+        let function = self.code();
         // The two words after the function code, the frame's length without its CRC, the
         // reply's length with its CRC, and what the reply must be.
         let (first, second, len, reply, shape, quantity) = match *self {
@@ -211,7 +284,7 @@ impl Request<'_> {
                 )
             }
             Request::Raw { function, data } => {
-                if !(1..=0x7F).contains(&function) {
+                if !(1..=0x7F).contains(&function.code()) {
                     return Err(Error::Function);
                 }
                 (0, 0, u16::try_from(data.len()).unwrap_or(u16::MAX).saturating_add(2), 5, Shape::Any, 0)

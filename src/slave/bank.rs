@@ -30,12 +30,12 @@
 //! sizes its own from its ranges.
 
 use crate::error::Error;
+use crate::protocol::reference::{IntoReference, Reference, Table};
 use crate::slave::map::Span;
 use crate::slave::model::{frame_for, Access, DataModel};
 #[cfg(feature = "device-id")]
 use crate::slave::pdu::device_id::Identification;
 use crate::slave::pdu::Exception;
-use crate::slave::reference::{IntoReference, Reference, Table};
 use crate::slave::storage::Values;
 
 /// Bytes needed for `bits` coils and discrete inputs: use as `Bank<R, W, { bit_bytes(32) }>`.

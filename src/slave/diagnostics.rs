@@ -11,17 +11,17 @@
 //! | 00 | Return Query Data | any | echo |
 //! | 01 | Restart Communications Option | 0000 or FF00 | echo, then counters cleared and listen-only mode left; no answer while listen-only |
 //! | 04 | Force Listen Only Mode | 0000 | none: the slave stays silent until sub-function 01 |
-//! | 0A | Clear Counters and Diagnostic Register | 0000 | echo, counters cleared |
-//! | 0B | Return Bus Message Count | 0000 | [`Counters::frames`] |
-//! | 0C | Return Bus Communication Error Count | 0000 | [`Counters::crc_errors`] |
-//! | 0D | Return Slave Exception Error Count | 0000 | [`Counters::exceptions`] |
-//! | 0E | Return Slave Message Count | 0000 | [`Counters::messages`] |
-//! | 0F | Return Slave No Response Count | 0000 | [`Counters::no_response`] |
+//! | 0A | Clear SlaveCounters and Diagnostic Register | 0000 | echo, counters cleared |
+//! | 0B | Return Bus Message Count | 0000 | [`SlaveCounters::frames`] |
+//! | 0C | Return Bus Communication Error Count | 0000 | [`SlaveCounters::crc_errors`] |
+//! | 0D | Return Slave Exception Error Count | 0000 | [`SlaveCounters::exceptions`] |
+//! | 0E | Return Slave Message Count | 0000 | [`SlaveCounters::messages`] |
+//! | 0F | Return Slave No Response Count | 0000 | [`SlaveCounters::no_response`] |
 //! | 10 | Return Slave NAK Count | 0000 | 0 (this slave never answers 07) |
 //! | 11 | Return Slave Busy Count | 0000 | 0 (this slave never answers 06) |
-//! | 12 | Return Bus Character Overrun Count | 0000 | [`Counters::overruns`] |
+//! | 12 | Return Bus Character Overrun Count | 0000 | [`SlaveCounters::overruns`] |
 
-use crate::slave::engine::{Answer, Counters};
+use crate::slave::engine::{Answer, SlaveCounters};
 use crate::slave::model::DataModel;
 use crate::slave::pdu::{word, Exception, FunctionCode};
 
@@ -29,7 +29,7 @@ use crate::slave::pdu::{word, Exception, FunctionCode};
 pub(crate) const ENABLED: bool = true;
 
 /// FC 8, for the slice patterns below.
-const DIAGNOSTICS: u8 = FunctionCode::Diagnostics.value();
+const DIAGNOSTICS: u8 = FunctionCode::Diagnostics.code();
 
 /// FC 8 sub-function 01: restart communications.
 pub const RESTART_COMMUNICATIONS: u16 = 0x0001;
@@ -59,11 +59,11 @@ pub(crate) fn respond<M: DataModel + ?Sized>(
     pdu: &mut [u8],
     len: usize,
     model: &M,
-    counters: &Counters,
+    counters: &SlaveCounters,
     slave_id: u8,
 ) -> Result<Answer, Exception> {
     let code = pdu.first().copied().unwrap_or(0);
-    match FunctionCode::from_u8(code) {
+    match FunctionCode::from_code(code) {
         FunctionCode::Diagnostics => diagnostics(pdu, len, counters),
         // FC 7, 11 and 17 carry no data.
         _ if len != 1 => Err(Exception::IllegalDataValue),
@@ -92,7 +92,7 @@ pub(crate) fn respond<M: DataModel + ?Sized>(
     }
 }
 
-fn diagnostics(pdu: &mut [u8], len: usize, counters: &Counters) -> Result<Answer, Exception> {
+fn diagnostics(pdu: &mut [u8], len: usize, counters: &SlaveCounters) -> Result<Answer, Exception> {
     // Only the request's own bytes count: past `len` the buffer holds its CRC.
     let request = pdu.get(..len).unwrap_or(&[]);
     if len < 3 {
@@ -126,7 +126,7 @@ fn diagnostics(pdu: &mut [u8], len: usize, counters: &Counters) -> Result<Answer
         }
         (RESTART_COMMUNICATIONS, None) => Ok(Answer::Restart(5)),
         (FORCE_LISTEN_ONLY, None) => Ok(Answer::ListenOnly),
-        // Clear Counters: the reply is the echo; the caller clears.
+        // Clear SlaveCounters: the reply is the echo; the caller clears.
         _ => Ok(Answer::Restart(5)),
     }
 }

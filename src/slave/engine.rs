@@ -30,7 +30,7 @@ pub(crate) enum Answer {
 /// What the slave counted since start-up (each wraps at 65535).
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Counters {
+pub struct SlaveCounters {
     /// Frames that ended with T3.5 of silence, good or bad.
     pub frames: u16,
     /// Frames dropped for a bad CRC.
@@ -88,7 +88,7 @@ pub enum EndOfFrame {
 pub struct Engine<const N: usize = MAX_FRAME> {
     id: SlaveId,
     framer: Framer<N>,
-    /// The counters, in the order of [`Counters`]'s fields (see [`Count`]).
+    /// The counters, in the order of [`SlaveCounters`]'s fields (see [`Count`]).
     counts: [u16; COUNTS],
     /// What [`Engine::on_end_deadline`] decided for the frame not yet processed (whose
     /// length the framer keeps, [`Framer::frame_len`]).
@@ -108,7 +108,8 @@ enum Pending {
     Silent,
 }
 
-/// A counter's place in [`Engine::counts`]: the order of [`Counters`]'s fields.
+/// A counter's place in [`Engine::counts`]: the order of [`SlaveCounters`]'s fields. A
+/// damaged frame's counter is at [`FrameError::counter`], as in the master's.
 #[derive(Clone, Copy)]
 enum Count {
     Frames,
@@ -127,25 +128,13 @@ enum Count {
 /// How many counters there are.
 const COUNTS: usize = Count::Events as usize + 1;
 
-impl FrameError {
-    /// The place in [`Engine::counts`] of the counter a frame dropped for this error goes
-    /// to: half the value (see [`FrameError`]); ASCII's encoding errors are malformed frames.
-    const fn count(self) -> u8 {
-        #[cfg(feature = "ascii")]
-        if matches!(self, FrameError::Encoding) {
-            return Count::Malformed as u8;
-        }
-        self as u8 >> 1
-    }
-}
-
 const _: () = {
     use FrameError::*;
-    assert!(BadCrc.count() == Count::CrcErrors as u8 && Uart.count() == Count::UartErrors as u8);
-    assert!(Overrun.count() == Count::Overruns as u8 && TooLong.count() == Count::Overruns as u8);
-    assert!(TooShort.count() == Count::Malformed as u8 && Gap.count() == Count::Malformed as u8);
+    assert!(BadCrc.counter() == Count::CrcErrors as u8 && Uart.counter() == Count::UartErrors as u8);
+    assert!(Overrun.counter() == Count::Overruns as u8 && TooLong.counter() == Count::Overruns as u8);
+    assert!(TooShort.counter() == Count::Malformed as u8 && Gap.counter() == Count::Malformed as u8);
     #[cfg(feature = "ascii")]
-    assert!(Encoding.count() == Count::Malformed as u8);
+    assert!(Encoding.counter() == Count::Malformed as u8);
 };
 
 impl<const N: usize> Engine<N> {
@@ -180,10 +169,10 @@ impl<const N: usize> Engine<N> {
     }
 
     /// The counters.
-    pub fn counters(&self) -> Counters {
+    pub fn counters(&self) -> SlaveCounters {
         let [frames, crc_errors, uart_errors, overruns, malformed, messages, exceptions, replies, broadcasts, no_response, events] =
             self.counts;
-        Counters {
+        SlaveCounters {
             frames,
             crc_errors,
             uart_errors,
@@ -259,7 +248,7 @@ impl<const N: usize> Engine<N> {
         let len = match result {
             Ok(len) => len,
             Err(e) => {
-                self.bump_at(e.count());
+                self.bump_at(e.counter());
                 return EndOfFrame::Dropped(e);
             }
         };
@@ -362,11 +351,11 @@ impl<const N: usize> Engine<N> {
         // bytes, `MIN_FRAME`, so either subtraction gives the same; each is the smaller code
         // where it is used).
         let pdu_len = if diagnostics::ENABLED { len.saturating_sub(3) } else { len.wrapping_sub(3) };
-        let counters = if diagnostics::ENABLED { self.counters() } else { Counters::new() };
+        let counters = if diagnostics::ENABLED { self.counters() } else { SlaveCounters::new() };
         let (_, pdu) = self.framer.buffer_mut().split_at_mut(1);
         // Without their features, the optional codes fall through to `execute`, which
         // answers 01 for every code it doesn't know: no comparison is left for them.
-        let code = FunctionCode::from_u8(pdu.first().copied().unwrap_or(0));
+        let code = FunctionCode::from_code(pdu.first().copied().unwrap_or(0));
         let result = match code {
             _ if diagnostics::ENABLED && code.is_diagnostic() => {
                 return diagnostics::respond(pdu, pdu_len, model, &counters, self.id.get())
@@ -390,7 +379,7 @@ impl<const N: usize> Engine<N> {
             Err(_) => self.bump(Count::Exceptions),
             Ok(_) => {
                 let code = self.framer.buffer().get(1).copied();
-                if !diagnostics::ENABLED || code != Some(FunctionCode::GetCommEventCounter.value()) {
+                if !diagnostics::ENABLED || code != Some(FunctionCode::GetCommEventCounter.code()) {
                     self.bump(Count::Events);
                 }
             }
@@ -520,10 +509,10 @@ impl<const N: usize> Engine<N> {
     }
 }
 
-impl Counters {
+impl SlaveCounters {
     /// All zero.
     pub const fn new() -> Self {
-        Counters {
+        SlaveCounters {
             frames: 0,
             crc_errors: 0,
             uart_errors: 0,
@@ -543,7 +532,7 @@ impl Counters {
 /// never listen-only.
 #[cfg(not(feature = "diagnostics"))]
 mod diagnostics {
-    use super::{Answer, Counters};
+    use super::{Answer, SlaveCounters};
     use crate::slave::model::DataModel;
     use crate::slave::pdu::Exception;
 
@@ -553,7 +542,7 @@ mod diagnostics {
         _pdu: &mut [u8],
         _len: usize,
         _model: &M,
-        _counters: &Counters,
+        _counters: &SlaveCounters,
         _slave_id: u8,
     ) -> Result<Answer, Exception> {
         Err(Exception::IllegalFunction)

@@ -9,7 +9,7 @@
 //! (40001–40004 and 40005–40008) are stored side by side, so the master reads across them
 //! as across one range.
 
-use crate::slave::reference::{Reference, Table};
+use crate::protocol::reference::{Reference, Table};
 
 /// One declared range, as the lookup needs it.
 #[doc(hidden)]

@@ -9,9 +9,9 @@
 use crate::error::Error;
 #[cfg(feature = "eeprom-settings")]
 use crate::link::config::Config;
+use crate::protocol::reference::{Reference, Table};
 use crate::slave::pdu::device_id::Identification;
 use crate::slave::pdu::{Exception, MAX_READ_BITS, MAX_READ_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS};
-use crate::slave::reference::{Reference, Table};
 
 const fn min(a: u32, b: u32) -> u32 {
     if a < b {

@@ -14,8 +14,8 @@
 //! on AVR the compiler would turn such a `match` into a lookup table, and constant tables
 //! are copied to RAM at start-up.
 
+use crate::protocol::reference::Table;
 use crate::slave::model::{Access, DataModel};
-use crate::slave::reference::Table;
 
 pub mod device_id;
 #[cfg(feature = "extra-fc")]
@@ -40,118 +40,10 @@ pub(crate) mod extra {
     }
 }
 
-/// A function code, Application Protocol §5.1: every code this crate answers, and the
-/// rest.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FunctionCode {
-    /// 0x01 Read Coils, §6.1.
-    ReadCoils,
-    /// 0x02 Read Discrete Inputs, §6.2.
-    ReadDiscreteInputs,
-    /// 0x03 Read Holding Registers, §6.3.
-    ReadHoldingRegisters,
-    /// 0x04 Read Input Registers, §6.4.
-    ReadInputRegisters,
-    /// 0x05 Write Single Coil, §6.5.
-    WriteSingleCoil,
-    /// 0x06 Write Single Register, §6.6.
-    WriteSingleRegister,
-    /// 0x07 Read Exception Status, §6.7 (feature `diagnostics`).
-    ReadExceptionStatus,
-    /// 0x08 Diagnostics, §6.8 (feature `diagnostics`).
-    Diagnostics,
-    /// 0x0B Get Comm Event Counter, §6.9 (feature `diagnostics`).
-    GetCommEventCounter,
-    /// 0x0F Write Multiple Coils, §6.11.
-    WriteMultipleCoils,
-    /// 0x10 Write Multiple Registers, §6.12.
-    WriteMultipleRegisters,
-    /// 0x11 Report Server ID, §6.13 (feature `diagnostics`).
-    ReportServerId,
-    /// 0x16 Mask Write Register, §6.16 (feature `extra-fc`).
-    MaskWriteRegister,
-    /// 0x17 Read/Write Multiple Registers, §6.17 (feature `extra-fc`).
-    ReadWriteMultipleRegisters,
-    /// 0x2B Encapsulated Interface Transport, §6.19: MEI type 14, Read Device
-    /// Identification, §6.21 (feature `device-id`).
-    EncapsulatedInterface,
-    /// Any other code: answered with exception 01.
-    Unknown(u8),
-}
+pub use crate::protocol::Exception;
+pub use crate::protocol::FunctionCode;
 
-impl FunctionCode {
-    /// The code for a byte.
-    pub const fn from_u8(code: u8) -> Self {
-        match code {
-            0x01 => FunctionCode::ReadCoils,
-            0x02 => FunctionCode::ReadDiscreteInputs,
-            0x03 => FunctionCode::ReadHoldingRegisters,
-            0x04 => FunctionCode::ReadInputRegisters,
-            0x05 => FunctionCode::WriteSingleCoil,
-            0x06 => FunctionCode::WriteSingleRegister,
-            0x07 => FunctionCode::ReadExceptionStatus,
-            0x08 => FunctionCode::Diagnostics,
-            0x0B => FunctionCode::GetCommEventCounter,
-            0x0F => FunctionCode::WriteMultipleCoils,
-            0x10 => FunctionCode::WriteMultipleRegisters,
-            0x11 => FunctionCode::ReportServerId,
-            0x16 => FunctionCode::MaskWriteRegister,
-            0x17 => FunctionCode::ReadWriteMultipleRegisters,
-            0x2B => FunctionCode::EncapsulatedInterface,
-            other => FunctionCode::Unknown(other),
-        }
-    }
-
-    /// The byte for a code.
-    pub const fn value(self) -> u8 {
-        match self {
-            FunctionCode::ReadCoils => 0x01,
-            FunctionCode::ReadDiscreteInputs => 0x02,
-            FunctionCode::ReadHoldingRegisters => 0x03,
-            FunctionCode::ReadInputRegisters => 0x04,
-            FunctionCode::WriteSingleCoil => 0x05,
-            FunctionCode::WriteSingleRegister => 0x06,
-            FunctionCode::ReadExceptionStatus => 0x07,
-            FunctionCode::Diagnostics => 0x08,
-            FunctionCode::GetCommEventCounter => 0x0B,
-            FunctionCode::WriteMultipleCoils => 0x0F,
-            FunctionCode::WriteMultipleRegisters => 0x10,
-            FunctionCode::ReportServerId => 0x11,
-            FunctionCode::MaskWriteRegister => 0x16,
-            FunctionCode::ReadWriteMultipleRegisters => 0x17,
-            FunctionCode::EncapsulatedInterface => 0x2B,
-            FunctionCode::Unknown(other) => other,
-        }
-    }
-
-    /// True for the serial-line diagnostics, FC 7, 8, 11 (0x0B) and 17 (0x11).
-    pub const fn is_diagnostic(self) -> bool {
-        matches!(
-            self,
-            FunctionCode::ReadExceptionStatus
-                | FunctionCode::Diagnostics
-                | FunctionCode::GetCommEventCounter
-                | FunctionCode::ReportServerId
-        )
-    }
-}
-
-/// An exception code, Application Protocol §7: the reply is the function code with bit 7
-/// set, then this code.
-#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Exception {
-    /// 0x01 Illegal Function: the function code is not supported.
-    IllegalFunction = 0x01,
-    /// 0x02 Illegal Data Address: an address of the range does not exist.
-    IllegalDataAddress = 0x02,
-    /// 0x03 Illegal Data Value: quantity, byte count, value or length is wrong.
-    IllegalDataValue = 0x03,
-    /// 0x04 Server Device Failure: the request was valid but could not be carried out.
-    ServerDeviceFailure = 0x04,
-}
-
-pub use crate::limits::*;
+pub use crate::protocol::limits::*;
 
 /// The largest quantity one read of `table` may ask for: FC 1, 2 and FC 3, 4 (and 23's
 /// read).
@@ -272,13 +164,13 @@ impl Request {
     pub fn parse(pdu: &[u8], len: usize) -> Result<Self, Exception> {
         let code = pdu.first().copied().unwrap_or(0);
         let b = word(pdu, 3);
-        let multiple = code.wrapping_sub(FunctionCode::WriteMultipleCoils.value()) < 2;
+        let multiple = code.wrapping_sub(FunctionCode::WriteMultipleCoils.code()) < 2;
         let single = if multiple { code - 10 } else { code };
-        if single.wrapping_sub(FunctionCode::ReadCoils.value()) > 5 {
+        if single.wrapping_sub(FunctionCode::ReadCoils.code()) > 5 {
             return Err(Exception::IllegalFunction);
         }
-        let coil = single == FunctionCode::WriteSingleCoil.value();
-        let (access, table, max) = if single < FunctionCode::WriteSingleCoil.value() {
+        let coil = single == FunctionCode::WriteSingleCoil.code();
+        let (access, table, max) = if single < FunctionCode::WriteSingleCoil.code() {
             let table = read_table(single);
             (Access::Read, table, max_read(table))
         } else {
@@ -313,7 +205,7 @@ impl Request {
 /// no lookup table.
 fn read_table(code: u8) -> Table {
     let second = code & 0b10 != 0;
-    if code > FunctionCode::ReadDiscreteInputs.value() {
+    if code > FunctionCode::ReadDiscreteInputs.code() {
         if second {
             Table::HoldingRegisters
         } else {
@@ -388,7 +280,7 @@ pub(crate) fn read_response<M: DataModel + ?Sized>(
 pub fn encode_exception(pdu: &mut [u8], exception: Exception) -> usize {
     if let [code, ex, ..] = pdu {
         *code |= 0x80;
-        *ex = exception as u8;
+        *ex = exception.code();
     }
     2
 }

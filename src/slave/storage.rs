@@ -7,10 +7,10 @@
 //! and only the application's `get` and `set` convert.
 
 use crate::error::Error;
+use crate::protocol::reference::Table;
 use crate::slave::model::Access;
 use crate::slave::pdu::device_id::Identification;
 use crate::slave::pdu::Exception;
-use crate::slave::reference::Table;
 
 /// A register's value, big-endian (high byte first), as on the wire.
 pub(crate) type Word = [u8; 2];

@@ -65,7 +65,7 @@ pub fn write_multiple_pdu(function: u8, start: u16, qty: u16, data: &[u8]) -> Ve
 
 /// The slave under test, just after power-up.
 pub fn slave() -> Engine {
-    Engine::new(SlaveId::new(ID).unwrap())
+    Engine::new(SlaveId::new(ID))
 }
 
 /// Sends `frame` as one whole frame and returns the reply, which must exist.

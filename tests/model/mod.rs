@@ -17,13 +17,13 @@
 use std::collections::BTreeMap;
 
 use avr_modbus::internal::{EndOfFrame, Engine, FrameError, UartError};
-use avr_modbus::{Bank, Counters, Reference, SlaveId, Table};
+use avr_modbus::{Bank, Reference, SlaveCounters, SlaveId, Table};
 
 pub use super::common::{reference_crc, with_crc, ID};
 
 /// A slave at [`ID`], just after power-up.
 pub fn slave() -> Engine {
-    Engine::new(SlaveId::new(ID).expect("a unicast id"))
+    Engine::new(SlaveId::new(ID))
 }
 
 /// `Err` with a message unless `cond`.
@@ -85,7 +85,7 @@ pub const EDGES: [u16; 20] = [0, 1, 4, 5, 9, 10, 11, 12, 14, 15, 16, 20, 21, 99,
 #[derive(Clone, Debug, PartialEq)]
 pub struct Model {
     values: BTreeMap<(Table, u16), u16>,
-    counts: Counters,
+    counts: SlaveCounters,
     listen_only: bool,
     /// The objects FC 43 reports (none: the slave offers no identification).
     identity: Option<&'static device_id::Identity>,
@@ -120,7 +120,7 @@ pub fn fixture(salt: u16) -> (RandomBank, Model) {
         }
     }
     let identity = chosen.map(|(_, identity)| identity);
-    (bank, Model { values: model, counts: Counters::new(), listen_only: false, identity })
+    (bank, Model { values: model, counts: SlaveCounters::new(), listen_only: false, identity })
 }
 
 pub fn bump(counter: &mut u16) {
@@ -406,7 +406,7 @@ impl Model {
                 && (pdu[3] == 0 || pdu[3] == 0xFF)
                 && pdu[4] == 0
             {
-                self.counts = Counters::new();
+                self.counts = SlaveCounters::new();
                 self.listen_only = false;
             }
             return (EndOfFrame::Silent, vec![]);
@@ -440,7 +440,7 @@ impl Model {
         }
         bump(&mut self.counts.replies);
         if result.is_ok() && Self::clears_counters(pdu) {
-            self.counts = Counters::new();
+            self.counts = SlaveCounters::new();
         }
         let reply_pdu = result.unwrap_or_else(|code| vec![pdu[0] | 0x80, code]);
         let mut reply = vec![ID];

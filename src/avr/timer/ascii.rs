@@ -66,7 +66,7 @@ impl<U: Unit> FrameTimer<U> {
     /// The framing `config` asks for (feature `ascii`): ASCII's timeout and character end
     /// from it, or RTU. Returns true for ASCII. Both roles start (and the slave switches
     /// settings) through here. Interrupts must be disabled.
-    pub(crate) fn set_mode(&mut self, config: &crate::link::config::Config) -> bool {
+    pub(crate) fn set_mode(&mut self, config: &crate::link::config::Line) -> bool {
         let ascii = config.mode() != crate::link::config::Mode::Rtu;
         self.set_ascii(ascii, config.char_timeout_turns(), config.char_end());
         ascii

@@ -2,7 +2,7 @@
 //! transmission mode, 7 or 8 data bits, the inter-character timeout, and when a frame's
 //! last character has left the line.
 
-use super::{Config, Parity, StopBits};
+use super::{Config, Line, Parity, StopBits};
 use crate::link::timing::{Deadline, TURN_US};
 
 /// How frames travel on the line, Modbus over Serial Line v1.02 §2.5 (feature `ascii`;
@@ -20,37 +20,37 @@ pub enum Mode {
     Ascii8 = 2,
 }
 
-impl Config {
-    /// ASCII's inter-character timeout unless [`Config::with_char_timeout`] says otherwise:
+impl Line {
+    /// ASCII's inter-character timeout unless [`Line::with_char_timeout`] says otherwise:
     /// 1 s, the spec's example (§2.5.2.1).
     pub const ASCII_CHAR_TIMEOUT_MS: u16 = 1000;
 
-    /// An ASCII configuration for a constant (feature `ascii`): 7 data bits, the spec's
-    /// default character format with even parity and one stop bit (7E1); 7O1 and 7N2 are
-    /// the other formats it names. Invalid values stop the build, as with
-    /// [`Config::new`]; [`Config::with_mode`] turns a run-time configuration into an ASCII one.
+    /// An ASCII line for a constant (feature `ascii`): 7 data bits, the spec's default
+    /// character format with even parity and one stop bit (7E1); 7O1 and 7N2 are the
+    /// other formats it names. Invalid values stop the build, as with [`Line::new`];
+    /// [`Line::with_mode`] turns a run-time line into an ASCII one.
     ///
     /// ```
-    /// use avr_modbus::{Config, Mode, Parity, StopBits};
-    /// const CONFIG: Config = Config::ascii(1, 9600, Parity::Even, StopBits::One);
-    /// assert_eq!((CONFIG.mode(), CONFIG.bits_per_char()), (Mode::Ascii, 10));
+    /// use avr_modbus::{Line, Mode, Parity, StopBits};
+    /// const LINE: Line = Line::ascii(9600, Parity::Even, StopBits::One);
+    /// assert_eq!((LINE.mode(), LINE.bits_per_char()), (Mode::Ascii, 10));
     /// ```
-    pub const fn ascii(slave_id: u8, baud: u32, parity: Parity, stop_bits: StopBits) -> Self {
-        Self::new(slave_id, baud, parity, stop_bits).with_mode(Mode::Ascii)
+    pub const fn ascii(baud: u32, parity: Parity, stop_bits: StopBits) -> Self {
+        Self::new(baud, parity, stop_bits).with_mode(Mode::Ascii)
     }
 
     /// The same line in another transmission mode (feature `ascii`): RTU, ASCII with 7 data
     /// bits, or ASCII with 8.
     pub const fn with_mode(self, mode: Mode) -> Self {
-        Config { mode, ..self }
+        Line { mode, ..self }
     }
 
-    /// The same configuration with another ASCII inter-character timeout, in milliseconds
+    /// The same line with another ASCII inter-character timeout, in milliseconds
     /// (feature `ascii`): a frame inside which the line stays silent that long is dropped
     /// and counted as malformed. 0 waits for ever. Timed to a turn of Timer0 or so (1.024 ms,
     /// 2.048 ms at 8 MHz), counted from the last character.
     pub const fn with_char_timeout(self, milliseconds: u16) -> Self {
-        Config { char_timeout: timeout_turns(milliseconds), ..self }
+        Line { char_timeout: timeout_turns(milliseconds), ..self }
     }
 
     /// RTU or ASCII (feature `ascii`).
@@ -78,8 +78,42 @@ impl Config {
     }
 }
 
+impl Config {
+    /// ASCII's inter-character timeout unless [`Config::with_char_timeout`] says otherwise
+    /// ([`Line::ASCII_CHAR_TIMEOUT_MS`]).
+    pub const ASCII_CHAR_TIMEOUT_MS: u16 = Line::ASCII_CHAR_TIMEOUT_MS;
+
+    /// An ASCII configuration for a constant (feature `ascii`): the slave `slave_id` on
+    /// [`Line::ascii`].
+    ///
+    /// ```
+    /// use avr_modbus::{Config, Mode, Parity, StopBits};
+    /// const CONFIG: Config = Config::ascii(1, 9600, Parity::Even, StopBits::One);
+    /// assert_eq!((CONFIG.mode(), CONFIG.line().bits_per_char()), (Mode::Ascii, 10));
+    /// ```
+    pub const fn ascii(slave_id: u8, baud: u32, parity: Parity, stop_bits: StopBits) -> Self {
+        Self::new(slave_id, baud, parity, stop_bits).with_mode(Mode::Ascii)
+    }
+
+    /// The same settings in another transmission mode ([`Line::with_mode`]).
+    pub const fn with_mode(self, mode: Mode) -> Self {
+        self.with_line(self.line().with_mode(mode))
+    }
+
+    /// The same settings with another ASCII inter-character timeout
+    /// ([`Line::with_char_timeout`]).
+    pub const fn with_char_timeout(self, milliseconds: u16) -> Self {
+        self.with_line(self.line().with_char_timeout(milliseconds))
+    }
+
+    /// RTU or ASCII ([`Line::mode`]).
+    pub const fn mode(&self) -> Mode {
+        self.line().mode
+    }
+}
+
 /// Timer0 turns ([`TURN_US`]: 1.024 ms, 2.048 ms at 8 MHz) for an ASCII timeout of
-/// `milliseconds`, rounded up: the pair kept in [`Config`].
+/// `milliseconds`, rounded up: the pair kept in [`Line`].
 pub(super) const fn timeout_turns(milliseconds: u16) -> (u16, u16) {
     let turns = (milliseconds as u32 * 1000).div_ceil(TURN_US);
     (milliseconds, turns as u16)
@@ -93,7 +127,7 @@ mod tests {
     #[test]
     fn ascii_timeout_is_whole_timer0_turns_rounded_up() {
         // A turn is 1.024 ms at 16 MHz, 2.048 ms at 8 MHz (feature clock-8mhz).
-        let turns = |ms| Config::new(1, 9600, Parity::Even, StopBits::One).with_char_timeout(ms).char_timeout_turns();
+        let turns = |ms| Line::new(9600, Parity::Even, StopBits::One).with_char_timeout(ms).char_timeout_turns();
         let per_turn = TURN_US;
         assert_eq!(u32::from(turns(1000)), (1_000_000u32).div_ceil(per_turn)); // 977 or 489
         assert_eq!(turns(0), 0);

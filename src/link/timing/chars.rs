@@ -58,10 +58,10 @@ impl CharTimes {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Config, Parity, StopBits};
+    use crate::{Line, Parity, StopBits};
 
     fn times(baud: u32, parity: Parity, stop: StopBits) -> CharTimes {
-        Config::new(1, baud, parity, stop).char_times()
+        Line::new(baud, parity, stop).char_times()
     }
 
     #[test]

@@ -262,18 +262,18 @@ impl Schedule {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Config, Parity, StopBits};
+    use crate::{Line, Parity, StopBits};
 
     const MHZ16: u32 = 16_000_000;
 
     #[cfg(not(feature = "clock-8mhz"))]
     fn times(baud: u32, parity: Parity, stop: StopBits) -> CharTimes {
-        Config::new(1, baud, parity, stop).char_times()
+        Line::new(baud, parity, stop).char_times()
     }
 
     #[cfg(not(feature = "clock-8mhz"))]
     fn plan(baud: u32, parity: Parity, stop: StopBits) -> TimerPlan {
-        Config::new(1, baud, parity, stop).timer_plan()
+        Line::new(baud, parity, stop).timer_plan()
     }
 
     #[cfg(not(feature = "clock-8mhz"))]
@@ -341,7 +341,7 @@ mod tests {
     #[cfg(feature = "clock-8mhz")]
     #[test]
     fn t35_at_19200_8e1_at_8_mhz_worked_example() {
-        let plan = Config::new(1, 19_200, Parity::Even, StopBits::One).timer_plan();
+        let plan = Line::new(19_200, Parity::Even, StopBits::One).timer_plan();
         // 2 005 209 ns = 16 041.7 → 16 042 cycles after the character's end, which comes
         // half a bit (UBRR0 25: 416-cycle bits) after RXC0: 16 250 cycles after the flag; 21
         // of them before the read: 16 229 = 253.58 ticks → 254 edges after the first one,

@@ -5,8 +5,8 @@ use super::{
     range_check, read_response, value_check, word, written_values_check, Exception, FunctionCode, MAX_READ_REGISTERS,
     MAX_READ_WRITE_REGISTERS,
 };
+use crate::protocol::reference::Table;
 use crate::slave::model::{Access, DataModel};
-use crate::slave::reference::Table;
 
 /// The feature is on: the engine sends FC 22 and 23 here.
 pub(crate) const ENABLED: bool = true;
@@ -27,7 +27,7 @@ pub fn respond<M: DataModel + ?Sized>(
 ) -> Result<usize, Exception> {
     let request = pdu.get(..len).ok_or(Exception::ServerDeviceFailure)?;
     let (start, b) = (word(request, 1), word(request, 3));
-    if request.first().copied() == Some(FunctionCode::MaskWriteRegister.value()) {
+    if request.first().copied() == Some(FunctionCode::MaskWriteRegister.code()) {
         value_check(len == 7)?;
         let (and_mask, or_mask) = (b, word(request, 5));
         let mut value = [0; 2];

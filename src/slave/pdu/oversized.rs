@@ -10,8 +10,8 @@
 //! the model would.
 
 use super::Exception;
+use crate::protocol::reference::Table;
 use crate::slave::model::DataModel;
-use crate::slave::reference::Table;
 
 /// The exception for a request of `qty` values of `table` from `start` that does not fit
 /// the buffer, its request or its response: the model sized the buffer for its longest

@@ -168,7 +168,7 @@ impl LineSettings {
     /// (two 32-bit divisions and a few 64-bit products), not the timer plan: cheap enough
     /// for the interrupt that answers the write.
     pub fn is_runnable(&self) -> bool {
-        SlaveId::new(self.slave_id).is_ok()
+        SlaveId::try_new(self.slave_id).is_ok()
             && (Config::MIN_BAUD..=Config::MAX_BAUD).contains(&self.baud)
             && BaudDivisor::new(self.baud, CLOCK_HZ).is_some()
     }

@@ -4,9 +4,9 @@
 use super::block::{LineSettings, BLOCK_LEN};
 use crate::error::Error;
 use crate::link::config::Config;
+use crate::protocol::reference::{IntoReference, Reference, Table};
 use crate::slave::model::DataModel;
 use crate::slave::pdu::Exception;
-use crate::slave::reference::{IntoReference, Reference, Table};
 
 /// A data model with a settings block: holding registers `first`..`first + 3` hold the
 /// line settings (see the module documentation), every other address is `M`'s.
