@@ -218,7 +218,7 @@ LINTED := RUSTC_WORKSPACE_WRAPPER=clippy-driver RUSTFLAGS="-D warnings"
 # The edit loop: format, the tools' lints, and the host tests linted as they build.
 check: fmt-check clippy-tools unit
 
-# Every single feature and the combinations the README names, compiled and linted without
+# Every single feature and the combinations users build, compiled and linted without
 # building a test: the library for the host and for the Uno (.ci/feature-matrix), then the
 # Uno's examples with every feature and the Mega's gateway.
 FEATURE_COMBOS := $(ALL_FEATURES) $(ALL_FEATURES),clock-8mhz master,ascii master,ufmt eeprom-settings,ascii \

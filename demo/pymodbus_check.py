@@ -18,7 +18,7 @@ Written for pymodbus 3.0 (Debian 12's python3-pymodbus); `slave=` is passed ever
 the second tcsetattr with parity fails with EINVAL. Even then, parity E or O works only for
 the first pyserial connection to a pty: pyserial leaves the pty at the new speed, and the
 next connection's tcsetattr, whose only change is PARENB, fails the same way. Users of the
-virtual Uno set parity N instead (README, "Python masters").
+virtual Uno set parity N instead (docs/masters.md, "Python masters").
 """
 
 import argparse

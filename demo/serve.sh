@@ -53,7 +53,7 @@ settings() {
   local baud=${1%% *} format=${1#* }
   local parity python_parity python_note strict=""
   case ${format:1:1} in N) parity=None ;; E) parity=Even ;; O) parity=Odd ;; *) parity=${format:1:1} ;; esac
-  # pyserial and a pty's missing parity bit: README, "Python masters".
+  # pyserial and a pty's missing parity bit: docs/masters.md, "Python masters".
   case ${format:1:1} in
     N) python_parity=N python_note="as the slave" ;;
     E) python_parity=N python_note="not E: pyserial gets EINVAL setting even parity on a pty; none is served like even" ;;

@@ -57,6 +57,28 @@ pub use slave::pdu::device_id::Identification;
 pub use slave::settings::Configurable;
 pub use wide::{Wide, WordOrder};
 
+/// The guides in `docs/`, the depth behind the README (documentation only: each guide's
+/// Rust blocks are doctests, so that they keep up with the API).
+#[cfg(any(doc, doctest))]
+pub mod guide {
+    #[doc = include_str!("../docs/slave.md")]
+    pub mod slave {}
+    #[doc = include_str!("../docs/master.md")]
+    pub mod master {}
+    #[doc = include_str!("../docs/real-board.md")]
+    pub mod real_board {}
+    #[doc = include_str!("../docs/masters.md")]
+    pub mod masters {}
+    #[doc = include_str!("../docs/virtual-boards.md")]
+    pub mod virtual_boards {}
+    #[doc = include_str!("../docs/serial-line.md")]
+    pub mod serial_line {}
+    #[doc = include_str!("../docs/ascii.md")]
+    pub mod ascii {}
+    #[doc = include_str!("../docs/recovering.md")]
+    pub mod recovering {}
+}
+
 /// The protocol engine's parts, for this crate's tests, simulator and benchmarks: not
 /// part of the API, and they change without notice.
 #[doc(hidden)]

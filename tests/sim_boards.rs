@@ -119,7 +119,7 @@ fn bad_input(rtu: &mut Rtu, what: &str) {
 }
 
 /// The reply starts T3.5 after the request at the earliest, and within 25 µs of it (Timer0's
-/// two ticks of resolution and the compare interrupt's cycles, README "Serial line"), for
+/// two ticks of resolution and the compare interrupt's cycles, docs/serial-line.md), for
 /// requests that end at every phase of Timer0's tick while the main loop runs; the LED is
 /// lit from the reply's start and dark once it has left.
 fn reply_timing_and_led(rtu: &mut Rtu, chip: Chip, what: &str) {

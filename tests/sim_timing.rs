@@ -105,7 +105,7 @@ fn at_115200_gap_of_t15_minus_2_ticks_inside_a_frame_is_accepted() {
     gap_inside_frame_is_accepted(rtu, gap);
 }
 
-/// The README's rule at its edge: a gap of exactly T1.5 never breaks a frame.
+/// The rule docs/serial-line.md states, at its edge: a gap of exactly T1.5 never breaks a frame.
 #[test]
 fn at_19200_gap_of_exactly_t15_inside_a_frame_is_accepted() {
     let rtu = at_19200();

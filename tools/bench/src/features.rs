@@ -80,3 +80,24 @@ pub(crate) fn feature_costs(root: &Path) -> Vec<FeatureCost> {
     });
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `make bench` compares each feature's cost with the README's feature table: every
+    /// feature it measures must find its row and figure there.
+    #[test]
+    fn readme_names_a_cost_for_every_feature_measured() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+        for feature in FEATURES {
+            let claim = readme_claim(&root, feature, false);
+            assert!(claim.is_some_and(|(_, figure)| figure > 0), "no \"+N B\" in the README's row for `{feature}`");
+        }
+        let total = readme_claim(&root, "eeprom-settings", true);
+        assert!(
+            total.is_some_and(|(_, figure)| figure > 0),
+            "no \"N B in all\" in the README's row for `eeprom-settings`"
+        );
+    }
+}

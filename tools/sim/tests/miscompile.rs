@@ -50,7 +50,7 @@ fn the_buffer_on_the_stack_is_miscompiled_and_the_check_names_the_read() {
         from_register,
         expected(),
         "the firmware computed the right value: this toolchain no longer miscompiles the fixture \
-         (update the README's toolchain note and find a new reproducer)"
+         (update the toolchain note in docs/slave.md and find a new reproducer)"
     );
     let (passed, out) = check(&elf);
     assert!(!passed, "the check missed the miscompiled read:\n{out}");

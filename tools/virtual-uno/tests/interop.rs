@@ -393,9 +393,9 @@ fn minimalmodbus_runs_every_function_code_exception_02_broadcast_and_300_reads()
     assert!(ok, "minimalmodbus_check.py failed (python: {})\n{}", python(), transcript(&out, &uno));
 }
 
-/// What the README tells Python users: on a Linux pty, setting even parity on an open port
+/// What docs/masters.md tells Python users: on a Linux pty, setting even parity on an open port
 /// (minimalmodbus's way) fails with EINVAL, because the pty drops PARENB and glibc reports a
-/// tcsetattr that changed nothing. If this test fails, the README's advice is out of date.
+/// tcsetattr that changed nothing. If this test fails, that guide's advice is out of date.
 #[test]
 fn minimalmodbus_cannot_set_even_parity_on_a_pty() {
     let _one = serialise();
