@@ -227,7 +227,8 @@ impl Span {
 /// of exactly the classic references listed, each a single reference or a range
 /// `first..=last`, in any order. It implements [`crate::DataModel`], so
 /// `slave!` takes it, and has `new()` (every value 0), `get`, `set`,
-/// `contains`, `master_writes`, `set_exception_status` and `set_device_info`, as
+/// `contains`, `master_writes`, and with their features `set_exception_status`,
+/// `set_device_info` (`diagnostics`) and `set_identification` (`device-id`), as
 /// [`crate::Bank`] does.
 ///
 /// ```
@@ -276,6 +277,18 @@ impl Span {
 /// }
 /// let _ = Overlapping::new();
 /// ```
+#[cfg_attr(
+    not(feature = "diagnostics"),
+    doc = r#"
+Without feature `diagnostics` there is no FC 7, and no setter of its status bits that would
+keep nothing:
+
+```compile_fail,E0599
+avr_modbus::register_map! { struct Registers { 40001 } }
+Registers::new().set_exception_status(0b1010);
+```
+"#
+)]
 #[macro_export]
 macro_rules! register_map {
     ($(#[$attr:meta])* $vis:vis struct $name:ident { $($first:literal $(..= $last:literal)? $(as $wide:ident)?),+ $(,)? }) => {
@@ -366,27 +379,8 @@ macro_rules! register_map {
                 self.0.master_writes()
             }
 
-            /// Sets the eight status bits FC 7 (Read Exception Status) reports (feature
-            /// `diagnostics`; without it there is no FC 7 and nothing is kept).
-            #[allow(dead_code)]
-            $vis fn set_exception_status(&mut self, bits: u8) {
-                self.0.set_exception_status(bits);
-            }
-
-            /// Sets the device description FC 17 (0x11, Report Server ID) reports (feature
-            /// `diagnostics`; without it there is no FC 17 and nothing is kept).
-            #[allow(dead_code)]
-            $vis fn set_device_info(&mut self, info: &'static [u8]) {
-                self.0.set_device_info(info);
-            }
-
-            /// Sets the objects FC 43 / MEI 14 (Read Device Identification) reports, declared
-            /// with `identification!` (feature `device-id`; without it there is no FC 43
-            /// and nothing is kept).
-            #[allow(dead_code)]
-            $vis fn set_identification(&mut self, identification: &'static $crate::Identification) {
-                self.0.set_identification(identification);
-            }
+            $crate::__map_diagnostics!($vis);
+            $crate::__map_device_id!($vis);
         }
 
         impl $crate::DataModel for $name {
@@ -538,4 +532,61 @@ mod tests {
     fn a_range_across_two_tables_is_refused() {
         Layout::check(&[(30_001, 40_002)]);
     }
+}
+
+/// The map's FC 7 and FC 17 setters, [`register_map!`]'s part that only feature
+/// `diagnostics` has: a macro of this crate, so that the feature it follows is this
+/// crate's, not the firmware's (without it a map has no such setter, rather than one that
+/// does nothing).
+#[cfg(feature = "diagnostics")]
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __map_diagnostics {
+    ($vis:vis) => {
+        /// Sets the eight status bits FC 7 (Read Exception Status) reports (feature
+        /// `diagnostics`).
+        #[allow(dead_code)]
+        $vis fn set_exception_status(&mut self, bits: u8) {
+            self.0.set_exception_status(bits);
+        }
+
+        /// Sets the device description FC 17 (0x11, Report Server ID) reports (feature
+        /// `diagnostics`).
+        #[allow(dead_code)]
+        $vis fn set_device_info(&mut self, info: &'static [u8]) {
+            self.0.set_device_info(info);
+        }
+    };
+}
+
+/// Without feature `diagnostics`: no FC 7 and FC 17 setters.
+#[cfg(not(feature = "diagnostics"))]
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __map_diagnostics {
+    ($vis:vis) => {};
+}
+
+/// The map's FC 43 setter, [`register_map!`]'s part that only feature `device-id` has (see
+/// `__map_diagnostics`).
+#[cfg(feature = "device-id")]
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __map_device_id {
+    ($vis:vis) => {
+        /// Sets the objects FC 43 / MEI 14 (Read Device Identification) reports, declared
+        /// with `identification!` (feature `device-id`).
+        #[allow(dead_code)]
+        $vis fn set_identification(&mut self, identification: &'static $crate::Identification) {
+            self.0.set_identification(identification);
+        }
+    };
+}
+
+/// Without feature `device-id`: no FC 43 setter.
+#[cfg(not(feature = "device-id"))]
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __map_device_id {
+    ($vis:vis) => {};
 }

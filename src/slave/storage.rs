@@ -361,22 +361,16 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
         &[]
     }
 
-    /// Sets FC 7's status bits (nothing without feature `diagnostics`).
+    /// Sets FC 7's status bits (feature `diagnostics`).
+    #[cfg(feature = "diagnostics")]
     pub fn set_exception_status(&mut self, bits: u8) {
-        #[cfg(feature = "diagnostics")]
-        {
-            self.exception_status = bits;
-        }
-        let _ = bits;
+        self.exception_status = bits;
     }
 
-    /// Sets FC 17's device description (nothing without feature `diagnostics`).
+    /// Sets FC 17's device description (feature `diagnostics`).
+    #[cfg(feature = "diagnostics")]
     pub fn set_device_info(&mut self, info: &'static [u8]) {
-        #[cfg(feature = "diagnostics")]
-        {
-            self.device_info = info;
-        }
-        let _ = info;
+        self.device_info = info;
     }
 
     /// FC 43's objects (none without feature `device-id`).
@@ -388,12 +382,9 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
         None
     }
 
-    /// Sets FC 43's objects (nothing without feature `device-id`).
+    /// Sets FC 43's objects (feature `device-id`).
+    #[cfg(feature = "device-id")]
     pub fn set_identification(&mut self, identification: &'static Identification) {
-        #[cfg(feature = "device-id")]
-        {
-            self.identification = Some(identification);
-        }
-        let _ = identification;
+        self.identification = Some(identification);
     }
 }
