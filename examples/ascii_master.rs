@@ -59,9 +59,9 @@ fn ask<R>(slave: SlaveId, request: &Request<'_>, f: impl FnOnce(Result<Reply<'_>
 
 #[avr_device::entry]
 fn main() -> ! {
-    // SAFETY: the only place that takes the peripherals, and it runs once.
-    #[allow(unsafe_code)]
-    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
+    let Some(dp) = avr_device::atmega328p::Peripherals::take() else {
+        avr_modbus::board::halt(avr_modbus::Error::AlreadyStarted)
+    };
     if let Err(error) = MASTER.start(LINE, dp.USART0, dp.TC0) {
         board::halt(error);
     }

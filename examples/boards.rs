@@ -89,9 +89,7 @@ avr_modbus::slave!(SLAVE on USART3: Model, NoPin, board::Pin);
 
 #[avr_device::entry]
 fn main() -> ! {
-    // SAFETY: the only place that takes the peripherals, and it runs once.
-    #[allow(unsafe_code)]
-    let dp = unsafe { pac::Peripherals::steal() };
+    let Some(dp) = pac::Peripherals::take() else { avr_modbus::board::halt(avr_modbus::Error::AlreadyStarted) };
     #[cfg(not(avr_chip = "atmega32u4"))]
     let led_port = dp.PORTB;
     #[cfg(avr_chip = "atmega32u4")]

@@ -135,9 +135,9 @@ fn start(dp: avr_device::atmega328p::Peripherals) -> Result<Eeprom, Error> {
 
 #[avr_device::entry]
 fn main() -> ! {
-    // SAFETY: the only place that takes the peripherals, and it runs once.
-    #[allow(unsafe_code)]
-    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
+    let Some(dp) = avr_device::atmega328p::Peripherals::take() else {
+        avr_modbus::board::halt(avr_modbus::Error::AlreadyStarted)
+    };
     let mut eeprom = match start(dp) {
         Ok(eeprom) => eeprom,
         Err(error) => board::halt(error),

@@ -54,9 +54,7 @@ avr_modbus::master!(MASTER on USART1: 25, Pin, NoPin);
 
 #[avr_device::entry]
 fn main() -> ! {
-    // SAFETY: the only place that takes the peripherals, and it runs once.
-    #[allow(unsafe_code)]
-    let dp = unsafe { pac::Peripherals::steal() };
+    let Some(dp) = pac::Peripherals::take() else { avr_modbus::board::halt(avr_modbus::Error::AlreadyStarted) };
     // The Mega's pin 13 (PB7, the LED "L", which then shows the field line's requests):
     // the transceiver's DE and /RE.
     let driver_enable = match board::led(dp.PORTB) {

@@ -48,9 +48,9 @@ avr_modbus::slave!(SLAVE: Bits, Pin, Pin);
 
 #[avr_device::entry]
 fn main() -> ! {
-    // SAFETY: the only place that takes the peripherals, and it runs once.
-    #[allow(unsafe_code)]
-    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
+    let Some(dp) = avr_device::atmega328p::Peripherals::take() else {
+        avr_modbus::board::halt(avr_modbus::Error::AlreadyStarted)
+    };
     let pins = match Pins::new(dp.PORTB, dp.PORTC, dp.PORTD) {
         Ok(pins) => pins,
         Err(error) => board::halt(error),

@@ -56,9 +56,7 @@ avr_modbus::master!(MASTER on USART3: 25);
 
 #[avr_device::entry]
 fn main() -> ! {
-    // SAFETY: the only place that takes the peripherals, and it runs once.
-    #[allow(unsafe_code)]
-    let dp = unsafe { pac::Peripherals::steal() };
+    let Some(dp) = pac::Peripherals::take() else { avr_modbus::board::halt(avr_modbus::Error::AlreadyStarted) };
     #[cfg(not(any(example_usart = "1", example_usart = "2", example_usart = "3")))]
     let usart = {
         #[cfg(not(avr_chip = "atmega32u4"))]

@@ -37,9 +37,9 @@ avr_modbus::slave!(SLAVE: Registers);
 
 #[avr_device::entry]
 fn main() -> ! {
-    // SAFETY: the only place that takes the peripherals, and it runs once.
-    #[allow(unsafe_code)]
-    let dp = unsafe { avr_device::atmega328p::Peripherals::steal() };
+    let Some(dp) = avr_device::atmega328p::Peripherals::take() else {
+        avr_modbus::board::halt(avr_modbus::Error::AlreadyStarted)
+    };
     if let Err(error) = SLAVE.start(CONFIG, dp.USART0, dp.TC0, Registers::new()) {
         board::halt(error);
     }

@@ -8,7 +8,7 @@
 #![cfg_attr(docsrs, feature(doc_cfg))]
 #![cfg_attr(docsrs, doc(auto_cfg(hide(docsrs))))]
 
-// The AVR layer (`Slave`, `slave!`, `Master`, `master!`, `board`, `millis`, `NoPin`) is the
+// The AVR layer (`Slave`, `slave!`, `Master`, `master!`, `Eeprom`, `millis`, `NoPin`) is the
 // firmware's: only an AVR build compiles it. docs.rs documents a crate for a host target (it
 // takes its targets from rustup, which has none for the AVR), so given `--cfg docsrs`
 // rustdoc documents the layer on the host too: the module itself, its real signatures and
@@ -33,15 +33,21 @@ mod wide;
 #[cfg(target_arch = "avr")]
 #[doc(hidden)]
 pub use avr::__private;
+#[cfg(all(target_arch = "avr", feature = "examples"))]
+#[doc(hidden)]
+pub use avr::board;
 #[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "millis"))]
 #[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "millis"))))]
 pub use avr::millis;
+#[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "eeprom-settings"))]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "eeprom-settings"))))]
+pub use avr::Eeprom;
 #[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "master"))]
 #[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "master"))))]
 pub use avr::Master;
 #[cfg(any(target_arch = "avr", all(doc, docsrs)))]
 #[cfg_attr(docsrs, doc(cfg(target_arch = "avr")))]
-pub use avr::{board, NoPin, Slave};
+pub use avr::{NoPin, Slave};
 pub use error::Error;
 #[cfg(feature = "ascii")]
 pub use link::config::Mode;

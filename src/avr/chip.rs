@@ -15,9 +15,11 @@ pub(crate) struct Chip {
     /// number; `None` where the chip has no such USART.
     pub(crate) usarts: [Option<usize>; 4],
     /// The EEPROM's size in bytes.
+    #[cfg_attr(not(any(feature = "examples", feature = "eeprom-settings")), allow(dead_code))]
     pub(crate) eeprom_size: u16,
     /// The on-board LED "L" of the chip's Arduino boards: the data-space address of its
-    /// port's PINx register (DDRx and PORTx follow), and its bit.
+    /// port's PINx register (DDRx and PORTx follow), and its bit (the examples' `board`).
+    #[cfg_attr(not(feature = "examples"), allow(dead_code))]
     pub(crate) led: (usize, u8),
 }
 

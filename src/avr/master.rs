@@ -11,7 +11,7 @@ use core::ops::Deref;
 use embedded_hal::digital::OutputPin;
 
 use super::clock;
-use super::pins::NoPin;
+use super::no_pin::NoPin;
 use super::receive::receive;
 use super::started::{open_line, Started};
 use super::timer::{FrameTimer, Passed, A};

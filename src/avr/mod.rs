@@ -8,7 +8,8 @@
 //! The link: `usart`, `receive` (a character to either role), `timer` (Timer0's deadlines,
 //! a compare unit each role), `clock` (`millis()`), `started` (the cell a role lives in),
 //! `reg`, `mem`. The roles: `slave`,
-//! `master`. The board, for firmware without a HAL: `pins`, `adc`, `eeprom`.
+//! `master`. The EEPROM (`eeprom`, where `eeprom-settings` keeps the line settings), and for
+//! this repository's examples the board without a HAL: `pins`, `adc`.
 //!
 //! Everything here is thin: register writes and reads, and calls into the pure core. A
 //! role takes the USART and `TC0` the application gets from its HAL's
@@ -16,7 +17,8 @@
 //! their registers by address, so no PAC version is part of this crate's API.
 #![allow(unsafe_code)]
 
-mod adc;
+#[cfg(feature = "examples")]
+pub mod board;
 // `__chip!` is written into this module by build.rs (an `include!`): the crate's own code
 // names it in textual scope, `__chip!`, as a macro-expanded `#[macro_export]` macro cannot be
 // named by its path inside the crate that defines it.
@@ -31,11 +33,12 @@ mod clock {
     /// TIMSK0's overflow interrupt enable, not set.
     pub(crate) const OVERFLOW_INTERRUPT: u8 = 0;
 }
+#[cfg(any(feature = "examples", feature = "eeprom-settings"))]
 mod eeprom;
 #[cfg(feature = "master")]
 mod master;
 mod mem;
-mod pins;
+mod no_pin;
 mod receive;
 mod reg;
 mod slave;
@@ -43,20 +46,12 @@ mod started;
 mod timer;
 mod usart;
 
+#[cfg(feature = "eeprom-settings")]
+pub use eeprom::Eeprom;
 #[cfg(feature = "master")]
 pub use master::Master;
-pub use pins::NoPin;
+pub use no_pin::NoPin;
 pub use slave::Slave;
-
-/// Small drivers for firmware written without a HAL (this crate's examples): the Uno's
-/// pins by their board names and the ADC (ATmega328P and ATmega168 only: their numbering
-/// is the Uno's), the EEPROM and the board's LED (every chip). With arduino-hal, use its
-/// `pins!`, `Adc` and `Eeprom` instead; the slave takes arduino-hal's pins as they are.
-pub mod board {
-    pub use super::adc::Adc;
-    pub use super::eeprom::Eeprom;
-    pub use super::pins::{halt, led, Pin, Pins};
-}
 
 /// Milliseconds since the slave started, wrapping after 49.7 days: Arduino's `millis()`
 /// (feature `millis`), kept by Timer0, which the slave owns and runs freely at clk/64 (an

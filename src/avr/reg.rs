@@ -54,14 +54,19 @@ pub(crate) const USART_SIZE: usize = 7;
 /// Timer0: TIFR0 (0x35) to TIMSK0 (0x6E).
 pub(crate) const TC0: (usize, usize) = (0x35, 0x3A);
 /// Port B: PINB, DDRB, PORTB.
+#[cfg(feature = "examples")]
 pub(crate) const PORTB: (usize, usize) = (0x23, 3);
 /// Port C.
+#[cfg(feature = "examples")]
 pub(crate) const PORTC: (usize, usize) = (0x26, 3);
 /// Port D.
+#[cfg(feature = "examples")]
 pub(crate) const PORTD: (usize, usize) = (0x29, 3);
 /// The ADC: ADCL (0x78) to DIDR0 (0x7E).
+#[cfg(feature = "examples")]
 pub(crate) const ADC: (usize, usize) = (0x78, 7);
 /// The EEPROM: EECR (0x3F) to EEARH (0x42).
+#[cfg(any(feature = "examples", feature = "eeprom-settings"))]
 pub(crate) const EEPROM: (usize, usize) = (0x3F, 4);
 
 /// Takes a peripheral from the application's PAC (`avr-device`, any version: its
@@ -98,21 +103,29 @@ pub(crate) const OCR0B: Reg = Reg(0x48);
 pub(crate) const TIMSK0: Reg = Reg(0x6E);
 
 /// EEPROM control.
+#[cfg(any(feature = "examples", feature = "eeprom-settings"))]
 pub(crate) const EECR: Reg = Reg(0x3F);
 /// EEPROM data.
+#[cfg(any(feature = "examples", feature = "eeprom-settings"))]
 pub(crate) const EEDR: Reg = Reg(0x40);
 /// EEPROM address, low byte.
+#[cfg(any(feature = "examples", feature = "eeprom-settings"))]
 pub(crate) const EEARL: Reg = Reg(0x41);
 /// EEPROM address, high byte.
+#[cfg(any(feature = "examples", feature = "eeprom-settings"))]
 pub(crate) const EEARH: Reg = Reg(0x42);
 
 /// ADC result, low byte (read it first: that locks the high byte).
+#[cfg(feature = "examples")]
 pub(crate) const ADCL: Reg = Reg(0x78);
 /// ADC result, high byte.
+#[cfg(feature = "examples")]
 pub(crate) const ADCH: Reg = Reg(0x79);
 /// ADC control and status A.
+#[cfg(feature = "examples")]
 pub(crate) const ADCSRA: Reg = Reg(0x7A);
 /// ADC multiplexer selection.
+#[cfg(feature = "examples")]
 pub(crate) const ADMUX: Reg = Reg(0x7C);
 
 /// Status register; bit 7 is the global interrupt enable.

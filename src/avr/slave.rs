@@ -7,7 +7,7 @@ use core::ops::Deref;
 
 use embedded_hal::digital::OutputPin;
 
-use super::pins::NoPin;
+use super::no_pin::NoPin;
 use super::receive::receive;
 use super::reg;
 use super::started::{open_line, Started};

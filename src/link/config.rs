@@ -43,7 +43,7 @@ pub enum StopBits {
 /// The line's settings, Modbus over Serial Line v1.02 §2.5.1: baud rate, parity, stop bits
 /// (and, with feature `ascii`, the transmission mode), with the USART divisor and the
 /// Timer0 plan worked out from them in a `const`: the firmware does no division at run
-/// time. What a master starts with ([`crate::Master::start`]); a slave's [`Config`] is one
+/// time. What a master starts with (`Master::start`); a slave's [`Config`] is one
 /// of these and its address.
 ///
 /// ```

@@ -4,8 +4,8 @@
 
 use crate::error::Error;
 
-/// A slave's address: 1–247. A master sends to one ([`crate::Master::send`]) or to all
-/// ([`crate::Master::broadcast`]); a slave answers its own.
+/// A slave's address: 1–247. A master sends to one (`Master::send`) or to all
+/// (`Master::broadcast`); a slave answers its own.
 ///
 /// [`SlaveId::new`] is for constants, where a bad id stops the build; [`SlaveId::try_new`]
 /// for ids read at run time.

@@ -3,7 +3,7 @@
 
 use core::ops::Deref;
 
-use super::reg::{self, claim, ADCH, ADCL, ADCSRA, ADMUX};
+use super::super::reg::{self, claim, ADCH, ADCL, ADCSRA, ADMUX};
 use crate::error::Error;
 
 const REFS_AVCC: u8 = 0b01 << 6;

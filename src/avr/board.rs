@@ -1,6 +1,12 @@
-//! The Uno's digital pins, ATmega328P datasheet §14 (I/O ports): just enough for the
-//! communication LED, an RS-485 driver-enable pin and the examples' LEDs and switches,
-//! through the `embedded-hal` 1.0 pin traits (an `arduino-hal` pin works the same).
+//! Small drivers for this repository's examples, written without a HAL (feature
+//! `examples`; not part of the API): the Uno's digital pins, ATmega328P datasheet §14 (I/O
+//! ports), through the `embedded-hal` 1.0 pin traits (an `arduino-hal` pin works the same),
+//! the board's LED, the ADC (`adc`) and the EEPROM.
+
+mod adc;
+
+pub use super::eeprom::Eeprom;
+pub use adc::Adc;
 
 use core::convert::Infallible;
 use core::ops::Deref;
@@ -117,23 +123,6 @@ impl InputPin for Pin {
 
     fn is_low(&mut self) -> Result<bool, Infallible> {
         Ok(!Pin::is_high(self))
-    }
-}
-
-/// A pin that isn't there: for a slave without a communication LED or driver enable.
-pub struct NoPin;
-
-impl ErrorType for NoPin {
-    type Error = Infallible;
-}
-
-impl OutputPin for NoPin {
-    fn set_low(&mut self) -> Result<(), Infallible> {
-        Ok(())
-    }
-
-    fn set_high(&mut self) -> Result<(), Infallible> {
-        Ok(())
     }
 }
 
