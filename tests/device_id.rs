@@ -19,9 +19,14 @@ avr_modbus::identification! {
     };
 }
 
+/// The map with `identification`'s objects; without the feature a map has no setter for
+/// them, and so no objects.
 fn map(identification: &'static avr_modbus::Identification) -> Registers {
+    #[allow(unused_mut)]
     let mut map = Registers::new();
+    #[cfg(feature = "device-id")]
     map.set_identification(identification);
+    let _ = identification;
     map
 }
 

@@ -63,8 +63,8 @@ fn writing_the_mode_switches_to_ascii_after_the_reply_keeping_the_line() {
     // The reply goes out in the old mode, RTU.
     assert_eq!(ask(&mut slave(), &mut model, &write), write);
     let new = switch(&mut model).expect("settings to switch to");
-    assert_eq!((new.mode(), new.baud(), new.parity(), new.data_bits()), (Mode::Ascii, 19_200, Parity::Even, 7));
-    assert_eq!(new.char_timeout_ms(), Config::ASCII_CHAR_TIMEOUT_MS);
+    assert_eq!((new.mode(), new.baud(), new.parity(), new.line().data_bits()), (Mode::Ascii, 19_200, Parity::Even, 7));
+    assert_eq!(new.line().char_timeout_ms(), Config::ASCII_CHAR_TIMEOUT_MS);
     assert_eq!(model.get(40105), Ok(1));
     assert_eq!(model.take_unsaved(), Some(new));
 }

@@ -483,57 +483,6 @@ macro_rules! __range {
     };
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_longest_run_counts_touching_ranges_as_one_in_their_table() {
-        let ranges = [(40_101, 40_105), (40_106, 40_110), (40_201, 40_203), (1, 16), (30_001, 30_002)];
-        assert_eq!(Layout::longest_run(&ranges, Table::HoldingRegisters), 10);
-        assert_eq!(Layout::longest_run(&ranges, Table::Coils), 16);
-        assert_eq!(Layout::longest_run(&ranges, Table::InputRegisters), 2);
-        assert_eq!(Layout::longest_run(&ranges, Table::DiscreteInputs), 0);
-    }
-
-    #[test]
-    fn a_write_cuts_a_pair_when_it_starts_on_its_second_register_or_ends_on_its_first() {
-        // Holding registers 10..=13: the pairs 10–11 and 12–13.
-        let pairs = [None, Some((Table::HoldingRegisters, 10, 13))];
-        let cuts = |start, qty| Layout::cuts_pair(&pairs, Table::HoldingRegisters, start, qty);
-        for (start, qty) in [(10, 1), (11, 1), (12, 1), (13, 1), (9, 2), (11, 2), (10, 3), (13, 2)] {
-            assert!(cuts(start, qty), "{start} × {qty}");
-        }
-        for (start, qty) in [(10, 2), (12, 2), (10, 4), (8, 2), (9, 5), (14, 1), (0, 10)] {
-            assert!(!cuts(start, qty), "{start} × {qty}");
-        }
-        assert!(!Layout::cuts_pair(&pairs, Table::InputRegisters, 11, 1));
-    }
-
-    #[test]
-    #[should_panic(expected = "two ranges overlap")]
-    fn overlapping_ranges_are_refused() {
-        Layout::check(&[(40_001, 40_010), (40_010, 40_020)]);
-    }
-
-    #[test]
-    fn ranges_of_one_address_each_side_by_side_or_in_two_tables_are_taken() {
-        Layout::check(&[(40_001, 40_001), (40_002, 40_002), (30_001, 30_002), (1, 2)]);
-    }
-
-    #[test]
-    #[should_panic(expected = "in one table")]
-    fn a_range_that_runs_backwards_is_refused() {
-        Layout::check(&[(40_010, 40_001)]);
-    }
-
-    #[test]
-    #[should_panic(expected = "in one table")]
-    fn a_range_across_two_tables_is_refused() {
-        Layout::check(&[(30_001, 40_002)]);
-    }
-}
-
 /// The map's FC 7 and FC 17 setters, [`register_map!`]'s part that only feature
 /// `diagnostics` has: a macro of this crate, so that the feature it follows is this
 /// crate's, not the firmware's (without it a map has no such setter, rather than one that
@@ -589,4 +538,55 @@ macro_rules! __map_device_id {
 #[macro_export]
 macro_rules! __map_device_id {
     ($vis:vis) => {};
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_longest_run_counts_touching_ranges_as_one_in_their_table() {
+        let ranges = [(40_101, 40_105), (40_106, 40_110), (40_201, 40_203), (1, 16), (30_001, 30_002)];
+        assert_eq!(Layout::longest_run(&ranges, Table::HoldingRegisters), 10);
+        assert_eq!(Layout::longest_run(&ranges, Table::Coils), 16);
+        assert_eq!(Layout::longest_run(&ranges, Table::InputRegisters), 2);
+        assert_eq!(Layout::longest_run(&ranges, Table::DiscreteInputs), 0);
+    }
+
+    #[test]
+    fn a_write_cuts_a_pair_when_it_starts_on_its_second_register_or_ends_on_its_first() {
+        // Holding registers 10..=13: the pairs 10–11 and 12–13.
+        let pairs = [None, Some((Table::HoldingRegisters, 10, 13))];
+        let cuts = |start, qty| Layout::cuts_pair(&pairs, Table::HoldingRegisters, start, qty);
+        for (start, qty) in [(10, 1), (11, 1), (12, 1), (13, 1), (9, 2), (11, 2), (10, 3), (13, 2)] {
+            assert!(cuts(start, qty), "{start} × {qty}");
+        }
+        for (start, qty) in [(10, 2), (12, 2), (10, 4), (8, 2), (9, 5), (14, 1), (0, 10)] {
+            assert!(!cuts(start, qty), "{start} × {qty}");
+        }
+        assert!(!Layout::cuts_pair(&pairs, Table::InputRegisters, 11, 1));
+    }
+
+    #[test]
+    #[should_panic(expected = "two ranges overlap")]
+    fn overlapping_ranges_are_refused() {
+        Layout::check(&[(40_001, 40_010), (40_010, 40_020)]);
+    }
+
+    #[test]
+    fn ranges_of_one_address_each_side_by_side_or_in_two_tables_are_taken() {
+        Layout::check(&[(40_001, 40_001), (40_002, 40_002), (30_001, 30_002), (1, 2)]);
+    }
+
+    #[test]
+    #[should_panic(expected = "in one table")]
+    fn a_range_that_runs_backwards_is_refused() {
+        Layout::check(&[(40_010, 40_001)]);
+    }
+
+    #[test]
+    #[should_panic(expected = "in one table")]
+    fn a_range_across_two_tables_is_refused() {
+        Layout::check(&[(30_001, 40_002)]);
+    }
 }
