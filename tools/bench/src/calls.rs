@@ -128,9 +128,10 @@ pub(crate) fn section(md: &mut String, calls: &Calls) -> Result<()> {
         md,
         "`{FIRMWARE}`: each turn of its main loop calls `set`, `millis` and `set_wide`, `get` and `set`, \
          `get_wide` and `set_wide`, and `with` (a closure that reads `master_writes`), each call in a \
-         function of its own with the reference as an argument. Interrupts-off windows outside the \
+         function of its own, its reference through `black_box`. Interrupts-off windows outside the \
          interrupt handlers, stepped over {} ms with the line idle, cycles from the `cli` to the \
-         instruction that sets the I flag again (`main`: `millis`):\n",
+         instruction that sets the I flag again: max is the call's own, min the function's stack \
+         frame set-up (3 cycles around the stack pointer's two bytes); `main`: `millis`.\n",
         STEP_US / 1000
     )?;
     writeln!(md, "| function | windows | cycles min | max |\n|---|---:|---:|---:|")?;
