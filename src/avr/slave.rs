@@ -419,14 +419,18 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> S
     /// Sets a coil, input or register by its classic reference (see [`crate::Bank::set`]).
     pub fn set(&self, reference: impl IntoReference, value: u16) -> Result<(), Error> {
         let reference = reference.into_reference()?;
-        // Worked out before interrupts go off, whatever it took (`reg::computed`).
-        let value = reg::computed(value);
         match M::place(reference) {
-            Place::Ask => self.with(|model| model.set_value(reference, value)).unwrap_or(Err(Error::NotFound)),
+            Place::Ask => {
+                // Worked out before interrupts go off, whatever it took (`reg::computed`).
+                let value = reg::computed(value);
+                self.with(|model| model.set_value(reference, value)).unwrap_or(Err(Error::NotFound))
+            }
             Place::Missing => Err(Error::NotFound),
             place => {
-                let stored = reg::computed(place.stored(value));
                 let place = computed(place);
+                // What is stored, and `value` with whatever it took, worked out before
+                // interrupts go off.
+                let stored = reg::computed(place.stored(value));
                 self.with(|model| model.store(place, stored)).ok_or(Error::NotFound)
             }
         }
