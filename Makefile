@@ -69,7 +69,7 @@ firmware: firmware-uno chips
 # others carry no clock.
 firmware-uno: setup
 	$(CARGO) uno --examples --features examples
-	$(CARGO) uno --example uno_slave --example dip_switch --example boards --features examples,millis
+	$(CARGO) uno --example uno_slave --example dip_switch --example boards --example call_loop --features examples,millis
 	$(CARGO) uno --example ascii --features examples,ascii
 	$(CARGO) uno --example configurable --features examples,eeprom-settings,ascii,device-id,reply-delay,$(OPTIONAL)
 	$(CARGO) uno $(addprefix --example ,$(MASTER_EXAMPLES)) --features examples,master

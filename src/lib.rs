@@ -99,7 +99,7 @@ pub mod internal {
     /// The compile-time register map's parts, for [`crate::register_map!`].
     pub mod map {
         pub use crate::slave::map::{Layout, Span};
-        pub use crate::slave::storage::Values;
+        pub use crate::slave::storage::{Place, Values};
     }
     /// FC 43 / MEI 14: what [`crate::identification!`] expands to.
     pub mod device_id {

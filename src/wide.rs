@@ -86,7 +86,7 @@ impl Wide for f32 {
 /// The pair of registers from `first`: two of one register table, the second at the next
 /// address. A coil or discrete input, or a first register at 65535, is
 /// [`Error::BadReference`].
-fn pair(first: Reference) -> Result<(Reference, Reference), Error> {
+pub(crate) fn pair(first: Reference) -> Result<(Reference, Reference), Error> {
     match first.address.checked_add(1) {
         Some(address) if !first.table.is_bits() => Ok((first, Reference { table: first.table, address })),
         _ => Err(Error::BadReference),

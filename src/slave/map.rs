@@ -434,6 +434,21 @@ macro_rules! register_map {
             }
 
             #[inline(always)]
+            fn place(reference: $crate::Reference) -> $crate::internal::map::Place {
+                $crate::internal::map::Place::of(reference.table, Self::locate_one(reference))
+            }
+
+            #[inline(always)]
+            fn load(&self, place: $crate::internal::map::Place) -> u16 {
+                self.0.load(place)
+            }
+
+            #[inline(always)]
+            fn store(&mut self, place: $crate::internal::map::Place, stored: u16) {
+                self.0.store(place, stored)
+            }
+
+            #[inline(always)]
             fn master_writes(&self) -> u16 {
                 self.0.master_writes()
             }

@@ -12,6 +12,7 @@ use crate::link::config::Config;
 use crate::protocol::reference::{Reference, Table};
 use crate::slave::pdu::device_id::Identification;
 use crate::slave::pdu::{Exception, MAX_READ_BITS, MAX_READ_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS};
+use crate::slave::storage::Place;
 
 const fn min(a: u32, b: u32) -> u32 {
     if a < b {
@@ -163,6 +164,37 @@ pub trait DataModel {
         Self: Sized,
     {
         crate::wide::set(self, first, value, order)
+    }
+
+    /// Where the value at `reference` is kept, worked out with interrupts enabled by the
+    /// slave's `get`, `set`, `get_wide` and `set_wide`, which then hold them off only for
+    /// [`DataModel::load`] or [`DataModel::store`]. No `self`: only a layout fixed when the
+    /// firmware is built answers ([`crate::register_map!`]), so nothing the slave's
+    /// interrupts change is read meanwhile. [`Place::Ask`], the default: those calls run
+    /// [`DataModel::value`] and [`DataModel::set_value`] with interrupts disabled.
+    #[doc(hidden)]
+    #[inline(always)]
+    fn place(reference: Reference) -> Place
+    where
+        Self: Sized,
+    {
+        let _ = reference;
+        Place::Ask
+    }
+
+    /// What is kept at `place`, a [`DataModel::place`] other than [`Place::Ask`] (see
+    /// [`crate::internal::map::Values::load`]).
+    #[doc(hidden)]
+    fn load(&self, place: Place) -> u16 {
+        let _ = place;
+        0
+    }
+
+    /// Writes what [`Place::stored`] gave at `place`, a [`DataModel::place`] other than
+    /// [`Place::Ask`] (see [`crate::internal::map::Values::store`]).
+    #[doc(hidden)]
+    fn store(&mut self, place: Place, stored: u16) {
+        let _ = (place, stored);
     }
 
     /// How many master writes succeeded so far, wrapping (see

@@ -189,6 +189,55 @@ pub(crate) fn transfer_words(words: &mut [Word], first: usize, data: &mut [u8], 
     }
 }
 
+/// Where the application's `get` and `set` find a value in a [`Values`], worked out from
+/// the reference before interrupts go off ([`crate::DataModel::place`]), so that only the
+/// load or store runs with them disabled.
+#[doc(hidden)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Place {
+    /// The model keeps no [`Values`] of a layout fixed at build time: the application's
+    /// calls ask [`crate::DataModel::value`] and [`crate::DataModel::set_value`].
+    Ask,
+    /// The model has no such value.
+    Missing,
+    /// Register `i` of the words.
+    Word(u16),
+    /// The bit `mask` of byte `i` of the packed bits.
+    Bit(u16, u8),
+}
+
+impl Place {
+    /// The place of storage index `at` of `table`'s kind (`None`: missing).
+    #[inline(always)]
+    pub fn of(table: Table, at: Option<usize>) -> Place {
+        match at {
+            None => Place::Missing,
+            Some(i) if table.is_bits() => Place::Bit((i / 8) as u16, 1 << (i % 8)),
+            Some(i) => Place::Word(i as u16),
+        }
+    }
+
+    /// What [`Values::store`] writes for `value` here: a register's bytes as they are kept
+    /// (big-endian, read as one little-endian `u16`), or for a bit the mask when `value`
+    /// is not 0, else 0.
+    #[inline(always)]
+    pub fn stored(self, value: u16) -> u16 {
+        match self {
+            Place::Bit(_, mask) => u16::from(if value != 0 { mask } else { 0 }),
+            _ => swap(value),
+        }
+    }
+
+    /// The value from what [`Values::load`] read here.
+    #[inline(always)]
+    pub fn value(self, loaded: u16) -> u16 {
+        match self {
+            Place::Bit(_, mask) => u16::from(loaded as u8 & mask != 0),
+            _ => swap(loaded),
+        }
+    }
+}
+
 /// The values of a register map: what [`crate::register_map!`] wraps, and what a
 /// [`crate::Bank`] keeps beside its runs.
 #[doc(hidden)]
@@ -260,6 +309,38 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
     pub fn set(&mut self, table: Table, at: Option<usize>, value: u16) -> Result<(), Error> {
         self.put(table.is_bits(), at.ok_or(Error::NotFound)?, value);
         Ok(())
+    }
+
+    /// What is kept at `place` ([`Place::Word`] or [`Place::Bit`]; 0 otherwise): a
+    /// register's two bytes as one little-endian `u16`, or a bit's byte. For the
+    /// application's calls, with interrupts disabled: loads only, [`Place::value`] does the
+    /// rest.
+    #[inline(always)]
+    pub fn load(&self, place: Place) -> u16 {
+        match place {
+            Place::Word(i) => self.words.get(usize::from(i)).map_or(0, |&word| u16::from_le_bytes(word)),
+            Place::Bit(i, _) => self.bits.get(usize::from(i)).map_or(0, |&byte| u16::from(byte)),
+            Place::Ask | Place::Missing => 0,
+        }
+    }
+
+    /// Writes `stored` ([`Place::stored`]) at `place`: stores only, for the application's
+    /// calls, with interrupts disabled.
+    #[inline(always)]
+    pub fn store(&mut self, place: Place, stored: u16) {
+        match place {
+            Place::Word(i) => {
+                if let Some(word) = self.words.get_mut(usize::from(i)) {
+                    *word = stored.to_le_bytes();
+                }
+            }
+            Place::Bit(i, mask) => {
+                if let Some(byte) = self.bits.get_mut(usize::from(i)) {
+                    *byte = (*byte & !mask) | stored as u8;
+                }
+            }
+            Place::Ask | Place::Missing => {}
+        }
     }
 
     /// Makes room for `n` values at storage index `at` of the bits (`bits`) or the
@@ -386,5 +467,50 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
     #[cfg(feature = "device-id")]
     pub fn set_identification(&mut self, identification: &'static Identification) {
         self.identification = Some(identification);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Place, Values};
+    use crate::protocol::reference::Table;
+
+    #[test]
+    fn a_value_stored_at_its_place_reads_back_and_travels_big_endian() {
+        let mut values = Values::<3, 0>::new();
+        let place = Place::of(Table::HoldingRegisters, Some(2));
+        assert_eq!(place, Place::Word(2));
+        values.store(place, place.stored(0x1234));
+        assert_eq!(place.value(values.load(place)), 0x1234);
+        assert_eq!(values.get(Table::HoldingRegisters, Some(2)), Ok(0x1234));
+        let mut out = [0; 2];
+        values.read_words(Some(2), &mut out).unwrap();
+        assert_eq!(out, [0x12, 0x34]);
+    }
+
+    #[test]
+    fn a_bit_stored_at_its_place_changes_that_bit_alone() {
+        let mut values = Values::<0, 2>::new();
+        let place = Place::of(Table::Coils, Some(9));
+        assert_eq!(place, Place::Bit(1, 0b10));
+        values.set(Table::Coils, Some(8), 1).unwrap();
+        values.set(Table::Coils, Some(10), 1).unwrap();
+        values.store(place, place.stored(7));
+        assert_eq!(place.value(values.load(place)), 1);
+        assert_eq!(values.load(place), 0b111);
+        values.store(place, place.stored(0));
+        assert_eq!(place.value(values.load(place)), 0);
+        assert_eq!(values.load(place), 0b101);
+    }
+
+    #[test]
+    fn a_missing_place_and_one_past_the_end_store_nothing_and_read_0() {
+        let mut values = Values::<1, 1>::new();
+        for place in [Place::Missing, Place::Ask, Place::Word(1), Place::Bit(1, 1)] {
+            values.store(place, 0xFFFF);
+            assert_eq!(values.load(place), 0);
+        }
+        assert_eq!(Place::of(Table::InputRegisters, None), Place::Missing);
+        assert_eq!((values.load(Place::Word(0)), values.load(Place::Bit(0, 1))), (0, 0));
     }
 }

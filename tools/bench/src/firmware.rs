@@ -64,11 +64,13 @@ pub(crate) fn firmware(name: &str) -> &'static Firmware {
 }
 
 /// The model of a firmware in [`FIRMWARE`] by name; one that knows nothing for others
-/// (`max_frame`: 125 holding registers kept for the master, all 0 at start-up).
+/// (`max_frame`: 125 holding registers kept for the master, all 0 at start-up; `call_loop`).
 pub(crate) fn firmware_model(name: &str) -> Model {
     match FIRMWARE.iter().find(|fw| fw.name == name) {
         Some(fw) => fw.model(),
         None if name == "max_frame" => Model::new([0, 0, 0, 125], &[], &[]),
+        // examples/call_loop.rs: 30001–30006 the loop writes, 40001–40003 the master's.
+        None if name == crate::calls::FIRMWARE => Model::new([0, 0, 6, 3], &[(30001, 6)], &[]),
         None => Model::new([0; 4], &[], &[]),
     }
 }

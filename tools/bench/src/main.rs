@@ -20,8 +20,11 @@
 //! changes itself only by length). The master (feature `master`): its interrupts' cycles
 //! on every chip and USART (`master_boards`, answered by a simulated slave) and the time
 //! from `Master::send` to the request's first start bit (`poll_holding`); `bench master`
-//! measures that part alone, printed, not written. Every figure comes from this run; all
-//! timings are simulated cycles, so a run on any machine gives the same numbers.
+//! measures that part alone, printed, not written. The main loop's own critical sections
+//! (`call_loop`: each call's interrupts-off cycles, and the replies' turnaround while it
+//! calls the slave as fast as it can); `bench calls` measures that part alone. Every figure
+//! comes from this run; all timings are simulated cycles, so a run on any machine gives the
+//! same numbers.
 //!
 //! Run from the workspace with the firmware built (`make firmware`, and `make
 //! bench-features` for the feature costs); prints a Markdown report and writes it to
@@ -33,6 +36,7 @@
 //! writes the report, one function per section.
 
 mod bus;
+mod calls;
 mod chips;
 mod elf;
 mod features;
@@ -64,8 +68,11 @@ fn main() -> ExitCode {
     let root = root.canonicalize().unwrap_or(root);
     let mut log = Log::default();
     // `bench master`: the master's timing alone, printed and not written.
-    if std::env::args().nth(1).as_deref() == Some("master") {
-        return master_only(&root, &mut log);
+    match std::env::args().nth(1).as_deref() {
+        Some("master") => return print_only(master::only(&root, &mut log), &log),
+        // `bench calls`: the main loop's critical sections alone, printed and not written.
+        Some("calls") => return print_only(calls::only(&root, &mut log), &log),
+        _ => {}
     }
     let started = Instant::now();
     let md = match Report::measure(&root, &mut log).and_then(|report| render::render(&report, &log, &root)) {
@@ -90,9 +97,9 @@ fn main() -> ExitCode {
     }
 }
 
-/// `bench master`: the master's targets and tables, printed.
-fn master_only(root: &Path, log: &mut Log) -> ExitCode {
-    match master::only(root, log) {
+/// `bench master` or `bench calls`: one part's tables, printed.
+fn print_only(md: Result<String>, log: &Log) -> ExitCode {
+    match md {
         Ok(md) => {
             print!("{md}");
             log.problems.iter().for_each(|p| eprintln!("bench: {p}"));

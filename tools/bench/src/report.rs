@@ -2,6 +2,7 @@
 
 use std::path::Path;
 
+use crate::calls::{self, Calls};
 use crate::chips::{chip_runs, ChipRun};
 use crate::features::{feature_costs, FeatureCost};
 use crate::firmware::FIRMWARE;
@@ -17,6 +18,8 @@ pub(crate) struct Report {
     pub(crate) profiles: Vec<Profile>,
     /// The replies' timing on the Uno.
     pub(crate) timing: Timing,
+    /// `call_loop`: the main loop's critical sections, if built.
+    pub(crate) calls: Option<Calls>,
     /// Feature costs on `minimal`, then `configurable`'s total.
     pub(crate) features: Vec<FeatureCost>,
     /// `boards` on every chip and USART.
@@ -36,6 +39,7 @@ impl Report {
         Ok(Report {
             profiles,
             timing: Timing::measure(root, log)?,
+            calls: calls::measure(root, log)?,
             features: feature_costs(root),
             chips: chip_runs(root, log)?,
             master: master::measure(root, log)?,

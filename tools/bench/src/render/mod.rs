@@ -34,6 +34,9 @@ pub(crate) fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
     interrupts::compare(&mut md, &r.profiles, &r.timing.big)?;
     turnaround::section(&mut md, &r.timing)?;
     busy::section(&mut md, &r.timing)?;
+    if let Some(calls) = &r.calls {
+        crate::calls::section(&mut md, calls)?;
+    }
     throughput::section(&mut md, &r.timing)?;
     mutants(&mut md, root)?;
     footer(&mut md, log)?;
