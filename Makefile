@@ -13,7 +13,7 @@ EXAMPLES := $(filter-out gateway,$(patsubst examples/%.rs,%,$(wildcard examples/
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: sim-test-uno sim-test-chips clippy-tools help setup bootloaders virtual-boards demo-firmware demos demo-lab firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
+.PHONY: sim-test-uno sim-test-chips clippy-tools help setup bootloaders virtual-boards demo-firmware demos demo-lab firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package readme sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
 
 help:
 	@echo "Two commands do everything: make demo and make test. Every target:"
@@ -28,8 +28,9 @@ help:
 	@echo "  make firmware-uno - every example for the Uno ($(FIRMWARE_DIR)), with sizes and the firmware check"
 	@echo "  make chips       - the examples for the other chips and USARTs, and the Uno's that make bench sizes, as the avr-hal template builds them (target/chips)"
 	@echo "  make sizes       - flash and RAM of every firmware (make firmware prints them)"
-	@echo "  make fixtures    - a user's firmware in the template's form for three boards, and make package"
+	@echo "  make fixtures    - a user's firmware in the template's form for three boards, make package and make readme"
 	@echo "  make package     - the crate as it would be published, built into the Uno fixture"
+	@echo "  make readme      - the README's two main.rs, taken from it and built for the Uno as the template builds them, against a stand-in arduino-hal"
 	@echo "  make virtual-boards - the virtual Uno and the virtual line, built (release)"
 	@echo "  make demo-firmware - the demos' firmware (demo/uno, demo/mega2560), built as make demo builds it"
 	@echo "  make bootloaders - the virtual boards' bootloaders (optiboot, stk500v2)"
@@ -137,7 +138,8 @@ sizes: firmware
 # -C target-cpu goes in CARGO_TARGET_AVR_NONE_RUSTFLAGS as .ci/chip-build gives it (passed
 # as build.rustflags, the same flags name a build of core cargo keeps apart). Then
 # fixtures/r0-clobber, the reproducer of the AVR backend's r0 clobber that
-# tools/sim/tests/miscompile.rs runs and checks (target/fixtures/r0-clobber/…), and make package.
+# tools/sim/tests/miscompile.rs runs and checks (target/fixtures/r0-clobber/…), make package
+# and make readme.
 FIXTURES := $(wildcard fixtures/template-*)
 FIXTURE_BOARDS := uno:atmega328p mega2560:atmega2560 leonardo:atmega32u4
 fixtures: setup
@@ -158,6 +160,7 @@ fixtures: setup
 	@cp target/avr-none/release/r0-clobber-stack.elf target/avr-none/release/r0-clobber-static.elf \
 		target/fixtures/r0-clobber/avr-none/release/
 	@$(MAKE) --no-print-directory package
+	@$(MAKE) --no-print-directory readme
 	@.ci/sizes target/fixtures/*/avr-none/release/template-*.elf
 	@.ci/firmware-check --r0-only target/fixtures/*/avr-none/release/template-*.elf
 
@@ -176,6 +179,27 @@ package: setup
 		../../.ci/cargo build --release --locked --features uno --target-dir ..
 	@mkdir -p target/fixtures/packaged/avr-none/release
 	@cp target/avr-none/release/template-avr-device-08.elf target/fixtures/packaged/avr-none/release/
+
+# The README's two main.rs, the slave's and the master's, so that they cannot drift from
+# the API: fixtures/readme/blocks writes them from the README into fixtures/readme/src/, and
+# each is built for the Uno as a template project builds it, with the crate's features its
+# README line names (millis; master), against fixtures/readme/arduino-hal, a stand-in for the
+# git-only arduino-hal (its names, its pins' types, the Uno only) ->
+# target/fixtures/readme/avr-none/release/readme-{slave,master}.elf. A README block that stops
+# compiling fails here. Their sizes are the stand-in's, not arduino-hal's: on the same README
+# and crate (46fb4c2) 2 B (slave) and 4 B (master) of flash under arduino-hal's, RAM the same.
+README_FIRMWARE := slave master
+readme: setup
+	@echo "fixture: fixtures/readme, uno"
+	fixtures/readme/blocks
+	@for role in $(README_FIRMWARE); do \
+		(cd fixtures/readme && CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega328p" ../../.ci/cargo build \
+			--release --locked --features $$role --bin readme-$$role --target-dir ../../target) || exit 1; \
+		mkdir -p target/fixtures/readme/avr-none/release; \
+		cp target/avr-none/release/readme-$$role.elf target/fixtures/readme/avr-none/release/; \
+	done
+	@.ci/sizes $(patsubst %,target/fixtures/readme/avr-none/release/readme-%.elf,$(README_FIRMWARE))
+	@.ci/firmware-check --r0-only $(patsubst %,target/fixtures/readme/avr-none/release/readme-%.elf,$(README_FIRMWARE))
 
 fmt-check: setup
 	$(CARGO) fmt --all --check
