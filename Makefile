@@ -200,6 +200,7 @@ readme: setup
 	done
 	@.ci/sizes $(patsubst %,target/fixtures/readme/avr-none/release/readme-%.elf,$(README_FIRMWARE))
 	@.ci/firmware-check --r0-only $(patsubst %,target/fixtures/readme/avr-none/release/readme-%.elf,$(README_FIRMWARE))
+	@fixtures/readme/figures
 
 fmt-check: setup
 	$(CARGO) fmt --all --check
