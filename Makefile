@@ -8,6 +8,10 @@ comma := ,
 # Under make a test whose firmware, fixture or bootloader is missing fails (a plain `cargo
 # test` skips it with what to run: tools/sim/src/built.rs). CI=true does the same.
 export AVR_MODBUS_REQUIRE_FIRMWARE := 1
+# The CPU clock is the build's environment (build.rs): 16 MHz everywhere but where a target
+# names the 8 MHz boards' EIGHT_MHZ, whatever the shell that runs make says.
+unexport AVR_CPU_FREQUENCY_HZ
+EIGHT_MHZ := AVR_CPU_FREQUENCY_HZ=8000000
 # Every example but the gateway, which needs a Mega's two USARTs (make chips builds it).
 EXAMPLES := $(filter-out gateway,$(patsubst examples/%.rs,%,$(wildcard examples/*.rs)))
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
@@ -94,8 +98,9 @@ firmware-uno: setup
 # the master's beside master_boards in target/chips/atmega328p-master/…): the sizes a user of
 # the template sees, which make bench leads with; the gateway (slave on USART0, master on
 # USART1) for the ATmega2560 into target/chips/atmega2560-gateway/; and boards and
-# master_boards for an 8 MHz ATmega328P and ATmega32U4 (feature clock-8mhz, the Pro Mini and
-# Pro Micro 3.3 V) into target/chips/CHIP-8mhz/ and target/chips/CHIP-8mhz-master/.
+# master_boards for an 8 MHz ATmega328P and ATmega32U4 (AVR_CPU_FREQUENCY_HZ=8000000, the
+# Pro Mini and Pro Micro 3.3 V) into target/chips/CHIP-8mhz/ and target/chips/CHIP-8mhz-master/:
+# the clock, too, is read by build.rs, so only the crate and the examples rebuild for it.
 # The chips and USARTs, from chips/chips.txt: CHIP: (the board's pins 0/1), then CHIP:N for
 # each of its other USARTs.
 CHIP_BUILDS := $(shell awk '$$1 == "chip" { chip = $$2; print chip ":" } \
@@ -122,8 +127,8 @@ chips: setup
 	@.ci/chip-build atmega328p "" atmega328p examples $(TEMPLATE_EXAMPLES)
 	@.ci/chip-build atmega328p "" atmega328p-millis examples,millis $(TEMPLATE_MILLIS_EXAMPLES)
 	@.ci/chip-build atmega2560 "" atmega2560-gateway examples,master gateway
-	@for chip in atmega328p atmega32u4; do \
-		$(call boards_and_master,$$chip,,$$chip-8mhz,examples$(comma)master$(comma)clock-8mhz,boards master_boards) || exit 1; \
+	@export $(EIGHT_MHZ); for chip in atmega328p atmega32u4; do \
+		$(call boards_and_master,$$chip,,$$chip-8mhz,examples$(comma)master,boards master_boards) || exit 1; \
 	done
 	@.ci/sizes target/chips/*/avr-none/release/examples/*.elf
 	@.ci/firmware-check target/chips/*/avr-none/release/examples/*.elf
@@ -207,7 +212,7 @@ fmt-check: setup
 
 # The optional function codes, checked and tested as a second build.
 OPTIONAL := diagnostics,extra-fc,write-protect
-# Every feature that adds (all but clock-8mhz, which switches the clock, and examples).
+# Every feature (all add) but examples, which builds this repository's firmware.
 ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id
 
 # The host's lints, tests included, check builds only: the tools (clippy-tools) and the crate's
@@ -227,8 +232,10 @@ clippy-tools: setup
 # each set that has the features it declares in Cargo.toml and gives the features its source
 # names values no earlier set gave them; the library and its doctests under every set; a
 # simulator test once, under the first set that has its features). A test with a new
-# combination of features needs its set here; no test is named.
-TEST_FEATURE_SETS := all default clock-8mhz,ascii master $(OPTIONAL),eeprom-settings eeprom-settings,ascii eeprom-settings,reply-delay
+# combination of features needs its set here; no test is named. A set may start with the
+# build's environment, NAME=VALUE: (the 8 MHz clock's: the tests that name the clock run
+# under it again).
+TEST_FEATURE_SETS := all default $(EIGHT_MHZ):ascii master $(OPTIONAL),eeprom-settings eeprom-settings,ascii eeprom-settings,reply-delay
 
 # The host tests (no firmware needed): the library, its doctests and every tests/*.rs but the
 # simulator's, under TEST_FEATURE_SETS, built with clippy as the compiler (warnings denied).
@@ -244,10 +251,11 @@ LINTED := RUSTC_WORKSPACE_WRAPPER=clippy-driver RUSTFLAGS="-D warnings"
 check: fmt-check clippy-tools unit
 
 # Every single feature and the combinations users build, compiled and linted without
-# building a test: the library for the host and for the Uno (.ci/feature-matrix), then the
-# Uno's examples with every feature and the Mega's gateway.
-FEATURE_COMBOS := $(ALL_FEATURES) $(ALL_FEATURES),clock-8mhz master,ascii master,ufmt eeprom-settings,ascii \
-	eeprom-settings,reply-delay,ascii clock-8mhz,master clock-8mhz,ascii,millis
+# building a test: the library for the host and for the Uno (.ci/feature-matrix; at 8 MHz too,
+# a combination that starts with EIGHT_MHZ:), then the Uno's examples with every feature and
+# the Mega's gateway.
+FEATURE_COMBOS := $(ALL_FEATURES) $(EIGHT_MHZ):$(ALL_FEATURES) master,ascii master,ufmt eeprom-settings,ascii \
+	eeprom-settings,reply-delay,ascii $(EIGHT_MHZ):master $(EIGHT_MHZ):ascii,millis
 matrix: matrix-host matrix-avr
 matrix-host: setup
 	.ci/feature-matrix host $(FEATURE_COMBOS)

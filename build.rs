@@ -8,6 +8,13 @@
 //! describe stops the build there, naming the chips it does. Host builds get no `avr_chip`
 //! at all, and the first chip's `CHIP` for the docs built on the host (see `src/lib.rs`).
 //!
+//! The CPU clock, which the whole build shares: `AVR_CPU_FREQUENCY_HZ` in the environment
+//! (the AVR Rust ecosystem's name for it, `avr-config`'s too; an avr-hal template firmware
+//! sets it in `.cargo/config.toml`'s `[env]`), 16000000 when unset or 8000000. It sets
+//! `cfg(avr_cpu_frequency_hz = "HZ")`, from which `src/link/timing.rs` takes `CLOCK_HZ`; any
+//! other value stops the build there, naming the two. A change of it reruns this script, and
+//! its new cfg rebuilds the crate.
+//!
 //! For this repository's examples only (feature `examples`): `AVR_MODBUS_EXAMPLE_USART=N`
 //! sets `cfg(example_usart = "N")`, the USART `examples/boards.rs` serves on, so that
 //! `make firmware` builds it for each USART without rebuilding anything but this crate.
@@ -35,6 +42,16 @@ fn main() {
     values.push("\"unsupported\"".to_owned());
     println!("cargo::rustc-check-cfg=cfg(avr_chip, values({}))", values.join(", "));
     println!("cargo::rustc-check-cfg=cfg(example_usart, values(\"0\", \"1\", \"2\", \"3\"))");
+    let clocks: Vec<String> = CLOCKS.iter().map(|(hz, _)| format!("\"{hz}\"")).collect();
+    println!("cargo::rustc-check-cfg=cfg(avr_cpu_frequency_hz, values({}))", clocks.join(", "));
+    println!("cargo::rerun-if-env-changed={CLOCK_VARIABLE}");
+    match clock(env::var(CLOCK_VARIABLE).ok().as_deref()) {
+        Ok(hz) => println!("cargo::rustc-cfg=avr_cpu_frequency_hz=\"{hz}\""),
+        Err(message) => {
+            eprintln!("{message}");
+            std::process::exit(1);
+        }
+    }
 
     let out = Path::new(&env::var("OUT_DIR").expect("cargo sets OUT_DIR")).join("chip.rs");
     if env::var("CARGO_CFG_TARGET_ARCH").as_deref() != Ok("avr") {
@@ -58,6 +75,35 @@ fn main() {
     if let Ok(usart) = env::var("AVR_MODBUS_EXAMPLE_USART") {
         println!("cargo::rustc-cfg=example_usart=\"{usart}\"");
     }
+}
+
+/// Where the build says the CPU's clock: the variable `avr-config` reads too.
+const CLOCK_VARIABLE: &str = "AVR_CPU_FREQUENCY_HZ";
+
+/// The clocks the crate's timing is worked out and tested for, in Hz, the default first,
+/// and the boards that run at each.
+const CLOCKS: [(&str, &str); 2] = [
+    ("16000000", "the Uno, Nano, Mega, Leonardo and Pro Mini 5 V"),
+    ("8000000", "the SparkFun Pro Mini 3.3 V and Pro Micro 3.3 V"),
+];
+
+/// The clock `AVR_CPU_FREQUENCY_HZ` (`value`; unset: the default) names, or why it can't be.
+fn clock(value: Option<&str>) -> Result<&'static str, String> {
+    let Some(value) = value else { return Ok(CLOCKS[0].0) };
+    if let Some((hz, _)) = CLOCKS.iter().find(|(hz, _)| *hz == value.trim()) {
+        return Ok(hz);
+    }
+    let supported: Vec<String> = CLOCKS.iter().map(|(hz, boards)| format!("{hz} ({boards})")).collect();
+    Err(format!(
+        "avr-modbus: {CLOCK_VARIABLE}={value:?} is a CPU clock it does not support: it supports {}, \
+         {} being the default when the variable is unset. Its silences (T1.5, T3.5), \
+         timeouts and milliseconds count Timer0 at the CPU clock / 64, and only at these clocks is \
+         a millisecond a whole number of ticks within one turn of the counter (250 and 125); its \
+         baud divisors and deadlines are tested at these two. An 8 MHz board's firmware says so \
+         in its .cargo/config.toml: [env] {CLOCK_VARIABLE} = \"8000000\"",
+        join(&supported, "and"),
+        CLOCKS[0].0
+    ))
 }
 
 /// `chip`'s `CHIP`.

@@ -12,8 +12,8 @@ pub enum Error {
     SlaveId,
     /// A baud rate outside [`crate::Config::MIN_BAUD`]–[`crate::Config::MAX_BAUD`].
     Baud,
-    /// A baud rate the USART can't make within 2.5 % at the CPU clock (16 MHz, or 8 MHz with
-    /// feature `clock-8mhz`).
+    /// A baud rate the USART can't make within 2.5 % at the CPU clock (16 MHz, or 8 MHz when
+    /// the build sets `AVR_CPU_FREQUENCY_HZ=8000000`).
     BaudError,
     /// A classic reference outside 00001–09999, 10001–19999, 30001–39999, 40001–49999.
     BadReference,

@@ -1,5 +1,5 @@
-//! The slave built for an 8 MHz board (feature `clock-8mhz`: the SparkFun Pro Mini and Pro
-//! Micro 3.3 V): `examples/boards.rs` for an 8 MHz ATmega328P and ATmega32U4 (`make chips`),
+//! The slave built for an 8 MHz board (`AVR_CPU_FREQUENCY_HZ=8000000`: the SparkFun Pro Mini
+//! and Pro Micro 3.3 V): `examples/boards.rs` for an 8 MHz ATmega328P and ATmega32U4 (`make chips`),
 //! slave 1 at 19200 8E1 on the board's pins 0/1, run in simavr; and the master
 //! (`examples/master_boards.rs`, feature `master` too) for the same two chips.
 //!
@@ -129,7 +129,7 @@ fn the_clock_counts_8_000_000_cycles_a_second() {
     }
 }
 
-/// The master built for an 8 MHz board (`master_boards`, features `master` and `clock-8mhz`,
+/// The master built for an 8 MHz board (`master_boards`, feature `master`, at 8 MHz,
 /// `make chips`) against a scripted slave 1: its FC 3 request at the firmware's bit time
 /// (416 cycles, as the slave's), its response timeout of 1000 ms as 8 000 000 cycles
 /// (then its one retry), and a reply taken: the next request after T3.5 of silence at 8 MHz,

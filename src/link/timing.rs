@@ -31,6 +31,8 @@ pub use plan::*;
 pub use uptime::*;
 
 /// The CPU clock the crate is built for: 16 MHz (Uno, Nano, Mega, Leonardo, Pro Mini 5 V),
-/// or 8 MHz with feature `clock-8mhz` (SparkFun Pro Mini 3.3 V, Pro Micro 3.3 V). Every
-/// baud divisor, silence and millisecond is worked out from it while the firmware compiles.
-pub const CLOCK_HZ: u32 = if cfg!(feature = "clock-8mhz") { 8_000_000 } else { 16_000_000 };
+/// or 8 MHz (SparkFun Pro Mini 3.3 V, Pro Micro 3.3 V) when the build's environment says
+/// `AVR_CPU_FREQUENCY_HZ=8000000` (build.rs, which sets `cfg(avr_cpu_frequency_hz)` and
+/// refuses any other clock). Every baud divisor, silence and millisecond is worked out from
+/// it while the firmware compiles.
+pub const CLOCK_HZ: u32 = if cfg!(avr_cpu_frequency_hz = "8000000") { 8_000_000 } else { 16_000_000 };

@@ -126,7 +126,7 @@ mod tests {
 
     #[test]
     fn ascii_timeout_is_whole_timer0_turns_rounded_up() {
-        // A turn is 1.024 ms at 16 MHz, 2.048 ms at 8 MHz (feature clock-8mhz).
+        // A turn is 1.024 ms at 16 MHz, 2.048 ms at 8 MHz (AVR_CPU_FREQUENCY_HZ=8000000).
         let turns = |ms| Line::new(9600, Parity::Even, StopBits::One).with_char_timeout(ms).char_timeout_turns();
         let per_turn = TURN_US;
         assert_eq!(u32::from(turns(1000)), (1_000_000u32).div_ceil(per_turn)); // 977 or 489

@@ -266,17 +266,17 @@ mod tests {
 
     const MHZ16: u32 = 16_000_000;
 
-    #[cfg(not(feature = "clock-8mhz"))]
+    #[cfg(avr_cpu_frequency_hz = "16000000")]
     fn times(baud: u32, parity: Parity, stop: StopBits) -> CharTimes {
         Line::new(baud, parity, stop).char_times()
     }
 
-    #[cfg(not(feature = "clock-8mhz"))]
+    #[cfg(avr_cpu_frequency_hz = "16000000")]
     fn plan(baud: u32, parity: Parity, stop: StopBits) -> TimerPlan {
         Line::new(baud, parity, stop).timer_plan()
     }
 
-    #[cfg(not(feature = "clock-8mhz"))]
+    #[cfg(avr_cpu_frequency_hz = "16000000")]
     #[test]
     fn t35_at_19200_8e1_worked_example() {
         let plan = plan(19_200, Parity::Even, StopBits::One);
@@ -313,7 +313,7 @@ mod tests {
         }
     }
 
-    #[cfg(not(feature = "clock-8mhz"))]
+    #[cfg(avr_cpu_frequency_hz = "16000000")]
     #[test]
     fn t35_adds_the_flag_to_end_time_and_the_gap_deadline_does_not() {
         // The same character time and silences, one stop bit or two (8E1 and 8N2 are both
@@ -338,7 +338,7 @@ mod tests {
         assert_eq!(Deadline::new(ns - 4000, MHZ16), Deadline { low: 255, turns: 0 });
     }
 
-    #[cfg(feature = "clock-8mhz")]
+    #[cfg(avr_cpu_frequency_hz = "8000000")]
     #[test]
     fn t35_at_19200_8e1_at_8_mhz_worked_example() {
         let plan = Line::new(19_200, Parity::Even, StopBits::One).timer_plan();

@@ -112,7 +112,7 @@ mod tests {
         assert_eq!(clock.millis_at(1, false), 0);
     }
 
-    #[cfg(not(feature = "clock-8mhz"))]
+    #[cfg(avr_cpu_frequency_hz = "16000000")]
     #[test]
     fn millis_at_rounds_down_and_counts_a_pending_overflow() {
         let clock = Uptime { millis: 7, fract: 200 };
@@ -128,7 +128,7 @@ mod tests {
         assert_eq!(clock.millis_at(255, true), 8);
     }
 
-    #[cfg(feature = "clock-8mhz")]
+    #[cfg(avr_cpu_frequency_hz = "8000000")]
     #[test]
     fn millis_at_8_mhz_counts_125_ticks_a_millisecond() {
         let clock = Uptime { millis: 7, fract: 100 };
