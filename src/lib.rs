@@ -28,7 +28,6 @@ pub mod master;
 mod peripheral;
 pub(crate) mod protocol;
 mod slave;
-mod wide;
 
 #[cfg(target_arch = "avr")]
 #[doc(hidden)]
@@ -55,13 +54,13 @@ pub use link::config::{Config, Line, Parity, StopBits};
 pub use protocol::reference::{IntoReference, Reference, Table};
 pub use protocol::SlaveId;
 pub use protocol::{Exception, FunctionCode};
+pub use protocol::{Wide, WordOrder};
 pub use slave::bank::{bit_bytes, Bank};
-pub use slave::engine::SlaveCounters;
+pub use slave::counters::SlaveCounters;
 pub use slave::model::DataModel;
 pub use slave::pdu::device_id::Identification;
 #[cfg(feature = "eeprom-settings")]
 pub use slave::settings::Configurable;
-pub use wide::{Wide, WordOrder};
 
 /// The guides in `docs/`, the depth behind the README (documentation only: each guide's
 /// Rust blocks are doctests, so that they keep up with the API).
@@ -99,7 +98,8 @@ pub mod internal {
     /// The compile-time register map's parts, for [`crate::register_map!`].
     pub mod map {
         pub use crate::slave::map::{Layout, Span};
-        pub use crate::slave::storage::{Place, Values};
+        pub use crate::slave::storage::Values;
+        pub use crate::slave::words::Place;
     }
     /// FC 43 / MEI 14: what [`crate::identification!`] expands to.
     pub mod device_id {

@@ -1,5 +1,6 @@
 //! The Modbus vocabulary both roles speak: function codes, exception codes, slave
-//! addresses, the data model's tables and references, the spec's limits. A leaf: it uses
+//! addresses, the data model's tables and references, 32-bit values in two registers, the
+//! spec's limits. A leaf: it uses
 //! nothing of the crate but [`crate::Error`].
 
 mod address;
@@ -7,7 +8,9 @@ mod exception;
 mod function;
 pub(crate) mod limits;
 pub(crate) mod reference;
+mod wide;
 
 pub use address::SlaveId;
 pub use exception::Exception;
 pub use function::FunctionCode;
+pub use wide::{Wide, WordOrder};

@@ -5,6 +5,7 @@
 //! settings kept as registers.
 
 pub(crate) mod bank;
+pub(crate) mod counters;
 #[cfg(feature = "diagnostics")]
 pub(crate) mod diagnostics;
 pub(crate) mod engine;
@@ -14,3 +15,4 @@ pub(crate) mod pdu;
 #[cfg(feature = "eeprom-settings")]
 pub(crate) mod settings;
 pub(crate) mod storage;
+pub(crate) mod words;

@@ -10,9 +10,6 @@ use super::reg::{self, TCNT0, TIFR0};
 use super::timer::{Exclusive, TOV0};
 use crate::link::timing::Uptime;
 
-/// TIMSK0's overflow interrupt enable (TOIE0).
-pub(crate) const OVERFLOW_INTERRUPT: u8 = 1 << 0;
-
 /// What the overflow interrupt keeps: the milliseconds, all zero until the slave starts
 /// Timer0 (it starts once). `repr(C)`: the simulator tests read it from RAM.
 #[repr(C)]

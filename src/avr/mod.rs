@@ -26,13 +26,6 @@ pub mod board;
 mod chip;
 #[cfg(feature = "millis")]
 mod clock;
-#[cfg(not(feature = "millis"))]
-mod clock {
-    //! Without feature `millis`: no clock, and Timer0's overflow interrupt stays off.
-
-    /// TIMSK0's overflow interrupt enable, not set.
-    pub(crate) const OVERFLOW_INTERRUPT: u8 = 0;
-}
 #[cfg(any(feature = "examples", feature = "eeprom-settings"))]
 mod eeprom;
 #[cfg(feature = "master")]

@@ -17,9 +17,10 @@ use crate::error::Error;
 use crate::link::config::Config;
 use crate::link::framer::MAX_FRAME;
 use crate::protocol::reference::IntoReference;
-use crate::slave::engine::{EndOfFrame, Engine, SlaveCounters};
+use crate::slave::counters::SlaveCounters;
+use crate::slave::engine::{EndOfFrame, Engine};
 use crate::slave::model::DataModel;
-use crate::slave::storage::Place;
+use crate::slave::words::Place;
 
 #[cfg(feature = "ascii")]
 mod ascii;
@@ -441,7 +442,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> S
     /// is writing half of (its write runs whole in an interrupt).
     pub fn get_wide<T: crate::Wide>(&self, first: impl IntoReference, order: crate::WordOrder) -> Result<T, Error> {
         let first = first.into_reference()?;
-        let (first_ref, second_ref) = crate::wide::pair(first)?;
+        let (first_ref, second_ref) = crate::slave::model::pair(first)?;
         match (M::place(first_ref), M::place(second_ref)) {
             (Place::Ask, _) | (_, Place::Ask) => {
                 self.with(|model| model.get_wide(first, order)).unwrap_or(Err(Error::NotFound))
@@ -464,7 +465,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> S
         order: crate::WordOrder,
     ) -> Result<(), Error> {
         let first = first.into_reference()?;
-        let (first_ref, second_ref) = crate::wide::pair(first)?;
+        let (first_ref, second_ref) = crate::slave::model::pair(first)?;
         let [a, b] = order.split(value);
         match (M::place(first_ref), M::place(second_ref)) {
             (Place::Ask, _) | (_, Place::Ask) => {

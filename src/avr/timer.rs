@@ -31,6 +31,9 @@ use ascii::AsciiTimer;
 const OCIE0A: u8 = 1 << 1;
 const OCIE0B: u8 = 1 << 2;
 pub(crate) const TOV0: u8 = 1 << 0;
+/// TIMSK0's overflow interrupt enable (TOIE0), set when `millis()` keeps time on it
+/// (feature `millis`); without it the interrupt stays off and costs nothing.
+const OVERFLOW_INTERRUPT: u8 = if cfg!(feature = "millis") { 1 << 0 } else { 0 };
 const OCF0A: u8 = 1 << 1;
 const OCF0B: u8 = 1 << 2;
 
@@ -234,7 +237,7 @@ impl<U: Unit> FrameTimer<U> {
             TIFR0.write(TOV0 | OCF0A | OCF0B);
         }
         timer.plan(plan);
-        TIMSK0.write(running | super::clock::OVERFLOW_INTERRUPT | U::FLAG);
+        TIMSK0.write(running | OVERFLOW_INTERRUPT | U::FLAG);
         TCCR0B.write(TIMER0_CLOCK_SELECT);
         timer
     }

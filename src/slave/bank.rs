@@ -351,7 +351,7 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     /// The `u32`, `i32` or `f32` the two registers from `first` hold, in `order` (see
     /// [`crate::WordOrder`]): `bank.get_wide::<f32>(40010, WordOrder::HighFirst)`.
     pub fn get_wide<T: crate::Wide>(&self, first: impl IntoReference, order: crate::WordOrder) -> Result<T, Error> {
-        crate::wide::get(self, first.into_reference()?, order)
+        crate::slave::model::get_wide(self, first.into_reference()?, order)
     }
 
     /// Sets the two registers from `first` to `value` in `order`: both, or neither when one
@@ -362,7 +362,7 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         value: T,
         order: crate::WordOrder,
     ) -> Result<(), Error> {
-        crate::wide::set(self, first.into_reference()?, value, order)
+        crate::slave::model::set_wide(self, first.into_reference()?, value, order)
     }
 
     #[cfg(feature = "write-protect")]

@@ -21,9 +21,9 @@
 //! | 11 | Return Slave Busy Count | 0000 | 0 (this slave never answers 06) |
 //! | 12 | Return Bus Character Overrun Count | 0000 | [`SlaveCounters::overruns`] |
 
-use crate::slave::engine::{Answer, SlaveCounters};
+use crate::slave::counters::SlaveCounters;
 use crate::slave::model::DataModel;
-use crate::slave::pdu::{word, Exception, FunctionCode};
+use crate::slave::pdu::{word, Answer, Exception, FunctionCode};
 
 /// The feature is on: the engine sends FC 7, 8, 11 and 17 here.
 pub(crate) const ENABLED: bool = true;

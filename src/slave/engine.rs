@@ -8,54 +8,13 @@
 use crate::link::config::SlaveId;
 use crate::link::crc::Crc16;
 use crate::link::framer::{FrameError, Framer, UartError, MAX_FRAME};
+use crate::slave::counters::SlaveCounters;
 use crate::slave::model::DataModel;
+use crate::slave::pdu::Answer;
 use crate::slave::pdu::{encode_exception, execute, extra, Exception, FunctionCode};
 
 #[cfg(feature = "diagnostics")]
 use crate::slave::diagnostics;
-
-/// What a request the engine handled asks of it beyond counting.
-#[cfg_attr(not(feature = "diagnostics"), allow(dead_code))]
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Answer {
-    /// Send this many bytes of reply PDU.
-    Reply(usize),
-    /// FC 8 sub-function 04: enter listen-only mode, send nothing.
-    ListenOnly,
-    /// FC 8 sub-functions 01 and 0A: send this many bytes, then clear the counters and
-    /// leave listen-only mode.
-    Restart(usize),
-}
-
-/// What the slave counted since start-up (each wraps at 65535).
-#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct SlaveCounters {
-    /// Frames that ended with T3.5 of silence, good or bad.
-    pub frames: u16,
-    /// Frames dropped for a bad CRC.
-    pub crc_errors: u16,
-    /// Frames dropped for a parity or framing error.
-    pub uart_errors: u16,
-    /// Frames dropped for a lost character (USART overrun) or for exceeding 256 bytes.
-    pub overruns: u16,
-    /// Frames dropped for being shorter than 4 bytes or for a gap longer than T1.5.
-    pub malformed: u16,
-    /// Good frames addressed to this slave or broadcast.
-    pub messages: u16,
-    /// Exception responses produced (for broadcasts too, though not sent).
-    pub exceptions: u16,
-    /// Replies sent, normal or exception.
-    pub replies: u16,
-    /// Broadcast frames received.
-    pub broadcasts: u16,
-    /// Good frames for this slave or broadcast that got no reply (broadcasts, and every
-    /// frame while in listen-only mode).
-    pub no_response: u16,
-    /// Requests completed without an exception (the comm event counter of FC 11 (0x0B), which
-    /// does not count its own requests).
-    pub events: u16,
-}
 
 /// What the end of a frame (T3.5) led to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -509,31 +468,13 @@ impl<const N: usize> Engine<N> {
     }
 }
 
-impl SlaveCounters {
-    /// All zero.
-    pub const fn new() -> Self {
-        SlaveCounters {
-            frames: 0,
-            crc_errors: 0,
-            uart_errors: 0,
-            overruns: 0,
-            malformed: 0,
-            messages: 0,
-            exceptions: 0,
-            replies: 0,
-            broadcasts: 0,
-            no_response: 0,
-            events: 0,
-        }
-    }
-}
-
 /// Without feature `diagnostics`: FC 7, 8, 11 and 17 answer exception 01 and the slave is
 /// never listen-only.
 #[cfg(not(feature = "diagnostics"))]
 mod diagnostics {
-    use super::{Answer, SlaveCounters};
+    use crate::slave::counters::SlaveCounters;
     use crate::slave::model::DataModel;
+    use crate::slave::pdu::Answer;
     use crate::slave::pdu::Exception;
 
     pub(crate) const ENABLED: bool = false;

@@ -9,10 +9,11 @@
 use crate::error::Error;
 #[cfg(feature = "eeprom-settings")]
 use crate::link::config::Config;
+use crate::protocol::limits::{MAX_READ_BITS, MAX_READ_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS};
 use crate::protocol::reference::{Reference, Table};
+use crate::protocol::Exception;
 use crate::slave::pdu::device_id::Identification;
-use crate::slave::pdu::{Exception, MAX_READ_BITS, MAX_READ_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS};
-use crate::slave::storage::Place;
+use crate::slave::words::Place;
 
 const fn min(a: u32, b: u32) -> u32 {
     if a < b {
@@ -63,14 +64,7 @@ pub(crate) const fn frame_for(coils: u32, inputs: u32, input_registers: u32, hol
 pub(crate) const ONE_VALUE_FRAME: usize = 11;
 const _: () = assert!(ONE_VALUE_FRAME >= crate::link::framer::MIN_CAPACITY);
 
-/// Which way a request moves values between the PDU and a [`DataModel`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Access {
-    /// FC 1–4: from the model into the reply.
-    Read,
-    /// FC 5, 6, 15 (0x0F) and 16 (0x10): from the request into the model.
-    Write,
-}
+pub use crate::slave::words::Access;
 
 /// The application's data as the master sees it.
 pub trait DataModel {
@@ -154,7 +148,7 @@ pub trait DataModel {
     where
         Self: Sized,
     {
-        crate::wide::get(self, first, order)
+        get_wide(self, first, order)
     }
 
     /// Sets the two registers from `first` to `value` in `order` with
@@ -163,7 +157,7 @@ pub trait DataModel {
     where
         Self: Sized,
     {
-        crate::wide::set(self, first, value, order)
+        set_wide(self, first, value, order)
     }
 
     /// Where the value at `reference` is kept, worked out with interrupts enabled by the
@@ -227,4 +221,39 @@ pub trait DataModel {
     fn take_new_settings(&mut self) -> Option<Config> {
         None
     }
+}
+
+/// The pair of registers from `first`: two of one register table, the second at the next
+/// address. A coil or discrete input, or a first register at 65535, is
+/// [`Error::BadReference`].
+pub(crate) fn pair(first: Reference) -> Result<(Reference, Reference), Error> {
+    match first.address.checked_add(1) {
+        Some(address) if !first.table.is_bits() => Ok((first, Reference { table: first.table, address })),
+        _ => Err(Error::BadReference),
+    }
+}
+
+/// 32-bit values ([`crate::Wide`]) in a model: the value the pair of registers from `first` holds in `model`, read together.
+pub(crate) fn get_wide<M: DataModel + ?Sized, T: crate::Wide>(
+    model: &M,
+    first: Reference,
+    order: crate::WordOrder,
+) -> Result<T, Error> {
+    let (first, second) = pair(first)?;
+    Ok(order.join([model.value(first)?, model.value(second)?]))
+}
+
+/// Sets the pair of registers from `first` in `model` to `value`: both, or neither when
+/// one is missing.
+pub(crate) fn set_wide<M: DataModel + ?Sized, T: crate::Wide>(
+    model: &mut M,
+    first: Reference,
+    value: T,
+    order: crate::WordOrder,
+) -> Result<(), Error> {
+    let (first, second) = pair(first)?;
+    model.value(second)?;
+    let [a, b] = order.split(value);
+    model.set_value(first, a)?;
+    model.set_value(second, b)
 }

@@ -40,6 +40,19 @@ pub(crate) mod extra {
     }
 }
 
+/// What a request the engine handled asks of it beyond counting.
+#[cfg_attr(not(feature = "diagnostics"), allow(dead_code))]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Answer {
+    /// Send this many bytes of reply PDU.
+    Reply(usize),
+    /// FC 8 sub-function 04: enter listen-only mode, send nothing.
+    ListenOnly,
+    /// FC 8 sub-functions 01 and 0A: send this many bytes, then clear the counters and
+    /// leave listen-only mode.
+    Restart(usize),
+}
+
 pub use crate::protocol::Exception;
 pub use crate::protocol::FunctionCode;
 
@@ -106,7 +119,7 @@ pub struct Request {
 /// The big-endian word at `at`, 0 past the end (the length checks decide what that means).
 pub(crate) fn word(pdu: &[u8], at: usize) -> u16 {
     match pdu.get(at..at + 2) {
-        Some(&[hi, lo]) => crate::slave::storage::from_be(hi, lo),
+        Some(&[hi, lo]) => crate::slave::words::from_be(hi, lo),
         _ => 0,
     }
 }

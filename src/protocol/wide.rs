@@ -2,10 +2,6 @@
 //! defines only 16-bit registers, sent big-endian; a `u32`, `i32` or `f32` (IEEE 754
 //! single) takes two, in one of two word orders devices disagree on: [`WordOrder`].
 
-use crate::error::Error;
-use crate::protocol::reference::Reference;
-use crate::slave::model::DataModel;
-
 /// Which register of a pair holds the value's high 16 bits.
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -81,35 +77,4 @@ impl Wide for f32 {
     fn from_bits(bits: u32) -> Self {
         f32::from_bits(bits)
     }
-}
-
-/// The pair of registers from `first`: two of one register table, the second at the next
-/// address. A coil or discrete input, or a first register at 65535, is
-/// [`Error::BadReference`].
-pub(crate) fn pair(first: Reference) -> Result<(Reference, Reference), Error> {
-    match first.address.checked_add(1) {
-        Some(address) if !first.table.is_bits() => Ok((first, Reference { table: first.table, address })),
-        _ => Err(Error::BadReference),
-    }
-}
-
-/// The value the pair of registers from `first` holds in `model`, read together.
-pub(crate) fn get<M: DataModel + ?Sized, T: Wide>(model: &M, first: Reference, order: WordOrder) -> Result<T, Error> {
-    let (first, second) = pair(first)?;
-    Ok(order.join([model.value(first)?, model.value(second)?]))
-}
-
-/// Sets the pair of registers from `first` in `model` to `value`: both, or neither when
-/// one is missing.
-pub(crate) fn set<M: DataModel + ?Sized, T: Wide>(
-    model: &mut M,
-    first: Reference,
-    value: T,
-    order: WordOrder,
-) -> Result<(), Error> {
-    let (first, second) = pair(first)?;
-    model.value(second)?;
-    let [a, b] = order.split(value);
-    model.set_value(first, a)?;
-    model.set_value(second, b)
 }
