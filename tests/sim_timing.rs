@@ -134,31 +134,40 @@ fn at_115200_gap_of_exactly_t15_inside_a_frame_is_accepted() {
     gap_inside_frame_is_accepted(rtu, gap);
 }
 
+/// The longest a gap deadline may pass after the exact time: 3 ticks and 2 cycles, for the
+/// 1 deadline in 256 whose compare value would equal the count read (two ticks and 2 cycles
+/// for the others; `Deadline` in src/link/timing/plan.rs). Which one a test meets depends on
+/// where its request falls in Timer0's turn, which any change to the firmware's start-up
+/// moves: a gap this much over T1.5 breaks the frame whatever the phase.
+fn over_t15(rtu: &Rtu) -> u64 {
+    rtu.line.t15() + 3 * rtu.tick + 2
+}
+
 #[test]
-fn at_19200_8n2_gap_of_t15_plus_2_ticks_inside_a_frame_drops_it() {
+fn at_19200_8n2_gap_of_t15_plus_3_ticks_inside_a_frame_drops_it() {
     let rtu = at_19200_8n2();
-    let gap = rtu.line.t15() + 2 * rtu.tick;
+    let gap = over_t15(&rtu);
     gap_inside_frame_drops_it(rtu, gap);
 }
 
 #[test]
-fn at_9600_8n2_gap_of_t15_plus_2_ticks_inside_a_frame_drops_it() {
+fn at_9600_8n2_gap_of_t15_plus_3_ticks_inside_a_frame_drops_it() {
     let rtu = at_9600_8n2();
-    let gap = rtu.line.t15() + 2 * rtu.tick;
+    let gap = over_t15(&rtu);
     gap_inside_frame_drops_it(rtu, gap);
 }
 
 #[test]
-fn at_19200_gap_of_t15_plus_2_ticks_inside_a_frame_drops_it() {
+fn at_19200_gap_of_t15_plus_3_ticks_inside_a_frame_drops_it() {
     let rtu = at_19200();
-    let gap = rtu.line.t15() + 2 * rtu.tick;
+    let gap = over_t15(&rtu);
     gap_inside_frame_drops_it(rtu, gap);
 }
 
 #[test]
-fn at_115200_gap_of_t15_plus_2_ticks_inside_a_frame_drops_it() {
+fn at_115200_gap_of_t15_plus_3_ticks_inside_a_frame_drops_it() {
     let rtu = at_115200();
-    let gap = rtu.line.t15() + 2 * rtu.tick;
+    let gap = over_t15(&rtu);
     gap_inside_frame_drops_it(rtu, gap);
 }
 
