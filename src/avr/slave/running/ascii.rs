@@ -7,8 +7,8 @@
 
 use embedded_hal::digital::OutputPin;
 
-use super::super::timer::Passed;
 use super::Running;
+use crate::avr::timer::Passed;
 use crate::link::framer::ascii::encoded_char;
 use crate::slave::model::DataModel;
 
