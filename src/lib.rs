@@ -97,6 +97,7 @@ pub mod internal {
 
     /// The compile-time register map's parts, for [`crate::register_map!`].
     pub mod map {
+        pub use crate::slave::device::Device;
         pub use crate::slave::map::{Layout, Span};
         pub use crate::slave::storage::Values;
         pub use crate::slave::words::Place;

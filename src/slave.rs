@@ -6,6 +6,7 @@
 
 pub(crate) mod bank;
 pub(crate) mod counters;
+pub(crate) mod device;
 #[cfg(feature = "diagnostics")]
 pub(crate) mod diagnostics;
 pub(crate) mod engine;

@@ -444,20 +444,20 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     /// Sets the eight status bits FC 7 (Read Exception Status) reports.
     #[cfg(feature = "diagnostics")]
     pub fn set_exception_status(&mut self, bits: u8) {
-        self.values.set_exception_status(bits);
+        self.values.device_mut().set_exception_status(bits);
     }
 
     /// Sets the device description FC 17 (0x11, Report Server ID) reports.
     #[cfg(feature = "diagnostics")]
     pub fn set_device_info(&mut self, info: &'static [u8]) {
-        self.values.set_device_info(info);
+        self.values.device_mut().set_device_info(info);
     }
 
     /// Sets the objects FC 43 / MEI 14 (Read Device Identification) reports: see
     /// [`crate::identification!`].
     #[cfg(feature = "device-id")]
     pub fn set_identification(&mut self, identification: &'static Identification) {
-        self.values.set_identification(identification);
+        self.values.device_mut().set_identification(identification);
     }
 
     /// Contiguous runs in use (at most `RUNS`).
@@ -512,16 +512,16 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
     }
 
     fn exception_status(&self) -> u8 {
-        self.values.exception_status()
+        self.values.device().exception_status()
     }
 
     fn device_info(&self) -> &[u8] {
-        self.values.device_info()
+        self.values.device().device_info()
     }
 
     #[cfg(feature = "device-id")]
     fn identification(&self) -> Option<&Identification> {
-        self.values.identification()
+        self.values.device().identification()
     }
 
     fn transfer(

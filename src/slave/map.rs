@@ -454,15 +454,15 @@ macro_rules! register_map {
             }
 
             fn exception_status(&self) -> u8 {
-                self.0.exception_status()
+                self.0.device().exception_status()
             }
 
             fn device_info(&self) -> &[u8] {
-                self.0.device_info()
+                self.0.device().device_info()
             }
 
             fn identification(&self) -> ::core::option::Option<&$crate::Identification> {
-                self.0.identification()
+                self.0.device().identification()
             }
         }
     };
@@ -511,14 +511,14 @@ macro_rules! __map_diagnostics {
         /// `diagnostics`).
         #[allow(dead_code)]
         $vis fn set_exception_status(&mut self, bits: u8) {
-            self.0.set_exception_status(bits);
+            self.0.device_mut().set_exception_status(bits);
         }
 
         /// Sets the device description FC 17 (0x11, Report Server ID) reports (feature
         /// `diagnostics`).
         #[allow(dead_code)]
         $vis fn set_device_info(&mut self, info: &'static [u8]) {
-            self.0.set_device_info(info);
+            self.0.device_mut().set_device_info(info);
         }
     };
 }
@@ -542,7 +542,7 @@ macro_rules! __map_device_id {
         /// with `identification!` (feature `device-id`).
         #[allow(dead_code)]
         $vis fn set_identification(&mut self, identification: &'static $crate::Identification) {
-            self.0.set_identification(identification);
+            self.0.device_mut().set_identification(identification);
         }
     };
 }

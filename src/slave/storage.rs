@@ -1,11 +1,11 @@
 //! The values both register maps keep (the build-time `register_map!` and the run-time
-//! `Bank`, each holding a [`Values`]), in the layout of `words`, with the data FC 7, 17 and
-//! 43 report beside them.
+//! `Bank`, each holding a [`Values`]), in the layout of `words`; beside them the
+//! [`Device`] data FC 7, 17 and 43 report.
 
 use crate::error::Error;
 use crate::protocol::reference::Table;
 use crate::protocol::Exception;
-use crate::slave::pdu::device_id::Identification;
+use crate::slave::device::Device;
 use crate::slave::words::*;
 
 /// The values of a register map: what [`crate::register_map!`] wraps, and what a
@@ -16,12 +16,7 @@ pub struct Values<const WORDS: usize, const BIT_BYTES: usize> {
     words: [Word; WORDS],
     bits: [u8; BIT_BYTES],
     master_writes: u16,
-    #[cfg(feature = "diagnostics")]
-    exception_status: u8,
-    #[cfg(feature = "diagnostics")]
-    device_info: &'static [u8],
-    #[cfg(feature = "device-id")]
-    identification: Option<&'static Identification>,
+    device: Device,
 }
 
 impl<const WORDS: usize, const BIT_BYTES: usize> Default for Values<WORDS, BIT_BYTES> {
@@ -33,17 +28,7 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Default for Values<WORDS, BIT_B
 impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
     /// Every value 0.
     pub const fn new() -> Self {
-        Values {
-            words: [[0; 2]; WORDS],
-            bits: [0; BIT_BYTES],
-            master_writes: 0,
-            #[cfg(feature = "diagnostics")]
-            exception_status: 0,
-            #[cfg(feature = "diagnostics")]
-            device_info: &[],
-            #[cfg(feature = "device-id")]
-            identification: None,
-        }
+        Values { words: [[0; 2]; WORDS], bits: [0; BIT_BYTES], master_writes: 0, device: Device::new() }
     }
 
     /// The value at storage index `i` of the bits (`bits`: 0 or 1) or the registers, 0
@@ -194,49 +179,16 @@ impl<const WORDS: usize, const BIT_BYTES: usize> Values<WORDS, BIT_BYTES> {
         self.master_writes
     }
 
-    /// FC 7's status bits (0 without feature `diagnostics`).
+    /// What FC 7, 17 and 43 report about the device.
     #[inline(always)]
-    pub fn exception_status(&self) -> u8 {
-        #[cfg(feature = "diagnostics")]
-        return self.exception_status;
-        #[cfg(not(feature = "diagnostics"))]
-        0
+    pub fn device(&self) -> &Device {
+        &self.device
     }
 
-    /// FC 17's device description (empty without feature `diagnostics`).
+    /// What FC 7, 17 and 43 report, to set it.
     #[inline(always)]
-    pub fn device_info(&self) -> &[u8] {
-        #[cfg(feature = "diagnostics")]
-        return self.device_info;
-        #[cfg(not(feature = "diagnostics"))]
-        &[]
-    }
-
-    /// Sets FC 7's status bits (feature `diagnostics`).
-    #[cfg(feature = "diagnostics")]
-    pub fn set_exception_status(&mut self, bits: u8) {
-        self.exception_status = bits;
-    }
-
-    /// Sets FC 17's device description (feature `diagnostics`).
-    #[cfg(feature = "diagnostics")]
-    pub fn set_device_info(&mut self, info: &'static [u8]) {
-        self.device_info = info;
-    }
-
-    /// FC 43's objects (none without feature `device-id`).
-    #[inline(always)]
-    pub fn identification(&self) -> Option<&'static Identification> {
-        #[cfg(feature = "device-id")]
-        return self.identification;
-        #[cfg(not(feature = "device-id"))]
-        None
-    }
-
-    /// Sets FC 43's objects (feature `device-id`).
-    #[cfg(feature = "device-id")]
-    pub fn set_identification(&mut self, identification: &'static Identification) {
-        self.identification = Some(identification);
+    pub fn device_mut(&mut self) -> &mut Device {
+        &mut self.device
     }
 }
 
