@@ -7,9 +7,52 @@
 //!
 //! The link: `usart`, `receive` (a character to either role), `timer` (Timer0's deadlines,
 //! a compare unit each role), `clock` (`millis()`), `started` (the cell a role lives in),
-//! `reg`, `mem`. The roles: `slave`,
-//! `master`. The EEPROM (`eeprom`, where `eeprom-settings` keeps the line settings), and for
-//! this repository's examples the board without a HAL: `pins`, `adc`.
+//! `reg`, `mem`. The roles: `slave` (its interrupt state in `slave/running.rs`), `master`.
+//! The EEPROM (`eeprom`, where `eeprom-settings` keeps the line settings in
+//! `eeprom/settings.rs`), and for this repository's examples the board without a HAL
+//! (`board`).
+//!
+//! # A request, from the wire to the reply (the slave)
+//!
+//! 1. The USART's receive interrupt, bound by `slave!` (here): `__private::usart_rx_arrived`
+//!    reads Timer0 first (`timer::on_receive`: the silence deadlines count from the
+//!    character's arrival), then `Slave::on_usart_rx` (`slave.rs`) →
+//!    `Running::on_usart_rx` (`slave/running.rs`) → `receive` (`receive.rs`: the character
+//!    or its damage from `usart.rs`) → `Engine::on_byte` (`crate::slave::engine`) →
+//!    `Framer::on_byte` (`crate::link::framer`, which stores it; in ASCII `on_char`,
+//!    `link/framer/ascii.rs`, decodes the hex).
+//! 2. Timer0's compare B interrupt: `Slave::on_timer_compare` → `Running::on_timer_compare`
+//!    → `FrameTimer::on_compare` (`timer.rs`) says T1.5 passed (`Engine::on_gap_deadline`:
+//!    a character after it breaks the frame) or T3.5 did → `Engine::on_end_deadline`: the
+//!    framer's length and CRC (`crate::link::crc`), the address; for this slave the first
+//!    character goes out at once (`usart.rs`), then `Engine::process` → the one dispatch on
+//!    the function code (`Engine::handle`) → `crate::slave::pdu` (FC 1–6, 15, 16; the
+//!    checks in the spec's order), `slave/diagnostics.rs`, `slave/pdu/extra.rs` or
+//!    `slave/pdu/device_id.rs` → the [`crate::DataModel`] (`slave/map.rs`, `slave/bank.rs`
+//!    over `slave/storage.rs` and `slave/words.rs`) → the reply written over the request in
+//!    the same buffer, its CRC appended.
+//! 3. The USART's data-register-empty interrupt (`Running::on_usart_udre`) writes the
+//!    reply's next bytes; the transmit-complete interrupt (`Running::on_usart_tx`) drops
+//!    the RS-485 driver enable once the last stop bit has left, and the line is heard again.
+//!
+//! # A request, from `send` to `poll` (the master)
+//!
+//! 1. `Master::send` / `Master::broadcast` (`master.rs`), interrupts off: `Engine::begin`
+//!    (`crate::master::engine`) checks the request against the spec's limits and builds it
+//!    (`master/request.rs`: `Request::encode`, with the expected reply's shape); if the
+//!    line has been quiet for T3.5 the address goes out at once (`Running::act`) and the CRC
+//!    is appended meanwhile (`Engine::seal`).
+//! 2. The transmit-complete interrupt (`Running::on_usart_tx`) writes each next character;
+//!    after the last, `Engine::on_sent` starts the response timeout and Timer0 the silences.
+//! 3. Each reply character: the receive interrupt, as the slave's step 1 (`receive.rs` →
+//!    the master `Engine::on_byte` → the shared `Framer`). Timer0's compare A
+//!    (`Running::on_timer_compare`): T1.5, T3.5 → `Engine::on_end_deadline` →
+//!    `Expect::check` (`master/reply.rs`: address, function code or its exception, byte
+//!    count, echo) → the answer kept in the framer's buffer, or the try failed and sent
+//!    again while retries are left; on a turn with neither, `Engine::on_tick` checks the
+//!    timeout against `millis()`.
+//! 4. `Master::poll` hands the application the [`crate::master::Reply`] (read in place) or
+//!    the [`crate::master::Failure`], and frees the buffer (`Engine::collect`).
 //!
 //! Everything here is thin: register writes and reads, and calls into the pure core. A
 //! role takes the USART and `TC0` the application gets from its HAL's

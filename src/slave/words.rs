@@ -7,7 +7,7 @@
 
 use crate::protocol::reference::Table;
 
-/// Which way a request moves values between the PDU and a [`DataModel`].
+/// Which way a request moves values between the PDU and a [`crate::DataModel`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Access {
     /// FC 1–4: from the model into the reply.
