@@ -4,6 +4,7 @@
 
 mod common;
 
+use avr_modbus::internal::map::Device;
 use avr_modbus::{Bank, DataModel, Error, Reference, Table};
 use common::{bit_of, exchange, spec_bank, with_crc, TestBank, ID};
 use proptest::collection::vec;
@@ -68,19 +69,24 @@ fn spec_map() -> SpecMap {
     map
 }
 
-/// `values` bytes of values plus what every map holds beside them: the write count and, with
-/// `diagnostics`, the exception status and the device-information bytes, and with
-/// `device-id` the identification; padded to the
-/// alignment of `M`.
+/// `values` bytes of values plus what every map holds beside them: the write count and what
+/// FC 7, 17 and 43 report (`Device`: with `diagnostics` the exception status and the
+/// device-information bytes, with `device-id` the identification, nothing without them);
+/// padded to the alignment of `M`.
 fn footprint<M>(values: usize) -> usize {
-    let beside = 2
-        + if cfg!(feature = "diagnostics") { 1 + core::mem::size_of::<&[u8]>() } else { 0 }
+    (values + 2 + core::mem::size_of::<Device>()).next_multiple_of(core::mem::align_of::<M>())
+}
+
+/// What `Device` holds: its fields, padded to its alignment (none on the AVR).
+fn device_footprint() -> usize {
+    let fields = if cfg!(feature = "diagnostics") { 1 + core::mem::size_of::<&[u8]>() } else { 0 }
         + if cfg!(feature = "device-id") { core::mem::size_of::<&avr_modbus::Identification>() } else { 0 };
-    (values + beside).next_multiple_of(core::mem::align_of::<M>())
+    fields.next_multiple_of(core::mem::align_of::<Device>())
 }
 
 #[test]
 fn storage_is_the_values_and_nothing_else() {
+    assert_eq!(core::mem::size_of::<Device>(), device_footprint());
     // 19 + 8 + 1 coils and 22 inputs: 50 bits in 7 bytes; 9 registers.
     assert_eq!(core::mem::size_of::<SpecMap>(), footprint::<SpecMap>(7 + 2 * 9));
     // 8 coils in 1 byte, 10 registers.
