@@ -7,6 +7,7 @@
 pub(crate) mod config;
 pub(crate) mod crc;
 pub(crate) mod framer;
+pub(crate) mod framing;
 pub(crate) mod timing;
 
 use framer::UartError;
@@ -21,9 +22,8 @@ pub(crate) trait Receive {
     fn on_byte(&mut self, byte: u8);
     /// A damaged character arrived (parity, framing, overrun).
     fn on_error(&mut self, error: UartError);
-    /// True in ASCII framing.
-    #[cfg(feature = "ascii")]
-    fn is_ascii(&self) -> bool;
+    /// The framing the line runs, which says which of the two next calls a character takes.
+    fn framing(&self) -> framing::Framing;
     /// A character of an ASCII frame arrived: true when the frame's outcome is due, once
     /// the character has left the line.
     #[cfg(feature = "ascii")]

@@ -19,6 +19,7 @@ use super::usart::Usart;
 use crate::error::Error;
 use crate::link::config::Line;
 use crate::link::framer::MAX_FRAME;
+use crate::link::framing::Framing;
 use crate::master::internal::{Action, Engine};
 use crate::master::{Failure, MasterCounters, Reply, Request, Timeouts};
 use crate::protocol::SlaveId;
@@ -52,27 +53,6 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
         Running { engine, usart, timer, tx_next: 0, driver_enable, led }
     }
 
-    /// Character `index` of the request on the wire: its byte, or in ASCII framing its
-    /// character.
-    #[inline(always)]
-    fn request_char(&self, index: usize) -> u8 {
-        #[cfg(feature = "ascii")]
-        if self.engine.is_ascii() {
-            return self.engine.request_char(index);
-        }
-        self.engine.request_byte(index)
-    }
-
-    /// Characters of the request on the wire.
-    #[inline(always)]
-    fn request_chars(&self) -> usize {
-        #[cfg(feature = "ascii")]
-        if self.engine.is_ascii() {
-            return self.engine.request_chars();
-        }
-        self.engine.request_len()
-    }
-
     /// Sends the request from its first byte: driver enabled, the address into the USART,
     /// the rest from the transmit-complete interrupt. Out of line: the application's
     /// request and Timer0's compare interrupt both send.
@@ -81,7 +61,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
         if action == Action::Send {
             let _ = self.driver_enable.set_high();
             let _ = self.led.set_high();
-            self.usart.write(self.request_char(0));
+            self.usart.write(self.engine.request_char(0));
             self.tx_next = 1;
             self.usart.start_sending();
         }
@@ -96,10 +76,16 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
     /// millisecond), when the response timeout and the turnaround delay are checked.
     #[inline(always)]
     fn on_timer_compare(&mut self) {
-        #[cfg(feature = "ascii")]
-        if self.engine.is_ascii() {
-            return self.on_ascii_compare();
+        match self.engine.framing() {
+            Framing::Rtu => self.on_rtu_compare(),
+            #[cfg(feature = "ascii")]
+            Framing::Ascii => self.on_ascii_compare(),
         }
+    }
+
+    /// Timer0 compare A in RTU framing.
+    #[inline(always)]
+    fn on_rtu_compare(&mut self) {
         let action = match self.timer.on_compare() {
             Passed::Gap => {
                 self.engine.on_gap_deadline();
@@ -130,8 +116,8 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
     #[inline(always)]
     fn on_usart_tx(&mut self) {
         let next = self.tx_next;
-        if next < self.request_chars() {
-            self.usart.write(self.request_char(next));
+        if next < self.engine.request_chars() {
+            self.usart.write(self.engine.request_char(next));
             self.tx_next = next + 1;
             return;
         }

@@ -5,6 +5,7 @@
 
 use super::timer::{FrameTimer, Unit};
 use super::usart::Usart;
+use crate::link::framing::Framing;
 use crate::link::Receive;
 
 /// The received character to `engine`. The interrupt handler set the silence deadlines
@@ -12,22 +13,22 @@ use crate::link::Receive;
 /// USART's receive flag as can be.
 #[inline(always)]
 pub(crate) fn receive<const U: u8, T: Unit>(usart: &Usart<U>, timer: &mut FrameTimer<T>, engine: &mut impl Receive) {
-    #[cfg(feature = "ascii")]
-    if engine.is_ascii() {
-        match usart.read() {
+    match engine.framing() {
+        Framing::Rtu => {
+            let _ = &timer;
+            match usart.read() {
+                Ok(byte) => engine.on_byte(byte),
+                Err(e) => engine.on_error(e),
+            }
+        }
+        #[cfg(feature = "ascii")]
+        Framing::Ascii => match usart.read() {
             Ok(c) => {
                 if engine.on_char(c) {
                     timer.end_now();
                 }
             }
             Err(e) => engine.on_error(e),
-        }
-        return;
-    }
-    #[cfg(not(feature = "ascii"))]
-    let _ = timer;
-    match usart.read() {
-        Ok(byte) => engine.on_byte(byte),
-        Err(e) => engine.on_error(e),
+        },
     }
 }

@@ -133,6 +133,16 @@ impl<const N: usize, const WHOLE: bool> Default for Framer<N, WHOLE> {
 }
 
 impl<const N: usize, const WHOLE: bool> Framer<N, WHOLE> {
+    /// The framing the receiver runs: RTU, or ASCII (feature `ascii`).
+    #[inline(always)]
+    pub(crate) fn framing(&self) -> crate::link::framing::Framing {
+        #[cfg(feature = "ascii")]
+        if self.ascii.on {
+            return crate::link::framing::Framing::Ascii;
+        }
+        crate::link::framing::Framing::Rtu
+    }
+
     const CAPACITY: () = assert!(N >= MIN_CAPACITY && N <= MAX_FRAME, "a frame buffer holds 8 to 256 bytes");
 
     /// A framer just after power-up: it waits for T3.5 of silence (the caller starts its

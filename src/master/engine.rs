@@ -18,7 +18,7 @@
 //! LRC and characters, the receiver's events and when the line is free, is in `ascii`.
 
 use super::reply::{Reply, Verdict};
-use super::request::{seal, Expect, Request};
+use super::request::{Expect, Request};
 use crate::error::Error;
 use crate::link::framer::{FrameError, Framer, UartError, MAX_FRAME};
 use crate::protocol::Exception;
@@ -299,12 +299,8 @@ impl<const N: usize> Engine<N> {
 
     /// Appends the CRC (in ASCII framing the LRC) to the request [`Engine::begin`] built.
     pub fn seal(&mut self) {
-        #[cfg(feature = "ascii")]
-        if self.framer.is_ascii() {
-            return self.seal_lrc();
-        }
         // `begin` left room for the CRC: the bound only lets the compiler see it.
-        self.request_len = seal(&mut self.request, self.request_len.min(N - 2));
+        self.request_len = self.framer.framing().seal(&mut self.request, self.request_len.min(N - 2));
     }
 
     /// True when a request may go out: T3.5 of silence has passed (in ASCII framing, the
@@ -356,6 +352,24 @@ impl<const N: usize> Engine<N> {
     #[inline(always)]
     pub fn request_byte(&self, index: usize) -> u8 {
         self.request.get(index).copied().unwrap_or(0)
+    }
+
+    /// Character `index` on the wire of the request: what the framing makes of its bytes.
+    #[inline(always)]
+    pub fn request_char(&self, index: usize) -> u8 {
+        self.framer.framing().char_at(&self.request, self.request_len, index)
+    }
+
+    /// Characters of the request on the wire.
+    #[inline(always)]
+    pub fn request_chars(&self) -> usize {
+        self.framer.framing().chars(self.request_len)
+    }
+
+    /// The framing the master runs.
+    #[inline(always)]
+    pub(crate) fn framing(&self) -> crate::link::framing::Framing {
+        self.framer.framing()
     }
 
     /// The request's length in bytes.
@@ -528,10 +542,9 @@ impl<const N: usize> crate::link::Receive for Engine<N> {
         Engine::on_error(self, error);
     }
 
-    #[cfg(feature = "ascii")]
     #[inline(always)]
-    fn is_ascii(&self) -> bool {
-        Engine::is_ascii(self)
+    fn framing(&self) -> crate::link::framing::Framing {
+        self.framer.framing()
     }
 
     #[cfg(feature = "ascii")]

@@ -3,7 +3,6 @@
 //! an RTU frame (address, PDU, CRC) with what its reply must look like.
 
 use crate::error::Error;
-use crate::link::crc::Crc16;
 use crate::protocol::limits::{
     MAX_READ_BITS, MAX_READ_REGISTERS, MAX_READ_WRITE_REGISTERS, MAX_WRITE_COILS, MAX_WRITE_REGISTERS,
 };
@@ -350,16 +349,6 @@ fn registers(frame: &mut [u8], at: usize, values: &[u16]) {
     for (pair, value) in out.chunks_exact_mut(2).zip(values) {
         pair.copy_from_slice(&value.to_be_bytes());
     }
-}
-
-/// Appends the CRC (low byte first) to the `len` bytes of address and PDU at the start of
-/// `frame`, which [`Request::encode`] checked has room for it; the frame's length.
-pub(crate) fn seal(frame: &mut [u8], len: usize) -> usize {
-    let crc = Crc16::new().update_slice(frame.get(..len).unwrap_or_default());
-    if let Some(slot) = frame.get_mut(len..len + 2) {
-        slot.copy_from_slice(&crc.to_wire());
-    }
-    len + 2
 }
 
 /// A quantity inside 1–`max`.

@@ -6,7 +6,6 @@
 //! framer → address and CRC check → [`respond`](crate::slave::pdu::respond) → reply in the same buffer.
 
 use crate::link::config::SlaveId;
-use crate::link::crc::Crc16;
 use crate::link::framer::{FrameError, Framer, UartError, MAX_FRAME};
 use crate::slave::counters::SlaveCounters;
 use crate::slave::model::DataModel;
@@ -262,23 +261,9 @@ impl<const N: usize> Engine<N> {
         if body == 0 {
             return 0;
         }
-        #[cfg(feature = "ascii")]
-        if self.framer.is_ascii() {
-            // An ASCII reply ends with its LRC; the sender writes it out in hex.
-            let buf = self.framer.buffer_mut();
-            let lrc = crate::link::framer::ascii::lrc(buf.get(..body).unwrap_or(&[]));
-            if let Some(slot) = buf.get_mut(body) {
-                *slot = lrc;
-            }
-            self.reply_len = body + 1;
-            return self.reply_len;
-        }
-        // The reply always leaves room for its CRC (one bounds check, for both slices).
-        let frame = self.framer.buffer_mut().get_mut(..body + 2);
-        if let Some((reply, crc)) = frame.and_then(<[u8]>::split_last_chunk_mut) {
-            *crc = Crc16::new().update_slice(reply).to_wire();
-        }
-        self.reply_len = body + 2;
+        // The reply always leaves room for a CRC (the framer's buffer holds the request's).
+        let framing = self.framer.framing();
+        self.reply_len = framing.seal(self.framer.buffer_mut(), body);
         self.reply_len
     }
 
@@ -412,11 +397,19 @@ impl<const N: usize> Engine<N> {
         self.framer.buffer().get(..self.reply_len).unwrap_or(&[])
     }
 
-    /// Byte `i` of the reply built by [`Engine::process`], for the sender.
+    /// Character `i` on the wire of the reply built by [`Engine::process`], for the sender:
+    /// what the framing makes of its bytes.
     #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
     #[inline(always)]
-    pub(crate) fn reply_byte(&self, i: usize) -> u8 {
-        self.framer.buffer().get(i).copied().unwrap_or(0)
+    pub(crate) fn reply_char(&self, i: usize) -> u8 {
+        self.framer.framing().char_at(self.framer.buffer(), self.reply_len, i)
+    }
+
+    /// The framing this slave runs.
+    #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
+    #[inline(always)]
+    pub(crate) fn framing(&self) -> crate::link::framing::Framing {
+        self.framer.framing()
     }
 
     /// The reply's last byte left the USART: listen again.
@@ -509,10 +502,9 @@ impl<const N: usize> crate::link::Receive for Engine<N> {
         Engine::on_error(self, error);
     }
 
-    #[cfg(feature = "ascii")]
     #[inline(always)]
-    fn is_ascii(&self) -> bool {
-        Engine::is_ascii(self)
+    fn framing(&self) -> crate::link::framing::Framing {
+        self.framer.framing()
     }
 
     #[cfg(feature = "ascii")]

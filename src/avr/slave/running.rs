@@ -11,6 +11,7 @@ use crate::avr::started::open_line;
 use crate::avr::timer::{FrameTimer, Passed, B};
 use crate::avr::usart::Usart;
 use crate::link::config::Config;
+use crate::link::framing::Framing;
 use crate::slave::engine::{EndOfFrame, Engine};
 use crate::slave::model::DataModel;
 
@@ -90,10 +91,11 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
         if passed == Passed::Gap {
             self.engine.on_gap_deadline();
         }
-        #[cfg(feature = "ascii")]
-        let ended = if self.engine.is_ascii() { self.ascii_ended(passed) } else { self.rtu_ended(passed) };
-        #[cfg(not(feature = "ascii"))]
-        let ended = self.rtu_ended(passed);
+        let ended = match self.engine.framing() {
+            Framing::Rtu => self.rtu_ended(passed),
+            #[cfg(feature = "ascii")]
+            Framing::Ascii => self.ascii_ended(passed),
+        };
         if !ended {
             return;
         }
@@ -152,11 +154,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
     /// The reply's first character: the address, or in ASCII framing `:`.
     #[inline(always)]
     fn first_char(&self) -> u8 {
-        #[cfg(feature = "ascii")]
-        if self.engine.is_ascii() {
-            return crate::link::framer::ascii::COLON;
-        }
-        self.engine.id().get()
+        self.engine.framing().first_char(self.engine.id().get())
     }
 
     /// Characters on the wire for a reply of `bytes` bytes (at most 255, FC 3 or 4 with 125
@@ -164,11 +162,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
     /// CR LF; at most 513).
     #[inline(always)]
     fn reply_chars(&self, bytes: usize) -> TxIndex {
-        #[cfg(feature = "ascii")]
-        if self.engine.is_ascii() && bytes != 0 {
-            return crate::link::framer::ascii::encoded_len(bytes) as TxIndex;
-        }
-        bytes as TxIndex
+        self.engine.framing().chars(bytes) as TxIndex
     }
 
     /// Sends a reply processed already (feature `reply-delay`): its delay has passed.
@@ -181,15 +175,11 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
         self.usart.start_feeding();
     }
 
-    /// USART data register empty: the next character of the reply (CRC included).
+    /// USART data register empty: the next character of the reply (its check included).
     #[inline(always)]
     pub(super) fn on_usart_udre(&mut self) {
-        #[cfg(feature = "ascii")]
-        if self.engine.is_ascii() {
-            return self.on_ascii_udre();
-        }
         let next = self.tx_next;
-        self.usart.write(self.engine.reply_byte(usize::from(next)));
+        self.usart.write(self.engine.reply_char(usize::from(next)));
         self.tx_next = next.wrapping_add(1);
         if self.tx_next == self.tx_len {
             self.usart.last_written();

@@ -10,7 +10,6 @@
 //! that broke off. Characters outside a frame (noise before a `:`) delay nothing.
 
 use super::Engine;
-use crate::link::framer::ascii::{encoded_char, encoded_len, lrc};
 
 impl<const N: usize> Engine<N> {
     /// Switches between RTU and ASCII framing; call it before the first request.
@@ -37,30 +36,6 @@ impl<const N: usize> Engine<N> {
     pub fn on_char_timeout(&mut self) -> super::Action {
         self.framer.on_gap_deadline();
         self.on_end_deadline()
-    }
-
-    /// Character `index` of the request on the wire: `:`, the bytes of
-    /// [`Engine::request`] as upper-case hex pairs, CR, LF.
-    #[inline(always)]
-    pub fn request_char(&self, index: usize) -> u8 {
-        encoded_char(self.request(), index)
-    }
-
-    /// Characters of the request on the wire.
-    #[inline(always)]
-    pub fn request_chars(&self) -> usize {
-        encoded_len(self.request_len)
-    }
-
-    /// Appends the LRC to the address and PDU [`Engine::begin`] built (the buffer has room
-    /// for a CRC, one byte more).
-    pub(super) fn seal_lrc(&mut self) {
-        let len = self.request_len;
-        let sum = lrc(self.request.get(..len).unwrap_or_default());
-        if let Some(slot) = self.request.get_mut(len) {
-            *slot = sum;
-            self.request_len = len + 1;
-        }
     }
 
     /// The line is free for a request: the receiver is outside a frame.
