@@ -51,6 +51,7 @@ pub use error::Error;
 #[cfg(feature = "ascii")]
 pub use link::config::Mode;
 pub use link::config::{Config, Line, Parity, StopBits};
+pub use protocol::limits;
 pub use protocol::reference::{IntoReference, Reference, Table};
 pub use protocol::SlaveId;
 pub use protocol::{Exception, FunctionCode};

@@ -6,7 +6,7 @@
 mod address;
 mod exception;
 mod function;
-pub(crate) mod limits;
+pub mod limits;
 pub(crate) mod reference;
 mod wide;
 

@@ -5,7 +5,7 @@
 /// this crate sends or answers by name. Any other code is one too
 /// ([`FunctionCode::custom`]: the user-defined 65–72 and 100–110, and the rest): a slave
 /// answers it with exception 01, a master sends it as a
-/// [`crate::master::Request::Raw`]. As [`crate::Exception`], one byte, matched as an
+/// `master::Request::Raw`. As [`crate::Exception`], one byte, matched as an
 /// enum's variants are (`FunctionCode::ReadCoils => …`).
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
 pub struct FunctionCode(u8);
@@ -71,7 +71,7 @@ impl FunctionCode {
     }
 
     /// A code this crate does not name (the user-defined 65–72 and 100–110, say), for a
-    /// [`crate::master::Request::Raw`]: the same as [`FunctionCode::from_code`].
+    /// `master::Request::Raw`: the same as [`FunctionCode::from_code`].
     pub const fn custom(code: u8) -> Self {
         FunctionCode(code)
     }
