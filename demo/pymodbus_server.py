@@ -17,7 +17,7 @@ It serves PORT for --seconds, then prints one JSON line on stdout and exits 0:
      "unit1_inputs": [...], "unit1_input_registers": [...], "counter_log": [[...], ...],
      "broadcast": true}
 Addresses past a block read as null. `counter_log` lists every write that covered unit 2's
-registers 240-248 (examples/master_mirror.rs's counters and pass count), oldest first.
+registers 240-250 (examples/master_mirror.rs's counters and pass count), oldest first.
 
 Unit-0 broadcasts: pymodbus 3.0's server drops them unless `broadcast_enable=True` (then it
 executes them on every unit and sends no reply); this script enables it unless
@@ -45,8 +45,8 @@ INPUT_REGISTERS = [0x2000 + i for i in range(3)]
 COILS = [i % 2 == 0 for i in range(16)]
 DISCRETE = [bool(0b0011_0011 >> i & 1) for i in range(8)]
 
-COUNTERS = 240  # unit 2: the master's counters at 240-247, its pass count at 248
-COUNTER_COUNT = 9
+COUNTERS = 240  # unit 2: the master's counters at 240-249, its pass count at 250
+COUNTER_COUNT = 11
 
 
 class LoggedBlock(ModbusSequentialDataBlock):

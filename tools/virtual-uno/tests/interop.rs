@@ -433,7 +433,7 @@ fn json_rows(json: &str, key: &str) -> Vec<Vec<i64>> {
 
 /// examples/master_mirror.rs (feature `master`) polls `demo/pymodbus_server.py`: unit 1 with
 /// every function code, unit 2 told each outcome at holding registers 16 × step, and the
-/// master's counters at 240-248 (the server logs each write of those). The counters are taken
+/// master's counters at 240-250 (the server logs each write of those). The counters are taken
 /// as differences between the first and the last pass the server saw: the master polls from
 /// power-on, and times out until the server has opened the port.
 #[test]
@@ -460,21 +460,24 @@ fn master_mirror_polls_pymodbus_serial_server_with_every_function_code() {
 
     // At least 3 passes ended with the server up, so that the last report of step 1 (FC 1)
     // came after a whole pass's writes of steps 2 and 7.
-    assert!(log.len() >= 3 && log.iter().all(|row| row.len() == 9), "{}", fail("fewer than 3 passes logged"));
+    assert!(log.len() >= 3 && log.iter().all(|row| row.len() == 11), "{}", fail("fewer than 3 passes logged"));
     let (first, last) = (&log[0], &log[log.len() - 1]);
     let delta: Vec<i64> = first.iter().zip(last).map(|(a, b)| (b - a) & 0xFFFF).collect();
     println!("master counters at the first logged pass: {first:?}\n             at the last: {last:?}");
-    println!("                 difference: {delta:?} (requests replies exceptions timeouts retries crc malformed unexpected pass)");
-    assert!(last[8] >= 1 && last == &unit2[240..249], "{}", fail("pass count / counters"));
-    let passes = delta[8];
+    println!(
+        "                 difference: {delta:?} (requests crc uart overruns malformed replies exceptions timeouts \
+         retries unexpected pass)"
+    );
+    assert!(last[10] >= 1 && last == &unit2[240..251], "{}", fail("pass count / counters"));
+    let passes = delta[10];
     assert_eq!(
-        [delta[3], delta[4], delta[5], delta[6], delta[7]],
-        [0; 5],
-        "timeouts, retries, CRC errors, malformed or unexpected frames while pymodbus served\n{}",
+        [delta[1], delta[2], delta[3], delta[4], delta[7], delta[8], delta[9]],
+        [0; 7],
+        "CRC, UART, overrun or malformed frames, timeouts, retries or unexpected frames while pymodbus served\n{}",
         fail("")
     );
-    assert_eq!(delta[2], 3 * passes, "three exceptions (steps 10, 12, 13) a pass\n{}", fail(""));
-    assert_eq!(delta[0] - delta[1], passes, "every request answered but the broadcast\n{}", fail(""));
+    assert_eq!(delta[6], 3 * passes, "three exceptions (steps 10, 12, 13) a pass\n{}", fail(""));
+    assert_eq!(delta[0] - delta[5], passes, "every request answered but the broadcast\n{}", fail(""));
     assert_eq!(&unit1[16..20], &[0x3FC0, 0, 0, 0x3FC0], "unit 1's floats\n{}", fail(""));
 
     // What unit 1 holds after the master's writes.
