@@ -359,7 +359,7 @@ fn an_exception_reply_of_five_bytes_is_the_answer_with_its_code() {
         let mut m = master();
         send(&mut m, ID, Request::ReadHoldingRegisters { address: 0, quantity: 1 }, &[ID, 0x03, 0, 0, 0, 1]);
         deliver(&mut m, &with_crc(&[ID, 0x83, code]));
-        assert_eq!(outcome(&mut m), Some(Err(Failure::Exception(Exception::from_code(code)))));
+        assert_eq!(outcome(&mut m), Some(Err(Failure::Exception(Exception::from_code(code).unwrap()))));
         assert_eq!(
             m.counters(),
             MasterCounters { requests: 1, replies: 1, exceptions: 1, ..MasterCounters::default() }

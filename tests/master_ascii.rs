@@ -157,7 +157,7 @@ fn an_exception_reply_is_the_answer_with_its_code() {
         let mut m = master();
         send(&mut m, ID, READ_TWO, &read_two());
         deliver(&mut m, &ascii(&[ID, 0x83, code]));
-        assert_eq!(outcome(&mut m), Some(Err(Failure::Exception(Exception::from_code(code)))));
+        assert_eq!(outcome(&mut m), Some(Err(Failure::Exception(Exception::from_code(code).unwrap()))));
         assert_eq!(
             m.counters(),
             MasterCounters { requests: 1, replies: 1, exceptions: 1, ..MasterCounters::default() }

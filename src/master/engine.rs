@@ -367,6 +367,7 @@ impl<const N: usize> Engine<N> {
     }
 
     /// The framing the master runs.
+    #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
     #[inline(always)]
     pub(crate) fn framing(&self) -> crate::link::framing::Framing {
         self.framer.framing()
@@ -456,7 +457,7 @@ impl<const N: usize> Engine<N> {
             Verdict::Exception(code) => {
                 self.count(Count::Replies);
                 self.count(Count::Exceptions);
-                self.finish(Some(Failure::Exception(Exception::from_code(code))));
+                self.finish(Some(Failure::Exception(code)));
             }
             Verdict::OtherSlave => self.count(Count::Unexpected),
             Verdict::Mismatch => {

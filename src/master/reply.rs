@@ -11,8 +11,8 @@ use crate::protocol::FunctionCode;
 pub(crate) enum Verdict {
     /// The answer to the request: its PDU is the frame's bytes 1 to `len` − 2.
     Answer,
-    /// The slave answered with this exception code.
-    Exception(u8),
+    /// The slave answered with this exception.
+    Exception(crate::protocol::Exception),
     /// A frame from another slave: not for this master's request.
     OtherSlave,
     /// From the slave asked, but no answer to the request: wrong function code, byte
@@ -32,7 +32,11 @@ impl Expect {
         }
         let function = at(1);
         if function == self.function | 0x80 {
-            return if len == 5 { Verdict::Exception(at(2)) } else { Verdict::Mismatch };
+            // An exception reply is 5 bytes; code 0 is no exception: no answer either.
+            return match crate::protocol::Exception::from_code(at(2)) {
+                Some(exception) if len == 5 => Verdict::Exception(exception),
+                _ => Verdict::Mismatch,
+            };
         }
         let fits = function == self.function
             && match self.shape {
