@@ -563,7 +563,8 @@ fn answers(slave: u8, request: &[u8], frame: &[u8]) -> Option<Result<(), u8>> {
     }
     let function = request[1];
     if body[1] == function | 0x80 {
-        return (body.len() == 3).then(|| Err(body[2]));
+        // Code 0 is no exception (Application Protocol §7 numbers them from 01): no answer.
+        return (body.len() == 3 && body[2] != 0).then(|| Err(body[2]));
     }
     if body[1] != function {
         return None;
