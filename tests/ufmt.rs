@@ -1,7 +1,7 @@
 //! Feature `ufmt`: the types a firmware prints over arduino-hal's serial implement
 //! `ufmt::uDebug` and print like `core::fmt::Debug` would.
 
-use avr_modbus::{Config, Error, Exception, Parity, Reference, SlaveCounters, SlaveId, StopBits, Table};
+use avr_modbus::{Config, Error, Exception, FunctionCode, Parity, Reference, SlaveCounters, SlaveId, StopBits, Table};
 use ufmt::{uDebug, uWrite};
 
 /// A `uWrite` into a `String`, standing in for a serial port.
@@ -40,6 +40,8 @@ fn config_prints_the_line_settings() {
 fn errors_and_exceptions_print_their_variant() {
     assert_eq!(printed(&Error::RegistersFull), "RegistersFull");
     assert_eq!(printed(&Exception::IllegalDataAddress), "IllegalDataAddress");
+    assert_eq!(printed(&Exception::from_code(7).unwrap()), "Exception(7)");
+    assert_eq!(printed(&FunctionCode::custom(65)), "FunctionCode(65)");
 }
 
 #[test]

@@ -23,43 +23,27 @@ const fn named(code: u8) -> Exception {
     }
 }
 
-// The spec's names, spelled as the variants of an enum would be: the constants stand where
-// an enum's variants would (`Err(Exception::IllegalDataValue)`, `match` arms), and a struct
-// of one byte keeps every `Result<_, Exception>` of the slave's engine as small as it was.
-#[allow(non_upper_case_globals)]
-impl Exception {
+named_codes! {
+    Exception, named;
     /// 0x01 Illegal Function: the function code is not supported.
-    pub const IllegalFunction: Exception = named(0x01);
+    IllegalFunction = 0x01,
     /// 0x02 Illegal Data Address: an address of the range does not exist.
-    pub const IllegalDataAddress: Exception = named(0x02);
+    IllegalDataAddress = 0x02,
     /// 0x03 Illegal Data Value: quantity, byte count, value or length is wrong.
-    pub const IllegalDataValue: Exception = named(0x03);
+    IllegalDataValue = 0x03,
     /// 0x04 Server Device Failure: the request was valid but could not be carried out.
-    pub const ServerDeviceFailure: Exception = named(0x04);
+    ServerDeviceFailure = 0x04,
     /// 0x05 Acknowledge: accepted, and a long time to carry out (poll for the outcome).
-    pub const Acknowledge: Exception = named(0x05);
+    Acknowledge = 0x05,
     /// 0x06 Server Device Busy: busy with a long command; send again later.
-    pub const ServerDeviceBusy: Exception = named(0x06);
+    ServerDeviceBusy = 0x06,
     /// 0x08 Memory Parity Error: a record file's memory failed its check (FC 20, 21).
-    pub const MemoryParityError: Exception = named(0x08);
+    MemoryParityError = 0x08,
     /// 0x0A Gateway Path Unavailable: a gateway could not route the request.
-    pub const GatewayPathUnavailable: Exception = named(0x0A);
+    GatewayPathUnavailable = 0x0A,
     /// 0x0B Gateway Target Device Failed to Respond: a gateway's target did not answer.
-    pub const GatewayTargetDeviceFailedToRespond: Exception = named(0x0B);
+    GatewayTargetDeviceFailedToRespond = 0x0B,
 }
-
-/// The spec's names and codes, in order.
-const NAMES: [(Exception, &str); 9] = [
-    (Exception::IllegalFunction, "IllegalFunction"),
-    (Exception::IllegalDataAddress, "IllegalDataAddress"),
-    (Exception::IllegalDataValue, "IllegalDataValue"),
-    (Exception::ServerDeviceFailure, "ServerDeviceFailure"),
-    (Exception::Acknowledge, "Acknowledge"),
-    (Exception::ServerDeviceBusy, "ServerDeviceBusy"),
-    (Exception::MemoryParityError, "MemoryParityError"),
-    (Exception::GatewayPathUnavailable, "GatewayPathUnavailable"),
-    (Exception::GatewayTargetDeviceFailedToRespond, "GatewayTargetDeviceFailedToRespond"),
-];
 
 impl Exception {
     /// The exception of a code byte, named or not; `None` for 0, which no exception is.
@@ -75,36 +59,9 @@ impl Exception {
         self.0.get()
     }
 
-    /// The spec's name of the code (`"IllegalDataAddress"`), `None` for a code the spec
-    /// does not name.
-    pub fn name(self) -> Option<&'static str> {
-        NAMES.iter().find(|(known, _)| *known == self).map(|(_, name)| *name)
-    }
-
     /// True for the nine codes Application Protocol §7 names: 01–06, 08, 0A, 0B.
     pub fn is_known(self) -> bool {
         self.name().is_some()
-    }
-}
-
-/// The spec's name (`IllegalDataAddress`), or `Exception(0x07)` for another code.
-impl core::fmt::Debug for Exception {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self.name() {
-            Some(name) => f.write_str(name),
-            None => write!(f, "Exception({:#04x})", self.code()),
-        }
-    }
-}
-
-/// The spec's name, or the code in decimal (`Exception(7)`), for arduino-hal's serial.
-#[cfg(feature = "ufmt")]
-impl ufmt::uDebug for Exception {
-    fn fmt<W: ufmt::uWrite + ?Sized>(&self, f: &mut ufmt::Formatter<'_, W>) -> Result<(), W::Error> {
-        match self.name() {
-            Some(name) => f.write_str(name),
-            None => ufmt::uwrite!(f, "Exception({})", self.code()),
-        }
     }
 }
 

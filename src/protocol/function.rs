@@ -10,59 +10,39 @@
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
 pub struct FunctionCode(u8);
 
-// The spec's names, spelled as an enum's variants would be (see `Exception`).
-#[allow(non_upper_case_globals)]
-impl FunctionCode {
+named_codes! {
+    FunctionCode, FunctionCode;
     /// 0x01 Read Coils, §6.1.
-    pub const ReadCoils: FunctionCode = FunctionCode(0x01);
+    ReadCoils = 0x01,
     /// 0x02 Read Discrete Inputs, §6.2.
-    pub const ReadDiscreteInputs: FunctionCode = FunctionCode(0x02);
+    ReadDiscreteInputs = 0x02,
     /// 0x03 Read Holding Registers, §6.3.
-    pub const ReadHoldingRegisters: FunctionCode = FunctionCode(0x03);
+    ReadHoldingRegisters = 0x03,
     /// 0x04 Read Input Registers, §6.4.
-    pub const ReadInputRegisters: FunctionCode = FunctionCode(0x04);
+    ReadInputRegisters = 0x04,
     /// 0x05 Write Single Coil, §6.5.
-    pub const WriteSingleCoil: FunctionCode = FunctionCode(0x05);
+    WriteSingleCoil = 0x05,
     /// 0x06 Write Single Register, §6.6.
-    pub const WriteSingleRegister: FunctionCode = FunctionCode(0x06);
+    WriteSingleRegister = 0x06,
     /// 0x07 Read Exception Status, §6.7 (a slave answers it with feature `diagnostics`).
-    pub const ReadExceptionStatus: FunctionCode = FunctionCode(0x07);
+    ReadExceptionStatus = 0x07,
     /// 0x08 Diagnostics, §6.8 (a slave answers it with feature `diagnostics`).
-    pub const Diagnostics: FunctionCode = FunctionCode(0x08);
+    Diagnostics = 0x08,
     /// 0x0B Get Comm Event Counter, §6.9 (a slave answers it with feature `diagnostics`).
-    pub const GetCommEventCounter: FunctionCode = FunctionCode(0x0B);
+    GetCommEventCounter = 0x0B,
     /// 0x0F Write Multiple Coils, §6.11.
-    pub const WriteMultipleCoils: FunctionCode = FunctionCode(0x0F);
+    WriteMultipleCoils = 0x0F,
     /// 0x10 Write Multiple Registers, §6.12.
-    pub const WriteMultipleRegisters: FunctionCode = FunctionCode(0x10);
+    WriteMultipleRegisters = 0x10,
     /// 0x11 Report Server ID, §6.13 (a slave answers it with feature `diagnostics`).
-    pub const ReportServerId: FunctionCode = FunctionCode(0x11);
+    ReportServerId = 0x11,
     /// 0x16 Mask Write Register, §6.16 (a slave answers it with feature `extra-fc`).
-    pub const MaskWriteRegister: FunctionCode = FunctionCode(0x16);
+    MaskWriteRegister = 0x16,
     /// 0x17 Read/Write Multiple Registers, §6.17 (a slave answers it with feature `extra-fc`).
-    pub const ReadWriteMultipleRegisters: FunctionCode = FunctionCode(0x17);
+    ReadWriteMultipleRegisters = 0x17,
     /// 0x2B Encapsulated Interface Transport, §6.19: MEI type 14 is Read Device Identification, §6.21 (a slave answers it with feature `device-id`).
-    pub const EncapsulatedInterface: FunctionCode = FunctionCode(0x2B);
+    EncapsulatedInterface = 0x2B,
 }
-
-/// The named codes and their names, in order.
-const NAMES: [(FunctionCode, &str); 15] = [
-    (FunctionCode::ReadCoils, "ReadCoils"),
-    (FunctionCode::ReadDiscreteInputs, "ReadDiscreteInputs"),
-    (FunctionCode::ReadHoldingRegisters, "ReadHoldingRegisters"),
-    (FunctionCode::ReadInputRegisters, "ReadInputRegisters"),
-    (FunctionCode::WriteSingleCoil, "WriteSingleCoil"),
-    (FunctionCode::WriteSingleRegister, "WriteSingleRegister"),
-    (FunctionCode::ReadExceptionStatus, "ReadExceptionStatus"),
-    (FunctionCode::Diagnostics, "Diagnostics"),
-    (FunctionCode::GetCommEventCounter, "GetCommEventCounter"),
-    (FunctionCode::WriteMultipleCoils, "WriteMultipleCoils"),
-    (FunctionCode::WriteMultipleRegisters, "WriteMultipleRegisters"),
-    (FunctionCode::ReportServerId, "ReportServerId"),
-    (FunctionCode::MaskWriteRegister, "MaskWriteRegister"),
-    (FunctionCode::ReadWriteMultipleRegisters, "ReadWriteMultipleRegisters"),
-    (FunctionCode::EncapsulatedInterface, "EncapsulatedInterface"),
-];
 
 impl FunctionCode {
     /// The function code of a byte, named or not.
@@ -81,11 +61,6 @@ impl FunctionCode {
         self.0
     }
 
-    /// The name of a code this crate names (`"ReadCoils"`), `None` for the rest.
-    pub fn name(self) -> Option<&'static str> {
-        NAMES.iter().find(|(known, _)| *known == self).map(|(_, name)| *name)
-    }
-
     /// True for the serial-line diagnostics, FC 7, 8, 11 (0x0B) and 17 (0x11).
     pub const fn is_diagnostic(self) -> bool {
         matches!(
@@ -95,27 +70,6 @@ impl FunctionCode {
                 | FunctionCode::GetCommEventCounter
                 | FunctionCode::ReportServerId
         )
-    }
-}
-
-/// The name (`ReadCoils`), or `FunctionCode(0x41)` for a code this crate does not name.
-impl core::fmt::Debug for FunctionCode {
-    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        match self.name() {
-            Some(name) => f.write_str(name),
-            None => write!(f, "FunctionCode({:#04x})", self.0),
-        }
-    }
-}
-
-/// The name, or the code in decimal (`FunctionCode(65)`), for arduino-hal's serial.
-#[cfg(feature = "ufmt")]
-impl ufmt::uDebug for FunctionCode {
-    fn fmt<W: ufmt::uWrite + ?Sized>(&self, f: &mut ufmt::Formatter<'_, W>) -> Result<(), W::Error> {
-        match self.name() {
-            Some(name) => f.write_str(name),
-            None => ufmt::uwrite!(f, "FunctionCode({})", self.0),
-        }
     }
 }
 
