@@ -246,17 +246,10 @@ impl<const N: usize> Engine<N> {
         }
     }
 
+    /// One more in `count`, wrapping ([`crate::link::bump`]).
     #[inline(always)]
     fn count(&mut self, count: Count) {
-        self.count_at(count as u8);
-    }
-
-    // Out of line: a call is shorter than the increment, and there are a dozen.
-    #[inline(never)]
-    fn count_at(&mut self, at: u8) {
-        if let Some(c) = self.counts.get_mut(usize::from(at)) {
-            *c = c.wrapping_add(1);
-        }
+        crate::link::bump(&mut self.counts, count as u8);
     }
 
     /// True from [`Engine::start`] until the outcome is collected ([`Engine::collect`]).
@@ -443,7 +436,7 @@ impl<const N: usize> Engine<N> {
             None => {}
             Some(Ok(len)) => self.on_frame(len),
             Some(Err(error)) => {
-                self.count_at(error.counter());
+                crate::link::bump(&mut self.counts, error.counter());
                 if self.state == State::Waiting && !self.cut_short() {
                     self.attempt_failed(Failure::BadReply);
                 }

@@ -151,13 +151,10 @@ impl<const N: usize> Engine<N> {
         self.bump_at(counter as u8);
     }
 
-    /// One more in the counter at `at` in [`Engine::counts`], wrapping. Not inlined: a call
-    /// where an inlined increment of a counter at a fixed address takes twice the flash.
-    #[inline(never)]
+    /// One more in the counter at `at` in [`Engine::counts`], wrapping ([`crate::link::bump`]).
+    #[inline(always)]
     fn bump_at(&mut self, at: u8) {
-        if let Some(count) = self.counts.get_mut(usize::from(at)) {
-            *count = count.wrapping_add(1);
-        }
+        crate::link::bump(&mut self.counts, at);
     }
 
     /// A character arrived.
