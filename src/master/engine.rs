@@ -356,12 +356,6 @@ impl<const N: usize> Engine<N> {
         self.request.get(..self.request_len).unwrap_or_default()
     }
 
-    /// Byte `index` of the request.
-    #[inline(always)]
-    pub fn request_byte(&self, index: usize) -> u8 {
-        self.request.get(index).copied().unwrap_or(0)
-    }
-
     /// Character `index` on the wire of the request: what the framing makes of its bytes.
     #[inline(always)]
     pub fn request_char(&self, index: usize) -> u8 {

@@ -17,11 +17,6 @@ impl<const N: usize> Engine<N> {
         self.framer.set_ascii(on);
     }
 
-    /// True in ASCII framing.
-    pub fn is_ascii(&self) -> bool {
-        self.framer.is_ascii()
-    }
-
     /// An ASCII character arrived. Returns true when a frame's outcome is due: the caller
     /// calls [`Engine::on_end_deadline`] once the character has left the line (at the LF
     /// that ends a frame, and at a `:` that drops the frame in progress). Characters while
