@@ -3,7 +3,7 @@
 //! interrupts once the line has been quiet for T3.5, the reply is received, checked and
 //! kept, timeouts and retries run from Timer0's compare interrupt, and the application
 //! collects the outcome when it likes. The link is the slave's: the same USART driver,
-//! Timer0 deadlines and framer. In ASCII framing (feature `ascii`, `Config::ascii`) the
+//! Timer0 deadlines and framer. In ASCII framing (feature `ascii`, `Line::ascii`) the
 //! interrupts take the paths of `ascii`.
 
 use core::ops::Deref;
@@ -136,8 +136,8 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
 /// ```ignore
 /// avr_modbus::master!(MASTER: 64);
 /// // in main:
-/// MASTER.start(CONFIG, dp.USART0, dp.TC0)?;
-/// MASTER.send(1, &Request::ReadInputRegisters { address: 0, quantity: 5 })?;
+/// MASTER.start(LINE, dp.USART0, dp.TC0)?;
+/// MASTER.send(SlaveId::new(1), &Request::ReadInputRegisters { address: 0, quantity: 5 })?;
 /// // later, in the loop:
 /// let outcome = MASTER.poll(|outcome| outcome.map(|reply| reply.register(0)));
 /// ```
