@@ -28,6 +28,8 @@ pub mod master;
 mod peripheral;
 pub(crate) mod protocol;
 mod slave;
+#[cfg(feature = "tcp")]
+pub mod tcp;
 
 #[cfg(target_arch = "avr")]
 #[doc(hidden)]

@@ -293,24 +293,9 @@ impl<const N: usize> Engine<N> {
         // where it is used).
         let pdu_len = if diagnostics::ENABLED { len.saturating_sub(3) } else { len.wrapping_sub(3) };
         let counters = if diagnostics::ENABLED { self.counters() } else { SlaveCounters::new() };
+        let id = self.id.get();
         let (_, pdu) = self.framer.buffer_mut().split_at_mut(1);
-        // Without their features, the optional codes fall through to `execute`, which
-        // answers 01 for every code it doesn't know: no comparison is left for them.
-        let code = FunctionCode::from_code(pdu.first().copied().unwrap_or(0));
-        let result = match code {
-            _ if diagnostics::ENABLED && code.is_diagnostic() => {
-                return diagnostics::respond(pdu, pdu_len, model, &counters, self.id.get())
-            }
-            FunctionCode::MaskWriteRegister | FunctionCode::ReadWriteMultipleRegisters if extra::ENABLED => {
-                extra::respond(pdu, pdu_len, model, unicast)
-            }
-            #[cfg(feature = "device-id")]
-            FunctionCode::EncapsulatedInterface => {
-                crate::slave::pdu::device_id::respond(pdu, pdu_len, model.identification(), unicast)
-            }
-            _ => execute(pdu, pdu_len, model, unicast),
-        };
-        result.map(Answer::Reply)
+        dispatch(pdu, pdu_len, model, &counters, id, unicast)
     }
 
     /// Counts a handled request: an exception, or an event (FC 11 (0x0B) excepted, which
@@ -456,6 +441,37 @@ impl<const N: usize> Engine<N> {
         self.process(model);
         end
     }
+}
+
+/// The one dispatch on the function code, for a request PDU of `pdu_len` bytes at the start
+/// of `pdu` (its first bytes, when the buffer is shorter): FC 7, 8, 11 (0x0B) and 17 (0x11)
+/// go to the diagnostics (exception 01 without feature `diagnostics`), FC 22 (0x16) and 23
+/// (0x17) to the extra codes (exception 01 without feature `extra-fc`), FC 43 (0x2B) to the
+/// device identification, every other code to the PDU engine. The reply PDU is written over
+/// the request. A broadcast (`unicast` false) only checks a read and executes a write. The
+/// RTU slave's and the TCP server's.
+#[inline(always)]
+pub(crate) fn dispatch<M: DataModel + ?Sized>(
+    pdu: &mut [u8],
+    pdu_len: usize,
+    model: &mut M,
+    counters: &SlaveCounters,
+    id: u8,
+    unicast: bool,
+) -> Result<Answer, Exception> {
+    // Without their features, the optional codes fall through to `execute`, which
+    // answers 01 for every code it doesn't know: no comparison is left for them.
+    let code = FunctionCode::from_code(pdu.first().copied().unwrap_or(0));
+    let result = match code {
+        _ if diagnostics::ENABLED && code.is_diagnostic() => return diagnostics::respond(pdu, pdu_len, model, counters, id),
+        FunctionCode::MaskWriteRegister | FunctionCode::ReadWriteMultipleRegisters if extra::ENABLED => {
+            extra::respond(pdu, pdu_len, model, unicast)
+        }
+        #[cfg(feature = "device-id")]
+        FunctionCode::EncapsulatedInterface => crate::slave::pdu::device_id::respond(pdu, pdu_len, model.identification(), unicast),
+        _ => execute(pdu, pdu_len, model, unicast),
+    };
+    result.map(Answer::Reply)
 }
 
 /// Without feature `diagnostics`: FC 7, 8, 11 and 17 answer exception 01 and the slave is

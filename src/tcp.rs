@@ -1,0 +1,48 @@
+//! Modbus TCP (feature `tcp`), Modbus Messaging on TCP/IP Implementation Guide v1.0b: the
+//! server over the WIZnet W5100 and W5500 Ethernet chips.
+//!
+//! The pure core, tested on the host: the MBAP header (`mbap`), the settings
+//! ([`Network`]), the connections and requests over any chip's TCP sockets (`server`), the
+//! chips' SPI frames and registers (`wiznet`). The AVR layer drives it from Timer0's
+//! overflow interrupt ([`crate::TcpServer`]).
+
+pub(crate) mod mbap;
+mod network;
+pub(crate) mod server;
+pub(crate) mod wiznet;
+
+pub use network::Network;
+pub use server::TcpCounters;
+pub use wiznet::{W5100, W5500};
+
+use crate::slave::counters::SlaveCounters;
+use crate::slave::engine::dispatch;
+use crate::slave::model::DataModel;
+use crate::slave::pdu::{encode_exception, Answer, Exception};
+
+/// Handles the request of an ADU in `adu` (header, then the first bytes of a PDU of
+/// `pdu_len` bytes) against `model`, as the RTU slave would: the reply PDU written over the
+/// request. Returns its length and whether it is an exception. FC 8's listen-only mode
+/// belongs to the serial line (Application Protocol §6.8.1): over TCP it is exception 01.
+pub(crate) fn respond<M: DataModel + ?Sized>(adu: &mut [u8], pdu_len: usize, model: &mut M) -> Option<(usize, bool)> {
+    let unit = adu.get(mbap::HEADER - 1).copied().unwrap_or(mbap::DEVICE_UNIT);
+    let pdu = adu.get_mut(mbap::HEADER..)?;
+    let result = match dispatch(pdu, pdu_len, model, &SlaveCounters::new(), unit, true) {
+        Ok(Answer::Reply(n) | Answer::Restart(n)) => Ok(n),
+        Ok(Answer::ListenOnly) => Err(Exception::IllegalFunction),
+        Err(exception) => Err(exception),
+    };
+    Some(match result {
+        Ok(n) => (n, false),
+        Err(exception) => (encode_exception(pdu, exception), true),
+    })
+}
+
+/// The handler of a server serving `model`.
+pub(crate) struct Serving<'a, M: ?Sized>(pub(crate) &'a mut M);
+
+impl<M: DataModel + ?Sized> server::Handler for Serving<'_, M> {
+    fn handle(&mut self, adu: &mut [u8], pdu_len: usize) -> Option<(usize, bool)> {
+        respond(adu, pdu_len, self.0)
+    }
+}

@@ -1,0 +1,360 @@
+//! The Modbus TCP server's connections and requests, Implementation Guide v1.0b §4.2
+//! (connection management) and §4.4 (the server's handling of an ADU), above any chip that
+//! offers TCP sockets ([`Sockets`]).
+//!
+//! Every serving socket listens on the port; a connection is checked against the allow-list
+//! as it comes, then served. A request is read only once it is whole in the chip's receive
+//! buffer: its header first (checked before its length decides anything), then, when
+//! header and body are all there, the body. So a request split over segments waits in the
+//! chip, one buffer of RAM serves every socket, and several requests in one segment are
+//! answered in order, their replies sent together. A socket whose master does not read its
+//! replies keeps its requests until there is room for an answer; the other sockets go on.
+//!
+//! Once a second the server looks at every socket: connections idle longer than the
+//! timeout are closed, and when all sockets hold a connection the one idle longest is
+//! closed for a newcomer once it has been idle a while (§4.2.1).
+
+use super::mbap::{self, Header, Refused, HEADER};
+use super::network::Network;
+use super::wiznet::{command, state, SEND_OK};
+
+/// What the server needs of a chip's TCP sockets (the W5100's and W5500's meanings).
+pub trait Sockets {
+    /// Bit n set: socket n has events.
+    fn events(&mut self) -> u8;
+    /// Socket `s`'s events (Sn_IR), cleared.
+    fn take_events(&mut self, s: u8) -> u8;
+    /// Socket `s`'s state (Sn_SR).
+    fn status(&mut self, s: u8) -> u8;
+    /// Gives socket `s` a command (Sn_CR) and waits until it is taken.
+    fn command(&mut self, s: u8, command: u8);
+    /// Opens socket `s` for TCP on `port` and listens.
+    fn listen(&mut self, s: u8, port: u16);
+    /// The address of socket `s`'s peer.
+    fn peer(&mut self, s: u8) -> [u8; 4];
+    /// The bytes received and not taken.
+    fn received(&mut self, s: u8) -> u16;
+    /// Where the next received byte is.
+    fn rx_pointer(&mut self, s: u8) -> u16;
+    /// Reads received bytes from `pointer` on.
+    fn read(&mut self, s: u8, pointer: u16, buf: &mut [u8]);
+    /// Takes the received bytes up to `pointer`.
+    fn take(&mut self, s: u8, pointer: u16);
+    /// The room in the transmit buffer.
+    fn tx_free(&mut self, s: u8) -> u16;
+    /// Where the next byte to send goes.
+    fn tx_pointer(&mut self, s: u8) -> u16;
+    /// Writes bytes to send from `pointer` on.
+    fn write(&mut self, s: u8, pointer: u16, data: &[u8]);
+    /// Sends the bytes up to `pointer`.
+    fn send(&mut self, s: u8, pointer: u16);
+}
+
+/// The TCP server's counters: what its connections and requests came to. Each wraps
+/// after 65535.
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TcpCounters {
+    /// Requests answered (exceptions included).
+    pub requests: u16,
+    /// Of them, answered with an exception.
+    pub exceptions: u16,
+    /// ADUs dropped for a protocol id other than 0; their connection goes on.
+    pub bad_protocol: u16,
+    /// Connections closed for a length field outside 2–254: the stream could not be
+    /// followed.
+    pub bad_length: u16,
+    /// Requests for another unit id than the device's (see [`Network::only_unit`]),
+    /// dropped.
+    pub other_unit: u16,
+    /// Connections accepted.
+    pub connections: u16,
+    /// Connections refused by the allow-list.
+    pub refused: u16,
+    /// Connections closed after the idle timeout.
+    pub idle_closed: u16,
+    /// Connections closed, idle, to make room for a newcomer.
+    pub evicted: u16,
+}
+
+/// Where a socket is, as the server last saw it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+enum Phase {
+    /// Not set up yet, or closed: to be opened.
+    #[default]
+    Closed,
+    /// Listening.
+    Listening,
+    /// Connected and served.
+    Connected,
+    /// Closing (a FIN sent, or on its way to closed).
+    Closing,
+}
+
+/// A socket's state in RAM.
+#[derive(Clone, Copy, Debug, Default)]
+struct Conn {
+    phase: Phase,
+    /// A SEND is on its way: the next waits for its SEND_OK.
+    sending: bool,
+    /// Whole seconds without a request (or, closing, since it began).
+    idle: u16,
+}
+
+/// The server: its sockets' states, its counters and the one buffer of `B` bytes where each
+/// request becomes its reply (header and PDU; 260 holds the longest).
+pub struct Server<const B: usize = { mbap::MAX_ADU }> {
+    conns: [Conn; Network::MAX_SOCKETS as usize],
+    /// Sockets to look at in the next poll whatever their events say: requests left for
+    /// lack of room to answer, a socket that must be opened.
+    again: u8,
+    counters: TcpCounters,
+    buf: [u8; B],
+}
+
+/// What handling one request asks of the server.
+pub trait Handler {
+    /// Handles the request PDU of `pdu_len` bytes (its first bytes when the buffer is
+    /// shorter) that starts at `adu[HEADER]`, writing the reply PDU over it; returns the
+    /// reply PDU's length and whether it is an exception. `None`: no reply.
+    fn handle(&mut self, adu: &mut [u8], pdu_len: usize) -> Option<(usize, bool)>;
+}
+
+impl<F: FnMut(&mut [u8], usize) -> Option<(usize, bool)>> Handler for F {
+    fn handle(&mut self, adu: &mut [u8], pdu_len: usize) -> Option<(usize, bool)> {
+        self(adu, pdu_len)
+    }
+}
+
+impl<const B: usize> Default for Server<B> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const B: usize> Server<B> {
+    const FITS: () = assert!(B >= HEADER + 5 && B <= mbap::MAX_ADU, "the buffer holds 12 to 260 bytes");
+
+    /// A server with every socket still to open.
+    pub const fn new() -> Self {
+        let () = Self::FITS;
+        Server {
+            conns: [Conn { phase: Phase::Closed, sending: false, idle: 0 }; Network::MAX_SOCKETS as usize],
+            again: 0xFF,
+            counters: TcpCounters {
+                requests: 0,
+                exceptions: 0,
+                bad_protocol: 0,
+                bad_length: 0,
+                other_unit: 0,
+                connections: 0,
+                refused: 0,
+                idle_closed: 0,
+                evicted: 0,
+            },
+            buf: [0; B],
+        }
+    }
+
+    /// The counters.
+    pub fn counters(&self) -> TcpCounters {
+        self.counters
+    }
+
+    /// Serves what the chip has: the sockets with events, and those left to look at again;
+    /// with `second`, every socket, and the idle connections' time counted. Call it often
+    /// (the AVR layer: every Timer0 overflow, 1.024 ms) and with `second` once a second.
+    pub fn poll<S: Sockets, H: Handler>(&mut self, chip: &mut S, net: &Network, handler: &mut H, second: bool) {
+        let serving = net.sockets.min(Network::MAX_SOCKETS);
+        let mut look = chip.events() | core::mem::take(&mut self.again);
+        if second {
+            look = 0xFF;
+        }
+        for s in 0..serving {
+            if look & (1 << s) != 0 {
+                self.service(chip, net, handler, s);
+            }
+        }
+        if second {
+            self.tick(chip, net, serving);
+        }
+    }
+
+    /// Socket `s`: its events taken, its state followed, its requests answered.
+    fn service<S: Sockets, H: Handler>(&mut self, chip: &mut S, net: &Network, handler: &mut H, s: u8) {
+        let events = chip.take_events(s);
+        let at = usize::from(s);
+        if events & SEND_OK != 0 {
+            self.conns[at].sending = false;
+        }
+        match chip.status(s) {
+            state::CLOSED => self.open(chip, net, s),
+            state::INIT => chip.command(s, command::LISTEN),
+            state::LISTEN => self.conns[at].phase = Phase::Listening,
+            status @ (state::ESTABLISHED | state::CLOSE_WAIT) => {
+                if self.conns[at].phase != Phase::Connected {
+                    if !net.allows(chip.peer(s)) {
+                        self.counters.refused = self.counters.refused.wrapping_add(1);
+                        self.close(chip, net, s);
+                        return;
+                    }
+                    self.conns[at] = Conn { phase: Phase::Connected, sending: false, idle: 0 };
+                    self.counters.connections = self.counters.connections.wrapping_add(1);
+                }
+                let left = self.serve(chip, handler, net, s);
+                if status == state::CLOSE_WAIT && !left {
+                    // The master closed its side and every request it sent is answered.
+                    chip.command(s, command::DISCON);
+                    self.conns[usize::from(s)] = Conn { phase: Phase::Closing, sending: false, idle: 0 };
+                }
+            }
+            // SYN received, FIN_WAIT, CLOSING, TIME_WAIT, LAST_ACK: on their way; a socket that
+            // stays in one is closed by `tick`.
+            _ => {
+                if self.conns[at].phase != Phase::Closing {
+                    self.conns[at] = Conn { phase: Phase::Closing, sending: false, idle: 0 };
+                }
+            }
+        }
+    }
+
+    /// Opens socket `s` and listens on the port.
+    fn open<S: Sockets>(&mut self, chip: &mut S, net: &Network, s: u8) {
+        chip.listen(s, net.port);
+        self.conns[usize::from(s)] = Conn { phase: Phase::Listening, sending: false, idle: 0 };
+    }
+
+    /// Closes socket `s` at once (an RST to its peer) and listens again.
+    fn close<S: Sockets>(&mut self, chip: &mut S, net: &Network, s: u8) {
+        chip.command(s, command::CLOSE);
+        self.open(chip, net, s);
+    }
+
+    /// Answers the whole requests socket `s` holds, in order, their replies sent with one
+    /// SEND. True when requests are left (no room to answer, or a SEND on its way).
+    fn serve<S: Sockets, H: Handler>(&mut self, chip: &mut S, handler: &mut H, net: &Network, s: u8) -> bool {
+        let mut received = chip.received(s);
+        if received < HEADER as u16 {
+            return false;
+        }
+        if self.conns[usize::from(s)].sending {
+            // Its SEND_OK brings the socket back.
+            return true;
+        }
+        let rx_start = chip.rx_pointer(s);
+        let mut rx = rx_start;
+        let mut free = chip.tx_free(s);
+        let tx_start = chip.tx_pointer(s);
+        let mut tx = tx_start;
+        let mut left = false;
+        while received >= HEADER as u16 {
+            let (head, body) = self.buf.split_at_mut(HEADER);
+            let head: &mut [u8; HEADER] = head.try_into().unwrap_or_else(|_| unreachable!());
+            chip.read(s, rx, head);
+            let header = match Header::parse(head) {
+                Ok(header) => header,
+                Err(Refused::Protocol) => {
+                    let skip = Header::skip(head).unwrap_or(0);
+                    if received < skip {
+                        left = true;
+                        break;
+                    }
+                    self.counters.bad_protocol = self.counters.bad_protocol.wrapping_add(1);
+                    rx = rx.wrapping_add(skip);
+                    received -= skip;
+                    continue;
+                }
+                Err(Refused::Length) => {
+                    self.counters.bad_length = self.counters.bad_length.wrapping_add(1);
+                    self.close(chip, net, s);
+                    return false;
+                }
+            };
+            let adu = header.adu_len();
+            if received < adu {
+                // The rest is on its way.
+                break;
+            }
+            if !net.answers(header.unit) {
+                self.counters.other_unit = self.counters.other_unit.wrapping_add(1);
+                rx = rx.wrapping_add(adu);
+                received -= adu;
+                continue;
+            }
+            if usize::from(free) < B {
+                // No room for the longest reply: the master is not reading. Its requests
+                // wait; the other sockets go on.
+                left = true;
+                break;
+            }
+            let pdu_len = usize::from(header.length - 1);
+            let kept = pdu_len.min(body.len());
+            chip.read(s, rx.wrapping_add(HEADER as u16), &mut body[..kept]);
+            rx = rx.wrapping_add(adu);
+            received -= adu;
+            let Some((reply, exception)) = handler.handle(&mut self.buf, pdu_len) else {
+                continue;
+            };
+            self.counters.requests = self.counters.requests.wrapping_add(1);
+            if exception {
+                self.counters.exceptions = self.counters.exceptions.wrapping_add(1);
+            }
+            let len = (HEADER + reply).min(B);
+            mbap::seal(&mut self.buf, len - HEADER);
+            chip.write(s, tx, &self.buf[..len]);
+            tx = tx.wrapping_add(len as u16);
+            free -= len as u16;
+            self.conns[usize::from(s)].idle = 0;
+        }
+        if rx != rx_start {
+            chip.take(s, rx);
+        }
+        if tx != tx_start {
+            chip.send(s, tx);
+            self.conns[usize::from(s)].sending = true;
+        }
+        if left {
+            self.again |= 1 << s;
+        }
+        left
+    }
+
+    /// A second passed: idle connections' time counted, those past the timeout closed, the
+    /// one idle longest closed for a newcomer when no socket listens, sockets stuck on
+    /// their way to closed closed.
+    fn tick<S: Sockets>(&mut self, chip: &mut S, net: &Network, serving: u8) {
+        let mut listening = false;
+        let mut oldest: Option<(u8, u16)> = None;
+        for s in 0..serving {
+            let conn = &mut self.conns[usize::from(s)];
+            conn.idle = conn.idle.saturating_add(1);
+            match conn.phase {
+                Phase::Connected if net.idle_timeout_s != 0 && conn.idle >= net.idle_timeout_s => {
+                    self.counters.idle_closed = self.counters.idle_closed.wrapping_add(1);
+                    self.close(chip, net, s);
+                    listening = true;
+                }
+                Phase::Connected => {
+                    if oldest.is_none_or(|(_, idle)| conn.idle > idle) {
+                        oldest = Some((s, conn.idle));
+                    }
+                }
+                Phase::Closing if conn.idle >= 2 => {
+                    self.close(chip, net, s);
+                    listening = true;
+                }
+                Phase::Listening | Phase::Closed => listening = true,
+                Phase::Closing => {}
+            }
+        }
+        if let (false, Some((s, idle))) = (listening, oldest) {
+            if idle >= net.evict_after_s {
+                self.counters.evicted = self.counters.evicted.wrapping_add(1);
+                self.close(chip, net, s);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

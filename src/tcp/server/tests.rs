@@ -1,0 +1,525 @@
+//! The server against an imitation of a chip's TCP sockets: 2 KB rings with free-running
+//! pointers, as the W5100's and W5500's.
+
+use super::*;
+use crate::slave::bank::Bank;
+use crate::tcp::Serving;
+
+const SIZE: u16 = 0x800;
+
+/// One socket of the imitation chip.
+#[derive(Clone)]
+struct Sock {
+    status: u8,
+    ir: u8,
+    peer: [u8; 4],
+    port: u16,
+    rx: Vec<u8>,
+    rx_wr: u16,
+    rx_rd: u16,
+    tx: Vec<u8>,
+    tx_wr: u16,
+    tx_rd: u16,
+    /// The peer reads what is sent.
+    reading: bool,
+    /// What the peer got.
+    sent: Vec<u8>,
+    /// SEND commands given.
+    sends: usize,
+    /// Closed by the server (RST).
+    reset: bool,
+    /// A FIN sent by the server.
+    fin: bool,
+}
+
+impl Default for Sock {
+    fn default() -> Self {
+        Sock {
+            status: state::CLOSED,
+            ir: 0,
+            peer: [0; 4],
+            port: 0,
+            rx: vec![0; SIZE as usize],
+            rx_wr: 0xFFF0,
+            rx_rd: 0xFFF0,
+            tx: vec![0; SIZE as usize],
+            tx_wr: 0x7FF0,
+            tx_rd: 0x7FF0,
+            reading: true,
+            sent: Vec::new(),
+            sends: 0,
+            reset: false,
+            fin: false,
+        }
+    }
+}
+
+/// The imitation chip: its sockets, and every byte the server read or wrote checked to lie
+/// between the pointers.
+#[derive(Default)]
+struct Fake {
+    socks: [Sock; 4],
+}
+
+impl Fake {
+    /// A master at `peer` connects to socket `s`, which must listen.
+    fn connect(&mut self, s: usize, peer: [u8; 4]) {
+        let sock = &mut self.socks[s];
+        assert_eq!(sock.status, state::LISTEN, "socket {s} does not listen");
+        sock.status = state::ESTABLISHED;
+        sock.peer = peer;
+        sock.ir |= 0x01;
+        sock.reset = false;
+        sock.fin = false;
+        sock.sent.clear();
+    }
+
+    /// Bytes arrive on socket `s`.
+    fn deliver(&mut self, s: usize, bytes: &[u8]) {
+        let sock = &mut self.socks[s];
+        assert!(sock.rx_wr.wrapping_sub(sock.rx_rd) as usize + bytes.len() <= SIZE as usize);
+        for &b in bytes {
+            sock.rx[usize::from(sock.rx_wr % SIZE)] = b;
+            sock.rx_wr = sock.rx_wr.wrapping_add(1);
+        }
+        sock.ir |= 0x04;
+    }
+
+    /// The peer takes what was sent and acknowledges it.
+    fn ack(&mut self, s: usize) {
+        let sock = &mut self.socks[s];
+        while sock.tx_rd != sock.tx_wr {
+            sock.sent.push(sock.tx[usize::from(sock.tx_rd % SIZE)]);
+            sock.tx_rd = sock.tx_rd.wrapping_add(1);
+        }
+    }
+}
+
+impl Sockets for Fake {
+    fn events(&mut self) -> u8 {
+        (0..4).filter(|&s| self.socks[s].ir != 0).fold(0, |bits, s| bits | 1 << s)
+    }
+    fn take_events(&mut self, s: u8) -> u8 {
+        core::mem::take(&mut self.socks[usize::from(s)].ir)
+    }
+    fn status(&mut self, s: u8) -> u8 {
+        self.socks[usize::from(s)].status
+    }
+    fn command(&mut self, s: u8, command: u8) {
+        let sock = &mut self.socks[usize::from(s)];
+        match command {
+            command::LISTEN => sock.status = state::LISTEN,
+            command::CLOSE => {
+                sock.reset |= sock.status != state::LISTEN && sock.status != state::CLOSED;
+                sock.status = state::CLOSED;
+            }
+            command::DISCON => {
+                sock.fin = true;
+                sock.status = state::CLOSED;
+            }
+            command::RECV => {}
+            other => panic!("command {other:#x}"),
+        }
+    }
+    fn listen(&mut self, s: u8, port: u16) {
+        let sock = &mut self.socks[usize::from(s)];
+        assert_eq!(sock.status, state::CLOSED, "OPEN on a socket not closed");
+        let (sent, reset, fin) = (core::mem::take(&mut sock.sent), sock.reset, sock.fin);
+        *sock = Sock { port, status: state::LISTEN, sent, reset, fin, ..Sock::default() };
+    }
+    fn peer(&mut self, s: u8) -> [u8; 4] {
+        self.socks[usize::from(s)].peer
+    }
+    fn received(&mut self, s: u8) -> u16 {
+        let sock = &self.socks[usize::from(s)];
+        sock.rx_wr.wrapping_sub(sock.rx_rd)
+    }
+    fn rx_pointer(&mut self, s: u8) -> u16 {
+        self.socks[usize::from(s)].rx_rd
+    }
+    fn read(&mut self, s: u8, pointer: u16, buf: &mut [u8]) {
+        let sock = &self.socks[usize::from(s)];
+        let end = pointer.wrapping_add(buf.len() as u16);
+        assert!(end.wrapping_sub(sock.rx_rd) <= sock.rx_wr.wrapping_sub(sock.rx_rd), "read past the received bytes");
+        for (i, b) in buf.iter_mut().enumerate() {
+            *b = sock.rx[usize::from(pointer.wrapping_add(i as u16) % SIZE)];
+        }
+    }
+    fn take(&mut self, s: u8, pointer: u16) {
+        let sock = &mut self.socks[usize::from(s)];
+        assert!(pointer.wrapping_sub(sock.rx_rd) <= sock.rx_wr.wrapping_sub(sock.rx_rd), "took bytes not received");
+        sock.rx_rd = pointer;
+    }
+    fn tx_free(&mut self, s: u8) -> u16 {
+        let sock = &self.socks[usize::from(s)];
+        SIZE - sock.tx_wr.wrapping_sub(sock.tx_rd)
+    }
+    fn tx_pointer(&mut self, s: u8) -> u16 {
+        self.socks[usize::from(s)].tx_wr
+    }
+    fn write(&mut self, s: u8, pointer: u16, data: &[u8]) {
+        let sock = &mut self.socks[usize::from(s)];
+        assert!(
+            pointer.wrapping_sub(sock.tx_rd) as usize + data.len() <= SIZE as usize,
+            "written over bytes not yet sent"
+        );
+        for (i, &b) in data.iter().enumerate() {
+            sock.tx[usize::from(pointer.wrapping_add(i as u16) % SIZE)] = b;
+        }
+    }
+    fn send(&mut self, s: u8, pointer: u16) {
+        let sock = &mut self.socks[usize::from(s)];
+        sock.tx_wr = pointer;
+        sock.sends += 1;
+        if sock.reading {
+            while sock.tx_rd != sock.tx_wr {
+                sock.sent.push(sock.tx[usize::from(sock.tx_rd % SIZE)]);
+                sock.tx_rd = sock.tx_rd.wrapping_add(1);
+            }
+            sock.ir |= SEND_OK;
+        }
+    }
+}
+
+const NET: Network = Network::new([2, 0, 0, 0, 0, 1], [10, 0, 0, 2]).sockets(4);
+
+/// A bank with holding registers 40001-40010 = 0x0100 + i.
+fn bank() -> Bank<4, 16, 4, 0, 0> {
+    let mut bank = Bank::new();
+    bank.add_range(40001, 10).unwrap();
+    for i in 0..10u16 {
+        bank.set(40001 + i, 0x0100 + i).unwrap();
+    }
+    bank
+}
+
+/// A server with all four sockets listening.
+fn started(chip: &mut Fake, bank: &mut Bank<4, 16, 4, 0, 0>) -> Server {
+    let mut server = Server::new();
+    server.poll(chip, &NET, &mut Serving(bank), false);
+    assert!(chip.socks.iter().all(|s| s.status == state::LISTEN && s.port == 502));
+    server
+}
+
+fn read_holding(transaction: u16, unit: u8, start: u16, qty: u16) -> Vec<u8> {
+    let [t0, t1] = transaction.to_be_bytes();
+    let [s0, s1] = start.to_be_bytes();
+    let [q0, q1] = qty.to_be_bytes();
+    vec![t0, t1, 0, 0, 0, 6, unit, 0x03, s0, s1, q0, q1]
+}
+
+/// The reply to `read_holding(transaction, unit, start, qty)` from [`bank`].
+fn holding_reply(transaction: u16, unit: u8, start: u16, qty: u16) -> Vec<u8> {
+    let [t0, t1] = transaction.to_be_bytes();
+    let len = 3 + 2 * qty;
+    let mut adu = vec![t0, t1, 0, 0, (len >> 8) as u8, len as u8, unit, 0x03, (2 * qty) as u8];
+    for i in 0..qty {
+        adu.extend_from_slice(&(0x0100 + start + i).to_be_bytes());
+    }
+    adu
+}
+
+#[test]
+fn a_request_is_answered_with_its_transaction_and_unit_id() {
+    let (mut chip, mut bank) = (Fake::default(), bank());
+    let mut server = started(&mut chip, &mut bank);
+    chip.connect(1, [10, 0, 0, 9]);
+    chip.deliver(1, &read_holding(0x1234, 0xFF, 2, 3));
+    server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+    assert_eq!(chip.socks[1].sent, holding_reply(0x1234, 0xFF, 2, 3));
+    assert_eq!(chip.socks[1].rx_rd, chip.socks[1].rx_wr, "the request taken whole");
+    assert_eq!(server.counters().requests, 1);
+    assert_eq!(server.counters().connections, 1);
+}
+
+#[test]
+fn every_split_of_a_request_is_answered_once_whole() {
+    let request = read_holding(7, 1, 0, 2);
+    for cut in 1..request.len() {
+        let (mut chip, mut bank) = (Fake::default(), bank());
+        let mut server = started(&mut chip, &mut bank);
+        chip.connect(0, [10, 0, 0, 9]);
+        chip.deliver(0, &request[..cut]);
+        server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+        assert!(chip.socks[0].sent.is_empty(), "answered with {cut} bytes of 12");
+        chip.deliver(0, &request[cut..]);
+        server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+        assert_eq!(chip.socks[0].sent, holding_reply(7, 1, 0, 2), "cut at {cut}");
+    }
+}
+
+#[test]
+fn requests_in_one_segment_are_answered_in_order_with_one_send() {
+    let (mut chip, mut bank) = (Fake::default(), bank());
+    let mut server = started(&mut chip, &mut bank);
+    chip.connect(2, [10, 0, 0, 9]);
+    let mut segment = read_holding(1, 1, 0, 1);
+    segment.extend(read_holding(2, 1, 5, 2));
+    segment.extend(read_holding(3, 1, 9, 1));
+    chip.deliver(2, &segment);
+    server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+    let mut expected = holding_reply(1, 1, 0, 1);
+    expected.extend(holding_reply(2, 1, 5, 2));
+    expected.extend(holding_reply(3, 1, 9, 1));
+    assert_eq!(chip.socks[2].sent, expected);
+    assert_eq!(chip.socks[2].sends, 1);
+}
+
+#[test]
+fn a_bad_protocol_id_is_skipped_and_the_next_request_answered() {
+    let (mut chip, mut bank) = (Fake::default(), bank());
+    let mut server = started(&mut chip, &mut bank);
+    chip.connect(0, [10, 0, 0, 9]);
+    let mut bad = read_holding(1, 1, 0, 1);
+    bad[3] = 1;
+    bad.extend(read_holding(2, 1, 0, 1));
+    chip.deliver(0, &bad);
+    server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+    assert_eq!(chip.socks[0].sent, holding_reply(2, 1, 0, 1));
+    assert_eq!(server.counters().bad_protocol, 1);
+}
+
+#[test]
+fn a_bad_length_closes_the_connection_before_its_body_is_read() {
+    for length in [0u16, 1, 255, 0x0800] {
+        let (mut chip, mut bank) = (Fake::default(), bank());
+        let mut server = started(&mut chip, &mut bank);
+        chip.connect(0, [10, 0, 0, 9]);
+        let mut bad = read_holding(1, 1, 0, 1);
+        bad[4..6].copy_from_slice(&length.to_be_bytes());
+        chip.deliver(0, &bad[..7]);
+        server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+        assert!(chip.socks[0].reset && chip.socks[0].sent.is_empty(), "length {length}");
+        assert_eq!(chip.socks[0].status, state::LISTEN, "listening again");
+        assert_eq!(server.counters().bad_length, 1);
+    }
+}
+
+#[test]
+fn exceptions_are_the_rtu_slaves() {
+    let (mut chip, mut bank) = (Fake::default(), bank());
+    let mut server = started(&mut chip, &mut bank);
+    chip.connect(0, [10, 0, 0, 9]);
+    // 126 registers: 03; address 10 missing: 02; FC 0x41: 01.
+    chip.deliver(0, &read_holding(1, 1, 0, 126));
+    chip.deliver(0, &read_holding(2, 1, 10, 1));
+    chip.deliver(0, &[0, 3, 0, 0, 0, 2, 1, 0x41]);
+    server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+    assert_eq!(
+        chip.socks[0].sent,
+        [
+            &[0, 1, 0, 0, 0, 3, 1, 0x83, 0x03][..],
+            &[0, 2, 0, 0, 0, 3, 1, 0x83, 0x02],
+            &[0, 3, 0, 0, 0, 3, 1, 0xC1, 0x01],
+        ]
+        .concat()
+    );
+    assert_eq!(server.counters().exceptions, 3);
+}
+
+#[test]
+fn other_units_are_dropped_when_one_is_set() {
+    let net = NET.only_unit(5);
+    let (mut chip, mut bank) = (Fake::default(), bank());
+    let mut server = started(&mut chip, &mut bank);
+    chip.connect(0, [10, 0, 0, 9]);
+    for unit in [4, 5, 0, 0xFF] {
+        chip.deliver(0, &read_holding(u16::from(unit), unit, 0, 1));
+    }
+    server.poll(&mut chip, &net, &mut Serving(&mut bank), false);
+    let expected: Vec<u8> = [5u8, 0, 0xFF].iter().flat_map(|&u| holding_reply(u16::from(u), u, 0, 1)).collect();
+    assert_eq!(chip.socks[0].sent, expected);
+    assert_eq!(server.counters().other_unit, 1);
+}
+
+#[test]
+fn a_master_that_does_not_read_holds_only_its_socket() {
+    let (mut chip, mut bank) = (Fake::default(), bank());
+    let mut server = started(&mut chip, &mut bank);
+    chip.connect(0, [10, 0, 0, 9]);
+    chip.connect(1, [10, 0, 0, 8]);
+    chip.socks[0].reading = false;
+    // Enough requests to fill socket 0's transmit buffer with replies of 29 bytes.
+    for round in 0..100u16 {
+        chip.deliver(0, &read_holding(round, 1, 0, 10));
+        chip.deliver(1, &read_holding(round, 1, 0, 1));
+        server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+        if chip.socks[0].rx_wr.wrapping_sub(chip.socks[0].rx_rd) > 1500 {
+            break;
+        }
+    }
+    let others: Vec<u8> = (0..chip.socks[1].sent.len() as u16 / 11).flat_map(|r| holding_reply(r, 1, 0, 1)).collect();
+    assert_eq!(chip.socks[1].sent, others);
+    assert!(chip.socks[1].sent.len() >= 11 * 50);
+    // Once the master reads again, its requests are answered in order.
+    chip.socks[0].reading = true;
+    chip.ack(0);
+    chip.socks[0].ir |= SEND_OK;
+    for _ in 0..200 {
+        server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+    }
+    let n = chip.socks[0].sent.len() / 29;
+    let expected: Vec<u8> = (0..n as u16).flat_map(|r| holding_reply(r, 1, 0, 10)).collect();
+    assert_eq!(chip.socks[0].sent, expected);
+    assert_eq!(chip.socks[0].rx_rd, chip.socks[0].rx_wr, "every request answered");
+}
+
+#[test]
+fn a_refused_client_is_closed_and_counted() {
+    let net = NET.allow(&[[10, 0, 0, 9]]);
+    let (mut chip, mut bank) = (Fake::default(), bank());
+    let mut server = started(&mut chip, &mut bank);
+    chip.connect(0, [10, 0, 0, 66]);
+    chip.deliver(0, &read_holding(1, 1, 0, 1));
+    server.poll(&mut chip, &net, &mut Serving(&mut bank), false);
+    assert!(chip.socks[0].reset && chip.socks[0].sent.is_empty());
+    assert_eq!(chip.socks[0].status, state::LISTEN);
+    chip.connect(0, [10, 0, 0, 9]);
+    chip.deliver(0, &read_holding(1, 1, 0, 1));
+    server.poll(&mut chip, &net, &mut Serving(&mut bank), false);
+    assert_eq!(chip.socks[0].sent, holding_reply(1, 1, 0, 1));
+    assert_eq!((server.counters().refused, server.counters().connections), (1, 1));
+}
+
+#[test]
+fn a_master_that_closes_gets_its_answers_then_the_socket_listens_again() {
+    let (mut chip, mut bank) = (Fake::default(), bank());
+    let mut server = started(&mut chip, &mut bank);
+    chip.connect(3, [10, 0, 0, 9]);
+    chip.deliver(3, &read_holding(9, 1, 0, 1));
+    chip.socks[3].status = state::CLOSE_WAIT;
+    server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+    assert_eq!(chip.socks[3].sent, holding_reply(9, 1, 0, 1));
+    assert!(chip.socks[3].fin);
+    server.poll(&mut chip, &NET, &mut Serving(&mut bank), true);
+    assert_eq!(chip.socks[3].status, state::LISTEN);
+}
+
+#[test]
+fn a_reset_connection_listens_again_at_once() {
+    let (mut chip, mut bank) = (Fake::default(), bank());
+    let mut server = started(&mut chip, &mut bank);
+    chip.connect(0, [10, 0, 0, 9]);
+    server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+    chip.socks[0].status = state::CLOSED;
+    chip.socks[0].ir |= 0x02;
+    server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+    assert_eq!(chip.socks[0].status, state::LISTEN);
+}
+
+#[test]
+fn a_vanished_master_is_closed_after_the_idle_timeout() {
+    let net = NET.idle_timeout(5);
+    let (mut chip, mut bank) = (Fake::default(), bank());
+    let mut server = started(&mut chip, &mut bank);
+    chip.connect(0, [10, 0, 0, 9]);
+    server.poll(&mut chip, &net, &mut Serving(&mut bank), false);
+    for second in 1..=5 {
+        assert_eq!(chip.socks[0].status, state::ESTABLISHED, "closed after {} s", second - 1);
+        server.poll(&mut chip, &net, &mut Serving(&mut bank), true);
+    }
+    assert!(chip.socks[0].reset);
+    assert_eq!(chip.socks[0].status, state::LISTEN);
+    assert_eq!(server.counters().idle_closed, 1);
+}
+
+#[test]
+fn with_every_socket_taken_the_one_idle_longest_makes_room() {
+    let (mut chip, mut bank) = (Fake::default(), bank());
+    let mut server = started(&mut chip, &mut bank);
+    for s in 0..4 {
+        chip.connect(s, [10, 0, 0, 10 + s as u8]);
+    }
+    server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+    // Sockets 0, 2, 3 keep polling; 1 goes quiet.
+    for _ in 0..3 {
+        for s in [0, 2, 3] {
+            chip.deliver(s, &read_holding(1, 1, 0, 1));
+        }
+        server.poll(&mut chip, &NET, &mut Serving(&mut bank), true);
+    }
+    assert_eq!(server.counters().evicted, 1);
+    assert!(chip.socks[1].reset && chip.socks[1].status == state::LISTEN);
+    assert!([0, 2, 3].iter().all(|&s| chip.socks[s].status == state::ESTABLISHED));
+}
+
+#[test]
+fn busy_sockets_are_never_evicted() {
+    let (mut chip, mut bank) = (Fake::default(), bank());
+    let mut server = started(&mut chip, &mut bank);
+    for s in 0..4 {
+        chip.connect(s, [10, 0, 0, 10 + s as u8]);
+    }
+    for _ in 0..10 {
+        for s in 0..4 {
+            chip.deliver(s, &read_holding(1, 1, 0, 1));
+        }
+        server.poll(&mut chip, &NET, &mut Serving(&mut bank), true);
+    }
+    assert_eq!(server.counters().evicted, 0);
+    assert!(chip.socks.iter().all(|s| s.status == state::ESTABLISHED));
+}
+
+/// A small deterministic generator for the property below.
+fn next(seed: &mut u64) -> u64 {
+    *seed ^= *seed << 13;
+    *seed ^= *seed >> 7;
+    *seed ^= *seed << 17;
+    *seed
+}
+
+#[test]
+fn no_byte_stream_makes_the_server_read_or_write_outside_its_buffers() {
+    // The imitation chip asserts every read and take lies within the received bytes and
+    // every write within the free room; the server's buffer is a slice (a write past it
+    // panics). Random streams: valid requests, cut anywhere, mixed with garbage headers.
+    let mut seed = 0x2545_F491_4F6C_DD1Du64;
+    for round in 0..300 {
+        let (mut chip, mut bank) = (Fake::default(), bank());
+        let mut server: Server<24> = Server::new();
+        server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+        chip.connect(0, [10, 0, 0, 9]);
+        let mut stream = Vec::new();
+        let mut whole = 0;
+        for _ in 0..20 {
+            match next(&mut seed) % 4 {
+                0 => {
+                    let n = (next(&mut seed) % 40) as usize;
+                    stream.extend((0..n).map(|_| next(&mut seed) as u8));
+                }
+                1 => {
+                    let len = (next(&mut seed) % 300) as u16;
+                    stream.extend([0, 1, 0, 0, (len >> 8) as u8, len as u8, 1]);
+                }
+                _ => {
+                    stream.extend(read_holding(whole, 1, 0, 1 + (next(&mut seed) % 12) as u16));
+                    whole += 1;
+                }
+            }
+        }
+        let mut at = 0;
+        while at < stream.len() {
+            let room = SIZE as usize - usize::from(server_received(&mut chip));
+            let n = ((next(&mut seed) % 64) as usize).min(stream.len() - at).min(room);
+            chip.deliver(0, &stream[at..at + n]);
+            at += n;
+            server.poll(&mut chip, &NET, &mut Serving(&mut bank), next(&mut seed) % 8 == 0);
+            if chip.socks[0].status != state::ESTABLISHED {
+                break;
+            }
+        }
+        // Whatever was answered are whole replies whose transaction ids were sent, in order.
+        let sent = &chip.socks[0].sent;
+        let mut i = 0;
+        while i < sent.len() {
+            let len = usize::from(u16::from_be_bytes([sent[i + 4], sent[i + 5]]));
+            assert!(i + 6 + len <= sent.len(), "round {round}: a reply cut");
+            i += 6 + len;
+        }
+        assert_eq!(i, sent.len(), "round {round}");
+    }
+}
+
+fn server_received(chip: &mut Fake) -> u16 {
+    chip.received(0)
+}
