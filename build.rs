@@ -113,9 +113,11 @@ fn table_of(chip: &Facts) -> String {
         None => "None".to_owned(),
     });
     let (pin, bit) = chip.led;
+    let [ss, mosi, sck, cs] = chip.spi;
     format!(
         "/// The {name}'s facts ({boards}).\n\
-         pub(crate) const CHIP: Chip = Chip {{ usarts: [{usarts}], eeprom_size: {eeprom}, led: ({pin:#X}, {bit}) }};\n",
+         pub(crate) const CHIP: Chip = Chip {{ usarts: [{usarts}], eeprom_size: {eeprom}, led: ({pin:#X}, {bit}), \
+         spi: [{ss}, {mosi}, {sck}, {cs}] }};\n",
         name = chip.part,
         boards = chip.boards,
         usarts = usarts.collect::<Vec<_>>().join(", "),
@@ -181,7 +183,7 @@ fn unsupported(chips: &[Facts], seen: &str) -> String {
     format!(
         "::core::compile_error!({message:?});\n\n\
          /// No table, so that the only error is the one above.\n\
-         pub(crate) const CHIP: Chip = Chip {{ usarts: [None; 4], eeprom_size: 0, led: (0, 0) }};\n\n\
+         pub(crate) const CHIP: Chip = Chip {{ usarts: [None; 4], eeprom_size: 0, led: (0, 0), spi: [0; 4] }};\n\n\
          /// No vectors either.\n\
          #[doc(hidden)]\n\
          #[macro_export]\n\

@@ -34,6 +34,8 @@ pub struct Facts {
     pub eeprom: u16,
     /// The board's LED: its port's PINx data-space address, and its bit.
     pub led: (u16, u8),
+    /// The SPI's SS, MOSI and SCK, and the board's pin 10: their bits on port B.
+    pub spi: [u8; 4],
     /// Bytes a CALL or an interrupt pushes.
     pub return_address_bytes: u8,
     /// Single-ended ADC channels.
@@ -90,6 +92,7 @@ struct Partial {
     timer0: Option<[u8; 3]>,
     eeprom: Option<u16>,
     led: Option<(u16, u8)>,
+    spi: Option<[u8; 4]>,
     return_address_bytes: Option<u8>,
     adc: Option<u8>,
     uno_pins: Option<bool>,
@@ -109,6 +112,10 @@ impl Partial {
             "led" => match words[..] {
                 [pin, bit] => self.led = Some((number(pin)?, number(bit)?)),
                 _ => return Err(format!("`led {value}`: a PINx address and a bit")),
+            },
+            "spi" => match words[..] {
+                [ss, mosi, sck, cs] => self.spi = Some([number(ss)?, number(mosi)?, number(sck)?, number(cs)?]),
+                _ => return Err(format!("`spi {value}`: the bits of SS, MOSI, SCK and pin 10 on port B")),
             },
             "return-address" => self.return_address_bytes = Some(number(value)?),
             "adc" => self.adc = Some(number(value)?),
@@ -142,6 +149,7 @@ impl Partial {
             timer0: self.timer0.ok_or_else(|| missing("timer0"))?,
             eeprom: self.eeprom.ok_or_else(|| missing("eeprom"))?,
             led: self.led.ok_or_else(|| missing("led"))?,
+            spi: self.spi.ok_or_else(|| missing("spi"))?,
             return_address_bytes: self.return_address_bytes.ok_or_else(|| missing("return-address"))?,
             adc: self.adc.ok_or_else(|| missing("adc"))?,
             uno_pins: self.uno_pins.ok_or_else(|| missing("uno-pins"))?,
@@ -187,7 +195,7 @@ mod tests {
 
     const UNO: &str = "chip atmega328p\npart ATmega328P\nfamily ATmega328P\nboards Uno\n\
                        usart USART0 0xC0 18 19 20 pins-0/1   # the pins\ntimer0 14 15 16\neeprom 1024\n\
-                       led 0x23 5\nreturn-address 2\nadc 8\nuno-pins yes\n";
+                       led 0x23 5\nspi 2 3 5 2\nreturn-address 2\nadc 8\nuno-pins yes\n";
 
     #[test]
     fn reads_a_block() {

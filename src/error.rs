@@ -54,6 +54,9 @@ pub enum Error {
     /// A reference in a table the request does not reach: a master's write to a discrete
     /// input or an input register, a coil's reference for a register write.
     WrongTable,
+    /// The Ethernet chip did not answer as the one named (feature `tcp`): not wired, not
+    /// powered, held in reset, or the other chip (a W5500 named W5100, say).
+    NoChip,
 }
 
 impl Error {
@@ -81,6 +84,7 @@ impl Error {
             Error::TooLong => "request or reply longer than the buffer",
             Error::NotStarted => "not started",
             Error::WrongTable => "reference in another table",
+            Error::NoChip => "no Ethernet chip answers",
         }
     }
 }

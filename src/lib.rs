@@ -49,6 +49,9 @@ pub use avr::Master;
 #[cfg(any(target_arch = "avr", all(doc, docsrs)))]
 #[cfg_attr(docsrs, doc(cfg(target_arch = "avr")))]
 pub use avr::{NoPin, Slave};
+#[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "tcp"))]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp"))))]
+pub use avr::{Pin10, TcpServer};
 pub use error::Error;
 #[cfg(feature = "ascii")]
 pub use link::config::Mode;

@@ -21,6 +21,10 @@ pub(crate) struct Chip {
     /// port's PINx register (DDRx and PORTx follow), and its bit (the examples' `board`).
     #[cfg_attr(not(feature = "examples"), allow(dead_code))]
     pub(crate) led: (usize, u8),
+    /// The SPI's SS, MOSI and SCK, and the board's pin 10 (the Ethernet shields' chip
+    /// select): their bits on port B (feature `tcp`).
+    #[cfg_attr(not(feature = "tcp"), allow(dead_code))]
+    pub(crate) spi: [u8; 4],
 }
 
 impl Chip {

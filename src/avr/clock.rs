@@ -43,9 +43,21 @@ pub(crate) fn millis() -> u32 {
 /// this adds a byte with carry and saves four, 40 B fewer in every firmware with a clock.
 /// The host tests check `after_overflow`'s arithmetic; `tests/sim_clock.rs` checks this
 /// handler's against Timer0 on the simulated chip, over the clock's whole range.
-#[cfg(target_arch = "avr")]
+#[cfg(all(target_arch = "avr", not(feature = "tcp")))]
 #[export_name = __chip!(vector TIMER0_OVF)]
 unsafe extern "avr-interrupt" fn timer0_overflow() {
+    // SAFETY: the overflow interrupt handler, interrupts disabled.
+    unsafe { advance() }
+}
+
+/// The clock's turn, [`Uptime::after_overflow`] in place (see `timer0_overflow`); with
+/// feature `tcp` the TCP server's overflow handler calls it first.
+///
+/// # Safety
+/// Only from Timer0's overflow interrupt handler, interrupts disabled.
+#[cfg(target_arch = "avr")]
+#[inline(always)]
+pub(crate) unsafe fn advance() {
     use crate::link::timing::TICKS_PER_MS;
     const _: () = assert!(core::mem::offset_of!(Uptime, millis) == 0 && core::mem::offset_of!(Uptime, fract) == 4);
     // SAFETY: the overflow interrupt handler, which runs with interrupts disabled, so

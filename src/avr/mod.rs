@@ -78,7 +78,11 @@ mod no_pin;
 mod receive;
 mod reg;
 mod slave;
+#[cfg(feature = "tcp")]
+mod spi;
 mod started;
+#[cfg(feature = "tcp")]
+mod tcp;
 mod timer;
 mod usart;
 
@@ -88,6 +92,8 @@ pub use eeprom::Eeprom;
 pub use master::Master;
 pub use no_pin::NoPin;
 pub use slave::Slave;
+#[cfg(feature = "tcp")]
+pub use tcp::{Pin10, TcpServer};
 
 /// Milliseconds since the slave started, wrapping after 49.7 days: Arduino's `millis()`
 /// (feature `millis`), kept by Timer0, which the slave owns and runs freely at clk/64 (an
@@ -119,6 +125,28 @@ pub mod __private {
     #[inline(always)]
     pub unsafe fn master_rx_arrived() {
         super::timer::on_receive::<super::timer::A>();
+    }
+
+    /// Timer0's overflow with a TCP server (feature `tcp`): `millis()`'s turn (feature
+    /// `millis`), then the server's poll.
+    ///
+    /// # Safety
+    /// Only as the Timer0 overflow interrupt handler's body (interrupts disabled).
+    #[cfg(feature = "tcp")]
+    #[inline(always)]
+    pub unsafe fn tcp_overflow<M, C, CS, const B: usize>(server: &super::TcpServer<M, C, CS, B>)
+    where
+        M: crate::DataModel,
+        C: crate::tcp::wiznet::Chip,
+        CS: embedded_hal::digital::OutputPin,
+    {
+        // SAFETY: the overflow handler, interrupts disabled (the caller's promise).
+        #[cfg(feature = "millis")]
+        unsafe {
+            super::clock::advance()
+        };
+        // SAFETY: as above.
+        unsafe { server.on_overflow() }
     }
 }
 
@@ -259,6 +287,46 @@ macro_rules! __bind_role {
                 // SAFETY: the transmit-complete interrupt handler, interrupts disabled, and
                 // it does not enable them.
                 unsafe { super::$name.on_usart_tx() }
+            }
+        }
+    };
+}
+
+/// Declares the Modbus TCP server `NAME` (feature `tcp`) for a data model type on a WIZnet
+/// chip ([`crate::tcp::W5100`] or [`crate::tcp::W5500`]), its chip select on the board's
+/// pin 10 (the Ethernet shields') or on a pin type of the application's, and binds Timer0's
+/// overflow interrupt, which polls the chip (and keeps `millis()` with feature `millis`).
+///
+/// ```ignore
+/// avr_modbus::tcp_server!(SERVER: Registers, W5100);           // an Ethernet Shield R3
+/// avr_modbus::tcp_server!(SERVER: Registers, W5500);           // an Ethernet Shield 2
+/// avr_modbus::tcp_server!(SERVER: Registers, W5500, CsPin);    // a module's CS elsewhere
+/// ```
+///
+/// Its buffer holds the MBAP header and the model's longest PDU ([`crate::DataModel::FRAME`]
+/// less the serial line's address and CRC). The handler uses the `avr-interrupt` calling
+/// convention: the firmware crate needs `#![feature(abi_avr_interrupt)]`. A serial slave or
+/// master may run beside it (they use Timer0's compare units); nothing else may handle
+/// Timer0's overflow.
+#[cfg(feature = "tcp")]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp"))))]
+#[macro_export]
+macro_rules! tcp_server {
+    ($name:ident : $model:ty, $chip:ty) => {
+        $crate::tcp_server!($name: $model, $chip, $crate::Pin10);
+    };
+    ($name:ident : $model:ty, $chip:ty, $cs:ty) => {
+        static $name: $crate::TcpServer<$model, $chip, $cs, { <$model as $crate::DataModel>::FRAME + 4 }> =
+            $crate::TcpServer::new();
+
+        #[doc(hidden)]
+        #[allow(non_snake_case)]
+        mod __avr_modbus_tcp_interrupts {
+            /// TIMER0_OVF: the chip polled (and `millis()` kept).
+            #[export_name = $crate::__chip!(vector TIMER0_OVF)]
+            unsafe extern "avr-interrupt" fn TIMER0_OVERFLOW() {
+                // SAFETY: the overflow interrupt handler's body, interrupts disabled.
+                unsafe { $crate::__private::tcp_overflow(&super::$name) }
             }
         }
     };

@@ -171,3 +171,15 @@ pub(crate) unsafe fn enable_interrupts() {
     // SAFETY: the caller's promise.
     unsafe { asm!("sei") };
 }
+
+/// Disables interrupts (the TCP server's poll, at its end).
+///
+/// # Safety
+/// Only where the code that follows expects them off and restores them itself (an
+/// interrupt handler's return).
+#[cfg(feature = "tcp")]
+#[inline(always)]
+pub(crate) unsafe fn disable_interrupts() {
+    // SAFETY: the caller's promise.
+    unsafe { asm!("cli") };
+}

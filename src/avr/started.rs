@@ -102,6 +102,19 @@ impl<R> Started<R> {
         }
     }
 
+    /// Runs `f` on the value, marked in use meanwhile, from an interrupt handler that
+    /// enables interrupts inside `f` (the TCP server's poll): a nested handler or a call
+    /// from another interrupt finds it in use and gets `None`.
+    ///
+    /// # Safety
+    /// Interrupts disabled on entry, and `f` returns with them disabled.
+    #[cfg(feature = "tcp")]
+    #[inline(always)]
+    pub(crate) unsafe fn access_marked<Q>(&self, f: impl FnOnce(&mut R) -> Q) -> Option<Q> {
+        // SAFETY: the caller's promise, which is `access`'s.
+        unsafe { self.access(f) }
+    }
+
     /// Runs `f` on the value from one of the role's interrupt handlers, without
     /// [`Started::access`]'s check, which keeps them short.
     ///

@@ -33,7 +33,8 @@ const OCIE0B: u8 = 1 << 2;
 pub(crate) const TOV0: u8 = 1 << 0;
 /// TIMSK0's overflow interrupt enable (TOIE0), set when `millis()` keeps time on it
 /// (feature `millis`); without it the interrupt stays off and costs nothing.
-const OVERFLOW_INTERRUPT: u8 = if cfg!(feature = "millis") { 1 << 0 } else { 0 };
+/// The TCP server (feature `tcp`) polls on it too.
+const OVERFLOW_INTERRUPT: u8 = if cfg!(any(feature = "millis", feature = "tcp")) { 1 << 0 } else { 0 };
 const OCF0A: u8 = 1 << 1;
 const OCF0B: u8 = 1 << 2;
 

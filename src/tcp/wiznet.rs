@@ -301,11 +301,13 @@ impl<C: Chip, B: Bus> Wiznet<C, B> {
         true
     }
 
+    #[inline(never)]
     fn read_reg(&mut self, s: u8, offset: u8, buf: &mut [u8]) {
         let (address, block) = C::socket(s, offset);
         C::read(&mut self.bus, address, block, buf);
     }
 
+    #[inline(never)]
     fn write_reg(&mut self, s: u8, offset: u8, data: &[u8]) {
         let (address, block) = C::socket(s, offset);
         C::write(&mut self.bus, address, block, data);
@@ -319,6 +321,7 @@ impl<C: Chip, B: Bus> Wiznet<C, B> {
 
     /// A 16-bit register the chip changes as data moves: read until two reads agree (its
     /// two bytes are read apart, and a byte may land in between), at most four times.
+    #[inline(never)]
     fn stable16(&mut self, s: u8, offset: u8) -> u16 {
         let mut last = self.reg16(s, offset);
         for _ in 0..3 {

@@ -1,0 +1,68 @@
+/*!
+ * A Modbus TCP server on an Arduino Ethernet Shield (W5100) with the size contract's map:
+ * sixteen coils, sixteen discrete inputs, eight input registers, sixteen holding registers.
+ * The main loop blocks for a second at a time, as `delay(1000)` would, and counts the
+ * seconds into 30001: masters are answered all the same.
+ *
+ * Wiring: the shield on an Uno (or a Mega: its SPI comes through the ICSP header); the
+ * shield's chip select is pin 10, its SD card's pin 4 (leave that high, or unplugged); pins
+ * 11-13 are the SPI on the Uno, so an RS-485 driver-enable pin must go elsewhere. A W5500
+ * module instead: its MOSI, MISO, SCK to pins 11, 12, 13 (the Mega: 51, 50, 52), its CS to
+ * pin 10, 3.3 V and GND, and `W5500` below.
+ *
+ * Network: 192.168.1.177/24, MAC DE:AD:BE:EF:FE:01, port 502, every unit id answered.
+ *
+ * | reference   | address | meaning                                          |
+ * |-------------|---------|--------------------------------------------------|
+ * | 00001–00016 | 0–15    | coils, written by the master                     |
+ * | 10001–10016 | 0–15    | discrete inputs: 10001 set while a master is connected |
+ * | 30001       | 0       | seconds the main loop has counted                |
+ * | 30002       | 1       | requests answered so far                         |
+ * | 30003–30008 | 2–7     | input registers (0)                              |
+ * | 40001–40016 | 0–15    | holding registers, written by the master         |
+ *
+ * From the host: `mbpoll -m tcp -a 1 -r 1 -c 16 192.168.1.177` (or, on the virtual shield,
+ * `make serve EXAMPLE=tcp_server SHIELD=w5100` and the port it prints).
+ */
+#![no_std]
+#![no_main]
+#![feature(abi_avr_interrupt)]
+
+use avr_modbus::tcp::{Network, W5100};
+use avr_modbus::board;
+use panic_halt as _;
+
+const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]);
+
+avr_modbus::register_map! {
+    /// The contract's map: 16 coils, 16 discrete inputs, 8 input and 16 holding registers.
+    struct Registers {
+        1..=16,
+        10001..=10016,
+        30001..=30008,
+        40001..=40016,
+    }
+}
+
+avr_modbus::tcp_server!(SERVER: Registers, W5100);
+
+/// A second of the CPU's time, as `delay(1000)` spends it.
+const SECOND_CYCLES: u32 = 16_000_000;
+
+#[avr_device::entry]
+fn main() -> ! {
+    let Some(dp) = avr_device::atmega328p::Peripherals::take() else {
+        board::halt(avr_modbus::Error::AlreadyStarted)
+    };
+    if let Err(error) = SERVER.start(NETWORK, dp.SPI, dp.TC0, Registers::new()) {
+        board::halt(error);
+    }
+    let mut seconds: u16 = 0;
+    loop {
+        avr_device::asm::delay_cycles(SECOND_CYCLES);
+        seconds = seconds.wrapping_add(1);
+        let counters = SERVER.counters();
+        let _ = SERVER.set(30001, seconds);
+        let _ = SERVER.set(30002, counters.requests);
+    }
+}
