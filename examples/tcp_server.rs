@@ -28,8 +28,8 @@
 #![no_main]
 #![feature(abi_avr_interrupt)]
 
-use avr_modbus::tcp::{Network, W5100};
 use avr_modbus::board;
+use avr_modbus::tcp::{Network, W5100};
 use panic_halt as _;
 
 const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]);
@@ -51,9 +51,7 @@ const SECOND_CYCLES: u32 = 16_000_000;
 
 #[avr_device::entry]
 fn main() -> ! {
-    let Some(dp) = avr_device::atmega328p::Peripherals::take() else {
-        board::halt(avr_modbus::Error::AlreadyStarted)
-    };
+    let Some(dp) = avr_device::atmega328p::Peripherals::take() else { board::halt(avr_modbus::Error::AlreadyStarted) };
     if let Err(error) = SERVER.start(NETWORK, dp.SPI, dp.TC0, Registers::new()) {
         board::halt(error);
     }

@@ -130,6 +130,18 @@ pub mod internal {
     pub mod diagnostics {
         pub use crate::slave::diagnostics::*;
     }
+    /// Modbus TCP's parts: the MBAP header, the server over any chip's sockets, the
+    /// WIZnet chips' frames and registers, a request handled against a model.
+    #[cfg(feature = "tcp")]
+    pub mod tcp {
+        /// The MBAP header.
+        pub mod mbap {
+            pub use crate::tcp::mbap::*;
+        }
+        pub use crate::tcp::server::{Handler, Server, Sockets};
+        pub use crate::tcp::wiznet::{command, sn, state, Block, Bus, Chip, Wiznet, SEND_OK};
+        pub use crate::tcp::{respond, Serving};
+    }
     /// The settings record and block.
     #[cfg(feature = "eeprom-settings")]
     pub mod settings {

@@ -24,7 +24,7 @@ use crate::slave::pdu::{encode_exception, Answer, Exception};
 /// `pdu_len` bytes) against `model`, as the RTU slave would: the reply PDU written over the
 /// request. Returns its length and whether it is an exception. FC 8's listen-only mode
 /// belongs to the serial line (Application Protocol §6.8.1): over TCP it is exception 01.
-pub(crate) fn respond<M: DataModel + ?Sized>(adu: &mut [u8], pdu_len: usize, model: &mut M) -> Option<(usize, bool)> {
+pub fn respond<M: DataModel + ?Sized>(adu: &mut [u8], pdu_len: usize, model: &mut M) -> Option<(usize, bool)> {
     let unit = adu.get(mbap::HEADER - 1).copied().unwrap_or(mbap::DEVICE_UNIT);
     let pdu = adu.get_mut(mbap::HEADER..)?;
     let result = match dispatch(pdu, pdu_len, model, &SlaveCounters::new(), unit, true) {
@@ -39,7 +39,7 @@ pub(crate) fn respond<M: DataModel + ?Sized>(adu: &mut [u8], pdu_len: usize, mod
 }
 
 /// The handler of a server serving `model`.
-pub(crate) struct Serving<'a, M: ?Sized>(pub(crate) &'a mut M);
+pub struct Serving<'a, M: ?Sized>(pub &'a mut M);
 
 impl<M: DataModel + ?Sized> server::Handler for Serving<'_, M> {
     fn handle(&mut self, adu: &mut [u8], pdu_len: usize) -> Option<(usize, bool)> {

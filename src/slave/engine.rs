@@ -463,12 +463,16 @@ pub(crate) fn dispatch<M: DataModel + ?Sized>(
     // answers 01 for every code it doesn't know: no comparison is left for them.
     let code = FunctionCode::from_code(pdu.first().copied().unwrap_or(0));
     let result = match code {
-        _ if diagnostics::ENABLED && code.is_diagnostic() => return diagnostics::respond(pdu, pdu_len, model, counters, id),
+        _ if diagnostics::ENABLED && code.is_diagnostic() => {
+            return diagnostics::respond(pdu, pdu_len, model, counters, id)
+        }
         FunctionCode::MaskWriteRegister | FunctionCode::ReadWriteMultipleRegisters if extra::ENABLED => {
             extra::respond(pdu, pdu_len, model, unicast)
         }
         #[cfg(feature = "device-id")]
-        FunctionCode::EncapsulatedInterface => crate::slave::pdu::device_id::respond(pdu, pdu_len, model.identification(), unicast),
+        FunctionCode::EncapsulatedInterface => {
+            crate::slave::pdu::device_id::respond(pdu, pdu_len, model.identification(), unicast)
+        }
         _ => execute(pdu, pdu_len, model, unicast),
     };
     result.map(Answer::Reply)

@@ -44,8 +44,8 @@ pub trait Sockets {
     fn tx_free(&mut self, s: u8) -> u16;
     /// Where the next byte to send goes.
     fn tx_pointer(&mut self, s: u8) -> u16;
-    /// Writes bytes to send from `pointer` on.
-    fn write(&mut self, s: u8, pointer: u16, data: &[u8]);
+    /// Writes bytes to send from `pointer` on (the bytes may be used as scratch).
+    fn write(&mut self, s: u8, pointer: u16, data: &mut [u8]);
     /// Sends the bytes up to `pointer`.
     fn send(&mut self, s: u8, pointer: u16);
 }
@@ -301,7 +301,7 @@ impl<const B: usize> Server<B> {
             }
             let len = (HEADER + reply).min(B);
             mbap::seal(&mut self.buf, len - HEADER);
-            chip.write(s, tx, &self.buf[..len]);
+            chip.write(s, tx, &mut self.buf[..len]);
             tx = tx.wrapping_add(len as u16);
             free -= len as u16;
             self.conns[usize::from(s)].idle = 0;
@@ -335,7 +335,7 @@ impl<const B: usize> Server<B> {
                     listening = true;
                 }
                 Phase::Connected => {
-                    if oldest.is_none_or(|(_, idle)| conn.idle > idle) {
+                    if oldest.map_or(true, |(_, idle)| conn.idle > idle) {
                         oldest = Some((s, conn.idle));
                     }
                 }

@@ -33,7 +33,7 @@ pub trait Bus {
 }
 
 /// Socket register offsets, the same on both chips.
-pub(crate) mod sn {
+pub mod sn {
     /// Sn_MR, the mode.
     pub const MR: u8 = 0x00;
     /// Sn_CR, the command.
@@ -57,10 +57,10 @@ pub(crate) mod sn {
 }
 
 /// Sn_MR: TCP.
-pub(crate) const MODE_TCP: u8 = 0x01;
+pub const MODE_TCP: u8 = 0x01;
 
 /// Sn_CR's commands.
-pub(crate) mod command {
+pub mod command {
     /// Opens the socket in Sn_MR's mode (→ `INIT`).
     pub const OPEN: u8 = 0x01;
     /// Waits for a connection (`INIT` → `LISTEN`).
@@ -76,7 +76,7 @@ pub(crate) mod command {
 }
 
 /// Sn_SR's states.
-pub(crate) mod state {
+pub mod state {
     /// No connection.
     pub const CLOSED: u8 = 0x00;
     /// Opened, not listening.
@@ -90,29 +90,48 @@ pub(crate) mod state {
 }
 
 /// Sn_IR's send-done event.
-pub(crate) const SEND_OK: u8 = 0x10;
+pub const SEND_OK: u8 = 0x10;
+
+/// Where a transfer goes, as the W5500's block select numbers it (the W5100 maps it to its
+/// one address space): the common registers, or socket n's registers, transmit buffer or
+/// receive buffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Block(u8);
+
+impl Block {
+    /// The common registers.
+    pub const COMMON: Block = Block(0);
+
+    /// Socket `s`'s registers.
+    pub const fn socket(s: u8) -> Block {
+        Block(4 * s + 1)
+    }
+
+    /// Socket `s`'s transmit buffer.
+    pub const fn tx(s: u8) -> Block {
+        Block(4 * s + 2)
+    }
+
+    /// Socket `s`'s receive buffer.
+    pub const fn rx(s: u8) -> Block {
+        Block(4 * s + 3)
+    }
+}
 
 /// A WIZnet chip: how many sockets it has and how its addresses go over SPI.
 pub trait Chip {
     /// Its sockets.
     const SOCKETS: u8;
-    /// Reads `buf.len()` bytes at `address` in `block` (the W5500's block select; the
-    /// W5100 has one address space, and its `block` is ignored).
-    fn read<B: Bus>(bus: &mut B, address: u16, block: u8, buf: &mut [u8]);
-    /// Writes `data` at `address` in `block`.
-    fn write<B: Bus>(bus: &mut B, address: u16, block: u8, data: &[u8]);
-    /// Socket `s`'s register `offset`: address and block.
-    fn socket(s: u8, offset: u8) -> (u16, u8);
-    /// Reads socket `s`'s receive buffer from `pointer` on.
-    fn read_rx<B: Bus>(bus: &mut B, s: u8, pointer: u16, buf: &mut [u8]);
-    /// Writes socket `s`'s transmit buffer from `pointer` on.
-    fn write_tx<B: Bus>(bus: &mut B, s: u8, pointer: u16, data: &[u8]);
     /// The common register whose bit n says socket n has events (W5100 IR, W5500 SIR).
     const SOCKET_EVENTS: u16;
     /// The mask of that register's socket bits (W5100 IMR, W5500 SIMR), for the INT pin.
     const SOCKET_EVENT_MASK: u16;
-    /// Checks that the chip answers as this chip after its reset.
-    fn identify<B: Bus>(bus: &mut B) -> bool;
+    /// A common register and the value it holds after a reset, which says the chip is this
+    /// one (the W5100's TMSR, 2 KB a socket; the W5500's VERSIONR).
+    const IDENTITY: (u16, u8);
+    /// Reads (`write` false: each byte of `buf` replaced by the one received) or writes
+    /// `buf` at `offset` in `block`; in a buffer, `offset` is the free-running pointer.
+    fn transfer<B: Bus>(bus: &mut B, block: Block, offset: u16, buf: &mut [u8], write: bool);
 }
 
 /// The W5100: 4 sockets, 2 KB buffers each.
@@ -123,30 +142,17 @@ pub struct W5100;
 #[derive(Clone, Copy, Debug)]
 pub struct W5500;
 
-/// A W5100 buffer's size, and the mask of a pointer's place in it.
-const W5100_BUFFER: u16 = 0x800;
-
 impl W5100 {
-    /// One byte's frame: opcode, address, data; the byte received during the data.
-    #[inline(never)]
-    fn frame<B: Bus>(bus: &mut B, opcode: u8, address: u16, data: u8) -> u8 {
-        bus.select();
-        bus.transfer(opcode);
-        let [hi, lo] = address.to_be_bytes();
-        bus.transfer(hi);
-        bus.transfer(lo);
-        let got = bus.transfer(data);
-        bus.deselect();
-        got
-    }
-
-    /// The part of a run of `len` bytes from `pointer` in socket `s`'s buffer at `base`
-    /// before the buffer's end: its address and length (the rest starts at the buffer's
-    /// start).
-    fn split(base: u16, s: u8, pointer: u16, len: usize) -> (u16, usize) {
-        let start = base + u16::from(s) * W5100_BUFFER;
-        let offset = pointer & (W5100_BUFFER - 1);
-        (start + offset, len.min(usize::from(W5100_BUFFER - offset)))
+    /// The address of byte `offset` of `block`: a buffer's byte at its pointer's place,
+    /// `pointer & 0x7FF`, so that a run past the buffer's end goes on at its start.
+    const fn address(block: Block, offset: u16) -> u16 {
+        let n = (block.0 >> 2) as u16;
+        match block.0 & 3 {
+            0 => offset,
+            1 => 0x0400 + (n << 8) + offset,
+            2 => 0x4000 + (n << 11) + (offset & 0x7FF),
+            _ => 0x6000 + (n << 11) + (offset & 0x7FF),
+        }
     }
 }
 
@@ -154,62 +160,25 @@ impl Chip for W5100 {
     const SOCKETS: u8 = 4;
     const SOCKET_EVENTS: u16 = 0x0015;
     const SOCKET_EVENT_MASK: u16 = 0x0016;
+    const IDENTITY: (u16, u8) = (0x001B, 0x55);
 
-    fn read<B: Bus>(bus: &mut B, address: u16, _block: u8, buf: &mut [u8]) {
-        for (i, byte) in buf.iter_mut().enumerate() {
-            *byte = W5100::frame(bus, 0x0F, address.wrapping_add(i as u16), 0);
-        }
-    }
-
-    fn write<B: Bus>(bus: &mut B, address: u16, _block: u8, data: &[u8]) {
-        for (i, &byte) in data.iter().enumerate() {
-            W5100::frame(bus, 0xF0, address.wrapping_add(i as u16), byte);
-        }
-    }
-
-    fn socket(s: u8, offset: u8) -> (u16, u8) {
-        (0x0400 + u16::from(s) * 0x100 + u16::from(offset), 0)
-    }
-
-    fn read_rx<B: Bus>(bus: &mut B, s: u8, pointer: u16, buf: &mut [u8]) {
-        let (address, first) = W5100::split(0x6000, s, pointer, buf.len());
-        let (head, tail) = buf.split_at_mut(first);
-        W5100::read(bus, address, 0, head);
-        W5100::read(bus, 0x6000 + u16::from(s) * W5100_BUFFER, 0, tail);
-    }
-
-    fn write_tx<B: Bus>(bus: &mut B, s: u8, pointer: u16, data: &[u8]) {
-        let (address, first) = W5100::split(0x4000, s, pointer, data.len());
-        let (head, tail) = data.split_at(first);
-        W5100::write(bus, address, 0, head);
-        W5100::write(bus, 0x4000 + u16::from(s) * W5100_BUFFER, 0, tail);
-    }
-
-    fn identify<B: Bus>(bus: &mut B) -> bool {
-        // TMSR (0x1B) holds 0x55 after a reset: 2 KB for each socket.
-        let mut tmsr = [0];
-        W5100::read(bus, 0x001B, 0, &mut tmsr);
-        tmsr[0] == 0x55
-    }
-}
-
-impl W5500 {
-    /// A transfer: the header, then each byte of `buf` sent (written) or replaced by the
-    /// byte received (read).
     #[inline(never)]
-    fn burst<B: Bus>(bus: &mut B, address: u16, control: u8, buf: &mut [u8], write: bool) {
-        bus.select();
-        let [hi, lo] = address.to_be_bytes();
-        bus.transfer(hi);
-        bus.transfer(lo);
-        bus.transfer(control);
+    fn transfer<B: Bus>(bus: &mut B, block: Block, offset: u16, buf: &mut [u8], write: bool) {
+        let opcode = if write { 0xF0 } else { 0x0F };
+        let mut offset = offset;
         for byte in buf.iter_mut() {
+            let [hi, lo] = W5100::address(block, offset).to_be_bytes();
+            bus.select();
+            bus.transfer(opcode);
+            bus.transfer(hi);
+            bus.transfer(lo);
             let got = bus.transfer(*byte);
+            bus.deselect();
             if !write {
                 *byte = got;
             }
+            offset = offset.wrapping_add(1);
         }
-        bus.deselect();
     }
 }
 
@@ -220,46 +189,29 @@ impl Chip for W5500 {
     const SOCKETS: u8 = 8;
     const SOCKET_EVENTS: u16 = 0x0017;
     const SOCKET_EVENT_MASK: u16 = 0x0018;
+    const IDENTITY: (u16, u8) = (0x0039, 0x04);
 
-    fn read<B: Bus>(bus: &mut B, address: u16, block: u8, buf: &mut [u8]) {
-        W5500::burst(bus, address, block << 3, buf, false);
-    }
-
-    fn write<B: Bus>(bus: &mut B, address: u16, block: u8, data: &[u8]) {
-        // The burst sends each byte and, writing, keeps it: a copy would cost a buffer.
+    #[inline(never)]
+    fn transfer<B: Bus>(bus: &mut B, block: Block, offset: u16, buf: &mut [u8], write: bool) {
+        let [hi, lo] = offset.to_be_bytes();
         bus.select();
-        let [hi, lo] = address.to_be_bytes();
         bus.transfer(hi);
         bus.transfer(lo);
-        bus.transfer(block << 3 | W5500_WRITE);
-        for &byte in data {
-            bus.transfer(byte);
+        bus.transfer(block.0 << 3 | if write { W5500_WRITE } else { 0 });
+        for byte in buf.iter_mut() {
+            let got = bus.transfer(*byte);
+            if !write {
+                *byte = got;
+            }
         }
         bus.deselect();
-    }
-
-    fn socket(s: u8, offset: u8) -> (u16, u8) {
-        (u16::from(offset), 4 * s + 1)
-    }
-
-    fn read_rx<B: Bus>(bus: &mut B, s: u8, pointer: u16, buf: &mut [u8]) {
-        W5500::read(bus, pointer, 4 * s + 3, buf);
-    }
-
-    fn write_tx<B: Bus>(bus: &mut B, s: u8, pointer: u16, data: &[u8]) {
-        W5500::write(bus, pointer, 4 * s + 2, data);
-    }
-
-    fn identify<B: Bus>(bus: &mut B) -> bool {
-        let mut version = [0];
-        W5500::read(bus, 0x0039, 0, &mut version);
-        version[0] == 0x04
     }
 }
 
 /// A WIZnet chip `C` on bus `B`.
 pub struct Wiznet<C, B> {
-    pub(crate) bus: B,
+    /// The SPI and chip select.
+    pub bus: B,
     chip: PhantomData<C>,
 }
 
@@ -278,17 +230,15 @@ impl<C: Chip, B: Bus> Wiznet<C, B> {
     /// Resets the chip, checks it is a `C`, and gives it `network`'s addresses; socket
     /// events reach the INT pin (for a board that wires it). False when no `C` answers.
     pub fn init(&mut self, network: &Network) -> bool {
-        C::write(&mut self.bus, MR, 0, &[RESET]);
+        self.set(Block::COMMON, MR, RESET);
         // The reset clears itself within microseconds; a chip that never clears it is not
-        // there (reading all ones), which `identify` then says.
-        let mut mode = [RESET];
-        for _ in 0..255 {
-            C::read(&mut self.bus, MR, 0, &mut mode);
-            if mode[0] & RESET == 0 {
-                break;
-            }
+        // there (reading all ones), which the identity then says.
+        let mut tries: u8 = 255;
+        while self.get(Block::COMMON, MR) & RESET != 0 && tries != 0 {
+            tries -= 1;
         }
-        if !C::identify(&mut self.bus) {
+        let (register, value) = C::IDENTITY;
+        if self.get(Block::COMMON, register) != value {
             return false;
         }
         let mut addresses = [0u8; 18];
@@ -296,90 +246,94 @@ impl<C: Chip, B: Bus> Wiznet<C, B> {
         addresses[4..8].copy_from_slice(&network.subnet);
         addresses[8..14].copy_from_slice(&network.mac);
         addresses[14..].copy_from_slice(&network.ip);
-        C::write(&mut self.bus, GAR, 0, &addresses);
-        C::write(&mut self.bus, C::SOCKET_EVENT_MASK, 0, &[0xFF >> (8 - C::SOCKETS)]);
+        C::transfer(&mut self.bus, Block::COMMON, GAR, &mut addresses, true);
+        self.set(Block::COMMON, C::SOCKET_EVENT_MASK, 0xFF >> (8 - C::SOCKETS));
         true
     }
 
+    /// The byte at `offset` in `block`.
     #[inline(never)]
-    fn read_reg(&mut self, s: u8, offset: u8, buf: &mut [u8]) {
-        let (address, block) = C::socket(s, offset);
-        C::read(&mut self.bus, address, block, buf);
+    fn get(&mut self, block: Block, offset: u16) -> u8 {
+        let mut byte = [0];
+        C::transfer(&mut self.bus, block, offset, &mut byte, false);
+        byte[0]
     }
 
+    /// Writes the byte at `offset` in `block`.
     #[inline(never)]
-    fn write_reg(&mut self, s: u8, offset: u8, data: &[u8]) {
-        let (address, block) = C::socket(s, offset);
-        C::write(&mut self.bus, address, block, data);
+    fn set(&mut self, block: Block, offset: u16, value: u8) {
+        C::transfer(&mut self.bus, block, offset, &mut [value], true);
     }
 
-    fn reg16(&mut self, s: u8, offset: u8) -> u16 {
+    /// Socket `s`'s 16-bit register at `offset`.
+    #[inline(never)]
+    fn get16(&mut self, s: u8, offset: u8) -> u16 {
         let mut bytes = [0; 2];
-        self.read_reg(s, offset, &mut bytes);
+        C::transfer(&mut self.bus, Block::socket(s), u16::from(offset), &mut bytes, false);
         u16::from_be_bytes(bytes)
+    }
+
+    /// Writes socket `s`'s 16-bit register at `offset`.
+    #[inline(never)]
+    fn set16(&mut self, s: u8, offset: u8, value: u16) {
+        C::transfer(&mut self.bus, Block::socket(s), u16::from(offset), &mut value.to_be_bytes(), true);
     }
 
     /// A 16-bit register the chip changes as data moves: read until two reads agree (its
     /// two bytes are read apart, and a byte may land in between), at most four times.
     #[inline(never)]
     fn stable16(&mut self, s: u8, offset: u8) -> u16 {
-        let mut last = self.reg16(s, offset);
-        for _ in 0..3 {
-            let again = self.reg16(s, offset);
-            if again == last {
-                break;
+        let mut last = self.get16(s, offset);
+        let mut tries: u8 = 3;
+        loop {
+            let again = self.get16(s, offset);
+            if again == last || tries == 0 {
+                return again;
             }
             last = again;
+            tries -= 1;
         }
-        last
     }
 }
 
 impl<C: Chip, B: Bus> Sockets for Wiznet<C, B> {
     fn events(&mut self) -> u8 {
-        let mut bits = [0];
-        C::read(&mut self.bus, C::SOCKET_EVENTS, 0, &mut bits);
-        bits[0]
+        self.get(Block::COMMON, C::SOCKET_EVENTS)
     }
 
     fn take_events(&mut self, s: u8) -> u8 {
-        let mut ir = [0];
-        self.read_reg(s, sn::IR, &mut ir);
-        if ir[0] != 0 {
-            self.write_reg(s, sn::IR, &ir);
+        let ir = self.get(Block::socket(s), sn::IR.into());
+        if ir != 0 {
+            self.set(Block::socket(s), sn::IR.into(), ir);
         }
-        ir[0]
+        ir
     }
 
     fn status(&mut self, s: u8) -> u8 {
-        let mut sr = [0];
-        self.read_reg(s, sn::SR, &mut sr);
-        sr[0]
+        self.get(Block::socket(s), sn::SR.into())
     }
 
+    #[inline(never)]
     fn command(&mut self, s: u8, command: u8) {
-        self.write_reg(s, sn::CR, &[command]);
+        self.set(Block::socket(s), sn::CR.into(), command);
         // The chip clears Sn_CR once it took the command: at once, in practice. Bounded, so
         // that a chip gone missing never stops the server.
-        let mut cr = [command];
-        for _ in 0..255 {
-            self.read_reg(s, sn::CR, &mut cr);
-            if cr[0] == 0 {
-                break;
-            }
+        let mut tries: u8 = 255;
+        while self.get(Block::socket(s), sn::CR.into()) != 0 && tries != 0 {
+            tries -= 1;
         }
     }
 
     fn listen(&mut self, s: u8, port: u16) {
-        self.write_reg(s, sn::MR, &[MODE_TCP]);
-        self.write_reg(s, sn::PORT, &port.to_be_bytes());
+        self.set(Block::socket(s), sn::MR.into(), MODE_TCP);
+        self.set16(s, sn::PORT, port);
         self.command(s, command::OPEN);
         self.command(s, command::LISTEN);
     }
 
     fn peer(&mut self, s: u8) -> [u8; 4] {
         let mut ip = [0; 4];
-        self.read_reg(s, sn::DIPR, &mut ip);
+        C::transfer(&mut self.bus, Block::socket(s), sn::DIPR.into(), &mut ip, false);
         ip
     }
 
@@ -388,15 +342,15 @@ impl<C: Chip, B: Bus> Sockets for Wiznet<C, B> {
     }
 
     fn rx_pointer(&mut self, s: u8) -> u16 {
-        self.reg16(s, sn::RX_RD)
+        self.get16(s, sn::RX_RD)
     }
 
     fn read(&mut self, s: u8, pointer: u16, buf: &mut [u8]) {
-        C::read_rx(&mut self.bus, s, pointer, buf);
+        C::transfer(&mut self.bus, Block::rx(s), pointer, buf, false);
     }
 
     fn take(&mut self, s: u8, pointer: u16) {
-        self.write_reg(s, sn::RX_RD, &pointer.to_be_bytes());
+        self.set16(s, sn::RX_RD, pointer);
         self.command(s, command::RECV);
     }
 
@@ -405,15 +359,15 @@ impl<C: Chip, B: Bus> Sockets for Wiznet<C, B> {
     }
 
     fn tx_pointer(&mut self, s: u8) -> u16 {
-        self.reg16(s, sn::TX_WR)
+        self.get16(s, sn::TX_WR)
     }
 
-    fn write(&mut self, s: u8, pointer: u16, data: &[u8]) {
-        C::write_tx(&mut self.bus, s, pointer, data);
+    fn write(&mut self, s: u8, pointer: u16, data: &mut [u8]) {
+        C::transfer(&mut self.bus, Block::tx(s), pointer, data, true);
     }
 
     fn send(&mut self, s: u8, pointer: u16) {
-        self.write_reg(s, sn::TX_WR, &pointer.to_be_bytes());
+        self.set16(s, sn::TX_WR, pointer);
         self.command(s, command::SEND);
     }
 }
@@ -446,11 +400,14 @@ mod tests {
         }
     }
 
+    fn addresses(bus: &Log) -> Vec<u16> {
+        bus.frames.iter().map(|f| u16::from_be_bytes([f[1], f[2]])).collect()
+    }
+
     #[test]
     fn w5100_writes_one_frame_per_byte() {
         let mut bus = Log::default();
-        let (address, block) = W5100::socket(1, sn::PORT);
-        W5100::write(&mut bus, address, block, &[0x01, 0xF6]);
+        W5100::transfer(&mut bus, Block::socket(1), sn::PORT.into(), &mut [0x01, 0xF6], true);
         assert_eq!(bus.frames, [vec![0xF0, 0x05, 0x04, 0x01], vec![0xF0, 0x05, 0x05, 0xF6]]);
     }
 
@@ -459,26 +416,29 @@ mod tests {
         // Socket 2's buffer is 0x7000-0x77FF; pointer 0xA7FE's place is 0x7FE: two bytes
         // at 0x77FE, then the buffer's start.
         let mut bus = Log::default();
-        let mut buf = [0; 4];
-        W5100::read_rx(&mut bus, 2, 0xA7FE, &mut buf);
-        let addresses: Vec<u16> = bus.frames.iter().map(|f| u16::from_be_bytes([f[1], f[2]])).collect();
-        assert_eq!(addresses, [0x77FE, 0x77FF, 0x7000, 0x7001]);
+        W5100::transfer(&mut bus, Block::rx(2), 0xA7FE, &mut [0; 4], false);
+        assert_eq!(addresses(&bus), [0x77FE, 0x77FF, 0x7000, 0x7001]);
         assert!(bus.frames.iter().all(|f| f[0] == 0x0F));
     }
 
     #[test]
     fn w5100_transmit_buffer_of_socket_3_ends_at_5fff() {
         let mut bus = Log::default();
-        W5100::write_tx(&mut bus, 3, 0xFFFF, &[1, 2]);
-        let addresses: Vec<u16> = bus.frames.iter().map(|f| u16::from_be_bytes([f[1], f[2]])).collect();
-        assert_eq!(addresses, [0x5FFF, 0x5800]);
+        W5100::transfer(&mut bus, Block::tx(3), 0xFFFF, &mut [1, 2], true);
+        assert_eq!(addresses(&bus), [0x5FFF, 0x5800]);
+    }
+
+    #[test]
+    fn w5100_common_registers_are_at_their_address() {
+        let mut bus = Log::default();
+        W5100::transfer(&mut bus, Block::COMMON, W5100::SOCKET_EVENTS, &mut [0], false);
+        assert_eq!(bus.frames, [vec![0x0F, 0x00, 0x15, 0x00]]);
     }
 
     #[test]
     fn w5500_writes_a_burst_with_the_socket_block() {
         let mut bus = Log::default();
-        let (address, block) = W5500::socket(7, sn::TX_WR);
-        W5500::write(&mut bus, address, block, &[0x12, 0x34]);
+        W5500::transfer(&mut bus, Block::socket(7), sn::TX_WR.into(), &mut [0x12, 0x34], true);
         // Block 4·7 + 1 = 29: control 29 << 3 | write.
         assert_eq!(bus.frames, [vec![0x00, 0x24, 29 << 3 | 0x04, 0x12, 0x34]]);
     }
@@ -486,8 +446,7 @@ mod tests {
     #[test]
     fn w5500_reads_the_receive_buffer_at_the_free_running_pointer() {
         let mut bus = Log::default();
-        let mut buf = [0; 3];
-        W5500::read_rx(&mut bus, 0, 0xFFFE, &mut buf);
+        W5500::transfer(&mut bus, Block::rx(0), 0xFFFE, &mut [0; 3], false);
         assert_eq!(bus.frames, [vec![0xFF, 0xFE, 3 << 3, 0, 0, 0]]);
     }
 }

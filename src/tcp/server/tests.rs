@@ -157,7 +157,7 @@ impl Sockets for Fake {
     fn tx_pointer(&mut self, s: u8) -> u16 {
         self.socks[usize::from(s)].tx_wr
     }
-    fn write(&mut self, s: u8, pointer: u16, data: &[u8]) {
+    fn write(&mut self, s: u8, pointer: u16, data: &mut [u8]) {
         let sock = &mut self.socks[usize::from(s)];
         assert!(
             pointer.wrapping_sub(sock.tx_rd) as usize + data.len() <= SIZE as usize,
