@@ -77,6 +77,23 @@ pub struct TcpCounters {
     pub evicted: u16,
 }
 
+/// A counter's place in [`Server::counts`]: the order of [`TcpCounters`]'s fields.
+#[derive(Clone, Copy)]
+enum Count {
+    Requests,
+    Exceptions,
+    BadProtocol,
+    BadLength,
+    OtherUnit,
+    Connections,
+    Refused,
+    IdleClosed,
+    Evicted,
+}
+
+/// How many counters there are.
+const COUNTS: usize = Count::Evicted as usize + 1;
+
 /// Where a socket is, as the server last saw it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 enum Phase {
@@ -108,7 +125,8 @@ pub struct Server<const B: usize = { mbap::MAX_ADU }> {
     /// Sockets to look at in the next poll whatever their events say: requests left for
     /// lack of room to answer, a socket that must be opened.
     again: u8,
-    counters: TcpCounters,
+    /// The counters, in the order of [`TcpCounters`]'s fields.
+    counts: [u16; COUNTS],
     buf: [u8; B],
 }
 
@@ -141,24 +159,31 @@ impl<const B: usize> Server<B> {
         Server {
             conns: [Conn { phase: Phase::Closed, sending: false, idle: 0 }; Network::MAX_SOCKETS as usize],
             again: 0xFF,
-            counters: TcpCounters {
-                requests: 0,
-                exceptions: 0,
-                bad_protocol: 0,
-                bad_length: 0,
-                other_unit: 0,
-                connections: 0,
-                refused: 0,
-                idle_closed: 0,
-                evicted: 0,
-            },
+            counts: [0; COUNTS],
             buf: [0; B],
         }
     }
 
     /// The counters.
     pub fn counters(&self) -> TcpCounters {
-        self.counters
+        let [requests, exceptions, bad_protocol, bad_length, other_unit, connections, refused, idle_closed, evicted] =
+            self.counts;
+        TcpCounters {
+            requests,
+            exceptions,
+            bad_protocol,
+            bad_length,
+            other_unit,
+            connections,
+            refused,
+            idle_closed,
+            evicted,
+        }
+    }
+
+    /// One more in `counter`, wrapping ([`crate::link::bump`], not inlined).
+    fn bump(&mut self, counter: Count) {
+        crate::link::bump(&mut self.counts, counter as u8);
     }
 
     /// Serves what the chip has: the sockets with events, and those left to look at again;
@@ -194,12 +219,12 @@ impl<const B: usize> Server<B> {
             status @ (state::ESTABLISHED | state::CLOSE_WAIT) => {
                 if self.conns[at].phase != Phase::Connected {
                     if !net.allows(chip.peer(s)) {
-                        self.counters.refused = self.counters.refused.wrapping_add(1);
+                        self.bump(Count::Refused);
                         self.close(chip, net, s);
                         return;
                     }
                     self.conns[at] = Conn { phase: Phase::Connected, sending: false, idle: 0 };
-                    self.counters.connections = self.counters.connections.wrapping_add(1);
+                    self.bump(Count::Connections);
                 }
                 let left = self.serve(chip, handler, net, s);
                 if status == state::CLOSE_WAIT && !left {
@@ -259,13 +284,13 @@ impl<const B: usize> Server<B> {
                         left = true;
                         break;
                     }
-                    self.counters.bad_protocol = self.counters.bad_protocol.wrapping_add(1);
+                    self.bump(Count::BadProtocol);
                     rx = rx.wrapping_add(skip);
                     received -= skip;
                     continue;
                 }
                 Err(Refused::Length) => {
-                    self.counters.bad_length = self.counters.bad_length.wrapping_add(1);
+                    self.bump(Count::BadLength);
                     self.close(chip, net, s);
                     return false;
                 }
@@ -276,7 +301,7 @@ impl<const B: usize> Server<B> {
                 break;
             }
             if !net.answers(header.unit) {
-                self.counters.other_unit = self.counters.other_unit.wrapping_add(1);
+                self.bump(Count::OtherUnit);
                 rx = rx.wrapping_add(adu);
                 received -= adu;
                 continue;
@@ -295,9 +320,9 @@ impl<const B: usize> Server<B> {
             let Some((reply, exception)) = handler.handle(&mut self.buf, pdu_len) else {
                 continue;
             };
-            self.counters.requests = self.counters.requests.wrapping_add(1);
+            self.bump(Count::Requests);
             if exception {
-                self.counters.exceptions = self.counters.exceptions.wrapping_add(1);
+                self.bump(Count::Exceptions);
             }
             let len = (HEADER + reply).min(B);
             mbap::seal(&mut self.buf, len - HEADER);
@@ -330,7 +355,7 @@ impl<const B: usize> Server<B> {
             conn.idle = conn.idle.saturating_add(1);
             match conn.phase {
                 Phase::Connected if net.idle_timeout_s != 0 && conn.idle >= net.idle_timeout_s => {
-                    self.counters.idle_closed = self.counters.idle_closed.wrapping_add(1);
+                    self.bump(Count::IdleClosed);
                     self.close(chip, net, s);
                     listening = true;
                 }
@@ -349,7 +374,7 @@ impl<const B: usize> Server<B> {
         }
         if let (false, Some((s, idle))) = (listening, oldest) {
             if idle >= net.evict_after_s {
-                self.counters.evicted = self.counters.evicted.wrapping_add(1);
+                self.bump(Count::Evicted);
                 self.close(chip, net, s);
             }
         }
