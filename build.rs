@@ -114,10 +114,11 @@ fn table_of(chip: &Facts) -> String {
     });
     let (pin, bit) = chip.led;
     let [ss, mosi, sck, cs] = chip.spi;
+    let (_, eicr, shift, mask, int_pin, int_bit) = chip.pin2_int;
     format!(
         "/// The {name}'s facts ({boards}).\n\
          pub(crate) const CHIP: Chip = Chip {{ usarts: [{usarts}], eeprom_size: {eeprom}, led: ({pin:#X}, {bit}), \
-         spi: [{ss}, {mosi}, {sck}, {cs}] }};\n",
+         spi: [{ss}, {mosi}, {sck}, {cs}], pin2_int: ({eicr:#X}, {shift}, {mask}, {int_pin:#X}, {int_bit}) }};\n",
         name = chip.part,
         boards = chip.boards,
         usarts = usarts.collect::<Vec<_>>().join(", "),
@@ -132,6 +133,7 @@ fn macro_of(chip: &Facts) -> String {
     for (name, vector) in ["TIMER0_COMPA", "TIMER0_COMPB", "TIMER0_OVF"].iter().zip(chip.timer0) {
         writeln!(arms, "    (vector {name}) => {{ \"__vector_{vector}\" }};").unwrap();
     }
+    writeln!(arms, "    (vector PIN2_INT) => {{ \"__vector_{}\" }};", chip.pin2_int.0).unwrap();
     for usart in &chip.usarts {
         for (what, vector) in ["RX", "UDRE", "TX"].iter().zip(usart.vectors) {
             writeln!(arms, "    (vector USART{} {what}) => {{ \"__vector_{vector}\" }};", usart.number).unwrap();
@@ -183,7 +185,7 @@ fn unsupported(chips: &[Facts], seen: &str) -> String {
     format!(
         "::core::compile_error!({message:?});\n\n\
          /// No table, so that the only error is the one above.\n\
-         pub(crate) const CHIP: Chip = Chip {{ usarts: [None; 4], eeprom_size: 0, led: (0, 0), spi: [0; 4] }};\n\n\
+         pub(crate) const CHIP: Chip = Chip {{ usarts: [None; 4], eeprom_size: 0, led: (0, 0), spi: [0; 4], pin2_int: (0, 0, 0, 0, 0) }};\n\n\
          /// No vectors either.\n\
          #[doc(hidden)]\n\
          #[macro_export]\n\

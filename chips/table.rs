@@ -36,6 +36,9 @@ pub struct Facts {
     pub led: (u16, u8),
     /// The SPI's SS, MOSI and SCK, and the board's pin 10: their bits on port B.
     pub spi: [u8; 4],
+    /// Pin 2's external interrupt: vector, EICRx address, ISC shift, EIMSK bit, PINx
+    /// address, port bit.
+    pub pin2_int: (u8, u16, u8, u8, u16, u8),
     /// Bytes a CALL or an interrupt pushes.
     pub return_address_bytes: u8,
     /// Single-ended ADC channels.
@@ -93,6 +96,7 @@ struct Partial {
     eeprom: Option<u16>,
     led: Option<(u16, u8)>,
     spi: Option<[u8; 4]>,
+    pin2_int: Option<(u8, u16, u8, u8, u16, u8)>,
     return_address_bytes: Option<u8>,
     adc: Option<u8>,
     uno_pins: Option<bool>,
@@ -116,6 +120,19 @@ impl Partial {
             "spi" => match words[..] {
                 [ss, mosi, sck, cs] => self.spi = Some([number(ss)?, number(mosi)?, number(sck)?, number(cs)?]),
                 _ => return Err(format!("`spi {value}`: the bits of SS, MOSI, SCK and pin 10 on port B")),
+            },
+            "pin2-int" => match words[..] {
+                [vector, eicr, shift, bit, pin, pin_bit] => {
+                    self.pin2_int = Some((
+                        number(vector)?,
+                        number(eicr)?,
+                        number(shift)?,
+                        number(bit)?,
+                        number(pin)?,
+                        number(pin_bit)?,
+                    ))
+                }
+                _ => return Err(format!("`pin2-int {value}`: vector, EICRx, shift, EIMSK bit, PINx, bit")),
             },
             "return-address" => self.return_address_bytes = Some(number(value)?),
             "adc" => self.adc = Some(number(value)?),
@@ -150,6 +167,7 @@ impl Partial {
             eeprom: self.eeprom.ok_or_else(|| missing("eeprom"))?,
             led: self.led.ok_or_else(|| missing("led"))?,
             spi: self.spi.ok_or_else(|| missing("spi"))?,
+            pin2_int: self.pin2_int.ok_or_else(|| missing("pin2-int"))?,
             return_address_bytes: self.return_address_bytes.ok_or_else(|| missing("return-address"))?,
             adc: self.adc.ok_or_else(|| missing("adc"))?,
             uno_pins: self.uno_pins.ok_or_else(|| missing("uno-pins"))?,
@@ -195,7 +213,7 @@ mod tests {
 
     const UNO: &str = "chip atmega328p\npart ATmega328P\nfamily ATmega328P\nboards Uno\n\
                        usart USART0 0xC0 18 19 20 pins-0/1   # the pins\ntimer0 14 15 16\neeprom 1024\n\
-                       led 0x23 5\nspi 2 3 5 2\nreturn-address 2\nadc 8\nuno-pins yes\n";
+                       led 0x23 5\nspi 2 3 5 2\npin2-int 1 0x69 0 0 0x29 2\nreturn-address 2\nadc 8\nuno-pins yes\n";
 
     #[test]
     fn reads_a_block() {

@@ -25,6 +25,11 @@ pub(crate) struct Chip {
     /// select): their bits on port B (feature `tcp`).
     #[cfg_attr(not(feature = "tcp"), allow(dead_code))]
     pub(crate) spi: [u8; 4],
+    /// The board's pin 2 as an external interrupt (the W5100 shield's INT jumper, feature
+    /// `tcp`): the EICRx address and the shift of its sense bits there, its EIMSK bit, its
+    /// port's PINx address and its bit.
+    #[cfg_attr(not(feature = "tcp"), allow(dead_code))]
+    pub(crate) pin2_int: (usize, u8, u8, usize, u8),
 }
 
 impl Chip {

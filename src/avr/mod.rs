@@ -134,7 +134,7 @@ pub mod __private {
     /// Only as the Timer0 overflow interrupt handler's body (interrupts disabled).
     #[cfg(feature = "tcp")]
     #[inline(always)]
-    pub unsafe fn tcp_overflow<M, C, CS, const B: usize>(server: &super::TcpServer<M, C, CS, B>)
+    pub unsafe fn tcp_overflow<M, C, CS, const B: usize, const INT: bool>(server: &super::TcpServer<M, C, CS, B, INT>)
     where
         M: crate::DataModel,
         C: crate::tcp::wiznet::Chip,
@@ -301,6 +301,7 @@ macro_rules! __bind_role {
 /// avr_modbus::tcp_server!(SERVER: Registers, W5100);           // an Ethernet Shield R3
 /// avr_modbus::tcp_server!(SERVER: Registers, W5500);           // an Ethernet Shield 2
 /// avr_modbus::tcp_server!(SERVER: Registers, W5500, CsPin);    // a module's CS elsewhere
+/// avr_modbus::tcp_server!(SERVER: Registers, W5100, pin2_int);  // INT wired to pin 2
 /// ```
 ///
 /// Its buffer holds the MBAP header and the model's longest PDU ([`crate::DataModel::FRAME`]
@@ -313,10 +314,33 @@ macro_rules! __bind_role {
 #[macro_export]
 macro_rules! tcp_server {
     ($name:ident : $model:ty, $chip:ty) => {
-        $crate::tcp_server!($name: $model, $chip, $crate::Pin10);
+        $crate::tcp_server!(@declare $name: $model, $chip, $crate::Pin10, false);
+    };
+    ($name:ident : $model:ty, $chip:ty, pin2_int) => {
+        $crate::tcp_server!(@declare $name: $model, $chip, $crate::Pin10, true);
+        $crate::tcp_server!(@pin2 $name);
     };
     ($name:ident : $model:ty, $chip:ty, $cs:ty) => {
-        static $name: $crate::TcpServer<$model, $chip, $cs, { <$model as $crate::DataModel>::FRAME + 4 }> =
+        $crate::tcp_server!(@declare $name: $model, $chip, $cs, false);
+    };
+    ($name:ident : $model:ty, $chip:ty, $cs:ty, pin2_int) => {
+        $crate::tcp_server!(@declare $name: $model, $chip, $cs, true);
+        $crate::tcp_server!(@pin2 $name);
+    };
+    (@pin2 $name:ident) => {
+        #[doc(hidden)]
+        #[allow(non_snake_case)]
+        mod __avr_modbus_tcp_pin2 {
+            /// INTn on pin 2: the chip's INT line is low, a socket has news.
+            #[export_name = $crate::__chip!(vector PIN2_INT)]
+            unsafe extern "avr-interrupt" fn PIN2_INTERRUPT() {
+                // SAFETY: pin 2's external interrupt handler, interrupts disabled.
+                unsafe { super::$name.on_pin2() }
+            }
+        }
+    };
+    (@declare $name:ident : $model:ty, $chip:ty, $cs:ty, $int:literal) => {
+        static $name: $crate::TcpServer<$model, $chip, $cs, { <$model as $crate::DataModel>::FRAME + 4 }, $int> =
             $crate::TcpServer::new();
 
         #[doc(hidden)]

@@ -7,6 +7,12 @@
 //! chip) and returns when no socket has news. When one has, it serves with interrupts enabled
 //! again, so that a serial role's interrupts (a slave's, a master's) keep their timing; a
 //! second overflow meanwhile only keeps `millis()` and leaves the poll to the one running.
+//!
+//! Where the chip's INT line is wired to the board's pin 2 (the W5100 shield's solder jumper,
+//! a module's INT pin), `tcp_server!(…, pin2_int)` serves from pin 2's external interrupt
+//! instead, as soon as a socket has news: the overflow then only counts the seconds (and
+//! serves requests left for lack of room). The line is low while the chip has events: the
+//! interrupt is level-triggered and masked while the chip is served, so that none is lost.
 //! The data model is the application's only through [`TcpServer::with`] and the calls
 //! built on it (interrupts off), so the poll and the application never touch it at once.
 
@@ -14,14 +20,15 @@ use core::ops::Deref;
 
 use embedded_hal::digital::OutputPin;
 
-use super::reg::{self, claim, TCCR0A, TCCR0B, TCNT0, TIFR0, TIMSK0};
+use super::chip::CHIP;
+use super::reg::{self, claim, Reg, TCCR0A, TCCR0B, TCNT0, TIFR0, TIMSK0};
 use super::spi::{Spi, SPI_BLOCK};
 use super::started::Started;
 use crate::error::Error;
 use crate::link::timing::{CLOCK_HZ, TIMER0_CLOCK_SELECT, TIMER0_DIVISOR};
 use crate::protocol::reference::IntoReference;
 use crate::slave::model::DataModel;
-use crate::tcp::server::Server;
+use crate::tcp::server::{Server, Sockets};
 use crate::tcp::wiznet::{Chip, Wiznet};
 use crate::tcp::{Network, Serving, TcpCounters};
 
@@ -49,12 +56,12 @@ const COMPARES: u8 = 1 << 1 | 1 << 2;
 /// `C` is the chip ([`crate::tcp::W5100`] or [`crate::tcp::W5500`]), `CS` its chip-select
 /// pin ([`Pin10`], the shields', by default), `B` the bytes of its one buffer (the MBAP
 /// header and the model's longest PDU; [`crate::tcp_server!`] works it out).
-pub struct TcpServer<M, C, CS = Pin10, const B: usize = 260> {
-    running: Started<Running<M, C, CS, B>>,
+pub struct TcpServer<M, C, CS = Pin10, const B: usize = 260, const INT: bool = false> {
+    running: Started<Running<M, C, CS, B, INT>>,
 }
 
 /// The running server: the pure server, the chip, the settings, the model.
-struct Running<M, C, CS, const B: usize> {
+struct Running<M, C, CS, const B: usize, const INT: bool> {
     server: Server<B>,
     chip: Wiznet<C, Spi<CS>>,
     network: Network,
@@ -65,7 +72,7 @@ struct Running<M, C, CS, const B: usize> {
     lent: bool,
 }
 
-impl<M, C, CS, const B: usize> TcpServer<M, C, CS, B> {
+impl<M, C, CS, const B: usize, const INT: bool> TcpServer<M, C, CS, B, INT> {
     /// A server not yet started: what [`crate::tcp_server!`] declares.
     #[doc(hidden)]
     pub const fn new() -> Self {
@@ -73,7 +80,7 @@ impl<M, C, CS, const B: usize> TcpServer<M, C, CS, B> {
     }
 }
 
-impl<M: DataModel, C: Chip, const B: usize> TcpServer<M, C, Pin10, B> {
+impl<M: DataModel, C: Chip, const B: usize, const INT: bool> TcpServer<M, C, Pin10, B, INT> {
     /// Starts the server with the chip's select on the board's pin 10 (the shields'): see
     /// [`TcpServer::start_with_cs`].
     pub fn start<S: Deref, T: Deref>(&self, network: Network, spi: S, tc0: T, model: M) -> Result<(), Error>
@@ -85,7 +92,7 @@ impl<M: DataModel, C: Chip, const B: usize> TcpServer<M, C, Pin10, B> {
     }
 }
 
-impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize> TcpServer<M, C, CS, B> {
+impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> TcpServer<M, C, CS, B, INT> {
     /// Starts the server: takes the SPI (`dp.SPI`, or `&dp.SPI` to keep it for
     /// [`TcpServer::with_spi`]) and `TC0` (`&dp.TC0` when a serial role shares Timer0) from
     /// the application's `Peripherals`, resets the chip and checks it is a `C`, gives it
@@ -108,12 +115,24 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize> TcpServer<M, C, CS, B
         claim::<_, { SPI_BLOCK.1 }>(spi, SPI_BLOCK.0)?;
         claim::<_, { reg::TC0.1 }>(tc0, reg::TC0.0)?;
         let mut chip = Wiznet::<C, _>::new(Spi::new(cs));
-        if !chip.init(&network) {
-            return Err(Error::NoChip);
+        // The shields hold the chip in reset for up to 560 ms after power-up (a reset chip
+        // on the board): tried every 10 ms for 0.6 s before giving up.
+        let mut tries: u8 = 60;
+        while !chip.init(&network) {
+            tries -= 1;
+            if tries == 0 {
+                return Err(Error::NoChip);
+            }
+            wait_10ms();
         }
         let network = Network { sockets: network.sockets.min(C::SOCKETS), ..network };
         self.running.start(|| Running { server: Server::new(), chip, network, model, overflows: 0, lent: false })?;
-        reg::free(start_timer0);
+        reg::free(|| {
+            start_timer0();
+            if INT {
+                start_pin2_interrupt();
+            }
+        });
         // SAFETY: the server is in its cell, so its interrupt handler can run.
         unsafe { reg::enable_interrupts() };
         Ok(())
@@ -134,6 +153,20 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize> TcpServer<M, C, CS, B
         let _ = unsafe { self.running.access_marked(Running::poll) };
     }
 
+    /// Pin 2's external interrupt (`tcp_server!(…, pin2_int)`): the chip served at once.
+    /// The interrupt stays masked until the chip has been served (by this poll, or the one
+    /// running that this one found), and fires again at once if the line is still low.
+    ///
+    /// # Safety
+    /// Only from pin 2's external interrupt handler, with interrupts disabled.
+    #[doc(hidden)]
+    #[inline(always)]
+    pub unsafe fn on_pin2(&self) {
+        pin2_interrupt(false);
+        // SAFETY: as `on_overflow`'s.
+        let _ = unsafe { self.running.access_marked(Running::on_event) };
+    }
+
     /// Runs `f` on the data model with interrupts disabled: `None` before
     /// [`TcpServer::start`] or inside another `with`. Keep `f` short.
     pub fn with<R>(&self, f: impl FnOnce(&mut M) -> R) -> Option<R> {
@@ -148,7 +181,12 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize> TcpServer<M, C, CS, B
     pub fn with_spi<R>(&self, f: impl FnOnce() -> R) -> Option<R> {
         self.running.locked(|r| r.lent = true)?;
         let result = f();
-        self.running.locked(|r| r.lent = false);
+        self.running.locked(|r| {
+            r.lent = false;
+            if INT {
+                pin2_interrupt(true);
+            }
+        });
         Some(result)
     }
 
@@ -196,7 +234,7 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize> TcpServer<M, C, CS, B
     }
 }
 
-impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize> Running<M, C, CS, B> {
+impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Running<M, C, CS, B, INT> {
     /// One poll, from the overflow interrupt (interrupts disabled on entry and on return):
     /// the second counted, then, unless the application has the SPI, the chip served with
     /// interrupts enabled.
@@ -207,17 +245,79 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize> Running<M, C, CS, B> 
         if second {
             self.overflows = 0;
         }
-        if self.lent {
+        // With the INT line, the overflow only counts seconds and retries what was left.
+        if self.lent || (INT && !second && self.server.is_quiet()) {
             return;
         }
+        self.serve(second);
+    }
+
+    /// Pin 2's interrupt: the chip served until it has no events left (at most four
+    /// rounds: what comes later brings the line low again), unless the application has
+    /// the SPI (its `with_spi` unmasks the interrupt when it is done).
+    #[inline(never)]
+    fn on_event(&mut self) {
+        if !self.lent {
+            self.serve(false);
+        }
+    }
+
+    /// Serves the chip with interrupts enabled, then (with the INT line) unmasks pin 2's
+    /// interrupt. Interrupts disabled on entry and on return.
+    fn serve(&mut self, second: bool) {
         // SAFETY: the server is marked in use (`access_marked`), so nothing else reaches it
         // meanwhile; other interrupts may run, which is the point.
         unsafe { reg::enable_interrupts() };
         self.chip.bus.configure();
-        self.server.poll(&mut self.chip, &self.network, &mut Serving(&mut self.model), second);
+        let mut rounds: u8 = 4;
+        loop {
+            self.server.poll(&mut self.chip, &self.network, &mut Serving(&mut self.model), second && rounds == 4);
+            rounds -= 1;
+            if !INT || rounds == 0 || self.chip.events() == 0 {
+                break;
+            }
+        }
         // SAFETY: interrupts off again before the mark goes (`access_marked`'s promise).
         unsafe { reg::disable_interrupts() };
+        if INT {
+            pin2_interrupt(true);
+        }
     }
+}
+
+/// About 10 ms of the CPU's time, before Timer0 runs.
+#[inline(never)]
+fn wait_10ms() {
+    // Four cycles a turn: `sbiw` and `brne` (2 when taken) and the `nop` keeping it a loop.
+    let mut turns = (CLOCK_HZ / 100 / 4) as u16;
+    while turns != 0 {
+        // SAFETY: no operands, no effect but time.
+        unsafe { core::arch::asm!("nop") };
+        turns -= 1;
+    }
+}
+
+/// EIMSK and EIFR, the same on every chip.
+const EIMSK: Reg = Reg::at(0x3D);
+const EIFR: Reg = Reg::at(0x3C);
+
+/// Pin 2's external interrupt enabled or masked.
+#[inline(always)]
+fn pin2_interrupt(on: bool) {
+    let (_, _, bit, _, _) = CHIP.pin2_int;
+    EIMSK.modify(|m| if on { m | 1 << bit } else { m & !(1 << bit) });
+}
+
+/// Pin 2 an input with its pull-up, its interrupt on a low level (the chip's INT line is
+/// low while it has events), its flag cleared, enabled. Interrupts disabled.
+fn start_pin2_interrupt() {
+    let (eicr, shift, bit, pin, pin_bit) = CHIP.pin2_int;
+    // DDRx (PINx + 1) clear, PORTx (PINx + 2) set: an input pulled up.
+    Reg::at(pin + 1).modify(|d| d & !(1 << pin_bit));
+    Reg::at(pin + 2).modify(|p| p | 1 << pin_bit);
+    Reg::at(eicr).modify(|e| e & !(0b11 << shift));
+    EIFR.write(1 << bit);
+    pin2_interrupt(true);
 }
 
 /// Timer0 free-running at clk/64 with its overflow interrupt on: started here unless a

@@ -186,6 +186,11 @@ impl<const B: usize> Server<B> {
         crate::link::bump(&mut self.counts, counter as u8);
     }
 
+    /// True when no socket waits to be looked at again (what the chip says aside).
+    pub fn is_quiet(&self) -> bool {
+        self.again == 0
+    }
+
     /// Serves what the chip has: the sockets with events, and those left to look at again;
     /// with `second`, every socket, and the idle connections' time counted. Call it often
     /// (the AVR layer: every Timer0 overflow, 1.024 ms) and with `second` once a second.
