@@ -16,16 +16,44 @@
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Network {
-    pub(crate) mac: [u8; 6],
-    pub(crate) ip: [u8; 4],
-    pub(crate) subnet: [u8; 4],
-    pub(crate) gateway: [u8; 4],
+    /// Gateway, subnet mask, MAC and IP address, in the chips' register order (GAR, SUBR,
+    /// SHAR, SIPR): written to the chip as they are.
+    pub(crate) addresses: [u8; ADDRESSES],
     pub(crate) port: u16,
     pub(crate) unit: u8,
     pub(crate) sockets: u8,
     pub(crate) idle_timeout_s: u16,
     pub(crate) evict_after_s: u16,
     pub(crate) allow: &'static [[u8; 4]],
+}
+
+/// The bytes of the chip's addresses.
+const ADDRESSES: usize = 18;
+/// Where each address starts in [`Network::addresses`].
+const GATEWAY: usize = 0;
+const SUBNET: usize = 4;
+const MAC: usize = 8;
+const IP: usize = 14;
+
+/// `bytes` copied into `addresses` from `at` on.
+const fn put<const N: usize>(mut addresses: [u8; ADDRESSES], at: usize, bytes: [u8; N]) -> [u8; ADDRESSES] {
+    let mut i = 0;
+    while i < N {
+        addresses[at + i] = bytes[i];
+        i += 1;
+    }
+    addresses
+}
+
+/// `N` bytes of `addresses` from `at` on.
+const fn get<const N: usize>(addresses: &[u8; ADDRESSES], at: usize) -> [u8; N] {
+    let mut bytes = [0; N];
+    let mut i = 0;
+    while i < N {
+        bytes[i] = addresses[at + i];
+        i += 1;
+    }
+    bytes
 }
 
 impl Network {
@@ -36,11 +64,9 @@ impl Network {
     /// unit id answered, every socket of the chip serving, idle connections closed after
     /// 60 s, any client allowed.
     pub const fn new(mac: [u8; 6], ip: [u8; 4]) -> Network {
+        let addresses = put([0; ADDRESSES], SUBNET, [255, 255, 255, 0]);
         Network {
-            mac,
-            ip,
-            subnet: [255, 255, 255, 0],
-            gateway: [0; 4],
+            addresses: put(put(addresses, MAC, mac), IP, ip),
             port: 502,
             unit: 0,
             sockets: Network::MAX_SOCKETS,
@@ -52,12 +78,12 @@ impl Network {
 
     /// The subnet mask.
     pub const fn subnet(self, subnet: [u8; 4]) -> Network {
-        Network { subnet, ..self }
+        Network { addresses: put(self.addresses, SUBNET, subnet), ..self }
     }
 
     /// The default gateway (router).
     pub const fn gateway(self, gateway: [u8; 4]) -> Network {
-        Network { gateway, ..self }
+        Network { addresses: put(self.addresses, GATEWAY, gateway), ..self }
     }
 
     /// Listens on `port` instead of 502 (a port of 0 stops the build).
@@ -110,7 +136,22 @@ impl Network {
 
     /// The IP address.
     pub const fn ip(&self) -> [u8; 4] {
-        self.ip
+        get(&self.addresses, IP)
+    }
+
+    /// The MAC address.
+    pub const fn mac(&self) -> [u8; 6] {
+        get(&self.addresses, MAC)
+    }
+
+    /// The subnet mask.
+    pub const fn subnet_mask(&self) -> [u8; 4] {
+        get(&self.addresses, SUBNET)
+    }
+
+    /// The default gateway.
+    pub const fn gateway_address(&self) -> [u8; 4] {
+        get(&self.addresses, GATEWAY)
     }
 
     /// True when a client at `peer` may connect.
@@ -129,6 +170,18 @@ mod tests {
     use super::*;
 
     const NET: Network = Network::new([2, 0, 0, 0, 0, 1], [10, 0, 0, 2]);
+
+    #[test]
+    fn the_addresses_are_in_the_chips_register_order() {
+        let net = NET.gateway([10, 0, 0, 1]).subnet([255, 255, 0, 0]);
+        assert_eq!(net.addresses, [10, 0, 0, 1, 255, 255, 0, 0, 2, 0, 0, 0, 0, 1, 10, 0, 0, 2]);
+        assert_eq!((net.ip(), net.mac(), net.subnet_mask(), net.gateway_address()), (
+            [10, 0, 0, 2],
+            [2, 0, 0, 0, 0, 1],
+            [255, 255, 0, 0],
+            [10, 0, 0, 1]
+        ));
+    }
 
     #[test]
     fn every_unit_is_answered_by_default() {

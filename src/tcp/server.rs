@@ -108,20 +108,16 @@ enum Phase {
     Closing,
 }
 
-/// A socket's state in RAM.
-#[derive(Clone, Copy, Debug, Default)]
-struct Conn {
-    phase: Phase,
-    /// A SEND is on its way: the next waits for its SEND_OK.
-    sending: bool,
-    /// Whole seconds without a request (or, closing, since it began).
-    idle: u16,
-}
 
 /// The server: its sockets' states, its counters and the one buffer of `B` bytes where each
 /// request becomes its reply (header and PDU; 260 holds the longest).
 pub struct Server<const B: usize = { mbap::MAX_ADU }> {
-    conns: [Conn; Network::MAX_SOCKETS as usize],
+    /// Each socket's phase.
+    phase: [Phase; SOCKETS],
+    /// Each socket's whole seconds without a request (or, closing, since it began).
+    idle: [u16; SOCKETS],
+    /// Bit n: socket n has a SEND on its way, and the next waits for its SEND_OK.
+    sending: u8,
     /// Sockets to look at in the next poll whatever their events say: requests left for
     /// lack of room to answer, a socket that must be opened.
     again: u8,
@@ -129,6 +125,9 @@ pub struct Server<const B: usize = { mbap::MAX_ADU }> {
     counts: [u16; COUNTS],
     buf: [u8; B],
 }
+
+/// The sockets the server keeps a state for: the most a chip has.
+const SOCKETS: usize = Network::MAX_SOCKETS as usize;
 
 /// What handling one request asks of the server.
 pub trait Handler {
@@ -157,7 +156,9 @@ impl<const B: usize> Server<B> {
     pub const fn new() -> Self {
         let () = Self::FITS;
         Server {
-            conns: [Conn { phase: Phase::Closed, sending: false, idle: 0 }; Network::MAX_SOCKETS as usize],
+            phase: [Phase::Closed; SOCKETS],
+            idle: [0; SOCKETS],
+            sending: 0,
             again: 0xFF,
             counts: [0; COUNTS],
             buf: [0; B],
@@ -212,46 +213,54 @@ impl<const B: usize> Server<B> {
 
     /// Socket `s`: its events taken, its state followed, its requests answered.
     fn service<S: Sockets, H: Handler>(&mut self, chip: &mut S, net: &Network, handler: &mut H, s: u8) {
-        let events = chip.take_events(s);
-        let at = usize::from(s);
-        if events & SEND_OK != 0 {
-            self.conns[at].sending = false;
+        let at = usize::from(s) % SOCKETS;
+        if chip.take_events(s) & SEND_OK != 0 {
+            self.sending &= !(1 << s);
         }
+        let phase = self.phase[at];
         match chip.status(s) {
             state::CLOSED => self.open(chip, net, s),
             state::INIT => chip.command(s, command::LISTEN),
-            state::LISTEN => self.conns[at].phase = Phase::Listening,
+            state::LISTEN => {}
             status @ (state::ESTABLISHED | state::CLOSE_WAIT) => {
-                if self.conns[at].phase != Phase::Connected {
+                if phase != Phase::Connected {
                     if !net.allows(chip.peer(s)) {
                         self.bump(Count::Refused);
                         self.close(chip, net, s);
                         return;
                     }
-                    self.conns[at] = Conn { phase: Phase::Connected, sending: false, idle: 0 };
+                    self.enter(s, Phase::Connected);
                     self.bump(Count::Connections);
                 }
                 let left = self.serve(chip, handler, net, s);
                 if status == state::CLOSE_WAIT && !left {
                     // The master closed its side and every request it sent is answered.
                     chip.command(s, command::DISCON);
-                    self.conns[usize::from(s)] = Conn { phase: Phase::Closing, sending: false, idle: 0 };
+                    self.enter(s, Phase::Closing);
                 }
             }
             // SYN received, FIN_WAIT, CLOSING, TIME_WAIT, LAST_ACK: on their way; a socket that
             // stays in one is closed by `tick`.
             _ => {
-                if self.conns[at].phase != Phase::Closing {
-                    self.conns[at] = Conn { phase: Phase::Closing, sending: false, idle: 0 };
+                if phase != Phase::Closing {
+                    self.enter(s, Phase::Closing);
                 }
             }
         }
     }
 
+    /// Socket `s` enters `phase`: its idle time from zero, no SEND on its way.
+    fn enter(&mut self, s: u8, phase: Phase) {
+        let at = usize::from(s) % SOCKETS;
+        self.phase[at] = phase;
+        self.idle[at] = 0;
+        self.sending &= !(1 << s);
+    }
+
     /// Opens socket `s` and listens on the port.
     fn open<S: Sockets>(&mut self, chip: &mut S, net: &Network, s: u8) {
         chip.listen(s, net.port);
-        self.conns[usize::from(s)] = Conn { phase: Phase::Listening, sending: false, idle: 0 };
+        self.enter(s, Phase::Listening);
     }
 
     /// Closes socket `s` at once (an RST to its peer) and listens again.
@@ -267,7 +276,7 @@ impl<const B: usize> Server<B> {
         if received < HEADER as u16 {
             return false;
         }
-        if self.conns[usize::from(s)].sending {
+        if self.sending & (1 << s) != 0 {
             // Its SEND_OK brings the socket back.
             return true;
         }
@@ -334,14 +343,14 @@ impl<const B: usize> Server<B> {
             chip.write(s, tx, &mut self.buf[..len]);
             tx = tx.wrapping_add(len as u16);
             free -= len as u16;
-            self.conns[usize::from(s)].idle = 0;
+            self.idle[usize::from(s) % SOCKETS] = 0;
         }
         if rx != rx_start {
             chip.take(s, rx);
         }
         if tx != tx_start {
             chip.send(s, tx);
-            self.conns[usize::from(s)].sending = true;
+            self.sending |= 1 << s;
         }
         if left {
             self.again |= 1 << s;
@@ -356,20 +365,21 @@ impl<const B: usize> Server<B> {
         let mut listening = false;
         let mut oldest: Option<(u8, u16)> = None;
         for s in 0..serving {
-            let conn = &mut self.conns[usize::from(s)];
-            conn.idle = conn.idle.saturating_add(1);
-            match conn.phase {
-                Phase::Connected if net.idle_timeout_s != 0 && conn.idle >= net.idle_timeout_s => {
+            let at = usize::from(s) % SOCKETS;
+            let idle = self.idle[at].saturating_add(1);
+            self.idle[at] = idle;
+            match self.phase[at] {
+                Phase::Connected if net.idle_timeout_s != 0 && idle >= net.idle_timeout_s => {
                     self.bump(Count::IdleClosed);
                     self.close(chip, net, s);
                     listening = true;
                 }
                 Phase::Connected => {
-                    if oldest.map_or(true, |(_, idle)| conn.idle > idle) {
-                        oldest = Some((s, conn.idle));
+                    if oldest.map_or(true, |(_, most)| idle > most) {
+                        oldest = Some((s, idle));
                     }
                 }
-                Phase::Closing if conn.idle >= 2 => {
+                Phase::Closing if idle >= 2 => {
                     self.close(chip, net, s);
                     listening = true;
                 }

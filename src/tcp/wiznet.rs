@@ -143,15 +143,18 @@ pub struct W5100;
 pub struct W5500;
 
 impl W5100 {
-    /// The address of byte `offset` of `block`: a buffer's byte at its pointer's place,
-    /// `pointer & 0x7FF`, so that a run past the buffer's end goes on at its start.
-    const fn address(block: Block, offset: u16) -> u16 {
-        let n = (block.0 >> 2) as u16;
+    /// The high byte of the address of byte `offset` of `block` (the low byte is
+    /// `offset`'s): a buffer's byte at its pointer's place, `pointer & 0x7FF`, so that a run
+    /// past the buffer's end goes on at its start. Worked out a byte at a time, as the AVR
+    /// does it best.
+    const fn address_high(block: Block, offset_high: u8) -> u8 {
+        let n = block.0 >> 2;
         match block.0 & 3 {
-            0 => offset,
-            1 => 0x0400 + (n << 8) + offset,
-            2 => 0x4000 + (n << 11) + (offset & 0x7FF),
-            _ => 0x6000 + (n << 11) + (offset & 0x7FF),
+            0 => offset_high,
+            // 0x0400 + n·0x100.
+            1 => 0x04 + n,
+            // 0x4000 (transmit) or 0x6000 (receive) + n·0x800 + the place.
+            kind => 0x40 | (kind & 1) << 5 | n << 3 | (offset_high & 0x07),
         }
     }
 }
@@ -167,7 +170,8 @@ impl Chip for W5100 {
         let opcode = if write { 0xF0 } else { 0x0F };
         let mut offset = offset;
         for byte in buf.iter_mut() {
-            let [hi, lo] = W5100::address(block, offset).to_be_bytes();
+            let [hi, lo] = offset.to_be_bytes();
+            let hi = W5100::address_high(block, hi);
             bus.select();
             bus.transfer(opcode);
             bus.transfer(hi);
@@ -241,11 +245,7 @@ impl<C: Chip, B: Bus> Wiznet<C, B> {
         if self.get(Block::COMMON, register) != value {
             return false;
         }
-        let mut addresses = [0u8; 18];
-        addresses[..4].copy_from_slice(&network.gateway);
-        addresses[4..8].copy_from_slice(&network.subnet);
-        addresses[8..14].copy_from_slice(&network.mac);
-        addresses[14..].copy_from_slice(&network.ip);
+        let mut addresses = network.addresses;
         C::transfer(&mut self.bus, Block::COMMON, GAR, &mut addresses, true);
         self.set(Block::COMMON, C::SOCKET_EVENT_MASK, 0xFF >> (8 - C::SOCKETS));
         true
