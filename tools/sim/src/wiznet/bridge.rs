@@ -317,3 +317,9 @@ fn reset(stream: &TcpStream) {
         );
     }
 }
+
+/// [`reset`], for the tests to play a client that resets.
+#[cfg(test)]
+pub(crate) fn reset_for_tests(stream: &TcpStream) {
+    reset(stream);
+}

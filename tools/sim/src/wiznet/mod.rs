@@ -28,6 +28,8 @@ pub mod w5100;
 pub mod w5500;
 
 #[cfg(test)]
+mod bridge_tests;
+#[cfg(test)]
 mod tests;
 
 use std::fmt;
@@ -229,7 +231,7 @@ impl W5x00 {
         }
         self.spi_bytes += 1;
         let frame_start = match self.model {
-            Wiznet::W5100 => self.frame.index % 4 == 0,
+            Wiznet::W5100 => self.frame.index.is_multiple_of(4),
             Wiznet::W5500 => self.frame.index == 0,
         };
         if frame_start {

@@ -252,10 +252,10 @@ fn w5500_blocks_select_socket_registers_and_buffers() {
     assert_eq!(d.read16(4, sn::PORT), 0, "socket 4 untouched");
     assert_eq!(d.sock_read(3, sn::RXBUF_SIZE, 2), [2, 2], "2 KB each by default");
     assert_eq!(d.sock_read(0, sn::IMR, 1), [0xFF]);
-    // the TX buffer block wraps at its size: offset 0x800 is offset 0
+    // socket 1's TX buffer (BSB 6) wraps at its size: offset 0x800 is offset 0
     d.tx_write(1, 0x07FF, &[1, 2]);
-    assert_eq!(d.w5500(4 * 1 + 2, 0, false, &[0]), [2]);
-    assert_eq!(d.w5500(4 * 1 + 2, 0xF7FF, false, &[0]), [1]);
+    assert_eq!(d.w5500(6, 0, false, &[0]), [2]);
+    assert_eq!(d.w5500(6, 0xF7FF, false, &[0]), [1]);
 }
 
 // ---- registers ------------------------------------------------------------------------------
