@@ -24,7 +24,7 @@ help:
 	@echo "  make demo        - flash the Uno slave with cargo run (ravedude, avrdude, optiboot) on a virtual Uno, and poll it (BOARD=mega2560: a Mega 2560)"
 	@echo "  make demo-lab    - the lab's control application: a master and two slaves on a virtual RS-485 line"
 	@echo "  make demos       - make demo for the Uno and the Mega 2560, then make demo-lab (what make test runs)"
-	@echo "  make serve       - keep a virtual board running for QModMaster or any master (EXAMPLE=uno_slave, BOARD=mega2560 USART=1)"
+	@echo "  make serve       - keep a virtual board running for QModMaster or any master (EXAMPLE=uno_slave, BOARD=mega2560 USART=1; SHIELD=w5100|w5500 TCP_PORT=1502: Modbus TCP on 127.0.0.1)"
 	@echo "  make test        - make check, matrix, docs, firmware, fixtures, sim-test, interop, demos, virtual-test, in three lanes (.ci/test; what CI runs)"
 	@echo "  make check       - the edit loop: make fmt-check, make clippy-tools and make unit (lints as it builds)"
 	@echo "  make setup       - install and check the toolchain, simulator, masters and flashing tools"
@@ -353,8 +353,14 @@ demo: setup bootloaders
 # Another board: make serve BOARD=mega2560 USART=1 runs examples/boards.rs as make chips built
 # it for the board's chip and that USART (default: the board's pins 0/1, USART1 on the 32U4
 # boards) on the pty; the Uno's boards run EXAMPLE as make firmware built it.
+#
+# An Ethernet shield: make serve EXAMPLE=NAME SHIELD=w5100 (or w5500) puts the WIZnet chip on the
+# board's SPI port (its chip select on pin 10) and bridges the chip's port 502 to 127.0.0.1:TCP_PORT
+# (mbpoll -m tcp -p 1502 127.0.0.1); the serial line stays on the pty. Without SHIELD, no shield.
 BOARD ?= uno
 USART ?=
+SHIELD ?=
+TCP_PORT ?= 1502
 SERVE_CHIP := $(strip \
 	$(if $(filter uno nano promini,$(BOARD)),atmega328p) \
 	$(if $(filter nano168,$(BOARD)),atmega168) \
@@ -369,7 +375,8 @@ SERVE_ELF := $(if $(filter atmega328p,$(SERVE_CHIP)),$(FIRMWARE_DIR),target/chip
 
 serve: $(if $(filter atmega328p,$(SERVE_CHIP)),firmware,chips)
 	@[ -n "$(SERVE_CHIP)" ] || { echo "serve: BOARD=$(BOARD)? one of uno nano promini nano168 mega2560 mega1280 leonardo promicro micro" >&2; exit 2; }
-	SERVE_BOARD=$(BOARD) SERVE_CHIP=$(SERVE_CHIP) SERVE_USART=$(SERVE_USART) SERVE_ELF=$(SERVE_ELF) demo/serve.sh $(SERVE_EXAMPLE) $(ARGS)
+	SERVE_BOARD=$(BOARD) SERVE_CHIP=$(SERVE_CHIP) SERVE_USART=$(SERVE_USART) SERVE_ELF=$(SERVE_ELF) \
+		SERVE_SHIELD=$(SHIELD) SERVE_TCP=$(if $(SHIELD),502:$(TCP_PORT)) demo/serve.sh $(SERVE_EXAMPLE) $(ARGS)
 
 # mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on the virtual Uno, with answer rates.
 interop: firmware-uno bootloaders

@@ -6,6 +6,8 @@
 #
 #   demo/serve.sh [EXAMPLE] [virtual-uno options, e.g. --pin 10=0 for dip_switch]
 #   SERVE_PORT=/tmp/ttyUNO (default) names the symlink to the pty.
+#   SERVE_SHIELD=w5100|w5500 puts an Ethernet shield on the SPI port, SERVE_TCP=502:1502 bridges the
+#   chip's port 502 to 127.0.0.1:1502 (make serve SHIELD=w5100 TCP_PORT=1502 sets these).
 #
 # Another board (make serve BOARD=mega2560 USART=1 sets these): SERVE_BOARD (uno), SERVE_CHIP
 # (atmega328p), SERVE_USART (0), SERVE_ELF (the firmware built for that chip and USART). The
@@ -22,6 +24,10 @@ chip=${SERVE_CHIP:-atmega328p}
 usart=${SERVE_USART:-0}
 elf=${SERVE_ELF:-$target/avr-atmega328p/release/examples/$example.elf}
 port=${SERVE_PORT:-/tmp/ttyUNO}
+shield=${SERVE_SHIELD:-}
+tcp=${SERVE_TCP:-502:1502}
+shield_args=()
+[ -n "$shield" ] && shield_args=(--wiznet "$shield" --tcp "$tcp")
 
 if [ ! -f "$elf" ]; then
   case $chip in
@@ -98,12 +104,26 @@ TEXT
 }
 
 echo "serve: $example on a virtual $board: $chip, USART$usart ($pins)"
-"$target/release/virtual-uno" --link "$port" --usart "$usart" "$@" "$elf" | while IFS= read -r line; do
+tcp_settings() {
+  local host=${1%:*} tcp_port=${1##*:}
+  cat <<TEXT
+
+  Connect a Modbus TCP master to $host port $tcp_port (the $shield's port ${tcp%%:*}), unit id 1:
+    mbpoll:     mbpoll -m tcp -p $tcp_port -a 1 -t 3 -c 5 $host
+    QModMaster: Modbus Mode TCP, Slave IP $host, TCP Port $tcp_port, Slave Addr 1, Connect.
+    pymodbus:   ModbusTcpClient("$host", port=$tcp_port), then slave=1 on each call
+
+TEXT
+}
+
+[ -n "$shield" ] && echo "serve: an Ethernet shield with a $shield, its port ${tcp%%:*} on 127.0.0.1:${tcp##*:}"
+"$target/release/virtual-uno" --link "$port" --usart "$usart" "${shield_args[@]}" "$@" "$elf" | while IFS= read -r line; do
   printf '%s\n' "$line"
   case $line in
     "chip: $chip,"*) ;;
     "chip: "*) built=${line#chip: } && echo "serve: warning: $elf is built for ${built%%,*}, not the $board's $chip" >&2 ;;
     "serial: off"*) ;;
+    "tcp: 127.0.0.1:"*" (the chip's port "*) addr=${line#tcp: } && tcp_settings "${addr%% *}" ;;
     "serial: "*) settings "$(sed 's/^serial: \([0-9]* [5-9][NEO][12]\).*/\1/' <<<"$line")" ;;
   esac
 done

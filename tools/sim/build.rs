@@ -1,4 +1,4 @@
-//! Compiles `csrc/shim.c` against the system's simavr (Debian: libsimavr-dev) and links it.
+//! Compiles `csrc/shim.c` and `csrc/spi.c` against the system's simavr (Debian: libsimavr-dev) and links it.
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -17,6 +17,8 @@ fn pkg_config(args: &[&str]) -> Vec<String> {
 
 fn main() {
     println!("cargo:rerun-if-changed=csrc/shim.c");
+    println!("cargo:rerun-if-changed=csrc/spi.c");
+    println!("cargo:rerun-if-changed=csrc/spi.h");
     println!("cargo:rerun-if-env-changed=PKG_CONFIG_PATH");
 
     let mut includes: Vec<PathBuf> =
@@ -30,7 +32,13 @@ fn main() {
         );
     }
 
-    cc::Build::new().file("csrc/shim.c").includes(&includes).flag("-std=gnu11").warnings(true).compile("unosim_shim");
+    cc::Build::new()
+        .file("csrc/shim.c")
+        .file("csrc/spi.c")
+        .includes(&includes)
+        .flag("-std=gnu11")
+        .warnings(true)
+        .compile("unosim_shim");
 
     for flag in pkg_config(&["--libs-only-L"]) {
         if let Some(dir) = flag.strip_prefix("-L") {

@@ -53,6 +53,8 @@
 #include "avr_ioport.h"
 #include "avr_uart.h"
 
+#include "spi.h"
+
 DEFINE_FIFO(uint16_t, uart_fifo);
 
 /* Data-space addresses of a wire USART's registers: UCSRnA is at w->base. */
@@ -167,6 +169,9 @@ typedef struct uno_shim {
 
 	/* externally driven inputs per port 'A'..'L' */
 	uint8_t ext_mask[PORTS], ext_value[PORTS];
+
+	/* a part on the SPI bus (spi.c), if one is attached */
+	spi_part_t spi_part;
 } uno_shim_t;
 
 /* ------------------------------------------------------------------------- */
@@ -724,6 +729,7 @@ uno_shim_t *uno_new(const char *path, const char *mcu, int usart, uint16_t base,
 	for (int i = 0; i < avr->interrupts.vector_count; i++)
 		avr_irq_register_notify(&avr->interrupts.vector[i]->irq[AVR_INT_IRQ_RUNNING], isr_running_irq, s);
 	avr_register_io_write(avr, R_MCUSR, mcusr_write, NULL);
+	spi_fix_timing(avr); /* -1: a core without SPI, nothing to fix */
 	avr_register_io_write(avr, R_SPH, sph_write, NULL);
 	for (avr_io_t *io = avr->io_port; io; io = io->next)
 		if (!strcmp(io->kind, "eeprom") && ((avr_eeprom_t *)io)->r_eearh)
@@ -1124,4 +1130,13 @@ uint64_t uno_resets(const uno_shim_t *s, uint8_t *cause)
 {
 	*cause = s->reset_cause;
 	return s->resets;
+}
+
+/* Attaches a part to the SPI port (spi.c), its chip select on pin P`port``bit`; `fn` is
+ * called with `ctx` for every byte and chip-select change. Once per instance. */
+int uno_spi_attach(uno_shim_t *s, char port, int bit, spi_part_fn fn, void *ctx)
+{
+	if (s->spi_part.fn)
+		return UNO_ERR_ARG;
+	return spi_attach_part(s->avr, &s->spi_part, port, bit, fn, ctx) ? UNO_ERR_ARG : UNO_OK;
 }

@@ -1,6 +1,6 @@
 //! Declarations of the C shim in `csrc/shim.c`.
 
-use std::ffi::{c_char, c_int, c_long};
+use std::ffi::{c_char, c_int, c_long, c_void};
 
 /// The shim's simulator instance (opaque).
 #[repr(C)]
@@ -40,6 +40,15 @@ pub(crate) const ERR_ARG: c_int = -4;
 pub(crate) const fn stop_on_tx_of(wire: usize) -> c_int {
     1 << wire
 }
+
+/// A part on the SPI bus (`spi_part_fn` in csrc/spi.h): called with each byte the master sent
+/// (`event` [`SPI_EVENT_BYTE`]; returns the answer, or -1 for none) and each change of its chip
+/// select ([`SPI_EVENT_CS`], `value` the level).
+pub(crate) type SpiPartFn = unsafe extern "C" fn(ctx: *mut c_void, event: c_int, value: u8, cycle: u64) -> c_int;
+/// A byte went out on the SPI bus.
+pub(crate) const SPI_EVENT_BYTE: c_int = 0;
+/// The part's chip select changed.
+pub(crate) const SPI_EVENT_CS: c_int = 1;
 
 extern "C" {
     pub(crate) fn uno_new(
@@ -105,4 +114,5 @@ extern "C" {
     pub(crate) fn uno_eeprom_size(s: *const Shim) -> u32;
     pub(crate) fn uno_eeprom_read(s: *mut Shim, offset: u32, out: *mut u8, len: u32) -> c_int;
     pub(crate) fn uno_eeprom_write(s: *mut Shim, offset: u32, bytes: *const u8, len: u32) -> c_int;
+    pub(crate) fn uno_spi_attach(s: *mut Shim, port: c_char, bit: c_int, f: SpiPartFn, ctx: *mut c_void) -> c_int;
 }

@@ -109,6 +109,8 @@ mod error;
 mod ffi;
 pub mod hex;
 mod pins;
+mod shield;
+pub mod wiznet;
 
 use std::ffi::{c_char, c_int, CStr, CString};
 use std::fmt;
@@ -121,6 +123,7 @@ pub use chip::{Chip, UsartRegs, Vectors};
 pub use elf::{Space, Symbol};
 pub use error::Error;
 pub use pins::{PinState, A0, A1, A2, A3, A4, A5};
+pub use wiznet::{W5x00, Wiznet};
 
 /// CPU clock of the Uno, in Hz.
 pub const F_CPU: u64 = 16_000_000;
@@ -488,13 +491,26 @@ pub struct Options {
     /// A second timed wire on this USART (e.g. a Mega gateway's other line), with the same
     /// timing model as the wire; `None`: only the wire is timed. See [`Uno::send_byte_on`].
     pub second_usart: Option<u8>,
+    /// An Ethernet shield's WIZnet chip on the SPI port ([`Uno::wiznet`]); `None`: nothing on
+    /// the SPI bus.
+    pub wiznet: Option<Wiznet>,
+    /// The shield's chip select, P`port``bit`; `None`: the board's pin 10 (see
+    /// [`Options::wiznet_cs`]).
+    pub wiznet_cs: Option<(char, u8)>,
 }
 
 impl Options {
     /// The chip from the file, its default USART, RXCn where the chip raises it, no second
-    /// wire.
+    /// wire, no shield.
     pub const fn new() -> Options {
-        Options { chip: None, usart: None, rx_flag: RxFlag::FirstStopBit, second_usart: None }
+        Options {
+            chip: None,
+            usart: None,
+            rx_flag: RxFlag::FirstStopBit,
+            second_usart: None,
+            wiznet: None,
+            wiznet_cs: None,
+        }
     }
 
     /// Simulates `chip`, whatever the file names.
@@ -534,6 +550,8 @@ pub struct Uno {
     /// Frames collected from the shim, per wire (0: the wire, 1: the second one).
     tx: [Vec<TxByte>; WIRES],
     rx_flag: RxFlag,
+    /// The Ethernet shield's chip, if any.
+    shield: Option<shield::Shield>,
 }
 
 /// Timed wires: the wire and an optional second one.
@@ -560,6 +578,8 @@ impl Drop for Uno {
     fn drop(&mut self) {
         // SAFETY: `shim` came from `uno_new` and is freed exactly once, here.
         unsafe { ffi::uno_free(self.shim.as_ptr()) }
+        // The simulator that called into the shield's chip is gone: free the chip now.
+        self.free_shield();
     }
 }
 
@@ -642,7 +662,7 @@ impl Uno {
             let reason = if msg.is_empty() { "simavr could not load the file".to_owned() } else { msg };
             return Err(Error::Load { path, reason });
         };
-        Ok(Uno {
+        Uno {
             shim,
             path,
             chip,
@@ -653,7 +673,9 @@ impl Uno {
             second,
             tx: Default::default(),
             rx_flag: options.rx_flag,
-        })
+            shield: None,
+        }
+        .with_shield(options)
     }
 
     /// The simulated chip.
@@ -692,6 +714,8 @@ impl Uno {
         let eeprom = self.eeprom();
         let options = Options {
             second_usart: self.second_usart(),
+            wiznet: self.shield.as_ref().map(|s| s.model),
+            wiznet_cs: self.shield.as_ref().map(|s| s.cs),
             ..Options::new().chip(self.chip).usart(self.usart).rx_flag(self.rx_flag)
         };
         let mut fresh = Uno::load_with(&self.path, options)?;
@@ -1309,6 +1333,7 @@ impl Uno {
     pub fn hard_reset(&mut self, cause: ResetCause) {
         // SAFETY: `shim` is valid and exclusively borrowed.
         unsafe { ffi::uno_reset(self.raw_mut(), cause.mcusr_bit()) }
+        self.reset_shield();
     }
 
     /// Resets since the simulation started ([`Uno::hard_reset`] and the watchdog's), and the

@@ -2,7 +2,8 @@
 
 use std::path::PathBuf;
 
-use uno_sim::Chip;
+use uno_sim::wiznet::Mapping;
+use uno_sim::{Chip, Wiznet};
 
 use crate::control::Command;
 
@@ -38,6 +39,11 @@ options:
   --no-stdin       do not read commands from standard input
   --watch LIST     output pins to print when they change (default 13,2,3,4,5 on the Uno's
                    chips, none on the others; `none`)
+  --wiznet CHIP    an Ethernet shield on the SPI port: w5100 or w5500, its chip select on
+                   the board's pin 10 (PB2 on the Uno, PB4 on the Megas)
+  --cs PORTBIT     the shield's chip select on another pin, e.g. PB4
+  --tcp CHIP:HOST  bridge the chip's TCP port CHIP to 127.0.0.1:HOST (repeatable; e.g.
+                   502:1502); printed as `tcp: 127.0.0.1:HOST` once the firmware listens
   -h, --help       this text
 
 Pin numbers (--pin, --watch, `pin`) are the Uno's (0-13, A0-A5) and work on the ATmega328P
@@ -75,6 +81,12 @@ pub struct Args {
     pub stdin: bool,
     /// `--watch`; `None`: the default for the chip.
     pub watch: Option<Vec<u8>>,
+    /// `--wiznet`.
+    pub wiznet: Option<Wiznet>,
+    /// `--cs`.
+    pub cs: Option<(char, u8)>,
+    /// `--tcp`, in order.
+    pub tcp: Vec<Mapping>,
 }
 
 /// The pins watched when `--watch` is not given: the Uno's LED and pins 2-5, on the chips
@@ -101,6 +113,9 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
         control: None,
         stdin: true,
         watch: None,
+        wiznet: None,
+        cs: None,
+        tcp: Vec::new(),
     };
     let mut elf = None;
     while let Some(word) = words.next() {
@@ -118,6 +133,9 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
             "--no-auto-reset" => args.auto_reset = false,
             "--state" => args.state = Some(value()?.into()),
             "--watch" => args.watch = Some(parse_watch(&value()?).map_err(Some)?),
+            "--wiznet" => args.wiznet = Some(value()?.parse::<Wiznet>().map_err(|e| Some(format!("--wiznet: {e}")))?),
+            "--cs" => args.cs = Some(parse_cs(&value()?).map_err(Some)?),
+            "--tcp" => args.tcp.push(value()?.parse::<Mapping>().map_err(|e| Some(format!("--tcp: {e}")))?),
             w if w.starts_with('-') => return Err(Some(format!("unknown option {w}"))),
             _ if elf.is_some() => return Err(Some(format!("one firmware file only (got {word} too)"))),
             _ => elf = Some(PathBuf::from(word)),
@@ -126,6 +144,9 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
     if elf.is_none() && args.bootloader.is_none() && args.state.is_none() {
         return Err(Some("no firmware file given".to_owned()));
     }
+    if args.wiznet.is_none() && (!args.tcp.is_empty() || args.cs.is_some()) {
+        return Err(Some("--tcp and --cs need a shield: --wiznet w5100 or w5500".to_owned()));
+    }
     args.elf = elf;
     args.auto_reset &= args.bootloader.is_some();
     Ok(args)
@@ -133,6 +154,17 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
 
 fn parse_usart(text: &str) -> Result<u8, String> {
     text.parse::<u8>().ok().filter(|&n| n <= 3).ok_or_else(|| format!("--usart: `{text}` is not 0, 1, 2 or 3"))
+}
+
+/// `PB4` (or `B4`): port letter and bit.
+fn parse_cs(text: &str) -> Result<(char, u8), String> {
+    let t = text.trim().to_ascii_uppercase();
+    let t = t.strip_prefix('P').unwrap_or(&t);
+    let mut chars = t.chars();
+    match (chars.next(), chars.as_str().parse::<u8>()) {
+        (Some(port @ 'A'..='L'), Ok(bit)) if bit < 8 => Ok((port, bit)),
+        _ => Err(format!("--cs: `{text}` is no pin such as PB2")),
+    }
 }
 
 fn parse_watch(list: &str) -> Result<Vec<u8>, String> {
@@ -181,6 +213,19 @@ mod tests {
         assert_eq!(a.state, Some(PathBuf::from("dir")));
         let a = parse(words("--bootloader boot.hex --no-auto-reset fw.elf")).unwrap();
         assert_eq!((a.elf, a.auto_reset), (Some(PathBuf::from("fw.elf")), false));
+    }
+
+    #[test]
+    fn a_shield_with_bridged_ports() {
+        let a = parse(words("--wiznet w5500 --tcp 502:1502 --tcp 80 --cs PB4 fw.elf")).unwrap();
+        assert_eq!(a.wiznet, Some(Wiznet::W5500));
+        assert_eq!(a.cs, Some(('B', 4)));
+        assert_eq!(a.tcp, [Mapping { chip_port: 502, host_port: 1502 }, Mapping { chip_port: 80, host_port: 80 }]);
+        assert!(parse(words("--tcp 502:1502 fw.elf")).unwrap_err().unwrap().contains("need a shield"));
+        assert!(parse(words("--wiznet w5300 fw.elf")).unwrap_err().unwrap().contains("w5300"));
+        assert!(parse(words("--wiznet w5100 --cs PB9 fw.elf")).unwrap_err().unwrap().contains("PB9"));
+        assert!(parse(words("--wiznet w5100 --tcp 0:1 fw.elf")).is_err());
+        assert_eq!(parse(words("fw.elf")).unwrap().wiznet, None);
     }
 
     #[test]

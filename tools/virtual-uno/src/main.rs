@@ -39,6 +39,7 @@ use std::time::{Duration, Instant};
 use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
 use nix::sys::signal::{SigSet, Signal};
 use nix::sys::signalfd::{SfdFlags, SignalFd};
+use uno_sim::wiznet::Bridge;
 use uno_sim::{Options, ResetCause, Uno, CYCLES_PER_US};
 
 use commands::{CommandSource, ControlFifo};
@@ -52,6 +53,8 @@ use wire::Wire;
 
 /// Simulated time run per loop turn, at most (1 ms).
 const SLICE_CYCLES: u64 = 1_000 * CYCLES_PER_US;
+/// With a TCP bridge, the simulated time between two of its polls, at most (250 µs).
+const BRIDGE_CYCLES: u64 = 4_000;
 /// Falling behind the wall clock by more than this is reported.
 const LAG_WARN: Duration = Duration::from_millis(20);
 /// How often falling behind is reported, at most.
@@ -150,7 +153,8 @@ fn program_bytes(flash: &[u8]) -> usize {
 }
 
 fn run(args: &args::Args) -> Result<(), String> {
-    let options = Options { chip: args.chip, usart: args.usart, ..Options::new() };
+    let options =
+        Options { chip: args.chip, usart: args.usart, wiznet: args.wiznet, wiznet_cs: args.cs, ..Options::new() };
     let (mut uno, mut state) = board(args, options)?;
     let (chip, usart) = (uno.chip(), uno.usart());
     let whole_board = args.bootloader.is_some() || state.is_some();
@@ -165,6 +169,13 @@ fn run(args: &args::Args) -> Result<(), String> {
         None => args::default_watch(chip),
     };
     println!("chip: {chip}, USART{usart} on the pty");
+    if let (Some(model), Some((port, bit))) = (args.wiznet, uno.wiznet_cs()) {
+        println!("shield: {model} on the SPI port, chip select P{port}{bit}");
+    }
+    let mut bridge = match args.tcp.is_empty() {
+        true => None,
+        false => Some(Bridge::bind(&args.tcp).map_err(|e| format!("--tcp: cannot listen on 127.0.0.1: {e}"))?),
+    };
     for cmd in &args.initial {
         cmd.apply(&mut uno).map_err(|e| e.to_string())?;
     }
@@ -272,7 +283,8 @@ fn run(args: &args::Args) -> Result<(), String> {
         // A whole board whose program stopped waits for a reset, as a hung chip does.
         let due = clock.due();
         if due > uno.now() && !stopped {
-            match uno.run_until(due.min(uno.now() + SLICE_CYCLES)) {
+            let target = due.min(uno.now() + SLICE_CYCLES);
+            match run_slice(&mut uno, target, bridge.as_mut()) {
                 Err(e @ uno_sim::Error::Stopped { .. }) if whole_board => {
                     println!("stopped: {e}; the board waits for a reset");
                     stopped = true;
@@ -340,6 +352,26 @@ fn run(args: &args::Args) -> Result<(), String> {
         lag_total.as_millis()
     );
     Ok(())
+}
+
+/// Runs the board up to `target`; with a TCP bridge, in steps of [`BRIDGE_CYCLES`], the bridge
+/// polled after each (its events printed).
+fn run_slice(uno: &mut Uno, target: u64, mut bridge: Option<&mut Bridge>) -> Result<(), uno_sim::Error> {
+    loop {
+        let step = match bridge {
+            Some(_) => target.min(uno.now() + BRIDGE_CYCLES),
+            None => target,
+        };
+        uno.run_until(step)?;
+        if let (Some(bridge), Some(chip)) = (bridge.as_deref_mut(), uno.wiznet_mut()) {
+            for event in bridge.poll(chip) {
+                println!("{event}");
+            }
+        }
+        if uno.now() >= target {
+            return Ok(());
+        }
+    }
 }
 
 /// Writes `--state` back if it changed.

@@ -1,0 +1,325 @@
+//! The host TCP bridge: each port the firmware listens on, bridged to a port on the host's
+//! 127.0.0.1, so that mbpoll, QModMaster or pymodbus reach the simulated chip as a real one.
+//!
+//! Never blocks: [`Bridge::poll`], called from the simulation loop every few thousand cycles,
+//! accepts new host connections, hands each to a socket in SOCK_LISTEN on its chip port (none
+//! free: the newcomer waits, as a client's SYN retransmissions would, and is refused with an
+//! RST after [`Bridge::with_patience`] simulated cycles), and moves bytes, FINs and RSTs both
+//! ways. The host sees host time and the firmware simulated cycles (SIMAVR.md item 12): a
+//! latency is measured on the chip's side ([`super::W5x00::sends`]), never here.
+
+use std::fmt;
+use std::io::{self, Read, Write};
+use std::net::{Ipv4Addr, Shutdown, SocketAddr, SocketAddrV4, TcpListener, TcpStream};
+use std::os::fd::AsRawFd;
+use std::str::FromStr;
+
+use super::W5x00;
+use crate::CYCLES_PER_US;
+
+/// A chip port bridged to a host port: `502:1502`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Mapping {
+    /// The port the firmware listens on (Sn_PORT).
+    pub chip_port: u16,
+    /// The port on 127.0.0.1 host clients connect to (0: one the system picks).
+    pub host_port: u16,
+}
+
+impl FromStr for Mapping {
+    type Err = String;
+
+    /// `CHIP:HOST` (`502:1502`), or `PORT` for the same number on both sides.
+    fn from_str(s: &str) -> Result<Mapping, String> {
+        let bad = || format!("`{s}` is no CHIP_PORT:HOST_PORT (e.g. 502:1502)");
+        let (chip, host) = s.split_once(':').unwrap_or((s, s));
+        let chip_port = chip.trim().parse::<u16>().ok().filter(|&p| p != 0).ok_or_else(bad)?;
+        let host_port = host.trim().parse::<u16>().map_err(|_| bad())?;
+        Ok(Mapping { chip_port, host_port })
+    }
+}
+
+/// Something the bridge did, to report.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum BridgeEvent {
+    /// The firmware listens on `chip_port` for the first time: clients can connect to `host`.
+    Listening {
+        /// The chip's port.
+        chip_port: u16,
+        /// Where host clients connect.
+        host: SocketAddr,
+    },
+    /// A host client was handed to socket `socket`.
+    Connected {
+        /// The client.
+        peer: SocketAddr,
+        /// The chip's socket.
+        socket: usize,
+    },
+    /// A host client waited in vain for a listening socket and was refused.
+    Refused {
+        /// The client.
+        peer: SocketAddr,
+        /// The chip port it wanted.
+        chip_port: u16,
+    },
+    /// A bridged connection ended.
+    Closed {
+        /// The client.
+        peer: SocketAddr,
+        /// The chip's socket.
+        socket: usize,
+        /// How: `"closed"`, `"reset by the chip"`, `"reset by the client"`, `"timed out"`.
+        how: &'static str,
+    },
+}
+
+impl fmt::Display for BridgeEvent {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            BridgeEvent::Listening { chip_port, host } => write!(f, "tcp: {host} (the chip's port {chip_port})"),
+            BridgeEvent::Connected { peer, socket } => write!(f, "tcp: {peer} connected to socket {socket}"),
+            BridgeEvent::Refused { peer, chip_port } => {
+                write!(f, "tcp: {peer} refused: no socket listened on port {chip_port} in time")
+            }
+            BridgeEvent::Closed { peer, socket, how } => write!(f, "tcp: {peer} on socket {socket}: {how}"),
+        }
+    }
+}
+
+/// Bytes the bridge holds for a host client before the chip's peer stops taking more.
+const HOST_BUFFER: usize = 64 * 1024;
+/// Bytes read from a host client at most per poll.
+const READ_CHUNK: usize = 4096;
+
+struct Listener {
+    mapping: Mapping,
+    socket: TcpListener,
+    announced: bool,
+}
+
+/// One host client.
+struct HostConn {
+    stream: TcpStream,
+    peer: SocketAddr,
+    chip_port: u16,
+    /// The cycle it was accepted.
+    since: u64,
+    /// The chip's socket and connection id, once handed over.
+    attached: Option<(usize, u64)>,
+    /// From the client, not delivered yet (the chip's RX buffer was full).
+    to_chip: Vec<u8>,
+    /// From the chip, not written yet (the client is slow).
+    to_host: Vec<u8>,
+    host_eof: bool,
+    fin_delivered: bool,
+    host_shut: bool,
+}
+
+/// Bridges chip ports to host ports (see the module docs).
+pub struct Bridge {
+    listeners: Vec<Listener>,
+    conns: Vec<HostConn>,
+    patience: u64,
+}
+
+impl fmt::Debug for Bridge {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Bridge").field("ports", &self.ports()).field("clients", &self.conns.len()).finish()
+    }
+}
+
+impl Bridge {
+    /// Listens on 127.0.0.1 for each mapping's host port.
+    pub fn bind(mappings: &[Mapping]) -> io::Result<Bridge> {
+        let listeners = mappings
+            .iter()
+            .map(|&mapping| {
+                let socket = TcpListener::bind((Ipv4Addr::LOCALHOST, mapping.host_port))?;
+                socket.set_nonblocking(true)?;
+                Ok(Listener { mapping, socket, announced: false })
+            })
+            .collect::<io::Result<Vec<_>>>()?;
+        Ok(Bridge { listeners, conns: Vec::new(), patience: 3_000_000 * CYCLES_PER_US })
+    }
+
+    /// How long (simulated cycles) a client waits for a listening socket before it is refused;
+    /// 3 s by default, as a client's first SYN retransmissions.
+    pub fn with_patience(self, cycles: u64) -> Bridge {
+        Bridge { patience: cycles, ..self }
+    }
+
+    /// Each chip port and the host address bridged to it.
+    pub fn ports(&self) -> Vec<(u16, SocketAddr)> {
+        self.listeners.iter().filter_map(|l| Some((l.mapping.chip_port, l.socket.local_addr().ok()?))).collect()
+    }
+
+    /// Host clients connected (waiting or handed over).
+    pub fn clients(&self) -> usize {
+        self.conns.len()
+    }
+
+    /// One round, at the chip's clock: new clients, hand-overs, bytes, closes. Never blocks.
+    pub fn poll(&mut self, chip: &mut W5x00) -> Vec<BridgeEvent> {
+        let now = chip.now();
+        let mut events = Vec::new();
+        for l in &mut self.listeners {
+            if !l.announced && chip.listening(l.mapping.chip_port).is_some() {
+                l.announced = true;
+                if let Ok(host) = l.socket.local_addr() {
+                    events.push(BridgeEvent::Listening { chip_port: l.mapping.chip_port, host });
+                }
+            }
+            while let Ok((stream, peer)) = l.socket.accept() {
+                if stream.set_nonblocking(true).is_err() {
+                    continue;
+                }
+                let _ = stream.set_nodelay(true);
+                self.conns.push(HostConn {
+                    stream,
+                    peer,
+                    chip_port: l.mapping.chip_port,
+                    since: now,
+                    attached: None,
+                    to_chip: Vec::new(),
+                    to_host: Vec::new(),
+                    host_eof: false,
+                    fin_delivered: false,
+                    host_shut: false,
+                });
+            }
+        }
+        let patience = self.patience;
+        self.conns.retain_mut(|c| match step(c, chip, now, patience) {
+            Step::Keep(None) => true,
+            Step::Keep(Some(e)) => {
+                events.push(e);
+                true
+            }
+            Step::Drop(e) => {
+                events.push(e);
+                false
+            }
+        });
+        events
+    }
+}
+
+enum Step {
+    Keep(Option<BridgeEvent>),
+    Drop(BridgeEvent),
+}
+
+/// One client's round.
+fn step(c: &mut HostConn, chip: &mut W5x00, now: u64, patience: u64) -> Step {
+    let Some((n, id)) = c.attached else {
+        let peer = match c.peer {
+            SocketAddr::V4(v4) => v4,
+            SocketAddr::V6(v6) => SocketAddrV4::new(Ipv4Addr::LOCALHOST, v6.port()),
+        };
+        if let Some(n) = chip.connect(c.chip_port, peer) {
+            let id = chip.connection(n).map_or(0, |conn| conn.id());
+            c.attached = Some((n, id));
+            chip.set_peer_window(n, Some(HOST_BUFFER));
+            return Step::Keep(Some(BridgeEvent::Connected { peer: c.peer, socket: n }));
+        }
+        if now.saturating_sub(c.since) > patience {
+            reset(&c.stream);
+            return Step::Drop(BridgeEvent::Refused { peer: c.peer, chip_port: c.chip_port });
+        }
+        return Step::Keep(None);
+    };
+    let peer = c.peer;
+    let closed = |how| Step::Drop(BridgeEvent::Closed { peer, socket: n, how });
+    let Some(conn) = chip.connection(n).filter(|conn| conn.id() == id) else {
+        reset(&c.stream);
+        return closed("reset by the chip");
+    };
+    if conn.reset_by_chip() {
+        reset(&c.stream);
+        return closed("reset by the chip");
+    }
+
+    // client -> chip
+    if !c.host_eof && c.to_chip.len() < READ_CHUNK {
+        let mut buf = [0u8; READ_CHUNK];
+        match c.stream.read(&mut buf) {
+            Ok(0) => c.host_eof = true,
+            Ok(k) => c.to_chip.extend_from_slice(&buf[..k]),
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock || e.kind() == io::ErrorKind::Interrupted => {}
+            Err(_) => {
+                chip.peer_reset(n);
+                return closed("reset by the client");
+            }
+        }
+    }
+    if !c.to_chip.is_empty() {
+        let k = chip.deliver(n, &c.to_chip);
+        c.to_chip.drain(..k);
+    }
+    if c.host_eof && c.to_chip.is_empty() && !c.fin_delivered {
+        c.fin_delivered = true;
+        chip.peer_fin(n);
+    }
+
+    // chip -> client
+    c.to_host.extend(chip.take_sent(n));
+    if write_some(c).is_err() {
+        chip.peer_reset(n);
+        return closed("reset by the client");
+    }
+    chip.set_peer_window(n, Some(HOST_BUFFER.saturating_sub(c.to_host.len())));
+    c.to_host.extend(chip.take_sent(n));
+
+    let Some(conn) = chip.connection(n) else { return Step::Keep(None) };
+    if conn.fin_from_chip() && c.to_host.is_empty() && !c.host_shut {
+        c.host_shut = true;
+        let _ = c.stream.shutdown(Shutdown::Write);
+    }
+    if conn.closed() && c.to_host.is_empty() {
+        if conn.fin_from_chip() || conn.fin_from_peer() && c.host_shut {
+            return closed("closed");
+        }
+        reset(&c.stream);
+        return closed(if conn.reset_by_peer() { "reset by the client" } else { "timed out" });
+    }
+    Step::Keep(None)
+}
+
+/// Writes what the client takes without blocking.
+fn write_some(c: &mut HostConn) -> io::Result<()> {
+    while !c.to_host.is_empty() {
+        match c.stream.write(&c.to_host) {
+            Ok(0) => return Err(io::ErrorKind::WriteZero.into()),
+            Ok(k) => {
+                c.to_host.drain(..k);
+            }
+            Err(e) if e.kind() == io::ErrorKind::WouldBlock => return Ok(()),
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(())
+}
+
+/// Makes the coming close of `stream` an RST (SO_LINGER with a zero timeout).
+fn reset(stream: &TcpStream) {
+    let linger = libc::linger { l_onoff: 1, l_linger: 0 };
+    // SAFETY: the descriptor is `stream`'s, open for the call; `linger` is a valid
+    // `struct linger` whose size is passed with it.
+    unsafe {
+        libc::setsockopt(
+            stream.as_raw_fd(),
+            libc::SOL_SOCKET,
+            libc::SO_LINGER,
+            std::ptr::from_ref(&linger).cast(),
+            std::mem::size_of::<libc::linger>() as libc::socklen_t,
+        );
+    }
+}
+
+/// [`reset`], for the tests to play a client that resets.
+#[cfg(test)]
+pub(crate) fn reset_for_tests(stream: &TcpStream) {
+    reset(stream);
+}

@@ -1,0 +1,195 @@
+//! The bridge between real loopback sockets and a chip whose sockets the test opens and
+//! serves itself (no firmware): hand-over, bytes both ways, closes, resets, refusals.
+
+use std::io::{ErrorKind, Read, Write};
+use std::net::{Shutdown, TcpStream};
+use std::time::{Duration, Instant};
+
+use super::regs::{cmd, mode, sn, state};
+use super::{Bridge, BridgeEvent, Mapping, W5x00, Wiznet};
+
+/// A chip with socket 0 listening on 502, a bridge to an ephemeral host port, a client.
+struct Rig {
+    chip: W5x00,
+    bridge: Bridge,
+    events: Vec<BridgeEvent>,
+}
+
+fn listen(chip: &mut W5x00, n: usize) {
+    chip.sockets[n].write(sn::MR, mode::TCP);
+    chip.sockets[n].write(sn::PORT, 0x01);
+    chip.sockets[n].write(sn::PORT + 1, 0xF6);
+    chip.command(n, cmd::OPEN);
+    chip.command(n, cmd::LISTEN);
+}
+
+impl Rig {
+    fn new() -> Rig {
+        let mut chip = W5x00::new(Wiznet::W5100);
+        listen(&mut chip, 0);
+        let bridge = Bridge::bind(&[Mapping { chip_port: 502, host_port: 0 }]).unwrap().with_patience(1_000_000);
+        Rig { chip, bridge, events: Vec::new() }
+    }
+
+    fn client(&self) -> TcpStream {
+        let s = TcpStream::connect(self.bridge.ports()[0].1).unwrap();
+        s.set_read_timeout(Some(Duration::from_millis(20))).unwrap();
+        s
+    }
+
+    /// Polls (the chip's clock 4000 cycles on each time) until `done`, for at most 2 s.
+    fn until(&mut self, mut done: impl FnMut(&mut Rig) -> bool) {
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(2) {
+            let now = self.chip.now() + 4000;
+            self.chip.advance(now);
+            let events = self.bridge.poll(&mut self.chip);
+            self.events.extend(events);
+            if done(self) {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        panic!("not done; events {:?}", self.events);
+    }
+
+    /// The firmware's side: socket 0's received bytes, taken with RECV.
+    fn receive(&mut self) -> Vec<u8> {
+        let s = &self.chip.sockets[0];
+        let (rd, len) = (s.reg16(sn::RX_RD), s.rx_received());
+        let rx = &self.chip.rx_mem[self.chip.rx_layout[0].clone()];
+        let data = (0..len).map(|i| rx[usize::from(rd.wrapping_add(i)) & (rx.len() - 1)]).collect();
+        let rd = rd.wrapping_add(len).to_be_bytes();
+        self.chip.sockets[0].write(sn::RX_RD, rd[0]);
+        self.chip.sockets[0].write(sn::RX_RD + 1, rd[1]);
+        self.chip.command(0, cmd::RECV);
+        data
+    }
+
+    /// The firmware's side: `data` sent on socket 0.
+    fn send(&mut self, data: &[u8]) {
+        let wr = self.chip.sockets[0].tx_wr();
+        let range = self.chip.tx_layout[0].clone();
+        for (i, &b) in data.iter().enumerate() {
+            self.chip.tx_mem[range.start + (usize::from(wr) + i) % range.len()] = b;
+        }
+        let wr = wr.wrapping_add(data.len() as u16).to_be_bytes();
+        self.chip.sockets[0].write(sn::TX_WR, wr[0]);
+        self.chip.sockets[0].write(sn::TX_WR + 1, wr[1]);
+        self.chip.command(0, cmd::SEND);
+    }
+}
+
+fn read_some(client: &mut TcpStream) -> Result<Vec<u8>, ErrorKind> {
+    let mut buf = [0; 4096];
+    match client.read(&mut buf) {
+        Ok(k) => Ok(buf[..k].to_vec()),
+        Err(e) => Err(e.kind()),
+    }
+}
+
+#[test]
+fn bytes_go_both_ways_and_the_listening_port_is_announced() {
+    let mut rig = Rig::new();
+    let host = rig.bridge.ports()[0].1;
+    let mut client = rig.client();
+    client.write_all(b"request").unwrap();
+    let mut got = Vec::new();
+    rig.until(|r| {
+        got.extend(r.receive());
+        got.len() >= 7
+    });
+    assert_eq!(got, b"request");
+    assert_eq!(rig.events[0], BridgeEvent::Listening { chip_port: 502, host });
+    assert!(matches!(rig.events[1], BridgeEvent::Connected { socket: 0, .. }));
+    rig.send(b"reply");
+    let mut back = Vec::new();
+    rig.until(|_| {
+        back.extend(read_some(&mut client).unwrap_or_default());
+        back.len() >= 5
+    });
+    assert_eq!(back, b"reply");
+}
+
+#[test]
+fn a_client_waits_for_a_listening_socket_then_is_refused() {
+    let mut rig = Rig::new();
+    let _first = rig.client();
+    rig.until(|r| r.chip.status(0) == state::ESTABLISHED);
+    let mut second = rig.client();
+    // within the patience (1 000 000 cycles) it waits; socket 1 listening takes it
+    rig.until(|r| r.chip.now() > 200_000);
+    assert_eq!(rig.bridge.clients(), 2);
+    listen(&mut rig.chip, 1);
+    rig.until(|r| r.chip.status(1) == state::ESTABLISHED);
+    // a third finds nobody listening and is refused once the patience runs out
+    let mut third = rig.client();
+    rig.until(|r| r.events.iter().any(|e| matches!(e, BridgeEvent::Refused { .. })));
+    assert_eq!(read_some(&mut third), Err(ErrorKind::ConnectionReset));
+    assert_eq!(read_some(&mut second), Err(ErrorKind::WouldBlock), "the second is still connected");
+}
+
+#[test]
+fn the_clients_close_is_a_fin_and_the_firmwares_discon_closes_the_client() {
+    let mut rig = Rig::new();
+    let mut client = rig.client();
+    rig.until(|r| r.chip.status(0) == state::ESTABLISHED);
+    client.shutdown(Shutdown::Write).unwrap();
+    rig.until(|r| r.chip.status(0) == state::CLOSE_WAIT);
+    rig.chip.command(0, cmd::DISCON);
+    rig.until(|r| r.bridge.clients() == 0);
+    assert_eq!(read_some(&mut client), Ok(Vec::new()), "EOF");
+    assert!(matches!(rig.events.last(), Some(BridgeEvent::Closed { how: "closed", .. })), "{:?}", rig.events);
+}
+
+#[test]
+fn the_firmwares_close_resets_the_client() {
+    let mut rig = Rig::new();
+    let mut client = rig.client();
+    rig.until(|r| r.chip.status(0) == state::ESTABLISHED);
+    rig.chip.command(0, cmd::CLOSE);
+    rig.until(|r| r.bridge.clients() == 0);
+    assert_eq!(read_some(&mut client), Err(ErrorKind::ConnectionReset));
+}
+
+#[test]
+fn the_clients_reset_resets_the_socket() {
+    let mut rig = Rig::new();
+    let client = rig.client();
+    rig.until(|r| r.chip.status(0) == state::ESTABLISHED);
+    super::bridge::reset_for_tests(&client);
+    drop(client);
+    rig.until(|r| r.chip.status(0) == state::CLOSED);
+    assert!(rig.chip.connection(0).unwrap().reset_by_peer());
+}
+
+#[test]
+fn a_client_that_does_not_read_fills_the_chips_tx_buffer() {
+    let mut rig = Rig::new();
+    let client = rig.client();
+    client.set_nonblocking(true).unwrap();
+    rig.until(|r| r.chip.status(0) == state::ESTABLISHED);
+    // far more than the client's socket buffers and the bridge's 64 KB hold
+    let chunk = [0x55u8; 1024];
+    let mut stuck = false;
+    for _ in 0..20_000 {
+        if rig.chip.sockets[0].tx_free() >= 1024 {
+            rig.send(&chunk);
+        }
+        rig.events.extend(rig.bridge.poll(&mut rig.chip));
+        if rig.chip.tx_pending(0) >= 1024 && rig.chip.sockets[0].tx_free() < 1024 {
+            stuck = true;
+            break;
+        }
+    }
+    assert!(stuck, "the TX buffer never filled");
+    drop(client);
+}
+
+#[test]
+fn mappings_parse() {
+    assert_eq!("502:1502".parse(), Ok(Mapping { chip_port: 502, host_port: 1502 }));
+    assert_eq!("80".parse(), Ok(Mapping { chip_port: 80, host_port: 80 }));
+    assert!("502:".parse::<Mapping>().is_err());
+    assert!("x".parse::<Mapping>().is_err());
+}
