@@ -127,6 +127,10 @@ chips: setup
 	@.ci/chip-build atmega328p "" atmega328p examples $(TEMPLATE_EXAMPLES)
 	@.ci/chip-build atmega328p "" atmega328p-millis examples,millis $(TEMPLATE_MILLIS_EXAMPLES)
 	@.ci/chip-build atmega2560 "" atmega2560-gateway examples,master gateway
+	@for build in $(TCP_BUILDS); do \
+		chip=$${build%%:*}; shield=$${build##*:}; \
+		AVR_MODBUS_EXAMPLE_SHIELD=$$shield .ci/chip-build $$chip "" $$chip-$$shield examples,tcp tcp_server || exit 1; \
+	done
 	@export $(EIGHT_MHZ); for chip in atmega328p atmega32u4; do \
 		$(call boards_and_master,$$chip,,$$chip-8mhz,examples$(comma)master,boards master_boards) || exit 1; \
 	done
@@ -134,6 +138,11 @@ chips: setup
 	@.ci/firmware-check target/chips/*/avr-none/release/examples/*.elf
 
 sizes: firmware
+
+# The TCP server (examples/tcp_server.rs) as make chips builds it, CHIP:SHIELD, into
+# target/chips/CHIP-SHIELD/: the Uno with either chip, polled or with the INT line on pin 2
+# (w5100-int), the Mega 2560 and the Leonardo with a W5500.
+TCP_BUILDS := atmega328p:w5100 atmega328p:w5500 atmega328p:w5100-int atmega2560:w5500 atmega32u4:w5500
 
 # A user's firmware in the avr-hal template's form (fixtures/), outside the workspace, built
 # against avr-device 0.8.1 (arduino-hal's) and 0.9, for three of the template's boards as it
@@ -357,6 +366,8 @@ demo: setup bootloaders
 # An Ethernet shield: make serve EXAMPLE=NAME SHIELD=w5100 (or w5500) puts the WIZnet chip on the
 # board's SPI port (its chip select on pin 10) and bridges the chip's port 502 to 127.0.0.1:TCP_PORT
 # (mbpoll -m tcp -p 1502 127.0.0.1); the serial line stays on the pty. Without SHIELD, no shield.
+# EXAMPLE=tcp_server runs the TCP server as make chips built it for the board and the chip
+# (on the Uno, Mega 2560 and Leonardo: TCP_BUILDS).
 BOARD ?= uno
 USART ?=
 SHIELD ?=
@@ -370,10 +381,11 @@ SERVE_CHIP := $(strip \
 SERVE_DEFAULT_USART := $(if $(filter atmega32u4,$(SERVE_CHIP)),1,0)
 SERVE_USART := $(or $(USART),$(SERVE_DEFAULT_USART))
 SERVE_BUILD := $(SERVE_CHIP)$(if $(filter-out $(SERVE_DEFAULT_USART),$(SERVE_USART)),-usart$(SERVE_USART))
-SERVE_EXAMPLE := $(if $(filter atmega328p,$(SERVE_CHIP)),$(EXAMPLE),boards)
-SERVE_ELF := $(if $(filter atmega328p,$(SERVE_CHIP)),$(FIRMWARE_DIR),target/chips/$(SERVE_BUILD)/avr-none/release/examples)/$(SERVE_EXAMPLE).elf
+SERVE_TCP_SERVER := $(and $(filter tcp_server,$(EXAMPLE)),$(SHIELD))
+SERVE_EXAMPLE := $(if $(or $(SERVE_TCP_SERVER),$(filter atmega328p,$(SERVE_CHIP))),$(EXAMPLE),boards)
+SERVE_ELF := $(if $(SERVE_TCP_SERVER),target/chips/$(SERVE_CHIP)-$(SHIELD)/avr-none/release/examples,$(if $(filter atmega328p,$(SERVE_CHIP)),$(FIRMWARE_DIR),target/chips/$(SERVE_BUILD)/avr-none/release/examples))/$(SERVE_EXAMPLE).elf
 
-serve: $(if $(filter atmega328p,$(SERVE_CHIP)),firmware,chips)
+serve: $(if $(and $(filter atmega328p,$(SERVE_CHIP)),$(if $(SERVE_TCP_SERVER),,yes)),firmware,chips)
 	@[ -n "$(SERVE_CHIP)" ] || { echo "serve: BOARD=$(BOARD)? one of uno nano promini nano168 mega2560 mega1280 leonardo promicro micro" >&2; exit 2; }
 	SERVE_BOARD=$(BOARD) SERVE_CHIP=$(SERVE_CHIP) SERVE_USART=$(SERVE_USART) SERVE_ELF=$(SERVE_ELF) \
 		SERVE_SHIELD=$(SHIELD) SERVE_TCP=$(if $(SHIELD),502:$(TCP_PORT)) demo/serve.sh $(SERVE_EXAMPLE) $(ARGS)
