@@ -175,12 +175,10 @@ mod tests {
     fn the_addresses_are_in_the_chips_register_order() {
         let net = NET.gateway([10, 0, 0, 1]).subnet([255, 255, 0, 0]);
         assert_eq!(net.addresses, [10, 0, 0, 1, 255, 255, 0, 0, 2, 0, 0, 0, 0, 1, 10, 0, 0, 2]);
-        assert_eq!((net.ip(), net.mac(), net.subnet_mask(), net.gateway_address()), (
-            [10, 0, 0, 2],
-            [2, 0, 0, 0, 0, 1],
-            [255, 255, 0, 0],
-            [10, 0, 0, 1]
-        ));
+        assert_eq!(
+            (net.ip(), net.mac(), net.subnet_mask(), net.gateway_address()),
+            ([10, 0, 0, 2], [2, 0, 0, 0, 0, 1], [255, 255, 0, 0], [10, 0, 0, 1])
+        );
     }
 
     #[test]
