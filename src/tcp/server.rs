@@ -114,7 +114,7 @@ pub struct Server<const B: usize = { mbap::MAX_ADU }> {
     /// Each socket's phase.
     phase: [Phase; SOCKETS],
     /// Each socket's whole seconds without a request (or, closing, since it began).
-    idle: [u16; SOCKETS],
+    idle: [u8; SOCKETS],
     /// Bit n: socket n has a SEND on its way, and the next waits for its SEND_OK.
     sending: u8,
     /// Each connected socket's Sn_RX_RD and Sn_TX_WR, read when it connected and kept here
@@ -228,11 +228,10 @@ impl<const B: usize> Server<B> {
         }
         let phase = self.phase[at];
         let data_only = events & RECV != 0 && events & !(RECV | SEND_OK) == 0;
-        let status =
-            if data_only && phase == Phase::Connected && !sweep { state::ESTABLISHED } else { chip.status(s) };
+        let status = if data_only && phase == Phase::Connected && !sweep { state::ESTABLISHED } else { chip.status(s) };
         match status {
-            state::CLOSED => self.open(chip, net, s),
-            state::INIT => chip.command(s, command::LISTEN),
+            // Closed (reset, timed out, or never opened), or opened and not listening.
+            state::CLOSED | state::INIT => self.open(chip, net, s),
             state::LISTEN => {}
             status @ (state::ESTABLISHED | state::CLOSE_WAIT) => {
                 if phase != Phase::Connected {
@@ -268,6 +267,7 @@ impl<const B: usize> Server<B> {
     }
 
     /// Socket `s` enters `phase`: its idle time from zero, no SEND on its way.
+    #[inline(never)]
     fn enter(&mut self, s: u8, phase: Phase) {
         let at = usize::from(s) % SOCKETS;
         self.phase[at] = phase;
@@ -385,7 +385,7 @@ impl<const B: usize> Server<B> {
     /// their way to closed closed.
     fn tick<S: Sockets>(&mut self, chip: &mut S, net: &Network, serving: u8) {
         let mut listening = false;
-        let mut oldest: Option<(u8, u16)> = None;
+        let mut oldest: Option<(u8, u8)> = None;
         for s in 0..serving {
             let at = usize::from(s) % SOCKETS;
             let idle = self.idle[at].saturating_add(1);
