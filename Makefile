@@ -131,6 +131,7 @@ chips: setup
 		chip=$${build%%:*}; shield=$${build##*:}; \
 		AVR_MODBUS_EXAMPLE_SHIELD=$$shield .ci/chip-build $$chip "" $$chip-$$shield examples,tcp tcp_server || exit 1; \
 	done
+	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu
 	@export $(EIGHT_MHZ); for chip in atmega328p atmega32u4; do \
 		$(call boards_and_master,$$chip,,$$chip-8mhz,examples$(comma)master,boards master_boards) || exit 1; \
 	done
@@ -140,9 +141,10 @@ chips: setup
 sizes: firmware
 
 # The TCP server (examples/tcp_server.rs) as make chips builds it, CHIP:SHIELD, into
-# target/chips/CHIP-SHIELD/: the Uno with either chip, polled or with the INT line on pin 2
-# (w5100-int), the Mega 2560 and the Leonardo with a W5500.
-TCP_BUILDS := atmega328p:w5100 atmega328p:w5500 atmega328p:w5100-int atmega2560:w5500 atmega32u4:w5500
+# target/chips/CHIP-SHIELD/: the Uno with either chip, polled or with the INT line on pin 2,
+# the Mega 2560 and the Leonardo with a W5500. Then the TCP contract (sixteen_each_tcp) and
+# the firmware with both TCP and RTU (tcp_rtu) into target/chips/atmega328p-tcp/.
+TCP_BUILDS := atmega328p:w5100 atmega328p:w5500 atmega328p:w5100-int atmega328p:w5500-int atmega2560:w5500 atmega32u4:w5500
 
 # A user's firmware in the avr-hal template's form (fixtures/), outside the workspace, built
 # against avr-device 0.8.1 (arduino-hal's) and 0.9, for three of the template's boards as it

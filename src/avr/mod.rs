@@ -213,7 +213,7 @@ macro_rules! slave {
 /// ```
 ///
 /// [`Master::start`] then takes that USART. A master and a slave on two USARTs of one chip
-/// share Timer0 (a gateway): hand the first one started `&dp.TC0`, the second `dp.TC0`.
+/// share Timer0 (a gateway): hand the first one started `&*dp.TC0`, the second `dp.TC0`.
 #[cfg(feature = "master")]
 #[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "master"))))]
 #[macro_export]
