@@ -1,7 +1,7 @@
 #![doc = include_str!("../README.md")]
 #![cfg_attr(not(test), no_std)]
 #![cfg_attr(target_arch = "avr", feature(asm_experimental_arch, const_type_name))]
-#![cfg_attr(all(target_arch = "avr", feature = "millis"), feature(abi_avr_interrupt))]
+#![cfg_attr(all(target_arch = "avr", any(feature = "millis", feature = "tcp")), feature(abi_avr_interrupt))]
 #![deny(missing_docs)]
 // The docs as docs.rs builds them (`[package.metadata.docs.rs]`): each item shows the
 // features and the target it needs.

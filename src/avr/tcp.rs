@@ -139,7 +139,7 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> TcpS
     }
 
     /// Timer0's overflow: the chip polled, with interrupts enabled while it is served; an
-    /// overflow while a poll runs does nothing here.
+    /// overflow while a poll runs, or before the start, does nothing here.
     ///
     /// # Safety
     /// Only from the Timer0 overflow interrupt handler, with interrupts disabled.
