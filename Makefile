@@ -224,7 +224,7 @@ fmt-check: setup
 # The optional function codes, checked and tested as a second build.
 OPTIONAL := diagnostics,extra-fc,write-protect
 # Every feature (all add) but examples, which builds this repository's firmware.
-ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id
+ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id,tcp
 
 # The host's lints, tests included, check builds only: the tools (clippy-tools) and the crate's
 # library and test targets as make unit and make sim-test build them (under
@@ -297,7 +297,7 @@ sim-test: sim-test-uno sim-test-chips
 # The simulator tests that run what make chips or make fixtures build; every other needs only
 # the Uno's firmware and the bootloaders. (One missing here fails under make test: its ELF is
 # not built yet when sim-test-uno runs it.)
-SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_gateway,sim_template
+SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_gateway,sim_tcp,sim_template
 
 # Every simulator test built, those that need only the Uno's firmware run; the tools' tests
 # built (make sim-test-chips runs them).

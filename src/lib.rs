@@ -88,6 +88,8 @@ pub mod guide {
     pub mod ascii {}
     #[doc = include_str!("../docs/recovering.md")]
     pub mod recovering {}
+    #[doc = include_str!("../docs/tcp.md")]
+    pub mod tcp {}
 }
 
 /// The protocol engine's parts, for this crate's tests, simulator and benchmarks: not
@@ -141,6 +143,11 @@ pub mod internal {
         pub use crate::tcp::server::{Handler, Server, Sockets};
         pub use crate::tcp::wiznet::{command, sn, state, Block, Bus, Chip, Wiznet, RECV, SEND_OK};
         pub use crate::tcp::{respond, Serving};
+        /// The addresses' EEPROM record (with feature `eeprom-settings`).
+        #[cfg(feature = "eeprom-settings")]
+        pub mod record {
+            pub use crate::tcp::record::*;
+        }
     }
     /// The settings record and block.
     #[cfg(feature = "eeprom-settings")]

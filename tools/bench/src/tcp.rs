@@ -67,6 +67,8 @@ pub(crate) struct Measured {
     latency: Vec<Latency>,
     /// (firmware, USART RX handler's longest run in cycles, runs) with TCP masters polling.
     rx_isr: Vec<(&'static str, u64, u64)>,
+    /// The README's figure for the contract (its features table's `tcp` row), if it has one.
+    claim: Option<i64>,
 }
 
 fn peer(i: u8) -> SocketAddrV4 {
@@ -204,6 +206,7 @@ pub(crate) fn measure(root: &Path, log: &mut Log) -> Result<Option<Measured>> {
     let (alone, alone_runs) = rx_isr(root, "atmega328p", "sixteen_each", false)?;
     let (both, both_runs) = rx_isr(root, "atmega328p-tcp", "tcp_rtu", true)?;
     Ok(Some(Measured {
+        claim: crate::readme::readme_claim(root, "tcp", true).map(|(_, figure)| figure),
         sizes,
         latency,
         rx_isr: vec![("sixteen_each (RTU alone)", alone, alone_runs), ("tcp_rtu (RTU and TCP)", both, both_runs)],
@@ -247,6 +250,11 @@ pub(crate) fn section(md: &mut String, measured: &Option<Measured>) -> Result<()
             crate::render::met_text(*ram <= RAM_TARGET),
             crate::render::met_text(*flash <= FLASH_STRETCH)
         )?;
+        match m.claim {
+            Some(said) if said == *flash as i64 => writeln!(md, "The README says {said} B: right.")?,
+            Some(said) => writeln!(md, "The README says {said} B: **update it to {flash} B**.")?,
+            None => writeln!(md, "The README's features table has no figure for `tcp`.")?,
+        }
     }
     writeln!(
         md,
