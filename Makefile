@@ -34,7 +34,7 @@ help:
 	@echo "  make sizes       - flash and RAM of every firmware (make firmware prints them)"
 	@echo "  make fixtures    - a user's firmware in the template's form for three boards, make package and make readme"
 	@echo "  make package     - the crate as it would be published, built into the Uno fixture"
-	@echo "  make readme      - the README's two main.rs, taken from it and built for the Uno as the template builds them, against a stand-in arduino-hal"
+	@echo "  make readme      - the README's two main.rs and the TCP guide's, taken from them and built for the Uno as the template builds them, against a stand-in arduino-hal"
 	@echo "  make virtual-boards - the virtual Uno and the virtual line, built (release)"
 	@echo "  make demo-firmware - the demos' firmware (demo/uno, demo/mega2560), built as make demo builds it"
 	@echo "  make bootloaders - the virtual boards' bootloaders (optiboot, stk500v2)"
@@ -204,7 +204,7 @@ package: setup
 # target/fixtures/readme/avr-none/release/readme-{slave,master}.elf. A README block that stops
 # compiling fails here. Their sizes are the stand-in's, not arduino-hal's: on the same README
 # and crate (46fb4c2) 2 B (slave) and 4 B (master) of flash under arduino-hal's, RAM the same.
-README_FIRMWARE := slave master
+README_FIRMWARE := slave master tcp
 readme: setup
 	@echo "fixture: fixtures/readme, uno"
 	fixtures/readme/blocks
