@@ -105,6 +105,22 @@ fn both_chips_answer_reads_writes_and_exceptions_with_the_transaction_id() {
 }
 
 #[test]
+fn the_mega_and_the_leonardo_serve_on_their_pin_10() {
+    // The Mega's pin 10 is PB4, the Leonardo's PB6: the shield's chip select, where the
+    // simulated shield puts it for the chip.
+    for chip in [Chip::Atmega2560, Chip::Atmega32u4] {
+        let elf = chip_variant_firmware(chip, chip.default_usart(), "-w5500", "tcp_server");
+        let mut uno = Uno::load_with(elf, Options::new().wiznet(Wiznet::W5500)).unwrap();
+        while uno.wiznet().unwrap().status(0) != state::LISTEN {
+            assert!(uno.now() < us_to_cycles(50_000), "{chip}: never listened");
+            uno.run_for(us_to_cycles(100)).unwrap();
+        }
+        let n = connect(&mut uno, 0);
+        assert_eq!(ask(&mut uno, n, &read(0x0102, 3, 0, 2), 13), registers(0x0102, 3, &[0, 0]), "{chip}");
+    }
+}
+
+#[test]
 fn a_request_split_over_segments_is_answered_once_whole() {
     let mut uno = boot("w5100");
     let n = connect(&mut uno, 0);
