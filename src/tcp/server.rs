@@ -291,7 +291,8 @@ impl<const B: usize> Server<B> {
     /// SEND. True when requests are left (no room to answer, or a SEND on its way).
     fn serve<S: Sockets, H: Handler>(&mut self, chip: &mut S, handler: &mut H, net: &Network, s: u8) -> bool {
         if self.sending & (1 << s) != 0 {
-            // Its SEND_OK brings the socket back.
+            // Looked at again until its SEND_OK (which need not reach the INT line).
+            self.again |= 1 << s;
             return true;
         }
         let mut received = chip.received(s);

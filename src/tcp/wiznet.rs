@@ -60,6 +60,8 @@ pub mod sn {
     pub const PORT: u8 = 0x04;
     /// Sn_DIPR, the peer's address.
     pub const DIPR: u8 = 0x0C;
+    /// Sn_IMR, the W5500's mask of the socket's events on the INT line.
+    pub const IMR: u8 = 0x2C;
     /// Sn_TX_FSR, the free bytes of the transmit buffer.
     pub const TX_FSR: u8 = 0x20;
     /// Sn_TX_WR, where the next byte to send goes.
@@ -145,6 +147,9 @@ pub trait Chip {
     /// A common register and the value it holds after a reset, which says the chip is this
     /// one (the W5100's TMSR, 2 KB a socket; the W5500's VERSIONR).
     const IDENTITY: (u16, u8);
+    /// Each socket's events that reach the INT line (the W5500's Sn_IMR), if the chip can
+    /// choose them.
+    const SOCKET_EVENT_BITS: Option<u8> = None;
     /// Reads (`write` false: each byte of `buf` replaced by the one received) or writes
     /// `buf` at `offset` in `block`; in a buffer, `offset` is the free-running pointer.
     fn transfer<B: Bus>(bus: &mut B, block: Block, offset: u16, buf: &mut [u8], write: bool);
@@ -211,6 +216,9 @@ const W5500_WRITE: u8 = 1 << 2;
 
 impl Chip for W5500 {
     const SOCKETS: u8 = 8;
+    /// All but SEND_OK, which the server reads when it next looks at the socket: one
+    /// interrupt a reply fewer.
+    const SOCKET_EVENT_BITS: Option<u8> = Some(0x0F);
 
     const SOCKET_EVENTS: u16 = 0x0017;
     const SOCKET_EVENT_MASK: u16 = 0x0018;
@@ -268,6 +276,11 @@ impl<C: Chip, B: Bus> Wiznet<C, B> {
         let mut addresses = network.addresses;
         C::transfer(&mut self.bus, Block::COMMON, GAR, &mut addresses, true);
         self.set(Block::COMMON, C::SOCKET_EVENT_MASK, 0xFF >> (8 - C::SOCKETS));
+        if let Some(bits) = C::SOCKET_EVENT_BITS {
+            for s in 0..C::SOCKETS {
+                self.set(Block::socket(s), sn::IMR.into(), bits);
+            }
+        }
         true
     }
 
