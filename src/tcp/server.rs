@@ -129,6 +129,10 @@ pub struct Server<const B: usize = { mbap::MAX_ADU }> {
     buf: [u8; B],
 }
 
+/// The bytes of the usual request, a read or a single write (FC 1-6): header and 5 bytes
+/// of PDU. The buffer holds at least these.
+const USUAL: usize = HEADER + 5;
+
 /// The sockets the server keeps a state for: the most a chip has.
 const SOCKETS: usize = Network::MAX_SOCKETS as usize;
 
@@ -153,7 +157,7 @@ impl<const B: usize> Default for Server<B> {
 }
 
 impl<const B: usize> Server<B> {
-    const FITS: () = assert!(B >= HEADER + 5 && B <= mbap::MAX_ADU, "the buffer holds 12 to 260 bytes");
+    const FITS: () = assert!(B >= USUAL && B <= mbap::MAX_ADU, "the buffer holds 12 to 260 bytes");
 
     /// A server with every socket still to open.
     pub const fn new() -> Self {
@@ -307,9 +311,12 @@ impl<const B: usize> Server<B> {
         let mut tx = tx_start;
         let mut left = false;
         while received >= HEADER as u16 {
+            // The header and, in the same transfer, the body of the usual request (FC 1-6:
+            // 12 bytes in all); a longer one's rest below.
+            let first = usize::from(received).min(USUAL);
+            chip.read(s, rx, &mut self.buf[..first]);
             let (head, body) = self.buf.split_at_mut(HEADER);
             let head: &mut [u8; HEADER] = head.try_into().unwrap_or_else(|_| unreachable!());
-            chip.read(s, rx, head);
             let header = match Header::parse(head) {
                 Ok(header) => header,
                 Err(Refused::Protocol) => {
@@ -348,7 +355,9 @@ impl<const B: usize> Server<B> {
             }
             let pdu_len = usize::from(header.length - 1);
             let kept = pdu_len.min(body.len());
-            chip.read(s, rx.wrapping_add(HEADER as u16), &mut body[..kept]);
+            if kept > first - HEADER {
+                chip.read(s, rx.wrapping_add(first as u16), &mut body[first - HEADER..kept]);
+            }
             rx = rx.wrapping_add(adu);
             received -= adu;
             let Some((reply, exception)) = handler.handle(&mut self.buf, pdu_len) else {
