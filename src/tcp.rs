@@ -4,7 +4,7 @@
 //! The pure core, tested on the host: the MBAP header (`mbap`), the settings
 //! ([`Network`]), the connections and requests over any chip's TCP sockets (`server`), the
 //! chips' SPI frames and registers (`wiznet`). The AVR layer drives it from Timer0's
-//! overflow interrupt ([`crate::TcpServer`]).
+//! overflow interrupt (`TcpServer`, AVR only).
 
 pub(crate) mod mbap;
 mod network;
