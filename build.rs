@@ -17,7 +17,10 @@
 //!
 //! For this repository's examples only (feature `examples`): `AVR_MODBUS_EXAMPLE_USART=N`
 //! sets `cfg(example_usart = "N")`, the USART `examples/boards.rs` serves on, so that
-//! `make firmware` builds it for each USART without rebuilding anything but this crate.
+//! `make firmware` builds it for each USART without rebuilding anything but this crate;
+//! `AVR_MODBUS_EXAMPLE_SHIELD=w5500` (or `w5100-int`, `w5500-int`) sets
+//! `cfg(example_shield = "…")`, the chip `examples/tcp_server.rs` serves on and whether its
+//! INT line is wired to pin 2 (unset: a W5100, polled).
 
 use std::env;
 use std::fmt::Write as _;
@@ -35,6 +38,7 @@ fn main() {
     println!("cargo::rerun-if-changed=chips/chips.txt");
     println!("cargo::rerun-if-changed=chips/table.rs");
     println!("cargo::rerun-if-env-changed=AVR_MODBUS_EXAMPLE_USART");
+    println!("cargo::rerun-if-env-changed=AVR_MODBUS_EXAMPLE_SHIELD");
     let dir = env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR");
     let text = fs::read_to_string(Path::new(&dir).join("chips/chips.txt")).expect("chips/chips.txt");
     let chips = table::parse(&text).unwrap_or_else(|error| panic!("{error}"));
@@ -42,6 +46,7 @@ fn main() {
     values.push("\"unsupported\"".to_owned());
     println!("cargo::rustc-check-cfg=cfg(avr_chip, values({}))", values.join(", "));
     println!("cargo::rustc-check-cfg=cfg(example_usart, values(\"0\", \"1\", \"2\", \"3\"))");
+    println!("cargo::rustc-check-cfg=cfg(example_shield, values(\"w5100\", \"w5500\", \"w5100-int\", \"w5500-int\"))");
     let clocks: Vec<String> = CLOCKS.iter().map(|(hz, _)| format!("\"{hz}\"")).collect();
     println!("cargo::rustc-check-cfg=cfg(avr_cpu_frequency_hz, values({}))", clocks.join(", "));
     println!("cargo::rerun-if-env-changed={CLOCK_VARIABLE}");
@@ -74,6 +79,9 @@ fn main() {
     fs::write(out, generated).expect("OUT_DIR/chip.rs");
     if let Ok(usart) = env::var("AVR_MODBUS_EXAMPLE_USART") {
         println!("cargo::rustc-cfg=example_usart=\"{usart}\"");
+    }
+    if let Ok(shield) = env::var("AVR_MODBUS_EXAMPLE_SHIELD") {
+        println!("cargo::rustc-cfg=example_shield=\"{shield}\"");
     }
 }
 

@@ -2,7 +2,10 @@
  * A Modbus TCP server on an Arduino Ethernet Shield (W5100) with the size contract's map:
  * sixteen coils, sixteen discrete inputs, eight input registers, sixteen holding registers.
  * The main loop blocks for a second at a time, as `delay(1000)` would, and counts the
- * seconds into 30001: masters are answered all the same.
+ * seconds into 30001: masters are answered all the same. The chip is the one the build is
+ * for (`-C target-cpu`: the Uno's, the Mega's, the Leonardo's); `make firmware` builds it
+ * for the W5100 (the shield R3), the W5500 (Ethernet Shield 2, the modules), each polled
+ * and with the INT line on pin 2 (this repository's `AVR_MODBUS_EXAMPLE_SHIELD`).
  *
  * Wiring: the shield on an Uno (or a Mega: its SPI comes through the ICSP header); the
  * shield's chip select is pin 10, its SD card's pin 4 (leave that high, or unplugged); pins
@@ -15,7 +18,7 @@
  * | reference   | address | meaning                                          |
  * |-------------|---------|--------------------------------------------------|
  * | 00001–00016 | 0–15    | coils, written by the master                     |
- * | 10001–10016 | 0–15    | discrete inputs: 10001 set while a master is connected |
+ * | 10001–10016 | 0–15    | discrete inputs (0)                              |
  * | 30001       | 0       | seconds the main loop has counted                |
  * | 30002       | 1       | requests answered so far                         |
  * | 30003–30008 | 2–7     | input registers (0)                              |
@@ -29,8 +32,20 @@
 #![feature(abi_avr_interrupt)]
 
 use avr_modbus::board;
-use avr_modbus::tcp::{Network, W5100};
+use avr_modbus::tcp::Network;
 use panic_halt as _;
+
+// The chip's peripherals, as the build's `-C target-cpu` chose the chip (build.rs).
+#[cfg(avr_chip = "atmega1280")]
+use avr_device::atmega1280 as pac;
+#[cfg(avr_chip = "atmega168")]
+use avr_device::atmega168 as pac;
+#[cfg(avr_chip = "atmega2560")]
+use avr_device::atmega2560 as pac;
+#[cfg(avr_chip = "atmega328p")]
+use avr_device::atmega328p as pac;
+#[cfg(avr_chip = "atmega32u4")]
+use avr_device::atmega32u4 as pac;
 
 const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]);
 
@@ -44,14 +59,21 @@ avr_modbus::register_map! {
     }
 }
 
-avr_modbus::tcp_server!(SERVER: Registers, W5100);
+#[cfg(not(any(example_shield = "w5500", example_shield = "w5100-int", example_shield = "w5500-int")))]
+avr_modbus::tcp_server!(SERVER: Registers, avr_modbus::tcp::W5100);
+#[cfg(example_shield = "w5500")]
+avr_modbus::tcp_server!(SERVER: Registers, avr_modbus::tcp::W5500);
+#[cfg(example_shield = "w5100-int")]
+avr_modbus::tcp_server!(SERVER: Registers, avr_modbus::tcp::W5100, pin2_int);
+#[cfg(example_shield = "w5500-int")]
+avr_modbus::tcp_server!(SERVER: Registers, avr_modbus::tcp::W5500, pin2_int);
 
-/// A second of the CPU's time, as `delay(1000)` spends it.
+/// A second of the CPU's time, as `delay(1000)` spends it (at 16 MHz).
 const SECOND_CYCLES: u32 = 16_000_000;
 
 #[avr_device::entry]
 fn main() -> ! {
-    let Some(dp) = avr_device::atmega328p::Peripherals::take() else { board::halt(avr_modbus::Error::AlreadyStarted) };
+    let Some(dp) = pac::Peripherals::take() else { board::halt(avr_modbus::Error::AlreadyStarted) };
     if let Err(error) = SERVER.start(NETWORK, dp.SPI, dp.TC0, Registers::new()) {
         board::halt(error);
     }

@@ -139,7 +139,7 @@ pub mod internal {
             pub use crate::tcp::mbap::*;
         }
         pub use crate::tcp::server::{Handler, Server, Sockets};
-        pub use crate::tcp::wiznet::{command, sn, state, Block, Bus, Chip, Wiznet, SEND_OK};
+        pub use crate::tcp::wiznet::{command, sn, state, Block, Bus, Chip, Wiznet, RECV, SEND_OK};
         pub use crate::tcp::{respond, Serving};
     }
     /// The settings record and block.

@@ -28,7 +28,7 @@ use crate::error::Error;
 use crate::link::timing::{CLOCK_HZ, TIMER0_CLOCK_SELECT, TIMER0_DIVISOR};
 use crate::protocol::reference::IntoReference;
 use crate::slave::model::DataModel;
-use crate::tcp::server::{Server, Sockets};
+use crate::tcp::server::Server;
 use crate::tcp::wiznet::{Chip, Wiznet};
 use crate::tcp::{Network, Serving, TcpCounters};
 
@@ -252,9 +252,9 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Runn
         self.serve(second);
     }
 
-    /// Pin 2's interrupt: the chip served until it has no events left (at most four
-    /// rounds: what comes later brings the line low again), unless the application has
-    /// the SPI (its `with_spi` unmasks the interrupt when it is done).
+    /// Pin 2's interrupt: the chip served, unless the application has the SPI (its
+    /// `with_spi` unmasks the interrupt when it is done). Events that come meanwhile keep
+    /// the line low, and the interrupt, unmasked at the end, comes again at once.
     #[inline(never)]
     fn on_event(&mut self) {
         if !self.lent {
@@ -269,14 +269,7 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Runn
         // meanwhile; other interrupts may run, which is the point.
         unsafe { reg::enable_interrupts() };
         self.chip.bus.configure();
-        let mut rounds: u8 = 4;
-        loop {
-            self.server.poll(&mut self.chip, &self.network, &mut Serving(&mut self.model), second && rounds == 4);
-            rounds -= 1;
-            if !INT || rounds == 0 || self.chip.events() == 0 {
-                break;
-            }
-        }
+        self.server.poll(&mut self.chip, &self.network, &mut Serving(&mut self.model), second);
         // SAFETY: interrupts off again before the mark goes (`access_marked`'s promise).
         unsafe { reg::disable_interrupts() };
         if INT {
@@ -297,9 +290,8 @@ fn wait_10ms() {
     }
 }
 
-/// EIMSK and EIFR, the same on every chip.
+/// EIMSK, the same on every chip.
 const EIMSK: Reg = Reg::at(0x3D);
-const EIFR: Reg = Reg::at(0x3C);
 
 /// Pin 2's external interrupt enabled or masked.
 #[inline(always)]
@@ -309,14 +301,14 @@ fn pin2_interrupt(on: bool) {
 }
 
 /// Pin 2 an input with its pull-up, its interrupt on a low level (the chip's INT line is
-/// low while it has events), its flag cleared, enabled. Interrupts disabled.
+/// low while it has events), enabled. (A level interrupt has no flag to clear: INTFn stays
+/// clear in that mode.) Interrupts disabled.
 fn start_pin2_interrupt() {
-    let (eicr, shift, bit, pin, pin_bit) = CHIP.pin2_int;
+    let (eicr, shift, _, pin, pin_bit) = CHIP.pin2_int;
     // DDRx (PINx + 1) clear, PORTx (PINx + 2) set: an input pulled up.
     Reg::at(pin + 1).modify(|d| d & !(1 << pin_bit));
     Reg::at(pin + 2).modify(|p| p | 1 << pin_bit);
     Reg::at(eicr).modify(|e| e & !(0b11 << shift));
-    EIFR.write(1 << bit);
     pin2_interrupt(true);
 }
 

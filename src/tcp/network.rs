@@ -22,8 +22,8 @@ pub struct Network {
     pub(crate) port: u16,
     pub(crate) unit: u8,
     pub(crate) sockets: u8,
-    pub(crate) idle_timeout_s: u16,
-    pub(crate) evict_after_s: u16,
+    pub(crate) idle_timeout_s: u8,
+    pub(crate) evict_after_s: u8,
     pub(crate) allow: &'static [[u8; 4]],
 }
 
@@ -107,17 +107,17 @@ impl Network {
         Network { sockets: n, ..self }
     }
 
-    /// Closes a connection after `seconds` without a request (0: never), so that a master
-    /// that vanished without closing (the chips have no keep-alive of their own that the
-    /// server could rely on) does not hold a socket for ever. Default 60 s.
-    pub const fn idle_timeout(self, seconds: u16) -> Network {
+    /// Closes a connection after `seconds` (at most 255) without a request (0: never), so
+    /// that a master that vanished without closing (the chips have no keep-alive of their own
+    /// that the server could rely on) does not hold a socket for ever. Default 60 s.
+    pub const fn idle_timeout(self, seconds: u8) -> Network {
         Network { idle_timeout_s: seconds, ..self }
     }
 
     /// When every socket holds a connection, the one idle longest is closed once it has
-    /// been idle `seconds` (at least 1), so that a newcomer finds a socket listening
+    /// been idle `seconds` (1–255), so that a newcomer finds a socket listening
     /// (§4.2.1). Default 2 s.
-    pub const fn evict_after(self, seconds: u16) -> Network {
+    pub const fn evict_after(self, seconds: u8) -> Network {
         assert!(seconds >= 1, "at least 1 s: a master polling now and then keeps its connection");
         Network { evict_after_s: seconds, ..self }
     }
@@ -156,7 +156,8 @@ impl Network {
 
     /// True when a client at `peer` may connect.
     pub(crate) fn allows(&self, peer: [u8; 4]) -> bool {
-        self.allow.is_empty() || self.allow.contains(&peer)
+        let peer = u32::from_ne_bytes(peer);
+        self.allow.is_empty() || self.allow.iter().any(|&client| u32::from_ne_bytes(client) == peer)
     }
 
     /// True when a request for `unit` is this device's.
@@ -175,12 +176,10 @@ mod tests {
     fn the_addresses_are_in_the_chips_register_order() {
         let net = NET.gateway([10, 0, 0, 1]).subnet([255, 255, 0, 0]);
         assert_eq!(net.addresses, [10, 0, 0, 1, 255, 255, 0, 0, 2, 0, 0, 0, 0, 1, 10, 0, 0, 2]);
-        assert_eq!((net.ip(), net.mac(), net.subnet_mask(), net.gateway_address()), (
-            [10, 0, 0, 2],
-            [2, 0, 0, 0, 0, 1],
-            [255, 255, 0, 0],
-            [10, 0, 0, 1]
-        ));
+        assert_eq!(
+            (net.ip(), net.mac(), net.subnet_mask(), net.gateway_address()),
+            ([10, 0, 0, 2], [2, 0, 0, 0, 0, 1], [255, 255, 0, 0], [10, 0, 0, 1])
+        );
     }
 
     #[test]

@@ -91,6 +91,8 @@ pub mod state {
 
 /// Sn_IR's send-done event.
 pub const SEND_OK: u8 = 0x10;
+/// Sn_IR's data-received event.
+pub const RECV: u8 = 0x04;
 
 /// Where a transfer goes, as the W5500's block select numbers it (the W5100 maps it to its
 /// one address space): the common registers, or socket n's registers, transmit buffer or
@@ -168,20 +170,23 @@ impl Chip for W5100 {
     #[inline(never)]
     fn transfer<B: Bus>(bus: &mut B, block: Block, offset: u16, buf: &mut [u8], write: bool) {
         let opcode = if write { 0xF0 } else { 0x0F };
-        let mut offset = offset;
+        let [mut offset_high, mut low] = offset.to_be_bytes();
+        let mut high = W5100::address_high(block, offset_high);
         for byte in buf.iter_mut() {
-            let [hi, lo] = offset.to_be_bytes();
-            let hi = W5100::address_high(block, hi);
             bus.select();
             bus.transfer(opcode);
-            bus.transfer(hi);
-            bus.transfer(lo);
+            bus.transfer(high);
+            bus.transfer(low);
             let got = bus.transfer(*byte);
             bus.deselect();
             if !write {
                 *byte = got;
             }
-            offset = offset.wrapping_add(1);
+            low = low.wrapping_add(1);
+            if low == 0 {
+                offset_high = offset_high.wrapping_add(1);
+                high = W5100::address_high(block, offset_high);
+            }
         }
     }
 }
@@ -279,20 +284,10 @@ impl<C: Chip, B: Bus> Wiznet<C, B> {
         C::transfer(&mut self.bus, Block::socket(s), u16::from(offset), &mut value.to_be_bytes(), true);
     }
 
-    /// A 16-bit register the chip changes as data moves: read until two reads agree (its
-    /// two bytes are read apart, and a byte may land in between), at most four times.
-    #[inline(never)]
-    fn stable16(&mut self, s: u8, offset: u8) -> u16 {
-        let mut last = self.get16(s, offset);
-        let mut tries: u8 = 3;
-        loop {
-            let again = self.get16(s, offset);
-            if again == last || tries == 0 {
-                return again;
-            }
-            last = again;
-            tries -= 1;
-        }
+    /// Gives socket `s` a command without waiting for the chip to take it: for RECV and
+    /// SEND, after which the server gives that socket no command before its next poll.
+    fn order(&mut self, s: u8, command: u8) {
+        self.set(Block::socket(s), sn::CR.into(), command);
     }
 }
 
@@ -337,8 +332,13 @@ impl<C: Chip, B: Bus> Sockets for Wiznet<C, B> {
         ip
     }
 
+    /// One read, where the datasheets advise reading until two agree: Sn_RX_RSR only grows
+    /// while the server takes nothing, and read high byte first a growing count is never
+    /// read larger than it is (a byte landing between the two reads gives the old count, or
+    /// one too small by whole 256s: the rest is taken at the next poll, which the RECV event
+    /// of that byte, set after this socket's events were taken, brings).
     fn received(&mut self, s: u8) -> u16 {
-        self.stable16(s, sn::RX_RSR)
+        self.get16(s, sn::RX_RSR)
     }
 
     fn rx_pointer(&mut self, s: u8) -> u16 {
@@ -351,11 +351,13 @@ impl<C: Chip, B: Bus> Sockets for Wiznet<C, B> {
 
     fn take(&mut self, s: u8, pointer: u16) {
         self.set16(s, sn::RX_RD, pointer);
-        self.command(s, command::RECV);
+        self.order(s, command::RECV);
     }
 
+    /// One read, as [`Sockets::received`]: Sn_TX_FSR only grows while the server writes
+    /// nothing.
     fn tx_free(&mut self, s: u8) -> u16 {
-        self.stable16(s, sn::TX_FSR)
+        self.get16(s, sn::TX_FSR)
     }
 
     fn tx_pointer(&mut self, s: u8) -> u16 {
@@ -368,7 +370,7 @@ impl<C: Chip, B: Bus> Sockets for Wiznet<C, B> {
 
     fn send(&mut self, s: u8, pointer: u16) {
         self.set16(s, sn::TX_WR, pointer);
-        self.command(s, command::SEND);
+        self.order(s, command::SEND);
     }
 }
 

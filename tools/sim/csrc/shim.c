@@ -54,6 +54,7 @@
 #include "avr_uart.h"
 
 #include "spi.h"
+#include "avr_extint.h"
 
 DEFINE_FIFO(uint16_t, uart_fifo);
 
@@ -172,6 +173,9 @@ typedef struct uno_shim {
 
 	/* a part on the SPI bus (spi.c), if one is attached */
 	spi_part_t spi_part;
+	/* The pin the SPI part's INT line drives (uno_spi_int). */
+	char spi_int_port;
+	int spi_int_bit;
 } uno_shim_t;
 
 /* ------------------------------------------------------------------------- */
@@ -1139,4 +1143,61 @@ int uno_spi_attach(uno_shim_t *s, char port, int bit, spi_part_fn fn, void *ctx)
 	if (s->spi_part.fn)
 		return UNO_ERR_ARG;
 	return spi_attach_part(s->avr, &s->spi_part, port, bit, fn, ctx) ? UNO_ERR_ARG : UNO_OK;
+}
+
+/* The SPI part's INT line drives pin P`port``bit` (as an external driver, uno_pin_drive). */
+static void drive_spi_int(void *harness, int level)
+{
+	uno_shim_t *s = harness;
+	uno_pin_drive(s, s->spi_int_port, s->spi_int_bit, level);
+}
+
+/* EIMSK written: an external interrupt in low-level mode enabled while its pin is low fires,
+ * as on the chip. simavr sets INTFn when its pin falls with the interrupt masked (the
+ * chip never sets it in level mode) and then, the flag being up, never raises it again: a
+ * firmware that masks the interrupt while it serves the line would wait for ever. */
+static void eimsk_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
+{
+	avr->data[addr] = v;
+	avr_extint_t *p = param;
+	for (int n = 0; n < EXTINT_COUNT && p->eint[n].port_ioctl; n++) {
+		if (!p->eint[n].isc[1].reg || avr_regbit_get_array(avr, p->eint[n].isc, 2) != 0)
+			continue; /* not a level interrupt */
+		avr_regbit_clear(avr, p->eint[n].vector.raised);
+		if (!avr_regbit_get(avr, p->eint[n].vector.enable))
+			continue;
+		avr_ioport_state_t state;
+		if (avr_ioctl(avr, AVR_IOCTL_IOPORT_GETSTATE(p->eint[n].port_ioctl & 0xFF), &state) < 0)
+			continue;
+		if (!((state.pin >> p->eint[n].port_pin) & 1))
+			avr_raise_interrupt(avr, &p->eint[n].vector);
+	}
+}
+
+/* Wires the SPI part's INT line to pin P`port``bit`, and has every external interrupt
+ * fire again and again while its pin is held low in low-level mode, as the chip's do
+ * (simavr fires once per falling edge otherwise). After uno_spi_attach. */
+int uno_spi_int(uno_shim_t *s, char port, int bit)
+{
+	if (!s->spi_part.fn || port < 'A' || port >= 'A' + PORTS || bit < 0 || bit > 7 || !find_port(s, port))
+		return UNO_ERR_ARG;
+	s->spi_int_port = port;
+	s->spi_int_bit = bit;
+	s->spi_part.harness = s;
+	s->spi_part.drive_int = drive_spi_int;
+	for (uint8_t n = 0; n < 8; n++)
+		avr_extint_set_strict_lvl_trig(s->avr, n, 1);
+	for (avr_io_t *io = s->avr->io_port; io; io = io->next)
+		if (!strcmp(io->kind, "extint")) {
+			avr_extint_t *p = (avr_extint_t *)io;
+			avr_register_io_write(s->avr, p->eint[0].vector.enable.reg, eimsk_write, p);
+		}
+	spi_part_update_int(&s->spi_part);
+	return UNO_OK;
+}
+
+/* The SPI part's INT line brought up to date (after the harness changed the part). */
+void uno_spi_sync(uno_shim_t *s)
+{
+	spi_part_update_int(&s->spi_part);
 }

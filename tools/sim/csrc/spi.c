@@ -77,6 +77,17 @@ int spi_fix_timing(avr_t *avr)
 }
 
 /* SPI_IRQ_OUTPUT: a byte went out; the part's answer comes back in. */
+void spi_part_update_int(spi_part_t *part)
+{
+	if (!part->fn || !part->drive_int)
+		return;
+	int level = part->fn(part->ctx, SPI_EVENT_INT, 0, part->avr->cycle);
+	if (level < 0 || level == part->int_level)
+		return;
+	part->int_level = level;
+	part->drive_int(part->harness, level);
+}
+
 static void part_byte(avr_irq_t *irq, uint32_t value, void *param)
 {
 	(void)irq;
@@ -84,6 +95,7 @@ static void part_byte(avr_irq_t *irq, uint32_t value, void *param)
 	int answer = part->fn(part->ctx, SPI_EVENT_BYTE, (uint8_t)value, part->avr->cycle);
 	if (answer >= 0)
 		avr_raise_irq(part->input, (uint32_t)answer);
+	spi_part_update_int(part);
 }
 
 static void part_cs(avr_irq_t *irq, uint32_t value, void *param)
@@ -91,6 +103,7 @@ static void part_cs(avr_irq_t *irq, uint32_t value, void *param)
 	(void)irq;
 	spi_part_t *part = param;
 	part->fn(part->ctx, SPI_EVENT_CS, value ? 1 : 0, part->avr->cycle);
+	spi_part_update_int(part);
 }
 
 int spi_attach_part(avr_t *avr, spi_part_t *part, char port, int bit, spi_part_fn fn, void *ctx)
@@ -105,6 +118,7 @@ int spi_attach_part(avr_t *avr, spi_part_t *part, char port, int bit, spi_part_f
 	part->input = p->io.irq + SPI_IRQ_INPUT;
 	part->fn = fn;
 	part->ctx = ctx;
+	part->int_level = -1;
 	avr_irq_register_notify(p->io.irq + SPI_IRQ_OUTPUT, part_byte, part);
 	avr_irq_register_notify(cs, part_cs, part);
 	return 0;

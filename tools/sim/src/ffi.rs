@@ -49,6 +49,8 @@ pub(crate) type SpiPartFn = unsafe extern "C" fn(ctx: *mut c_void, event: c_int,
 pub(crate) const SPI_EVENT_BYTE: c_int = 0;
 /// The part's chip select changed.
 pub(crate) const SPI_EVENT_CS: c_int = 1;
+/// The part's INT line: its level (0 low, 1 high), or -1 for none.
+pub(crate) const SPI_EVENT_INT: c_int = 2;
 
 extern "C" {
     pub(crate) fn uno_new(
@@ -115,4 +117,6 @@ extern "C" {
     pub(crate) fn uno_eeprom_read(s: *mut Shim, offset: u32, out: *mut u8, len: u32) -> c_int;
     pub(crate) fn uno_eeprom_write(s: *mut Shim, offset: u32, bytes: *const u8, len: u32) -> c_int;
     pub(crate) fn uno_spi_attach(s: *mut Shim, port: c_char, bit: c_int, f: SpiPartFn, ctx: *mut c_void) -> c_int;
+    pub(crate) fn uno_spi_int(s: *mut Shim, port: c_char, bit: c_int) -> c_int;
+    pub(crate) fn uno_spi_sync(s: *mut Shim);
 }

@@ -497,6 +497,9 @@ pub struct Options {
     /// The shield's chip select, P`port``bit`; `None`: the board's pin 10 (see
     /// [`Options::wiznet_cs`]).
     pub wiznet_cs: Option<(char, u8)>,
+    /// The shield's INT line wired to P`port``bit` (the W5100 shield's jumper: the Uno's pin
+    /// 2, PD2); `None`: not wired ([`Options::wiznet_int`]).
+    pub wiznet_int: Option<(char, u8)>,
 }
 
 impl Options {
@@ -510,6 +513,7 @@ impl Options {
             second_usart: None,
             wiznet: None,
             wiznet_cs: None,
+            wiznet_int: None,
         }
     }
 
@@ -716,6 +720,7 @@ impl Uno {
             second_usart: self.second_usart(),
             wiznet: self.shield.as_ref().map(|s| s.model),
             wiznet_cs: self.shield.as_ref().map(|s| s.cs),
+            wiznet_int: self.shield.as_ref().and_then(|s| s.int),
             ..Options::new().chip(self.chip).usart(self.usart).rx_flag(self.rx_flag)
         };
         let mut fresh = Uno::load_with(&self.path, options)?;
@@ -763,6 +768,9 @@ impl Uno {
     /// before any further instruction. Does nothing if `cycle` has already passed.
     pub fn run_until(&mut self, cycle: u64) -> Result<(), Error> {
         self.check_alive()?;
+        if self.shield_int() {
+            return self.run_with_int(cycle);
+        }
         // SAFETY: `shim` is valid and exclusively borrowed.
         unsafe { ffi::uno_run(self.raw_mut(), cycle, 0) };
         self.drain_tx();

@@ -17,6 +17,8 @@ pub(crate) struct Shield {
     chip: NonNull<W5x00>,
     pub(crate) model: Wiznet,
     pub(crate) cs: (char, u8),
+    /// Where the chip's INT line is wired, if it is.
+    pub(crate) int: Option<(char, u8)>,
 }
 
 /// The pin the shields' chip select is wired to on `chip`'s boards: Arduino pin 10, PB2 on the
@@ -40,6 +42,14 @@ impl Options {
     pub const fn wiznet_cs(self, port: char, bit: u8) -> Options {
         Options { wiznet_cs: Some((port, bit)), ..self }
     }
+
+    /// Wires the chip's INT line (low while a socket has unmasked events) to P`port``bit`:
+    /// `wiznet_int('D', 2)` is the W5100 shield's solder jumper to the Uno's pin 2. The line
+    /// follows the chip at every SPI byte and chip-select change, and the simulation stops at
+    /// each delivery's cycle so that the line falls when the data lands.
+    pub const fn wiznet_int(self, port: char, bit: u8) -> Options {
+        Options { wiznet_int: Some((port, bit)), ..self }
+    }
 }
 
 /// The shim's call for every SPI byte and chip-select change: hands it to the chip.
@@ -53,6 +63,7 @@ unsafe extern "C" fn spi_event(ctx: *mut c_void, event: c_int, value: u8, cycle:
     let chip = unsafe { &mut *ctx.cast::<W5x00>() };
     match event {
         ffi::SPI_EVENT_BYTE => chip.exchange(value, cycle).map_or(-1, c_int::from),
+        ffi::SPI_EVENT_INT => c_int::from(!chip.int_asserted()),
         ffi::SPI_EVENT_CS if value == 0 => {
             chip.select(cycle);
             -1
@@ -73,15 +84,49 @@ impl Uno {
         let no_pin = || Error::NoSuchPortPin { chip: board, port, bit };
         let letter = u8::try_from(port).map_err(|_| no_pin())? as c_char;
         let chip = NonNull::from(Box::leak(Box::new(W5x00::new(model))));
-        self.shield = Some(Shield { chip, model, cs: (port, bit) });
+        self.shield = Some(Shield { chip, model, cs: (port, bit), int: options.wiznet_int });
         // SAFETY: `shim` is valid and exclusively borrowed; `chip` lives until `free_shield`,
         // which runs after the simulator is freed, and `spi_event` is its callback.
         let attached =
             unsafe { ffi::uno_spi_attach(self.raw_mut(), letter, c_int::from(bit), spi_event, chip.as_ptr().cast()) };
-        match attached {
-            0 => Ok(self),
-            _ => Err(no_pin()),
+        if attached != 0 {
+            return Err(no_pin());
         }
+        if let Some((port, bit)) = options.wiznet_int {
+            let no_pin = || Error::NoSuchPortPin { chip: board, port, bit };
+            let letter = u8::try_from(port).map_err(|_| no_pin())? as c_char;
+            // SAFETY: `shim` is valid and exclusively borrowed; the part is attached.
+            if unsafe { ffi::uno_spi_int(self.raw_mut(), letter, c_int::from(bit)) } != 0 {
+                return Err(no_pin());
+            }
+        }
+        Ok(self)
+    }
+
+    /// True when the shield's INT line is wired.
+    pub(crate) fn shield_int(&self) -> bool {
+        self.shield.as_ref().is_some_and(|s| s.int.is_some())
+    }
+
+    /// Runs to `cycle` with the INT line kept up to date: the chip brought to each cycle
+    /// something is due on its network side (data landing, a timeout), and the line driven
+    /// from it, before the firmware runs on.
+    pub(crate) fn run_with_int(&mut self, cycle: u64) -> Result<(), Error> {
+        loop {
+            let now = self.now();
+            let Some(chip) = self.wiznet_mut() else { break };
+            let due = chip.next_due().filter(|&due| due > now).map_or(cycle, |due| due.min(cycle));
+            // SAFETY: `shim` is valid and exclusively borrowed.
+            unsafe { ffi::uno_spi_sync(self.raw_mut()) };
+            if now >= cycle {
+                break;
+            }
+            // SAFETY: as above.
+            unsafe { ffi::uno_run(self.raw_mut(), due, 0) };
+            self.drain_tx();
+            self.check_alive()?;
+        }
+        self.check_alive()
     }
 
     /// Frees the shield's chip (the simulator calling it must be gone).

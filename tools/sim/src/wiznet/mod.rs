@@ -281,6 +281,27 @@ impl W5x00 {
         retransmission_time(rtr, self.common[rcr]) * 1_600
     }
 
+    /// The INT line, low (`true` here) while a socket's events are unmasked: the W5100's IR
+    /// socket bits under IMR (0x16), the W5500's SIR under SIMR (0x18), each socket's Sn_IR
+    /// under its Sn_IMR.
+    pub fn int_asserted(&self) -> bool {
+        let (mask, socket_masks) = match self.model {
+            Wiznet::W5100 => (self.common[0x16], false),
+            Wiznet::W5500 => (self.common[0x18], true),
+        };
+        self.sockets.iter().enumerate().any(|(n, s)| {
+            let unmasked = if socket_masks { s.ir & s.reg(regs::sn::IMR) } else { s.ir };
+            unmasked != 0 && mask & (1 << n) != 0
+        })
+    }
+
+    /// The next cycle at which something is due on the network side: bytes queued to land
+    /// ([`W5x00::deliver_at`]) or a retransmission timing out. A harness with the INT line
+    /// wired runs the chip up to it, so that the line falls when the data lands.
+    pub fn next_due(&self) -> Option<u64> {
+        self.sockets.iter().filter_map(|s| s.next_due()).min()
+    }
+
     /// Sn_IR ≠ 0, one bit per socket (IR's low bits on the W5100, SIR on the W5500).
     fn socket_interrupts(&self) -> u8 {
         self.sockets.iter().enumerate().filter(|(_, s)| s.ir != 0).fold(0, |bits, (n, _)| bits | 1 << n)

@@ -324,6 +324,16 @@ impl Socket {
         self.inbound.push_back(Inbound { at, bytes, stalled: false });
     }
 
+    /// The next cycle something is due: queued bytes landing (not those waiting for room),
+    /// a retransmission timing out.
+    pub(crate) fn next_due(&self) -> Option<u64> {
+        let landing = self.inbound.front().filter(|i| !i.stalled).map(|i| i.at);
+        match (landing, self.timeout_at) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
     /// Bytes queued and not landed yet.
     pub(crate) fn queued(&self) -> usize {
         self.inbound.iter().map(|i| i.bytes.len()).sum()
