@@ -6,9 +6,9 @@
         16) with values checked, the others (07 08 11 17 20 22 23 24 43) exception 01; exceptions
         02 and 03; unit ids 1, 0, 247 and 0xFF. One line per step; exits 1 if any went wrong.
 
-    pymodbus_tcp_check.py poll HOST PORT [--seconds 10] [--quiet-after S] [--timeout 3]
+    pymodbus_tcp_check.py poll HOST PORT [--seconds 10] [--interval 0] [--quiet-after S] [--timeout 3]
         One master on one connection reading 30001-30002 (the firmware's seconds and requests
-        answered) back to back for --seconds; with --quiet-after it stops asking after S
+        answered) for --seconds, back to back or --interval seconds apart; with --quiet-after it stops asking after S
         seconds and keeps the connection open, silent, until the end. Prints `first answer`
         when the first reply comes, then one JSON line: answered, failed (with the first
         errors), the seconds counter at the first and last answer, the slowest answer (ms),
@@ -207,6 +207,8 @@ def poll(client, args):
         if first_seconds is None:
             first_seconds = response.registers[0]
         last_seconds = response.registers[0]
+        if args.interval:
+            time.sleep(args.interval)
     print(json.dumps({"answered": answered, "failed": failed, "errors": errors, "first_seconds": first_seconds,
                       "last_seconds": last_seconds, "slowest_ms": round(slowest * 1000, 1),
                       "connections": connections, "took_s": round(time.monotonic() - start, 2)}), flush=True)
@@ -219,6 +221,7 @@ def main():
     parser.add_argument("host")
     parser.add_argument("port", type=int)
     parser.add_argument("--seconds", type=float, default=10.0)
+    parser.add_argument("--interval", type=float, default=0.0)
     parser.add_argument("--quiet-after", type=float)
     parser.add_argument("--timeout", type=float, default=3.0)
     args = parser.parse_args()

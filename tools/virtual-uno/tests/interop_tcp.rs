@@ -422,9 +422,12 @@ fn mbpoll(board: &Board, args: &str, values: &str) -> String {
     format!("$ mbpoll -m tcp -p {} -1 {args} 127.0.0.1 {values}\n{out}", board.port)
 }
 
-/// The values of `[ref]: value` lines.
+/// The values of `[ref]: value` lines (`[14]: 65535 (-1)`: 65535).
 fn mbpoll_values(out: &str) -> Vec<i64> {
-    out.lines().filter(|l| l.starts_with('[')).filter_map(|l| l.split(':').nth(1)?.trim().parse().ok()).collect()
+    out.lines()
+        .filter(|l| l.starts_with('['))
+        .filter_map(|l| l.split(':').nth(1)?.split_whitespace().next()?.parse().ok())
+        .collect()
 }
 
 /// Every table of examples/tcp_server.rs read and written by mbpoll, exceptions 02, unit ids
@@ -741,30 +744,41 @@ fn report(summaries: &[&Summary]) -> String {
     summaries.iter().map(|s| format!("{}\n{}", s.line(), s.out)).collect()
 }
 
-/// `n` masters reading back to back for 10 s at once: each request answered, 30001 counting
-/// (the main loop blocks a second at a time).
+/// `n` masters reading back to back for 10 s at once: each request answered on the
+/// connection it started with, and 30001 counting. The main loop's `delay(1000)` counts CPU
+/// cycles, and the server answers from interrupts: under back-to-back requests the loop gets
+/// what the interrupts leave of the CPU, so its seconds come slower than the wall's (printed
+/// as the loop's share).
 fn masters_at_once(shield: &str, n: usize) {
     let board = Board::start(&tcp_server(shield), shield);
+    let (seconds_before, _) = board.counters();
+    let started = Instant::now();
     let masters: Vec<Master> =
         (0..n).map(|i| Master::start(&board, &format!("master {}", i + 1), "--seconds 10")).collect();
     let summaries: Vec<Summary> = masters.into_iter().map(|m| m.finish(Duration::from_secs(30))).collect();
+    let wall = started.elapsed();
     thread::sleep(Duration::from_millis(1200));
     let (seconds, requests) = board.counters();
+    let counted = i64::from(seconds) - i64::from(seconds_before);
     let total: i64 = summaries.iter().map(|s| s.answered).sum();
     for s in &summaries {
         println!("{}", s.line());
     }
     println!(
-        "{n} masters at once on the {shield}: {total} requests answered in 10 s ({:.0}/s); the firmware: 30001 = \
-         {seconds} s, 30002 = {requests}",
-        total as f64 / 10.0
+        "{n} masters at once on the {shield}, back to back: {total} requests answered in 10 s ({:.0}/s); 30001 \
+         counted {counted} s in {:.1} s of wall time (the main loop's share of the CPU: {:.0} %); 30002 = {requests}",
+        total as f64 / 10.0,
+        wall.as_secs_f64() + 1.2,
+        100.0 * counted as f64 / (wall.as_secs_f64() + 1.2),
     );
     let all: Vec<&Summary> = summaries.iter().collect();
     assert!(
-        summaries.iter().all(|s| s.all_answered(8) && s.connections == 1),
+        summaries.iter().all(|s| s.answered > 0 && s.failed == 0 && s.connections == 1),
         "a master lost a request or its connection\n{}",
         transcript(&report(&all), &board)
     );
+    assert!(counted >= 2, "30001 stopped counting: {counted} s\n{}", transcript(&report(&all), &board));
+    assert_eq!(i64::from(requests), total + 1, "30002: every request answered, the first read of 30001 too");
     assert_eq!(board.count("refused"), 0, "{}", board.log());
 }
 
@@ -780,26 +794,28 @@ fn eight_masters_at_once_are_all_answered_w5500() {
     masters_at_once("w5500", 8);
 }
 
-/// The W5100's four sockets all held by busy masters: a fifth waits and is refused (the
+/// The W5100's four sockets all held by busy masters (each polling every 20 ms, so that the
+/// main loop keeps its pace: 30001 counts the wall's seconds): a fifth waits and is refused (the
 /// bridge gives up after 3 s, as a client's SYNs would); once one of the four has gone quiet
 /// for 2 s (`Network::evict_after`), the server closes it for the newcomer, who gets in.
 #[test]
 fn a_fifth_master_on_the_w5100_waits_until_one_of_four_goes_quiet() {
     let _one = serialise();
     let board = Board::start(&tcp_server("w5100"), "w5100");
-    let busy: Vec<Master> = (1..=3).map(|i| Master::start(&board, &format!("busy {i}"), "--seconds 16")).collect();
-    let quiet = Master::start(&board, "quiet", "--seconds 16 --quiet-after 7");
+    let busy: Vec<Master> =
+        (1..=3).map(|i| Master::start(&board, &format!("busy {i}"), "--seconds 16 --interval 0.02")).collect();
+    let quiet = Master::start(&board, "quiet", "--seconds 16 --interval 0.02 --quiet-after 7");
     for m in busy.iter().chain([&quiet]) {
         m.wait_for("first answer", Duration::from_secs(10), &board);
     }
     let refused_before = board.count("refused");
-    let fifth =
-        Master::start(&board, "fifth, all four busy", "--seconds 3 --timeout 5").finish(Duration::from_secs(20));
+    let fifth = Master::start(&board, "fifth, all four busy", "--seconds 3 --timeout 5 --interval 0.02")
+        .finish(Duration::from_secs(20));
     let refused = board.count("refused") - refused_before;
     quiet.wait_for("quiet", Duration::from_secs(10), &board);
     thread::sleep(Duration::from_millis(1000));
     let evicted_before = board.count("reset by the chip");
-    let newcomer = Master::start(&board, "fifth, one gone quiet", "--seconds 3 --timeout 5");
+    let newcomer = Master::start(&board, "fifth, one gone quiet", "--seconds 3 --timeout 5 --interval 0.02");
     let newcomer = newcomer.finish(Duration::from_secs(20));
     let evicted = board.count("reset by the chip") - evicted_before;
     let busy: Vec<Summary> = busy.into_iter().map(|m| m.finish(Duration::from_secs(30))).collect();
@@ -810,13 +826,13 @@ fn a_fifth_master_on_the_w5100_waits_until_one_of_four_goes_quiet() {
     println!("the bridge refused {refused} connection(s) of the fifth; the server closed {evicted} for the newcomer");
     let all: Vec<&Summary> = busy.iter().chain([&quiet, &fifth, &newcomer]).collect();
     let fail = |why: &str| -> String { format!("{why}\n{}", transcript(&report(&all), &board)) };
-    assert!(busy.iter().all(|s| s.all_answered(14) && s.connections == 1), "{}", fail("a busy master lost out"));
+    assert!(busy.iter().all(|s| s.all_answered(13) && s.connections == 1), "{}", fail("a busy master lost out"));
     assert!(quiet.answered > 0 && quiet.failed == 0, "{}", fail("the quiet master, before it went quiet"));
     assert!(fifth.answered == 0 && refused >= 1, "{}", fail("the fifth got in while all four were busy"));
     assert!(newcomer.answered > 0 && newcomer.failed == 0 && evicted == 1, "{}", fail("the newcomer did not get in"));
 }
 
-/// A master killed with SIGKILL while it holds a connection (its system closes the socket):
+/// Every master polling every 20 ms. A master killed with SIGKILL while it holds a connection (its system closes the socket):
 /// the socket comes back, and a new master gets in beside three busy ones. A master frozen
 /// with SIGSTOP (no FIN, no RST: a peer that vanished) is closed once idle 2 s when a
 /// newcomer needs its socket.
@@ -824,20 +840,22 @@ fn a_fifth_master_on_the_w5100_waits_until_one_of_four_goes_quiet() {
 fn a_killed_or_frozen_master_gives_its_socket_back_w5100() {
     let _one = serialise();
     let board = Board::start(&tcp_server("w5100"), "w5100");
-    let busy: Vec<Master> = (1..=3).map(|i| Master::start(&board, &format!("busy {i}"), "--seconds 16")).collect();
-    let victim = Master::start(&board, "killed", "--seconds 60");
+    let busy: Vec<Master> =
+        (1..=3).map(|i| Master::start(&board, &format!("busy {i}"), "--seconds 20 --interval 0.02")).collect();
+    let victim = Master::start(&board, "killed", "--seconds 60 --interval 0.02");
     for m in busy.iter().chain([&victim]) {
         m.wait_for("first answer", Duration::from_secs(10), &board);
     }
     victim.signal(Signal::SIGKILL);
     let killed = victim.finish(Duration::from_secs(5));
-    let after_kill = Master::start(&board, "after the kill", "--seconds 2 --timeout 5").finish(Duration::from_secs(20));
-    let frozen = Master::start(&board, "frozen", "--seconds 60");
+    let after_kill = Master::start(&board, "after the kill", "--seconds 2 --timeout 5 --interval 0.02")
+        .finish(Duration::from_secs(20));
+    let frozen = Master::start(&board, "frozen", "--seconds 60 --interval 0.02");
     frozen.wait_for("first answer", Duration::from_secs(10), &board);
     frozen.signal(Signal::SIGSTOP);
     let evicted_before = board.count("reset by the chip");
-    let after_freeze =
-        Master::start(&board, "after the freeze", "--seconds 2 --timeout 6").finish(Duration::from_secs(20));
+    let after_freeze = Master::start(&board, "after the freeze", "--seconds 4 --timeout 6 --interval 0.02")
+        .finish(Duration::from_secs(20));
     let evicted = board.count("reset by the chip") - evicted_before;
     frozen.signal(Signal::SIGKILL);
     let frozen = frozen.finish(Duration::from_secs(5));
@@ -847,7 +865,7 @@ fn a_killed_or_frozen_master_gives_its_socket_back_w5100() {
     }
     let all: Vec<&Summary> = busy.iter().chain([&killed, &after_kill, &frozen, &after_freeze]).collect();
     let fail = |why: &str| -> String { format!("{why}\n{}", transcript(&report(&all), &board)) };
-    assert!(busy.iter().all(|s| s.all_answered(14) && s.connections == 1), "{}", fail("a busy master lost out"));
+    assert!(busy.iter().all(|s| s.all_answered(17) && s.connections == 1), "{}", fail("a busy master lost out"));
     assert!(
         after_kill.answered > 0 && after_kill.failed == 0,
         "{}",
