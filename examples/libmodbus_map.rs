@@ -36,7 +36,7 @@ const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x02], [192
 avr_modbus::register_map! {
     /// libmodbus's unit-test map, at its addresses.
     struct UnitTest {
-        00305..=00341,
+        305..=341,
         10453..=10474,
         30265,
         40353..=40384,
