@@ -12,9 +12,10 @@ export AVR_MODBUS_REQUIRE_FIRMWARE := 1
 # names the 8 MHz boards' EIGHT_MHZ, whatever the shell that runs make says.
 unexport AVR_CPU_FREQUENCY_HZ
 EIGHT_MHZ := AVR_CPU_FREQUENCY_HZ=8000000
-# Every example but the gateway, which needs a Mega's two USARTs, and the TCP servers, which
-# need feature tcp and a shield (make chips builds them: make tcp-firmware).
-TCP_EXAMPLES := tcp_server libmodbus_map
+# Every example but the gateway, which needs a Mega's two USARTs, and the TCP servers (those
+# whose required-features in Cargo.toml name tcp), which need a shield (make chips builds them:
+# make tcp-firmware).
+TCP_EXAMPLES := $(shell awk '/^name = /{ name = $$3 } /^required-features = .*"tcp"/{ gsub(/"/, "", name); print name }' Cargo.toml)
 EXAMPLES := $(filter-out gateway $(TCP_EXAMPLES),$(patsubst examples/%.rs,%,$(wildcard examples/*.rs)))
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
@@ -37,7 +38,7 @@ help:
 	@echo "  make sizes       - flash and RAM of every firmware (make firmware prints them)"
 	@echo "  make fixtures    - a user's firmware in the template's form for three boards, make package and make readme"
 	@echo "  make package     - the crate as it would be published, built into the Uno fixture"
-	@echo "  make readme      - the README's two main.rs, taken from it and built for the Uno as the template builds them, against a stand-in arduino-hal"
+	@echo "  make readme      - the README's two main.rs and the TCP guide's, taken from them and built for the Uno as the template builds them, against a stand-in arduino-hal"
 	@echo "  make virtual-boards - the virtual Uno and the virtual line, built (release)"
 	@echo "  make demo-firmware - the demos' firmware (demo/uno, demo/mega2560), built as make demo builds it"
 	@echo "  make bootloaders - the virtual boards' bootloaders (optiboot, stk500v2)"
@@ -140,21 +141,26 @@ chips: setup tcp-firmware
 sizes: firmware
 
 # The TCP server (examples/tcp_server.rs) as make chips builds it, CHIP:SHIELD, into
-# target/chips/CHIP-SHIELD/: the Uno with either chip, polled or with the INT line on pin 2
-# (w5100-int), the Mega 2560 and the Leonardo with a W5500.
-TCP_BUILDS := atmega328p:w5100 atmega328p:w5500 atmega328p:w5100-int atmega2560:w5500 atmega32u4:w5500
-# Those, and examples/libmodbus_map.rs (libmodbus's unit-test map on a W5100, with the FC 17,
-# 22 and 23 its unit-test-client uses) into target/chips/atmega328p-w5100-libmodbus/: what
-# make interop runs on the virtual shields (tools/virtual-uno/tests/interop_tcp.rs).
-LIBMODBUS_MAP := target/chips/atmega328p-w5100-libmodbus/avr-none/release/examples/libmodbus_map.elf
+# target/chips/CHIP-SHIELD/: the Uno with either chip, polled or with the INT line on pin 2,
+# the Mega 2560 and the Leonardo with a W5500. Then the TCP contract (sixteen_each_tcp) and
+# the firmware with both TCP and RTU (tcp_rtu) into target/chips/atmega328p-tcp/, and
+# examples/libmodbus_map.rs (libmodbus's unit-test map on a W5100, with the FC 17, 22 and 23
+# its unit-test-client uses) into target/chips/atmega328p-w5100-libmodbus/: make interop runs
+# tcp_server and libmodbus_map on the virtual shields (tools/virtual-uno/tests/interop_tcp.rs).
+TCP_BUILDS := atmega328p:w5100 atmega328p:w5500 atmega328p:w5100-int atmega328p:w5500-int atmega2560:w5500 atmega32u4:w5500
+TCP_FIRMWARE := $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-none/release/examples/tcp_server.elf) \
+	target/chips/atmega328p-tcp/avr-none/release/examples/sixteen_each_tcp.elf \
+	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu.elf \
+	target/chips/atmega328p-w5100-libmodbus/avr-none/release/examples/libmodbus_map.elf
 tcp-firmware: setup
 	@for build in $(TCP_BUILDS); do \
 		chip=$${build%%:*}; shield=$${build##*:}; \
 		AVR_MODBUS_EXAMPLE_SHIELD=$$shield .ci/chip-build $$chip "" $$chip-$$shield examples,tcp tcp_server || exit 1; \
 	done
+	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu
 	@.ci/chip-build atmega328p "" atmega328p-w5100-libmodbus examples,tcp,extra-fc,diagnostics libmodbus_map
-	@.ci/sizes $(LIBMODBUS_MAP) $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-none/release/examples/tcp_server.elf)
-	@.ci/firmware-check $(LIBMODBUS_MAP) $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-none/release/examples/tcp_server.elf)
+	@.ci/sizes $(TCP_FIRMWARE)
+	@.ci/firmware-check $(TCP_FIRMWARE)
 
 # A user's firmware in the avr-hal template's form (fixtures/), outside the workspace, built
 # against avr-device 0.8.1 (arduino-hal's) and 0.9, for three of the template's boards as it
@@ -214,7 +220,7 @@ package: setup
 # target/fixtures/readme/avr-none/release/readme-{slave,master}.elf. A README block that stops
 # compiling fails here. Their sizes are the stand-in's, not arduino-hal's: on the same README
 # and crate (46fb4c2) 2 B (slave) and 4 B (master) of flash under arduino-hal's, RAM the same.
-README_FIRMWARE := slave master
+README_FIRMWARE := slave master tcp
 readme: setup
 	@echo "fixture: fixtures/readme, uno"
 	fixtures/readme/blocks
@@ -234,7 +240,7 @@ fmt-check: setup
 # The optional function codes, checked and tested as a second build.
 OPTIONAL := diagnostics,extra-fc,write-protect
 # Every feature (all add) but examples, which builds this repository's firmware.
-ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id
+ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id,tcp
 
 # The host's lints, tests included, check builds only: the tools (clippy-tools) and the crate's
 # library and test targets as make unit and make sim-test build them (under
@@ -274,9 +280,7 @@ check: fmt-check clippy-tools unit
 # Every single feature and the combinations users build, compiled and linted without
 # building a test: the library for the host and for the Uno (.ci/feature-matrix; at 8 MHz too,
 # a combination that starts with EIGHT_MHZ:), then the Uno's examples with every feature and
-# the Mega's gateway. The TCP servers with the optional function codes only: tcp with millis
-# does not pass -D warnings yet (src/lib.rs enables abi_avr_interrupt for millis, which tcp
-# leaves unused).
+# the Mega's gateway.
 FEATURE_COMBOS := $(ALL_FEATURES) $(EIGHT_MHZ):$(ALL_FEATURES) master,ascii master,ufmt eeprom-settings,ascii \
 	eeprom-settings,reply-delay,ascii $(EIGHT_MHZ):master $(EIGHT_MHZ):ascii,millis
 matrix: matrix-host matrix-avr
@@ -284,8 +288,7 @@ matrix-host: setup
 	.ci/feature-matrix host $(FEATURE_COMBOS)
 matrix-avr: setup
 	.ci/feature-matrix avr $(FEATURE_COMBOS)
-	$(CARGO) uno-clippy $(addprefix --example ,$(EXAMPLES)) --features examples,$(ALL_FEATURES) -- -D warnings
-	$(CARGO) uno-clippy $(addprefix --example ,$(TCP_EXAMPLES)) --features examples,tcp,$(OPTIONAL) -- -D warnings
+	$(CARGO) uno-clippy $(addprefix --example ,$(EXAMPLES) $(TCP_EXAMPLES)) --features examples,$(ALL_FEATURES) -- -D warnings
 	CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega2560" $(CARGO) clippy --release -Zbuild-std=core --target avr-none \
 		--example gateway --features examples,master -- -D warnings
 
@@ -310,7 +313,7 @@ sim-test: sim-test-uno sim-test-chips
 # The simulator tests that run what make chips or make fixtures build; every other needs only
 # the Uno's firmware and the bootloaders. (One missing here fails under make test: its ELF is
 # not built yet when sim-test-uno runs it.)
-SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_gateway,sim_template
+SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_gateway,sim_tcp,sim_template
 
 # Every simulator test built, those that need only the Uno's firmware run; the tools' tests
 # built (make sim-test-chips runs them).

@@ -29,7 +29,8 @@
  */
 #![no_std]
 #![no_main]
-#![feature(abi_avr_interrupt)]
+// Only the INT line's handler is the firmware's own (`tcp_server!(…, pin2_int)`).
+#![cfg_attr(any(example_shield = "w5100-int", example_shield = "w5500-int"), feature(abi_avr_interrupt))]
 
 use avr_modbus::board;
 use avr_modbus::tcp::Network;

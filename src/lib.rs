@@ -1,7 +1,7 @@
 #![doc = include_str!("../README.md")]
 #![cfg_attr(not(test), no_std)]
 #![cfg_attr(target_arch = "avr", feature(asm_experimental_arch, const_type_name))]
-#![cfg_attr(all(target_arch = "avr", feature = "millis"), feature(abi_avr_interrupt))]
+#![cfg_attr(all(target_arch = "avr", any(feature = "millis", feature = "tcp")), feature(abi_avr_interrupt))]
 #![deny(missing_docs)]
 // The docs as docs.rs builds them (`[package.metadata.docs.rs]`): each item shows the
 // features and the target it needs.
@@ -88,6 +88,8 @@ pub mod guide {
     pub mod ascii {}
     #[doc = include_str!("../docs/recovering.md")]
     pub mod recovering {}
+    #[doc = include_str!("../docs/tcp.md")]
+    pub mod tcp {}
 }
 
 /// The protocol engine's parts, for this crate's tests, simulator and benchmarks: not
@@ -141,6 +143,11 @@ pub mod internal {
         pub use crate::tcp::server::{Handler, Server, Sockets};
         pub use crate::tcp::wiznet::{command, sn, state, Block, Bus, Chip, Wiznet, RECV, SEND_OK};
         pub use crate::tcp::{respond, Serving};
+        /// The addresses' EEPROM record (with feature `eeprom-settings`).
+        #[cfg(feature = "eeprom-settings")]
+        pub mod record {
+            pub use crate::tcp::record::*;
+        }
     }
     /// The settings record and block.
     #[cfg(feature = "eeprom-settings")]

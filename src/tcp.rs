@@ -8,10 +8,14 @@
 
 pub(crate) mod mbap;
 mod network;
+#[cfg(feature = "eeprom-settings")]
+pub(crate) mod record;
 pub(crate) mod server;
 pub(crate) mod wiznet;
 
 pub use network::Network;
+#[cfg(feature = "eeprom-settings")]
+pub use record::NETWORK_SLOTS_LEN;
 pub use server::TcpCounters;
 pub use wiznet::{W5100, W5500};
 

@@ -33,25 +33,14 @@ pub(crate) fn millis() -> u32 {
     uptime.millis_at(tcnt, overflow)
 }
 
-/// TIMER0_OVF: Timer0 overflowed (every 1.024 ms, 2.048 at 8 MHz), the clock moves on. Bound here rather
-/// than by [`crate::slave!`]: it touches nothing of the slave's, and a firmware without
-/// the feature has no handler at all (the interrupt stays off). The firmware's alone: the
-/// host has no AVR interrupt ABI, so the docs built there (`--cfg docsrs`) leave it out.
+/// Timer0 overflowed (every 1.024 ms, 2.048 at 8 MHz): the clock moves on. The overflow
+/// handler's first call (`super::overflow`).
 ///
 /// [`Uptime::after_overflow`] in place, written in assembly: the compiler adds the turn's
 /// milliseconds to the `u32` through four registers (three of them zeros) and saves ten;
 /// this adds a byte with carry and saves four, 40 B fewer in every firmware with a clock.
-/// The host tests check `after_overflow`'s arithmetic; `tests/sim_clock.rs` checks this
+/// The host tests check `after_overflow`'s arithmetic; `tests/sim_clock.rs` checks the
 /// handler's against Timer0 on the simulated chip, over the clock's whole range.
-#[cfg(all(target_arch = "avr", not(feature = "tcp")))]
-#[export_name = __chip!(vector TIMER0_OVF)]
-unsafe extern "avr-interrupt" fn timer0_overflow() {
-    // SAFETY: the overflow interrupt handler, interrupts disabled.
-    unsafe { advance() }
-}
-
-/// The clock's turn, [`Uptime::after_overflow`] in place (see `timer0_overflow`); with
-/// feature `tcp` the TCP server's overflow handler calls it first.
 ///
 /// # Safety
 /// Only from Timer0's overflow interrupt handler, interrupts disabled.

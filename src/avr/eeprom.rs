@@ -14,6 +14,8 @@ use super::chip::CHIP;
 use super::reg::{self, claim, EEARH, EEARL, EECR, EEDR};
 use crate::error::Error;
 
+#[cfg(all(feature = "eeprom-settings", feature = "tcp"))]
+mod network;
 #[cfg(feature = "eeprom-settings")]
 mod settings;
 

@@ -75,6 +75,8 @@ mod eeprom;
 mod master;
 mod mem;
 mod no_pin;
+#[cfg(any(feature = "millis", feature = "tcp"))]
+mod overflow;
 mod receive;
 mod reg;
 mod slave;
@@ -125,28 +127,6 @@ pub mod __private {
     #[inline(always)]
     pub unsafe fn master_rx_arrived() {
         super::timer::on_receive::<super::timer::A>();
-    }
-
-    /// Timer0's overflow with a TCP server (feature `tcp`): `millis()`'s turn (feature
-    /// `millis`), then the server's poll.
-    ///
-    /// # Safety
-    /// Only as the Timer0 overflow interrupt handler's body (interrupts disabled).
-    #[cfg(feature = "tcp")]
-    #[inline(always)]
-    pub unsafe fn tcp_overflow<M, C, CS, const B: usize, const INT: bool>(server: &super::TcpServer<M, C, CS, B, INT>)
-    where
-        M: crate::DataModel,
-        C: crate::tcp::wiznet::Chip,
-        CS: embedded_hal::digital::OutputPin,
-    {
-        // SAFETY: the overflow handler, interrupts disabled (the caller's promise).
-        #[cfg(feature = "millis")]
-        unsafe {
-            super::clock::advance()
-        };
-        // SAFETY: as above.
-        unsafe { server.on_overflow() }
     }
 }
 
@@ -213,7 +193,7 @@ macro_rules! slave {
 /// ```
 ///
 /// [`Master::start`] then takes that USART. A master and a slave on two USARTs of one chip
-/// share Timer0 (a gateway): hand the first one started `&dp.TC0`, the second `dp.TC0`.
+/// share Timer0 (a gateway): hand the first one started `&*dp.TC0`, the second `dp.TC0`.
 #[cfg(feature = "master")]
 #[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "master"))))]
 #[macro_export]
@@ -294,8 +274,9 @@ macro_rules! __bind_role {
 
 /// Declares the Modbus TCP server `NAME` (feature `tcp`) for a data model type on a WIZnet
 /// chip ([`crate::tcp::W5100`] or [`crate::tcp::W5500`]), its chip select on the board's
-/// pin 10 (the Ethernet shields') or on a pin type of the application's, and binds Timer0's
-/// overflow interrupt, which polls the chip (and keeps `millis()` with feature `millis`).
+/// pin 10 (the Ethernet shields') or on a pin type of the application's. Timer0's overflow
+/// interrupt, which the crate binds with feature `tcp` (and `millis`), polls the chip once
+/// the server has started; with `pin2_int`, pin 2's external interrupt is bound too.
 ///
 /// ```ignore
 /// avr_modbus::tcp_server!(SERVER: Registers, W5100);           // an Ethernet Shield R3
@@ -305,10 +286,10 @@ macro_rules! __bind_role {
 /// ```
 ///
 /// Its buffer holds the MBAP header and the model's longest PDU ([`crate::DataModel::FRAME`]
-/// less the serial line's address and CRC). The handler uses the `avr-interrupt` calling
-/// convention: the firmware crate needs `#![feature(abi_avr_interrupt)]`. A serial slave or
-/// master may run beside it (they use Timer0's compare units); nothing else may handle
-/// Timer0's overflow.
+/// less the serial line's address and CRC). With `pin2_int` the handler uses the
+/// `avr-interrupt` calling convention: the firmware crate needs
+/// `#![feature(abi_avr_interrupt)]`. A serial slave or master may run beside it (they use
+/// Timer0's compare units); nothing else may handle Timer0's overflow.
 #[cfg(feature = "tcp")]
 #[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp"))))]
 #[macro_export]
@@ -343,15 +324,12 @@ macro_rules! tcp_server {
         static $name: $crate::TcpServer<$model, $chip, $cs, { <$model as $crate::DataModel>::FRAME + 4 }, $int> =
             $crate::TcpServer::new();
 
+        /// The server's poll, which the crate's Timer0 overflow handler calls.
         #[doc(hidden)]
-        #[allow(non_snake_case)]
-        mod __avr_modbus_tcp_interrupts {
-            /// TIMER0_OVF: the chip polled (and `millis()` kept).
-            #[export_name = $crate::__chip!(vector TIMER0_OVF)]
-            unsafe extern "avr-interrupt" fn TIMER0_OVERFLOW() {
-                // SAFETY: the overflow interrupt handler's body, interrupts disabled.
-                unsafe { $crate::__private::tcp_overflow(&super::$name) }
-            }
+        #[export_name = "avr_modbus_feature_tcp_needs_a_tcp_server"]
+        unsafe extern "C" fn __avr_modbus_tcp_overflow() {
+            // SAFETY: called from the Timer0 overflow handler only, interrupts disabled.
+            unsafe { $name.on_overflow() }
         }
     };
 }

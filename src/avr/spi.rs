@@ -89,7 +89,41 @@ impl<CS: OutputPin> Bus for Spi<CS> {
     #[inline(always)]
     fn transfer(&mut self, out: u8) -> u8 {
         SPDR.write(out);
-        while SPSR.read() & SPIF == 0 {}
+        wait();
         SPDR.read()
     }
+
+    /// Each next byte starts as soon as the last is in, and the last is stored while the
+    /// next one shifts: the SPI never waits for the loop.
+    fn read_into(&mut self, buf: &mut [u8]) {
+        let Some((last, rest)) = buf.split_last_mut() else { return };
+        SPDR.write(0);
+        for byte in rest {
+            wait();
+            let got = SPDR.read();
+            SPDR.write(0);
+            *byte = got;
+        }
+        wait();
+        *last = SPDR.read();
+    }
+
+    /// Each next byte is loaded while the last one shifts.
+    fn write_from(&mut self, data: &[u8]) {
+        let Some((&first, rest)) = data.split_first() else { return };
+        SPDR.write(first);
+        for &byte in rest {
+            wait();
+            SPDR.write(byte);
+        }
+        wait();
+        // SPIF cleared (SPSR read with it set, then SPDR), as after `transfer`.
+        let _ = SPDR.read();
+    }
+}
+
+/// Until the byte under way is done.
+#[inline(always)]
+fn wait() {
+    while SPSR.read() & SPIF == 0 {}
 }

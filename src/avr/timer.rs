@@ -32,9 +32,11 @@ const OCIE0A: u8 = 1 << 1;
 const OCIE0B: u8 = 1 << 2;
 pub(crate) const TOV0: u8 = 1 << 0;
 /// TIMSK0's overflow interrupt enable (TOIE0), set when `millis()` keeps time on it
-/// (feature `millis`); without it the interrupt stays off and costs nothing.
-/// The TCP server (feature `tcp`) polls on it too.
-const OVERFLOW_INTERRUPT: u8 = if cfg!(any(feature = "millis", feature = "tcp")) { 1 << 0 } else { 0 };
+/// (feature `millis`); without it the interrupt stays off and costs nothing (unless a TCP
+/// server started it, which a serial role started after it leaves on).
+const OVERFLOW_INTERRUPT: u8 = if cfg!(feature = "millis") { TOIE0 } else { 0 };
+/// TIMSK0's overflow interrupt enable.
+const TOIE0: u8 = 1 << 0;
 const OCF0A: u8 = 1 << 1;
 const OCF0B: u8 = 1 << 2;
 
@@ -228,7 +230,7 @@ impl<U: Unit> FrameTimer<U> {
     /// `TC0` (the first of two roles a reference to it). Call with interrupts disabled.
     pub(crate) fn new(plan: TimerPlan) -> Self {
         let mut timer = FrameTimer(PhantomData);
-        let running = TIMSK0.read() & (OCIE0A | OCIE0B);
+        let running = TIMSK0.read() & (OCIE0A | OCIE0B | TOIE0);
         if running == 0 {
             // Stopped, normal mode, no output compare pins, interrupts off, counter and
             // flags cleared: from here on nothing writes TCCR0x or TCNT0 again.

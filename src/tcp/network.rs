@@ -28,7 +28,7 @@ pub struct Network {
 }
 
 /// The bytes of the chip's addresses.
-const ADDRESSES: usize = 18;
+pub(crate) const ADDRESSES: usize = 18;
 /// Where each address starts in [`Network::addresses`].
 const GATEWAY: usize = 0;
 const SUBNET: usize = 4;

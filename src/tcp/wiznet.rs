@@ -30,6 +30,20 @@ pub trait Bus {
     fn deselect(&mut self);
     /// Sends `out` and returns the byte received meanwhile.
     fn transfer(&mut self, out: u8) -> u8;
+
+    /// Sends zeros, `buf` receiving each byte that comes meanwhile.
+    fn read_into(&mut self, buf: &mut [u8]) {
+        for byte in buf.iter_mut() {
+            *byte = self.transfer(0);
+        }
+    }
+
+    /// Sends `data`.
+    fn write_from(&mut self, data: &[u8]) {
+        for &byte in data {
+            self.transfer(byte);
+        }
+    }
 }
 
 /// Socket register offsets, the same on both chips.
@@ -163,6 +177,7 @@ impl W5100 {
 
 impl Chip for W5100 {
     const SOCKETS: u8 = 4;
+
     const SOCKET_EVENTS: u16 = 0x0015;
     const SOCKET_EVENT_MASK: u16 = 0x0016;
     const IDENTITY: (u16, u8) = (0x001B, 0x55);
@@ -196,6 +211,7 @@ const W5500_WRITE: u8 = 1 << 2;
 
 impl Chip for W5500 {
     const SOCKETS: u8 = 8;
+
     const SOCKET_EVENTS: u16 = 0x0017;
     const SOCKET_EVENT_MASK: u16 = 0x0018;
     const IDENTITY: (u16, u8) = (0x0039, 0x04);
@@ -207,11 +223,10 @@ impl Chip for W5500 {
         bus.transfer(hi);
         bus.transfer(lo);
         bus.transfer(block.0 << 3 | if write { W5500_WRITE } else { 0 });
-        for byte in buf.iter_mut() {
-            let got = bus.transfer(*byte);
-            if !write {
-                *byte = got;
-            }
+        if write {
+            bus.write_from(buf);
+        } else {
+            bus.read_into(buf);
         }
         bus.deselect();
     }

@@ -51,6 +51,7 @@ mod render;
 mod report;
 mod requests;
 mod series;
+mod tcp;
 mod timing;
 
 use std::error::Error;
@@ -72,6 +73,8 @@ fn main() -> ExitCode {
         Some("master") => return print_only(master::only(&root, &mut log), &log),
         // `bench calls`: the main loop's critical sections alone, printed and not written.
         Some("calls") => return print_only(calls::only(&root, &mut log), &log),
+        // `bench tcp`: Modbus TCP alone, printed and not written.
+        Some("tcp") => return print_only(tcp::only(&root, &mut log), &log),
         _ => {}
     }
     let started = Instant::now();

@@ -26,6 +26,8 @@ pub(crate) struct Report {
     pub(crate) chips: Vec<ChipRun>,
     /// The master: `master_boards` on every chip and USART, `poll_holding`'s send latency.
     pub(crate) master: master::Measured,
+    /// Modbus TCP, if built.
+    pub(crate) tcp: Option<crate::tcp::Measured>,
 }
 
 impl Report {
@@ -43,6 +45,7 @@ impl Report {
             features: feature_costs(root),
             chips: chip_runs(root, log)?,
             master: master::measure(root, log)?,
+            tcp: crate::tcp::measure(root, log)?,
         })
     }
 

@@ -27,6 +27,7 @@ pub(crate) fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
     targets::section(&mut md, r, log)?;
     libraries::section(&mut md, r)?;
     master::section(&mut md, root, &r.master)?;
+    crate::tcp::section(&mut md, &r.tcp)?;
     features::section(&mut md, &r.features)?;
     sizes::section(&mut md, &r.profiles)?;
     chips::section(&mut md, &r.chips)?;

@@ -1,0 +1,31 @@
+//! Timer0's overflow interrupt (every 1.024 ms, 2.048 ms at 8 MHz), bound by the crate with
+//! feature `millis` or `tcp`: `millis()` moves on (`super::clock`), then the TCP server
+//! polls its chip, once started (`super::tcp`): the function [`crate::tcp_server!`] defines
+//! for it. A firmware with feature `tcp` and no `tcp_server!` does not link, the missing
+//! symbol's name saying why. Bound here rather than by
+//! [`crate::slave!`]: it touches nothing of the serial roles', and a firmware without either
+//! feature has no handler at all (the interrupt stays off). The firmware's alone: the host
+//! has no AVR interrupt ABI, so the docs built there (`--cfg docsrs`) leave it out.
+
+/// TIMER0_OVF.
+#[cfg(target_arch = "avr")]
+#[export_name = __chip!(vector TIMER0_OVF)]
+unsafe extern "avr-interrupt" fn timer0_overflow() {
+    // SAFETY: the overflow interrupt handler, interrupts disabled.
+    #[cfg(feature = "millis")]
+    unsafe {
+        super::clock::advance()
+    };
+    // SAFETY: as above.
+    #[cfg(feature = "tcp")]
+    unsafe {
+        avr_modbus_feature_tcp_needs_a_tcp_server()
+    };
+}
+
+#[cfg(all(target_arch = "avr", feature = "tcp"))]
+extern "C" {
+    /// The TCP server's poll, which [`crate::tcp_server!`] defines: its
+    /// [`crate::TcpServer::on_overflow`].
+    fn avr_modbus_feature_tcp_needs_a_tcp_server();
+}

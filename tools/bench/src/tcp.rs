@@ -1,0 +1,303 @@
+//! Modbus TCP (feature `tcp`): the server's flash and RAM beside the Arduino Ethernet
+//! library and the Arduino Modbus TCP libraries, from a request's last byte in the chip to
+//! the reply's SEND command on each chip, polled and with the INT line, the CPU an idle
+//! chip costs, and the RTU slave's receive interrupt in a firmware that has both.
+//!
+//! Every figure is taken in simulated cycles on the simulated shield (`uno_sim::wiznet`),
+//! whose SPI bytes take the chip's time (8 SPI clocks: 1 µs at 8 MHz).
+
+use std::fmt::Write as _;
+use std::net::{Ipv4Addr, SocketAddrV4};
+use std::path::Path;
+
+use uno_sim::wiznet::regs::state;
+use uno_sim::{cycles_to_us, us_to_cycles, vector, Options, Uno, Wiznet};
+
+use crate::elf::{avr_size, chip_build_path};
+use crate::log::Log;
+use crate::Result;
+
+/// The Arduino libraries the issue compares with, built with Arduino's flags on an Uno with
+/// the contract map: (library, flash B, static RAM). Quoted from the issue, not measured here.
+const LIBRARIES: [(&str, u64, &str); 5] = [
+    ("Arduino Ethernet 2.0.2 alone (a server that accepts and does nothing)", 11_856, "299 B"),
+    ("andresarmento ModbusIP", 14_114, "319 B + 448 B heap"),
+    ("Mudbus (current copy)", 13_276, "955 B"),
+    ("emelianov ModbusEthernet 4.1", 21_232, "398 B"),
+    ("ArduinoModbus 1.0.7 (AVR dropped since)", 22_450, "1 421 B"),
+];
+
+/// The targets: flash and static RAM of the contract, the stretch, and the latency bounds.
+const FLASH_TARGET: u64 = 4096;
+const FLASH_STRETCH: u64 = 3072;
+const RAM_TARGET: u64 = 400;
+const W5100_P99_US: f64 = 300.0;
+const W5500_P99_US: f64 = 150.0;
+
+/// The TCP builds the bench runs (`make chips`): build directory, chip, INT line wired.
+const VARIANTS: [(&str, Wiznet, bool); 4] = [
+    ("atmega328p-w5100", Wiznet::W5100, false),
+    ("atmega328p-w5100-int", Wiznet::W5100, true),
+    ("atmega328p-w5500", Wiznet::W5500, false),
+    ("atmega328p-w5500-int", Wiznet::W5500, true),
+];
+
+/// Requests per latency series.
+const REQUESTS: u16 = 1000;
+
+/// One variant's latency: request in the chip to SEND, in cycles, sorted.
+pub(crate) struct Latency {
+    build: &'static str,
+    chip: Wiznet,
+    int: bool,
+    cycles: Vec<u64>,
+    /// Share of the CPU the server took with no master connected, over a second.
+    idle_share: f64,
+}
+
+impl Latency {
+    fn percentile(&self, pct: usize) -> u64 {
+        self.cycles[(self.cycles.len() * pct / 100).min(self.cycles.len() - 1)]
+    }
+}
+
+/// Everything measured.
+pub(crate) struct Measured {
+    sizes: Vec<(String, Option<(u64, u64)>)>,
+    latency: Vec<Latency>,
+    /// (firmware, USART RX handler's longest run in cycles, runs) with TCP masters polling.
+    rx_isr: Vec<(&'static str, u64, u64)>,
+    /// The README's figure for the contract (its features table's `tcp` row), if it has one.
+    claim: Option<i64>,
+}
+
+fn peer(i: u8) -> SocketAddrV4 {
+    SocketAddrV4::new(Ipv4Addr::new(192, 168, 1, 10 + i), 40_000 + u16::from(i))
+}
+
+/// Read holding registers `start`, `qty`, as an ADU with transaction id `t`.
+fn read_adu(t: u16, start: u16, qty: u16) -> Vec<u8> {
+    let [t0, t1] = t.to_be_bytes();
+    let [s0, s1] = start.to_be_bytes();
+    let [q0, q1] = qty.to_be_bytes();
+    vec![t0, t1, 0, 0, 0, 6, 1, 0x03, s0, s1, q0, q1]
+}
+
+/// The firmware in `build` on a board with its shield, until its sockets listen.
+fn boot(root: &Path, build: &str, name: &str, chip: Wiznet, int: bool) -> Result<Uno> {
+    let mut options = Options::new().wiznet(chip);
+    if int {
+        options = options.wiznet_int('D', 2);
+    }
+    let mut uno = Uno::load_with(chip_build_path(root, build, name), options)?;
+    let sockets = if chip == Wiznet::W5500 { 8 } else { 4 };
+    while !(0..sockets).all(|n| uno.wiznet().is_some_and(|w| w.status(n) == state::LISTEN)) {
+        if uno.now() > us_to_cycles(100_000) {
+            return Err(format!("{build}/{name}: the sockets never listened").into());
+        }
+        uno.run_for(us_to_cycles(100))?;
+    }
+    Ok(uno)
+}
+
+/// One request on socket `n`: its reply's length when it came (within 20 ms).
+fn ask(uno: &mut Uno, n: usize, adu: &[u8], expected: usize) -> Result<usize> {
+    let chip = uno.wiznet_mut().ok_or("no shield")?;
+    chip.deliver(n, adu);
+    let until = uno.now() + us_to_cycles(20_000);
+    let mut got = 0;
+    while got < expected && uno.now() < until {
+        uno.run_for(us_to_cycles(50))?;
+        got += uno.wiznet_mut().ok_or("no shield")?.take_sent(n).len();
+    }
+    Ok(got)
+}
+
+fn latency(root: &Path, (build, chip, int): (&'static str, Wiznet, bool), log: &mut Log) -> Result<Latency> {
+    let mut uno = boot(root, build, "tcp_server", chip, int)?;
+    // Idle: no master, a second; the server's handlers' share of the cycles.
+    uno.reset_isr_stats();
+    let start = uno.now();
+    uno.run_for(us_to_cycles(1_000_000))?;
+    let handlers = uno.isr_stats(vector::TIMER0_OVF).cycles + uno.isr_stats(vector::INT0).cycles;
+    let idle_share = handlers as f64 / (uno.now() - start) as f64;
+    let n = uno.wiznet_mut().ok_or("no shield")?.connect(502, peer(0)).ok_or("no socket listens")?;
+    uno.run_for(us_to_cycles(3000))?;
+    let mut cycles = Vec::new();
+    for t in 0..REQUESTS {
+        // Requests land at every phase of the firmware's poll.
+        uno.run_for(us_to_cycles(u64::from(t % 13) * 83))?;
+        let got = ask(&mut uno, n, &read_adu(t, t % 16, 1), 11)?;
+        if got != 11 {
+            log.problems.push(format!("{build}: request {t}: {got} bytes of reply, 11 expected"));
+            continue;
+        }
+        let w = uno.wiznet().ok_or("no shield")?;
+        let send = w.sends(n).last().map_or(0, |s| s.cycle);
+        cycles.push(send.saturating_sub(w.last_delivery(n).unwrap_or(send)));
+    }
+    if cycles.is_empty() {
+        return Err(format!("{build}: no reply").into());
+    }
+    cycles.sort_unstable();
+    Ok(Latency { build, chip, int, cycles, idle_share })
+}
+
+/// The USART receive interrupt's longest run while an RTU master reads 16 registers 200
+/// times, and (`tcp`) a TCP master reads 16 registers on the shield in between.
+fn rx_isr(root: &Path, build: &str, name: &str, tcp: bool) -> Result<(u64, u64)> {
+    let mut uno = if tcp {
+        boot(root, build, name, Wiznet::W5100, false)?
+    } else {
+        let mut uno = Uno::load(chip_build_path(root, build, name))?;
+        uno.run_for(us_to_cycles(10_000))?;
+        uno
+    };
+    let n = if tcp {
+        let n = uno.wiznet_mut().ok_or("no shield")?.connect(502, peer(0)).ok_or("no socket listens")?;
+        uno.run_for(us_to_cycles(3000))?;
+        Some(n)
+    } else {
+        None
+    };
+    let char_time = uno.wire_char_cycles().ok_or("the USART is not set up")?;
+    let mut frame = vec![1, 0x03, 0x00, 0x00, 0x00, 0x10];
+    frame.extend_from_slice(&crate::modbus::crc16(&frame).to_le_bytes());
+    uno.reset_isr_stats();
+    for t in 0..200u16 {
+        if let Some(n) = n {
+            // A TCP request lands while the RTU request is on the line.
+            let at = uno.now() + char_time * 3;
+            uno.wiznet_mut().ok_or("no shield")?.deliver_at(n, &read_adu(t, 0, 16), at);
+        }
+        let first = uno.now() + char_time;
+        let last = uno.send_frame(&frame, first, 0)?;
+        let reply = uno.run_until_tx_idle(4 * char_time, last + us_to_cycles(100_000))?;
+        if reply.len() != 37 {
+            return Err(format!("{name}: RTU reply {t}: {} bytes, 37 expected", reply.len()).into());
+        }
+        if let Some(n) = n {
+            uno.wiznet_mut().ok_or("no shield")?.take_sent(n);
+        }
+    }
+    let stats = uno.isr_stats(vector::USART_RX);
+    Ok((stats.max_cycles, stats.entries))
+}
+
+/// Runs every TCP measurement; nothing if the TCP builds are missing.
+pub(crate) fn measure(root: &Path, log: &mut Log) -> Result<Option<Measured>> {
+    if !chip_build_path(root, "atmega328p-tcp", "sixteen_each_tcp").is_file() {
+        return Ok(None);
+    }
+    let mut sizes = vec![(
+        "sixteen_each_tcp".to_owned(),
+        avr_size(&chip_build_path(root, "atmega328p-tcp", "sixteen_each_tcp")).ok(),
+    )];
+    for (build, _, _) in VARIANTS {
+        sizes.push((format!("tcp_server ({build})"), avr_size(&chip_build_path(root, build, "tcp_server")).ok()));
+    }
+    sizes.push(("tcp_rtu".to_owned(), avr_size(&chip_build_path(root, "atmega328p-tcp", "tcp_rtu")).ok()));
+    let mut latency = Vec::new();
+    for variant in VARIANTS {
+        eprintln!("bench: tcp_server ({}) latency", variant.0);
+        latency.push(self::latency(root, variant, log)?);
+    }
+    eprintln!("bench: tcp_rtu, the RTU slave's receive interrupt");
+    let (alone, alone_runs) = rx_isr(root, "atmega328p", "sixteen_each", false)?;
+    let (both, both_runs) = rx_isr(root, "atmega328p-tcp", "tcp_rtu", true)?;
+    Ok(Some(Measured {
+        claim: crate::readme::readme_claim(root, "tcp", true).map(|(_, figure)| figure),
+        sizes,
+        latency,
+        rx_isr: vec![("sixteen_each (RTU alone)", alone, alone_runs), ("tcp_rtu (RTU and TCP)", both, both_runs)],
+    }))
+}
+
+fn us(cycles: u64) -> String {
+    format!("{:.0} µs", cycles_to_us(cycles))
+}
+
+/// The section.
+pub(crate) fn section(md: &mut String, measured: &Option<Measured>) -> Result<()> {
+    writeln!(md, "\n## Modbus TCP (feature `tcp`)\n")?;
+    let Some(m) = measured else {
+        writeln!(md, "Not measured: the TCP builds are missing (`make chips`).")?;
+        return Ok(());
+    };
+    writeln!(
+        md,
+        "Flash and static RAM as the avr-hal template builds them (`make chips`), on the Uno. `sixteen_each_tcp` is \
+         the contract: the map of 16 coils, 16 discrete inputs, 8 input and 16 holding registers on a W5100, polled, \
+         an idle main loop. The libraries' figures are quoted from the issue (built with Arduino's flags), not \
+         measured here.\n"
+    )?;
+    writeln!(md, "| firmware | flash B | static RAM |\n|---|---:|---:|")?;
+    for (library, flash, ram) in LIBRARIES {
+        writeln!(md, "| {library} | {flash} | {ram} |")?;
+    }
+    for (name, size) in &m.sizes {
+        match size {
+            Some((flash, ram)) => writeln!(md, "| this crate: {name} | {flash} | {ram} B |")?,
+            None => writeln!(md, "| this crate: {name} | not built | not built |")?,
+        }
+    }
+    if let Some((_, Some((flash, ram)))) = m.sizes.first() {
+        writeln!(
+            md,
+            "\nTargets: flash ≤ {FLASH_TARGET} B: {flash} B, {}; static RAM ≤ {RAM_TARGET} B with 4 sockets: {ram} B, \
+             {}; stretch ≤ {FLASH_STRETCH} B: {}.",
+            crate::render::met_text(*flash <= FLASH_TARGET),
+            crate::render::met_text(*ram <= RAM_TARGET),
+            crate::render::met_text(*flash <= FLASH_STRETCH)
+        )?;
+        match m.claim {
+            Some(said) if said == *flash as i64 => writeln!(md, "The README says {said} B: right.")?,
+            Some(said) => writeln!(md, "The README says {said} B: **update it to {flash} B**.")?,
+            None => writeln!(md, "The README's features table has no figure for `tcp`.")?,
+        }
+    }
+    writeln!(
+        md,
+        "\n### From a request's last byte in the chip to the reply's SEND\n\n`tcp_server`, whose main loop blocks for \
+         a second at a time; {REQUESTS} reads of one holding register on one connection, landing at every phase of \
+         the poll. Polled: the chip is read every Timer0 overflow (1.024 ms); INT: the chip's INT line on pin 2 \
+         (`tcp_server!(…, pin2_int)`). Idle: the server's interrupt handlers' share of the CPU over a second with no \
+         master.\n"
+    )?;
+    writeln!(md, "| chip | served | p50 | p99 | max | p99 target | idle CPU |\n|---|---|---:|---:|---:|---|---:|")?;
+    for l in &m.latency {
+        let bound = if l.chip == Wiznet::W5100 { W5100_P99_US } else { W5500_P99_US };
+        let p99 = l.percentile(99);
+        writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | ≤ {bound:.0} µs: {} | {:.2} % |",
+            l.chip,
+            if l.int { "INT line" } else { "polled" },
+            us(l.percentile(50)),
+            us(p99),
+            us(*l.cycles.last().unwrap_or(&0)),
+            crate::render::met_text(cycles_to_us(p99) <= bound),
+            100.0 * l.idle_share
+        )?;
+        let _ = l.build;
+    }
+    writeln!(
+        md,
+        "\n### The RTU slave's receive interrupt beside the TCP server\n\n200 RTU reads of 16 registers at 19200 8E1; \
+         in `tcp_rtu` a TCP read of 16 registers lands on the shield during each. The TCP server polls with \
+         interrupts enabled, so the USART's handler runs as it does alone.\n"
+    )?;
+    writeln!(md, "| firmware | USART_RX runs | longest run |\n|---|---:|---:|")?;
+    for (name, max, runs) in &m.rx_isr {
+        writeln!(md, "| {name} | {runs} | {max} cycles |")?;
+    }
+    Ok(())
+}
+
+/// `bench tcp`: the section alone.
+pub(crate) fn only(root: &Path, log: &mut Log) -> Result<String> {
+    let measured = measure(root, log)?;
+    let mut md = String::new();
+    section(&mut md, &measured)?;
+    Ok(md)
+}
