@@ -20,13 +20,14 @@ EXAMPLES := $(filter-out gateway $(TCP_EXAMPLES),$(patsubst examples/%.rs,%,$(wi
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: tcp-firmware soak-tcp sim-test-uno sim-test-chips clippy-tools help setup bootloaders virtual-boards demo-firmware demos demo-lab firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package readme sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
+.PHONY: tcp-firmware soak-tcp sim-test-uno sim-test-chips clippy-tools help setup bootloaders virtual-boards demo-firmware demos demo-lab demo-tcp firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package readme sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
 
 help:
 	@echo "Two commands do everything: make demo and make test. Every target:"
 	@echo "  make demo        - flash the Uno slave with cargo run (ravedude, avrdude, optiboot) on a virtual Uno, and poll it (BOARD=mega2560: a Mega 2560)"
 	@echo "  make demo-lab    - the lab's control application: a master and two slaves on a virtual RS-485 line"
-	@echo "  make demos       - make demo for the Uno and the Mega 2560, then make demo-lab (what make test runs)"
+	@echo "  make demos       - make demo for the Uno and the Mega 2560, then make demo-lab (what make test runs, with make demo-tcp)"
+	@echo "  make demo-tcp    - the TCP server on a virtual Uno with a virtual Ethernet shield, polled over Modbus TCP by mbpoll (SHIELD=w5500)"
 	@echo "  make serve       - keep a virtual board running for QModMaster or any master (EXAMPLE=uno_slave, BOARD=mega2560 USART=1; SHIELD=w5100|w5500 TCP_PORT=1502: Modbus TCP on 127.0.0.1)"
 	@echo "  make test        - make check, matrix, docs, firmware, fixtures, sim-test, interop, demos, virtual-test, in three lanes (.ci/test; what CI runs)"
 	@echo "  make check       - the edit loop: make fmt-check, make clippy-tools and make unit (lints as it builds)"
@@ -350,11 +351,17 @@ demo-firmware: setup
 	done
 
 # make demo for both boards, as a user runs it: flashed with cargo run through the
-# bootloader, then polled; and make demo-lab.
+# bootloader, then polled; and make demo-lab. (make test runs make demo-tcp too, once make
+# chips has built its firmware.)
 demos: setup bootloaders
 	demo/demo.sh uno
 	demo/demo.sh mega2560
 	demo/lab.sh
+
+# The TCP server (examples/tcp_server.rs) on a virtual Uno with a virtual Ethernet shield,
+# polled over Modbus TCP by mbpoll (SHIELD=w5500 for the W5500).
+demo-tcp: setup chips
+	demo/tcp.sh $(or $(SHIELD),w5100)
 
 # The lab's control application on a virtual RS-485 line (tools/virtual-uno's virtual-line):
 # examples/lab_control.rs (the master) and examples/lab_lights.rs twice (the button box and
