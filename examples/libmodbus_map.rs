@@ -25,7 +25,6 @@
  */
 #![no_std]
 #![no_main]
-#![feature(abi_avr_interrupt)]
 
 use avr_modbus::board;
 use avr_modbus::tcp::{Network, W5100};
