@@ -812,9 +812,9 @@ fn a_fifth_master_on_the_w5100_waits_until_one_of_four_goes_quiet() {
     let fifth = Master::start(&board, "fifth, all four busy", "--seconds 3 --timeout 5 --interval 0.02")
         .finish(Duration::from_secs(20));
     let refused = board.count("refused") - refused_before;
+    let evicted_before = board.count("reset by the chip");
     quiet.wait_for("quiet", Duration::from_secs(10), &board);
     thread::sleep(Duration::from_millis(1000));
-    let evicted_before = board.count("reset by the chip");
     let newcomer = Master::start(&board, "fifth, one gone quiet", "--seconds 3 --timeout 5 --interval 0.02");
     let newcomer = newcomer.finish(Duration::from_secs(20));
     let evicted = board.count("reset by the chip") - evicted_before;
@@ -852,8 +852,8 @@ fn a_killed_or_frozen_master_gives_its_socket_back_w5100() {
         .finish(Duration::from_secs(20));
     let frozen = Master::start(&board, "frozen", "--seconds 60 --interval 0.02");
     frozen.wait_for("first answer", Duration::from_secs(10), &board);
-    frozen.signal(Signal::SIGSTOP);
     let evicted_before = board.count("reset by the chip");
+    frozen.signal(Signal::SIGSTOP);
     let after_freeze = Master::start(&board, "after the freeze", "--seconds 4 --timeout 6 --interval 0.02")
         .finish(Duration::from_secs(20));
     let evicted = board.count("reset by the chip") - evicted_before;
