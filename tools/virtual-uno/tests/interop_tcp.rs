@@ -796,8 +796,9 @@ fn eight_masters_at_once_are_all_answered_w5500() {
 
 /// The W5100's four sockets all held by busy masters (each polling every 20 ms, so that the
 /// main loop keeps its pace: 30001 counts the wall's seconds): a fifth waits and is refused (the
-/// bridge gives up after 3 s, as a client's SYNs would); once one of the four has gone quiet
-/// for 2 s (`Network::evict_after`), the server closes it for the newcomer, who gets in.
+/// bridge gives up after 3 s, as a client's SYNs would). Once one of the four goes quiet, the
+/// server closes it after 1-2 s (`Network::evict_after(2)`, counted in whole seconds; whether
+/// or not anybody waits: the chip does not say), and the newcomer gets in.
 #[test]
 fn a_fifth_master_on_the_w5100_waits_until_one_of_four_goes_quiet() {
     let _one = serialise();
