@@ -12,12 +12,15 @@ export AVR_MODBUS_REQUIRE_FIRMWARE := 1
 # names the 8 MHz boards' EIGHT_MHZ, whatever the shell that runs make says.
 unexport AVR_CPU_FREQUENCY_HZ
 EIGHT_MHZ := AVR_CPU_FREQUENCY_HZ=8000000
-# Every example but the gateway, which needs a Mega's two USARTs (make chips builds it).
-EXAMPLES := $(filter-out gateway,$(patsubst examples/%.rs,%,$(wildcard examples/*.rs)))
+# Every example but the gateway, which needs a Mega's two USARTs, and the TCP servers (those
+# whose required-features in Cargo.toml name tcp), which need a shield (make chips builds them:
+# make tcp-firmware).
+TCP_EXAMPLES := $(shell awk '/^name = /{ name = $$3 } /^required-features = .*"tcp"/{ gsub(/"/, "", name); print name }' Cargo.toml)
+EXAMPLES := $(filter-out gateway $(TCP_EXAMPLES),$(patsubst examples/%.rs,%,$(wildcard examples/*.rs)))
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: sim-test-uno sim-test-chips clippy-tools help setup bootloaders virtual-boards demo-firmware demos demo-lab demo-tcp firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package readme sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
+.PHONY: tcp-firmware soak-tcp sim-test-uno sim-test-chips clippy-tools help setup bootloaders virtual-boards demo-firmware demos demo-lab demo-tcp firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package readme sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
 
 help:
 	@echo "Two commands do everything: make demo and make test. Every target:"
@@ -32,6 +35,7 @@ help:
 	@echo "  make firmware    - make firmware-uno, then make chips"
 	@echo "  make firmware-uno - every example for the Uno ($(FIRMWARE_DIR)), with sizes and the firmware check"
 	@echo "  make chips       - the examples for the other chips and USARTs, and the Uno's that make bench sizes, as the avr-hal template builds them (target/chips)"
+	@echo "  make tcp-firmware - the TCP servers as make chips builds them: tcp_server (TCP_BUILDS), libmodbus_map (libmodbus's unit-test map, W5100)"
 	@echo "  make sizes       - flash and RAM of every firmware (make firmware prints them)"
 	@echo "  make fixtures    - a user's firmware in the template's form for three boards, make package and make readme"
 	@echo "  make package     - the crate as it would be published, built into the Uno fixture"
@@ -54,12 +58,13 @@ help:
 	@echo "  make sim-test-uno - make sim-test's tests that run only the Uno's firmware"
 	@echo "  make sim-test-chips - make sim-test's tests that run other chips' firmware or the fixtures (SIM_CHIPS), the tools' tests"
 	@echo "  make virtual-test - the virtual Uno's and virtual line's tests (boards paced to real time on ptys)"
-	@echo "  make interop     - mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on virtual boards"
+	@echo "  make interop     - mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on virtual boards, serial and TCP"
 	@echo "  make bench       - size targets (met or not; flash as the avr-hal template builds), flash, RAM, stack, interrupt cycles, turnaround -> bench/results.md"
 	@echo "  make bench-features - minimal built with each optional feature, for make bench"
 	@echo "  make fuzz        - coverage-guided fuzz targets (FUZZ_SECONDS each), then a long property run"
 	@echo "  make mutants     - cargo-mutants over the protocol core, a quarter of its mutants (~1 h on 2 cores; MUTANTS_SHARD) -> bench/results.md"
 	@echo "  make soak        - 100000 mixed transactions against uno_slave in simavr (~15 min; SOAK_TRANSACTIONS)"
+	@echo "  make soak-tcp    - 10000 one-shot mbpoll -m tcp connections to tcp_server on a virtual Uno with a W5100 (SOAK_TCP_CONNECTIONS)"
 	@echo "  make help        - this list"
 
 setup:
@@ -111,7 +116,7 @@ TEMPLATE_MILLIS_EXAMPLES := uno_slave dip_switch
 TEMPLATE_MASTER_EXAMPLES := poll_holding poll_four master_mirror plc_poller
 # .ci/chip-build into DIR-master, then boards moved from there to DIR.
 boards_and_master = .ci/chip-build $(1) "$(2)" $(3)-master $(4) $(5) && mkdir -p target/chips/$(3)/avr-none/release/examples && mv target/chips/$(3)-master/avr-none/release/examples/boards.elf target/chips/$(3)/avr-none/release/examples/
-chips: setup
+chips: setup tcp-firmware
 	@for build in $(CHIP_BUILDS); do \
 		chip=$${build%%:*}; usart=$${build##*:}; dir=$$chip$${usart:+-usart$$usart}; \
 		if [ "$$build" = atmega328p: ]; then \
@@ -128,11 +133,6 @@ chips: setup
 	@.ci/chip-build atmega328p "" atmega328p examples $(TEMPLATE_EXAMPLES)
 	@.ci/chip-build atmega328p "" atmega328p-millis examples,millis $(TEMPLATE_MILLIS_EXAMPLES)
 	@.ci/chip-build atmega2560 "" atmega2560-gateway examples,master gateway
-	@for build in $(TCP_BUILDS); do \
-		chip=$${build%%:*}; shield=$${build##*:}; \
-		AVR_MODBUS_EXAMPLE_SHIELD=$$shield .ci/chip-build $$chip "" $$chip-$$shield examples,tcp tcp_server || exit 1; \
-	done
-	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu
 	@export $(EIGHT_MHZ); for chip in atmega328p atmega32u4; do \
 		$(call boards_and_master,$$chip,,$$chip-8mhz,examples$(comma)master,boards master_boards) || exit 1; \
 	done
@@ -144,8 +144,24 @@ sizes: firmware
 # The TCP server (examples/tcp_server.rs) as make chips builds it, CHIP:SHIELD, into
 # target/chips/CHIP-SHIELD/: the Uno with either chip, polled or with the INT line on pin 2,
 # the Mega 2560 and the Leonardo with a W5500. Then the TCP contract (sixteen_each_tcp) and
-# the firmware with both TCP and RTU (tcp_rtu) into target/chips/atmega328p-tcp/.
+# the firmware with both TCP and RTU (tcp_rtu) into target/chips/atmega328p-tcp/, and
+# examples/libmodbus_map.rs (libmodbus's unit-test map on a W5100, with the FC 17, 22 and 23
+# its unit-test-client uses) into target/chips/atmega328p-w5100-libmodbus/: make interop runs
+# tcp_server and libmodbus_map on the virtual shields (tools/virtual-uno/tests/interop_tcp.rs).
 TCP_BUILDS := atmega328p:w5100 atmega328p:w5500 atmega328p:w5100-int atmega328p:w5500-int atmega2560:w5500 atmega32u4:w5500
+TCP_FIRMWARE := $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-none/release/examples/tcp_server.elf) \
+	target/chips/atmega328p-tcp/avr-none/release/examples/sixteen_each_tcp.elf \
+	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu.elf \
+	target/chips/atmega328p-w5100-libmodbus/avr-none/release/examples/libmodbus_map.elf
+tcp-firmware: setup
+	@for build in $(TCP_BUILDS); do \
+		chip=$${build%%:*}; shield=$${build##*:}; \
+		AVR_MODBUS_EXAMPLE_SHIELD=$$shield .ci/chip-build $$chip "" $$chip-$$shield examples,tcp tcp_server || exit 1; \
+	done
+	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu
+	@.ci/chip-build atmega328p "" atmega328p-w5100-libmodbus examples,tcp,extra-fc,diagnostics libmodbus_map
+	@.ci/sizes $(TCP_FIRMWARE)
+	@.ci/firmware-check $(TCP_FIRMWARE)
 
 # A user's firmware in the avr-hal template's form (fixtures/), outside the workspace, built
 # against avr-device 0.8.1 (arduino-hal's) and 0.9, for three of the template's boards as it
@@ -238,7 +254,7 @@ clippy: clippy-tools
 # The tools (the simulator, the virtual Uno, the bench), their tests included.
 clippy-tools: setup
 	$(CARGO) clippy --workspace --exclude avr-modbus --all-targets -- -D warnings
-	$(CARGO) clippy -p virtual-uno --test interop -- -D warnings # test = false: not in --all-targets
+	$(CARGO) clippy -p virtual-uno --test interop --test interop_tcp -- -D warnings # test = false: not in --all-targets
 
 # The feature sets the crate's host tests run under (.ci/host-test: a test target runs under
 # each set that has the features it declares in Cargo.toml and gives the features its source
@@ -273,7 +289,7 @@ matrix-host: setup
 	.ci/feature-matrix host $(FEATURE_COMBOS)
 matrix-avr: setup
 	.ci/feature-matrix avr $(FEATURE_COMBOS)
-	$(CARGO) uno-clippy $(addprefix --example ,$(EXAMPLES)) --features examples,$(ALL_FEATURES) -- -D warnings
+	$(CARGO) uno-clippy $(addprefix --example ,$(EXAMPLES) $(TCP_EXAMPLES)) --features examples,$(ALL_FEATURES) -- -D warnings
 	CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega2560" $(CARGO) clippy --release -Zbuild-std=core --target avr-none \
 		--example gateway --features examples,master -- -D warnings
 
@@ -399,9 +415,20 @@ serve: $(if $(and $(filter atmega328p,$(SERVE_CHIP)),$(if $(SERVE_TCP_SERVER),,y
 	SERVE_BOARD=$(BOARD) SERVE_CHIP=$(SERVE_CHIP) SERVE_USART=$(SERVE_USART) SERVE_ELF=$(SERVE_ELF) \
 		SERVE_SHIELD=$(SHIELD) SERVE_TCP=$(if $(SHIELD),502:$(TCP_PORT)) demo/serve.sh $(SERVE_EXAMPLE) $(ARGS)
 
-# mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on the virtual Uno, with answer rates.
-interop: firmware-uno bootloaders
+# mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on the virtual Uno, with answer rates;
+# then over Modbus TCP on the virtual shields (interop_tcp: mbpoll, pymodbus, a raw socket, libmodbus's
+# unit-test-client built under target/libmodbus-tests, TCP_CONNECTIONS one-shot connections, masters at once).
+TCP_CONNECTIONS ?= 300
+interop: firmware-uno bootloaders tcp-firmware
 	$(CARGO) test -p virtual-uno --test interop -- --nocapture --test-threads=1
+	TCP_CONNECTIONS=$(TCP_CONNECTIONS) $(CARGO) test -p virtual-uno --test interop_tcp -- --nocapture --test-threads=1
+
+# SOAK_TCP_CONNECTIONS one-shot `mbpoll -m tcp -1` connections to tcp_server (W5100) on the virtual
+# Uno, each answered, none refused (~10 min for 10000); the firmware's counters read at the end.
+SOAK_TCP_CONNECTIONS ?= 10000
+soak-tcp: setup tcp-firmware virtual-boards
+	TCP_CONNECTIONS=$(SOAK_TCP_CONNECTIONS) $(CARGO) test -p virtual-uno --test interop_tcp \
+		-- --nocapture --exact mbpoll_one_shot_connections_are_all_answered_w5100
 
 bench: setup firmware bench-features
 	$(CARGO) run --release -p bench
