@@ -156,7 +156,7 @@ TCP_FIRMWARE := $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-non
 tcp-firmware: setup
 	@for build in $(TCP_BUILDS); do \
 		chip=$${build%%:*}; shield=$${build##*:}; \
-		AVR_MODBUS_EXAMPLE_SHIELD=$$shield .ci/chip-build $$chip "" $$chip-$$shield examples,tcp tcp_server || exit 1; \
+		AVR_MODBUS_EXAMPLE_SHIELD=$$shield .ci/chip-build $$chip "" $$chip-$$shield examples,tcp,millis tcp_server || exit 1; \
 	done
 	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu
 	@.ci/chip-build atmega328p "" atmega328p-w5100-libmodbus examples,tcp,extra-fc,diagnostics libmodbus_map
@@ -360,7 +360,7 @@ demos: setup bootloaders
 
 # The TCP server (examples/tcp_server.rs) on a virtual Uno with a virtual Ethernet shield,
 # polled over Modbus TCP by mbpoll (SHIELD=w5500 for the W5500).
-demo-tcp: setup chips
+demo-tcp: setup tcp-firmware
 	demo/tcp.sh $(or $(SHIELD),w5100)
 
 # The lab's control application on a virtual RS-485 line (tools/virtual-uno's virtual-line):

@@ -6,7 +6,7 @@
 # delay, and 20 masters one after the other (each connecting, asking, closing). Every step
 # prints the command and the answer; exits 0 only if every answer is right.
 #
-# Needs the firmware as make chips builds it (target/chips/atmega328p-SHIELD/…/tcp_server.elf).
+# Needs the firmware as make tcp-firmware builds it (target/chips/atmega328p-SHIELD/…/tcp_server.elf).
 #
 #   demo/tcp.sh [w5100|w5500]
 set -euo pipefail
@@ -18,7 +18,7 @@ port=${TCP_PORT:-1502}
 elf=$target/chips/atmega328p-$shield/avr-none/release/examples/tcp_server.elf
 
 die() { printf 'demo-tcp: %s\n' "$*" >&2; exit 1; }
-[ -f "$elf" ] || die "$elf is missing: run make chips first"
+[ -f "$elf" ] || die "$elf is missing: run make tcp-firmware first"
 command -v mbpoll >/dev/null || die "mbpoll is missing: run make setup"
 "$root/.ci/cargo" build --release --quiet -p virtual-uno
 work=$(mktemp -d)

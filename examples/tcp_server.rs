@@ -1,8 +1,8 @@
 /*!
  * A Modbus TCP server on an Arduino Ethernet Shield (W5100) with the size contract's map:
  * sixteen coils, sixteen discrete inputs, eight input registers, sixteen holding registers.
- * The main loop blocks for a second at a time, as `delay(1000)` would, and counts the
- * seconds into 30001: masters are answered all the same. The chip is the one the build is
+ * The main loop blocks for a second at a time, as Arduino's `delay(1000)` does (a busy wait
+ * on `millis()`), and counts the seconds into 30001: masters are answered all the same. The chip is the one the build is
  * for (`-C target-cpu`: the Uno's, the Mega's, the Leonardo's); `make firmware` builds it
  * for the W5100 (the shield R3), the W5500 (Ethernet Shield 2, the modules), each polled
  * and with the INT line on pin 2 (this repository's `AVR_MODBUS_EXAMPLE_SHIELD`).
@@ -32,8 +32,8 @@
 // Only the INT line's handler is the firmware's own (`tcp_server!(…, pin2_int)`).
 #![cfg_attr(any(example_shield = "w5100-int", example_shield = "w5500-int"), feature(abi_avr_interrupt))]
 
-use avr_modbus::board;
 use avr_modbus::tcp::Network;
+use avr_modbus::{board, millis};
 use panic_halt as _;
 
 // The chip's peripherals, as the build's `-C target-cpu` chose the chip (build.rs).
@@ -69,8 +69,11 @@ avr_modbus::tcp_server!(SERVER: Registers, avr_modbus::tcp::W5100, pin2_int);
 #[cfg(example_shield = "w5500-int")]
 avr_modbus::tcp_server!(SERVER: Registers, avr_modbus::tcp::W5500, pin2_int);
 
-/// A second of the CPU's time, as `delay(1000)` spends it (at 16 MHz).
-const SECOND_CYCLES: u32 = 16_000_000;
+/// Arduino's `delay(ms)`: a busy wait on the millisecond clock.
+fn delay(ms: u32) {
+    let start = millis();
+    while millis().wrapping_sub(start) < ms {}
+}
 
 #[avr_device::entry]
 fn main() -> ! {
@@ -80,7 +83,7 @@ fn main() -> ! {
     }
     let mut seconds: u16 = 0;
     loop {
-        avr_device::asm::delay_cycles(SECOND_CYCLES);
+        delay(1000);
         seconds = seconds.wrapping_add(1);
         let counters = SERVER.counters();
         let _ = SERVER.set(30001, seconds);
