@@ -30,7 +30,9 @@ use avr_modbus::board;
 use avr_modbus::tcp::{Network, W5100};
 use panic_halt as _;
 
-const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x02], [192, 168, 1, 178]);
+const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x02], [192, 168, 1, 178])
+    // With every socket taken, the connection idle 2 s makes room for a newcomer (default 10 s).
+    .evict_after(2);
 
 avr_modbus::register_map! {
     /// libmodbus's unit-test map, at its addresses.

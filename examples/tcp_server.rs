@@ -13,7 +13,8 @@
  * module instead: its MOSI, MISO, SCK to pins 11, 12, 13 (the Mega: 51, 50, 52), its CS to
  * pin 10, 3.3 V and GND, and `W5500` below.
  *
- * Network: 192.168.1.177/24, MAC DE:AD:BE:EF:FE:01, port 502, every unit id answered.
+ * Network: 192.168.1.177/24, MAC DE:AD:BE:EF:FE:01, port 502, every unit id answered; with
+ * every socket taken, a connection idle 2 s is closed for a newcomer.
  *
  * | reference   | address | meaning                                          |
  * |-------------|---------|--------------------------------------------------|
@@ -48,7 +49,9 @@ use avr_device::atmega328p as pac;
 #[cfg(avr_chip = "atmega32u4")]
 use avr_device::atmega32u4 as pac;
 
-const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]);
+const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177])
+    // With every socket taken, the connection idle 2 s makes room for a newcomer (default 10 s).
+    .evict_after(2);
 
 avr_modbus::register_map! {
     /// The contract's map: 16 coils, 16 discrete inputs, 8 input and 16 holding registers.

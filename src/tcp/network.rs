@@ -62,7 +62,7 @@ impl Network {
 
     /// The shield's MAC and IP address, on a /24 network with no gateway; port 502, every
     /// unit id answered, every socket of the chip serving, idle connections closed after
-    /// 60 s, any client allowed.
+    /// 60 s (or after 10 s when every socket holds one), any client allowed.
     pub const fn new(mac: [u8; 6], ip: [u8; 4]) -> Network {
         let addresses = put([0; ADDRESSES], SUBNET, [255, 255, 255, 0]);
         Network {
@@ -71,7 +71,7 @@ impl Network {
             unit: 0,
             sockets: Network::MAX_SOCKETS,
             idle_timeout_s: 60,
-            evict_after_s: 2,
+            evict_after_s: 10,
             allow: &[],
         }
     }
@@ -116,7 +116,10 @@ impl Network {
 
     /// When every socket holds a connection, the one idle longest is closed once it has
     /// been idle `seconds` (1–255), so that a newcomer finds a socket listening
-    /// (§4.2.1). Default 2 s.
+    /// (§4.2.1).
+    /// The chips refuse a connection when no socket listens and cannot tell the server that
+    /// one knocked, so this happens whether or not a newcomer waits: keep it longer than your
+    /// masters' poll period. Default 10 s.
     pub const fn evict_after(self, seconds: u8) -> Network {
         assert!(seconds >= 1, "at least 1 s: a master polling now and then keeps its connection");
         Network { evict_after_s: seconds, ..self }

@@ -181,7 +181,7 @@ impl Sockets for Fake {
     }
 }
 
-const NET: Network = Network::new([2, 0, 0, 0, 0, 1], [10, 0, 0, 2]).sockets(4);
+const NET: Network = Network::new([2, 0, 0, 0, 0, 1], [10, 0, 0, 2]).sockets(4).evict_after(2);
 
 /// A bank with holding registers 40001-40010 = 0x0100 + i.
 fn bank() -> Bank<4, 16, 4, 0, 0> {
