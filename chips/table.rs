@@ -239,7 +239,9 @@ mod tests {
 
     #[test]
     fn bad_lines_are_refused() {
-        assert!(parse(&UNO.replace("adc 8", "adc 300")).unwrap_err().contains("line 10"));
+        assert!(parse(&UNO.replace("adc 8", "adc 300")).unwrap_err().contains("line 12"));
+        assert!(parse(&UNO.replace("spi 2 3 5 2", "spi 2 3 5")).unwrap_err().contains("line 9"));
+        assert!(parse(&UNO.replace("pin2-int 1 0x69 0 0 0x29 2", "pin2-int 1")).unwrap_err().contains("line 10"));
         assert!(parse(&UNO.replace("uno-pins yes", "uno-pins maybe")).is_err());
         assert!(parse(&UNO.replace("USART0", "USART4")).is_err());
         assert!(parse(&UNO.replace("18 19 20", "18 19")).is_err());
