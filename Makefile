@@ -418,7 +418,7 @@ serve: $(if $(and $(filter atmega328p,$(SERVE_CHIP)),$(if $(SERVE_TCP_SERVER),,y
 # mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on the virtual Uno, with answer rates;
 # then over Modbus TCP on the virtual shields (interop_tcp: mbpoll, pymodbus, a raw socket, libmodbus's
 # unit-test-client built under target/libmodbus-tests, TCP_CONNECTIONS one-shot connections, masters at once).
-TCP_CONNECTIONS ?= 300
+TCP_CONNECTIONS ?= 100
 interop: firmware-uno bootloaders tcp-firmware
 	$(CARGO) test -p virtual-uno --test interop -- --nocapture --test-threads=1
 	TCP_CONNECTIONS=$(TCP_CONNECTIONS) $(CARGO) test -p virtual-uno --test interop_tcp -- --nocapture --test-threads=1

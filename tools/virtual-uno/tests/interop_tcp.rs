@@ -11,7 +11,7 @@
 //! examples/libmodbus_map.rs) and what `make setup` installs and checks: mbpoll, Debian's
 //! python3-pymodbus (3.0), libmodbus's test programs (`.ci/libmodbus-tests`, under
 //! target/libmodbus-tests). `make interop` runs it; `TCP_CONNECTIONS` sets the one-shot
-//! connections (300 there, 10000 under `make soak-tcp`).
+//! connections (100 there, 10000 under `make soak-tcp`).
 //!
 //! mbpoll cannot send a request that gets exception 03: libmodbus refuses a quantity over the
 //! spec's limits before sending (`Too many data`), so 03 is checked through pymodbus, the raw
@@ -515,13 +515,13 @@ fn mbpoll_reads_and_writes_every_table_w5500() {
     mbpoll_every_table(&board);
 }
 
-/// `TCP_CONNECTIONS` (default 300; `make soak-tcp`: 10000) one-shot `mbpoll -m tcp -1` runs, a
+/// `TCP_CONNECTIONS` (default 100; `make soak-tcp`: 10000) one-shot `mbpoll -m tcp -1` runs, a
 /// connection each, reading 30002 (requests answered): each answered, none refused; then
 /// 30002 equals the count.
 #[test]
 fn mbpoll_one_shot_connections_are_all_answered_w5100() {
     let _one = serialise();
-    let n: usize = std::env::var("TCP_CONNECTIONS").ok().and_then(|v| v.parse().ok()).unwrap_or(300);
+    let n: usize = std::env::var("TCP_CONNECTIONS").ok().and_then(|v| v.parse().ok()).unwrap_or(100);
     let board = Board::start(&tcp_server("w5100"), "w5100");
     let port = board.port.to_string();
     let (mut answered, mut failures, mut slow) = (0usize, Vec::new(), 0usize);
@@ -754,7 +754,7 @@ fn masters_at_once(shield: &str, n: usize) {
     let (seconds_before, _) = board.counters();
     let started = Instant::now();
     let masters: Vec<Master> =
-        (0..n).map(|i| Master::start(&board, &format!("master {}", i + 1), "--seconds 10")).collect();
+        (0..n).map(|i| Master::start(&board, &format!("master {}", i + 1), "--seconds 4")).collect();
     let summaries: Vec<Summary> = masters.into_iter().map(|m| m.finish(Duration::from_secs(30))).collect();
     let wall = started.elapsed();
     thread::sleep(Duration::from_millis(1200));
@@ -765,7 +765,7 @@ fn masters_at_once(shield: &str, n: usize) {
         println!("{}", s.line());
     }
     println!(
-        "{n} masters at once on the {shield}, back to back: {total} requests answered in 10 s ({:.0}/s); 30001 \
+        "{n} masters at once on the {shield}, back to back: {total} requests answered in 4 s ({:.0}/s); 30001 \
          counted {counted} s in {:.1} s of wall time (the main loop's share of the CPU: {:.0} %); 30002 = {requests}",
         total as f64 / 10.0,
         wall.as_secs_f64() + 1.2,
