@@ -87,6 +87,7 @@ mod started;
 mod tcp;
 mod timer;
 mod usart;
+mod values;
 
 #[cfg(feature = "eeprom-settings")]
 pub use eeprom::Eeprom;

@@ -24,6 +24,7 @@ use super::chip::CHIP;
 use super::reg::{self, claim, Reg, TCCR0A, TCCR0B, TCNT0, TIFR0, TIMSK0};
 use super::spi::{Spi, SPI_BLOCK};
 use super::started::Started;
+use super::values::Values;
 use crate::error::Error;
 use crate::link::timing::{CLOCK_HZ, TIMER0_CLOCK_SELECT, TIMER0_DIVISOR};
 use crate::protocol::reference::IntoReference;
@@ -197,21 +198,18 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> TcpS
 
     /// Reads a coil, input or register by its classic reference (see [`crate::Bank::get`]).
     pub fn get(&self, reference: impl IntoReference) -> Result<u16, Error> {
-        let reference = reference.into_reference()?;
-        self.with(|model| model.value(reference)).unwrap_or(Err(Error::NotFound))
+        Values::get(self, reference)
     }
 
     /// Sets a coil, input or register by its classic reference (see [`crate::Bank::set`]).
     pub fn set(&self, reference: impl IntoReference, value: u16) -> Result<(), Error> {
-        let reference = reference.into_reference()?;
-        self.with(|model| model.set_value(reference, value)).unwrap_or(Err(Error::NotFound))
+        Values::set(self, reference, value)
     }
 
     /// The `u32`, `i32` or `f32` in the two registers from `first`, read in one critical
     /// section (see [`crate::Slave::get_wide`]).
     pub fn get_wide<T: crate::Wide>(&self, first: impl IntoReference, order: crate::WordOrder) -> Result<T, Error> {
-        let first = first.into_reference()?;
-        self.with(|model| model.get_wide(first, order)).unwrap_or(Err(Error::NotFound))
+        Values::get_wide(self, first, order)
     }
 
     /// Sets the two registers from `first`, both in one critical section (see
@@ -222,15 +220,22 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> TcpS
         value: T,
         order: crate::WordOrder,
     ) -> Result<(), Error> {
-        let first = first.into_reference()?;
-        let bits = crate::WordOrder::HighFirst.join::<u32>(order.split(value));
-        self.with(|model| model.set_wide(first, bits, crate::WordOrder::HighFirst)).unwrap_or(Err(Error::NotFound))
+        Values::set_wide(self, first, value, order)
     }
 
     /// How many master writes succeeded so far, wrapping (see
     /// [`crate::Bank::master_writes`]).
     pub fn master_writes(&self) -> u16 {
-        self.with(|model| model.master_writes()).unwrap_or(0)
+        Values::master_writes(self)
+    }
+}
+
+impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Values for TcpServer<M, C, CS, B, INT> {
+    type Model = M;
+
+    #[inline(always)]
+    fn with_model<R>(&self, f: impl FnOnce(&mut M) -> R) -> Option<R> {
+        self.with(f)
     }
 }
 

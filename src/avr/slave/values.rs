@@ -1,72 +1,39 @@
-//! The application's reads and writes of the slave's values: `get`, `set`, `get_wide`,
-//! `set_wide`, `master_writes`, each holding interrupts off as briefly as the model allows.
+//! The application's reads and writes of the slave's values: the role's side of the
+//! shared accessors (`crate::avr::values`).
 
 use embedded_hal::digital::OutputPin;
 
 use super::Slave;
-use crate::avr::reg;
+use crate::avr::values::Values;
 use crate::error::Error;
 use crate::protocol::reference::IntoReference;
 use crate::slave::model::DataModel;
-use crate::slave::words::Place;
+
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Values for Slave<M, DE, LED, N, U> {
+    type Model = M;
+
+    #[inline(always)]
+    fn with_model<R>(&self, f: impl FnOnce(&mut M) -> R) -> Option<R> {
+        self.with(f)
+    }
+}
 
 impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Slave<M, DE, LED, N, U> {
-    // `get`, `set`, `get_wide` and `set_wide` work out where the value is (the map's lookup,
-    // the word's byte order, a bit's mask) and what to store before interrupts go off, and
-    // hold them off only for the loads or stores (`DataModel::place`); a model without a
-    // layout fixed at build time (`Bank`, a `DataModel` of your own) is asked with
-    // interrupts off, as `with` would.
-
     /// Reads a coil, input or register by its classic reference (see [`crate::Bank::get`]).
     pub fn get(&self, reference: impl IntoReference) -> Result<u16, Error> {
-        let reference = reference.into_reference()?;
-        match M::place(reference) {
-            Place::Ask => self.with(|model| model.value(reference)).unwrap_or(Err(Error::NotFound)),
-            Place::Missing => Err(Error::NotFound),
-            place => {
-                let place = computed(place);
-                self.with(|model| model.load(place)).map(|loaded| place.value(loaded)).ok_or(Error::NotFound)
-            }
-        }
+        Values::get(self, reference)
     }
 
     /// Sets a coil, input or register by its classic reference (see [`crate::Bank::set`]).
     pub fn set(&self, reference: impl IntoReference, value: u16) -> Result<(), Error> {
-        let reference = reference.into_reference()?;
-        match M::place(reference) {
-            Place::Ask => {
-                // Worked out before interrupts go off, whatever it took (`reg::computed`).
-                let value = reg::computed(value);
-                self.with(|model| model.set_value(reference, value)).unwrap_or(Err(Error::NotFound))
-            }
-            Place::Missing => Err(Error::NotFound),
-            place => {
-                let place = computed(place);
-                // What is stored, and `value` with whatever it took, worked out before
-                // interrupts go off.
-                let stored = reg::computed(place.stored(value));
-                self.with(|model| model.store(place, stored)).ok_or(Error::NotFound)
-            }
-        }
+        Values::set(self, reference, value)
     }
 
     /// The `u32`, `i32` or `f32` the two registers from `first` hold, in `order` (see
     /// [`crate::WordOrder`]): both read with interrupts disabled, so never a pair the master
     /// is writing half of (its write runs whole in an interrupt).
     pub fn get_wide<T: crate::Wide>(&self, first: impl IntoReference, order: crate::WordOrder) -> Result<T, Error> {
-        let first = first.into_reference()?;
-        let (first_ref, second_ref) = crate::slave::model::pair(first)?;
-        match (M::place(first_ref), M::place(second_ref)) {
-            (Place::Ask, _) | (_, Place::Ask) => {
-                self.with(|model| model.get_wide(first, order)).unwrap_or(Err(Error::NotFound))
-            }
-            (Place::Missing, _) | (_, Place::Missing) => Err(Error::NotFound),
-            (a, b) => {
-                // Both loads in one critical section.
-                let (x, y) = self.with(|model| (model.load(a), model.load(b))).ok_or(Error::NotFound)?;
-                Ok(order.join([a.value(x), b.value(y)]))
-            }
-        }
+        Values::get_wide(self, first, order)
     }
 
     /// Sets the two registers from `first` to `value` in `order`, both with interrupts
@@ -77,47 +44,13 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> S
         value: T,
         order: crate::WordOrder,
     ) -> Result<(), Error> {
-        let first = first.into_reference()?;
-        let (first_ref, second_ref) = crate::slave::model::pair(first)?;
-        let [a, b] = order.split(value);
-        match (M::place(first_ref), M::place(second_ref)) {
-            (Place::Ask, _) | (_, Place::Ask) => {
-                let bits = crate::WordOrder::HighFirst.join::<u32>([reg::computed(a), reg::computed(b)]);
-                self.with(|model| model.set_wide(first, bits, crate::WordOrder::HighFirst))
-                    .unwrap_or(Err(Error::NotFound))
-            }
-            (Place::Missing, _) | (_, Place::Missing) => Err(Error::NotFound),
-            (pa, pb) => {
-                let (sa, sb) = (reg::computed(pa.stored(a)), reg::computed(pb.stored(b)));
-                // Both stores in one critical section: the slave's interrupts, which answer
-                // the master, see the old pair or the new one, never half of each.
-                self.with(|model| {
-                    model.store(pa, sa);
-                    model.store(pb, sb);
-                })
-                .ok_or(Error::NotFound)
-            }
-        }
+        Values::set_wide(self, first, value, order)
     }
 
     /// How many master writes succeeded so far, wrapping (see
     /// [`crate::Bank::master_writes`]): compare it with the last value seen to learn that
     /// the master wrote something.
     pub fn master_writes(&self) -> u16 {
-        self.with(|model| model.master_writes()).unwrap_or(0)
-    }
-}
-
-/// `place`, worked out before this point. A bit's mask, `1 << (i % 8)`, is a loop on the
-/// AVR that the compiler could sink into the critical section that alone uses it: the mask
-/// passes [`reg::computed`]. A word's index does not: the map's lookup ends in a choice
-/// between its ranges, which the compiler has not sunk into the section (`bench calls`
-/// shows it if it does), and a barrier would cost every call with a known reference its
-/// folded address.
-#[inline(always)]
-fn computed(place: Place) -> Place {
-    match place {
-        Place::Bit(i, mask) => Place::Bit(i, reg::computed(u16::from(mask)) as u8),
-        other => other,
+        Values::master_writes(self)
     }
 }
