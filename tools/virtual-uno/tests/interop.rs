@@ -11,42 +11,24 @@
 //! libmodbus-dev and a C compiler, and the Python in `$INTEROP_PYTHON` (target/python: Debian's
 //! python3 with python3-pymodbus, python3-serial-asyncio and minimalmodbus).
 
+mod common;
+
+use common::{collect, python, run, serialise, stop, workspace};
+
 use std::ffi::OsStr;
-use std::io::{BufRead, BufReader, Read};
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex};
 use std::thread;
 use std::time::{Duration, Instant};
 
-use nix::sys::signal::{kill, Signal};
-use nix::unistd::Pid;
 use uno_sim::built::{built, target_dir};
-
-/// One virtual Uno at a time: each keeps a CPU core busy, and a starved one answers late.
-static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
-
-fn serialise() -> MutexGuard<'static, ()> {
-    ONE_AT_A_TIME.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
-}
-
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
 
 /// `$CARGO_TARGET_DIR` (or `<workspace>/target`)`/avr-atmega328p/release/examples/NAME.elf`;
 /// missing, it skips these tests or fails them under `make` and in CI (`uno_sim::built`).
 fn firmware(name: &str) -> PathBuf {
     built(target_dir().join("avr-atmega328p/release/examples").join(format!("{name}.elf")), "make firmware")
-}
-
-/// Collects a child's output as it comes, so that a transcript survives a kill.
-fn collect(stream: impl Read + Send + 'static, into: Arc<Mutex<String>>) {
-    thread::spawn(move || {
-        for line in BufReader::new(stream).lines().map_while(Result::ok) {
-            into.lock().unwrap().push_str(&(line + "\n"));
-        }
-    });
 }
 
 /// A running `virtual-uno`, stopped with SIGTERM when dropped.
@@ -137,44 +119,7 @@ impl VirtualUno {
 
 impl Drop for VirtualUno {
     fn drop(&mut self) {
-        let _ = kill(Pid::from_raw(self.child.id() as i32), Signal::SIGTERM);
-        let deadline = Instant::now() + Duration::from_secs(5);
-        while self.child.try_wait().ok().flatten().is_none() && Instant::now() < deadline {
-            thread::sleep(Duration::from_millis(20));
-        }
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-/// Runs `cmd` to completion (killed after `limit`); returns success and stdout + stderr.
-fn run(cmd: &mut Command, limit: Duration) -> (bool, String) {
-    let mut child = cmd
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap_or_else(|e| panic!("cannot run {cmd:?}: {e}"));
-    let out = Arc::new(Mutex::new(String::new()));
-    collect(child.stdout.take().unwrap(), out.clone());
-    collect(child.stderr.take().unwrap(), out.clone());
-    let deadline = Instant::now() + limit;
-    let status = loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            break Some(status);
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            break None;
-        }
-        thread::sleep(Duration::from_millis(10));
-    };
-    thread::sleep(Duration::from_millis(50)); // let the readers finish
-    let text = out.lock().unwrap().clone();
-    match status {
-        Some(status) => (status.success(), text),
-        None => (false, format!("{text}(killed after {limit:?})\n")),
+        stop(&mut self.child);
     }
 }
 
@@ -303,12 +248,6 @@ fn mbpoll_with_other_line_settings_gets_no_answer_and_a_warning() {
 
 // ------------------------------------------------------------------------------------------
 // pymodbus and minimalmodbus
-
-/// The Python `.ci/setup` prepared, named in target/toolchain.env (which `.ci/cargo` reads);
-/// Debian's python3 without it, which has pymodbus but not minimalmodbus.
-fn python() -> String {
-    std::env::var("INTEROP_PYTHON").unwrap_or_else(|_| "/usr/bin/python3".into())
-}
 
 /// Runs `demo/SCRIPT PORT --control FIFO ARGS` (killed after `limit`); its transcript.
 fn python_check(script: &str, uno: &VirtualUno, args: &str, limit: Duration) -> (bool, String) {

@@ -17,28 +17,21 @@
 //! spec's limits before sending (`Too many data`), so 03 is checked through pymodbus, the raw
 //! socket and libmodbus's crafted requests (`modbus_send_raw_request`).
 
-use std::io::{BufRead, BufReader, ErrorKind, Read, Write};
+mod common;
+
+use common::{collect, python, run, serialise, stop, workspace};
+
+use std::io::{ErrorKind, Read, Write};
 use std::net::{Shutdown, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdout, Command, Stdio};
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex};
 use std::thread;
 use std::time::{Duration, Instant};
 
 use nix::sys::signal::{kill, Signal};
 use nix::unistd::Pid;
 use uno_sim::built::{built, target_dir};
-
-/// One virtual board at a time: each keeps a CPU core busy, and a starved one answers late.
-static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
-
-fn serialise() -> MutexGuard<'static, ()> {
-    ONE_AT_A_TIME.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
-}
-
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
 
 /// `target/chips/DIR/avr-none/release/examples/NAME.elf`, as `make tcp-firmware` builds it.
 fn chip_firmware(dir: &str, name: &str) -> PathBuf {
@@ -49,15 +42,6 @@ fn chip_firmware(dir: &str, name: &str) -> PathBuf {
 /// examples/tcp_server.rs for the Uno with `shield` (`w5100`, `w5500`).
 fn tcp_server(shield: &str) -> PathBuf {
     chip_firmware(&format!("atmega328p-{shield}"), "tcp_server")
-}
-
-/// Collects a child's output as it comes, so that a transcript survives a kill.
-fn collect(stream: impl Read + Send + 'static, into: Arc<Mutex<String>>) {
-    thread::spawn(move || {
-        for line in BufReader::new(stream).lines().map_while(Result::ok) {
-            into.lock().unwrap().push_str(&(line + "\n"));
-        }
-    });
 }
 
 /// A running `virtual-uno` with a shield, stopped with SIGTERM when dropped.
@@ -133,44 +117,7 @@ impl Board {
 
 impl Drop for Board {
     fn drop(&mut self) {
-        let _ = kill(Pid::from_raw(self.child.id() as i32), Signal::SIGTERM);
-        let deadline = Instant::now() + Duration::from_secs(5);
-        while self.child.try_wait().ok().flatten().is_none() && Instant::now() < deadline {
-            thread::sleep(Duration::from_millis(20));
-        }
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-/// Runs `cmd` to completion (killed after `limit`); returns success and stdout + stderr.
-fn run(cmd: &mut Command, limit: Duration) -> (bool, String) {
-    let mut child = cmd
-        .stdin(Stdio::null())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap_or_else(|e| panic!("cannot run {cmd:?}: {e}"));
-    let out = Arc::new(Mutex::new(String::new()));
-    collect(child.stdout.take().unwrap(), out.clone());
-    collect(child.stderr.take().unwrap(), out.clone());
-    let deadline = Instant::now() + limit;
-    let status = loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            break Some(status);
-        }
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            let _ = child.wait();
-            break None;
-        }
-        thread::sleep(Duration::from_millis(10));
-    };
-    thread::sleep(Duration::from_millis(50)); // let the readers finish
-    let text = out.lock().unwrap().clone();
-    match status {
-        Some(status) => (status.success(), text),
-        None => (false, format!("{text}(killed after {limit:?})\n")),
+        stop(&mut self.child);
     }
 }
 
@@ -582,12 +529,6 @@ fn mbpoll_one_shot_connections_are_all_answered_w5100() {
 
 // ------------------------------------------------------------------------------------------
 // pymodbus
-
-/// The Python `.ci/setup` prepared (target/python, which sees Debian's python3-pymodbus);
-/// Debian's python3 without it.
-fn python() -> String {
-    std::env::var("INTEROP_PYTHON").unwrap_or_else(|_| "/usr/bin/python3".into())
-}
 
 fn pymodbus_script() -> PathBuf {
     workspace().join("demo/pymodbus_tcp_check.py")
