@@ -57,6 +57,9 @@ pub enum Error {
     /// The Ethernet chip did not answer as the one named (feature `tcp`): not wired, not
     /// powered, held in reset, or the other chip (a W5500 named W5100, say).
     NoChip,
+    /// The Modbus TCP client has no connection to its server now (features `tcp` and
+    /// `master`): it connects again by itself; ask again later.
+    NotConnected,
 }
 
 impl Error {
@@ -85,6 +88,7 @@ impl Error {
             Error::NotStarted => "not started",
             Error::WrongTable => "reference in another table",
             Error::NoChip => "no Ethernet chip answers",
+            Error::NotConnected => "not connected to the server",
         }
     }
 }

@@ -6,8 +6,8 @@
 //! [`Request`] and goes on; the outcome, a [`Reply`] or a [`Failure`], waits for it.
 
 mod engine;
-mod reply;
-mod request;
+pub(crate) mod reply;
+pub(crate) mod request;
 
 pub use engine::{Failure, MasterCounters, Timeouts};
 pub use reply::Reply;

@@ -6,6 +6,8 @@
 //! chips' SPI frames and registers (`wiznet`). The AVR layer drives it from Timer0's
 //! overflow interrupt (`TcpServer`, AVR only).
 
+#[cfg(feature = "master")]
+pub(crate) mod client;
 pub(crate) mod mbap;
 mod network;
 #[cfg(feature = "eeprom-settings")]

@@ -60,6 +60,8 @@ pub mod sn {
     pub const PORT: u8 = 0x04;
     /// Sn_DIPR, the peer's address.
     pub const DIPR: u8 = 0x0C;
+    /// Sn_DPORT, the peer's port (a client writes it before CONNECT).
+    pub const DPORT: u8 = 0x10;
     /// Sn_IMR, the W5500's mask of the socket's events on the INT line.
     pub const IMR: u8 = 0x2C;
     /// Sn_TX_FSR, the free bytes of the transmit buffer.
@@ -81,6 +83,9 @@ pub mod command {
     pub const OPEN: u8 = 0x01;
     /// Waits for a connection (`INIT` → `LISTEN`).
     pub const LISTEN: u8 = 0x02;
+    /// Connects to Sn_DIPR:Sn_DPORT, a SYN sent (`INIT` → `SYNSENT`, then `ESTABLISHED`, or
+    /// `CLOSED` on a refusal or the chip's timeout).
+    pub const CONNECT: u8 = 0x04;
     /// Sends a FIN.
     pub const DISCON: u8 = 0x08;
     /// Closes at once (an RST to a connected peer).
@@ -99,6 +104,8 @@ pub mod state {
     pub const INIT: u8 = 0x13;
     /// Waiting for a connection.
     pub const LISTEN: u8 = 0x14;
+    /// A client's SYN sent, no answer yet.
+    pub const SYNSENT: u8 = 0x15;
     /// Connected.
     pub const ESTABLISHED: u8 = 0x17;
     /// The peer closed its side; this side may still send.
@@ -399,6 +406,19 @@ impl<C: Chip, B: Bus> Sockets for Wiznet<C, B> {
     fn send(&mut self, s: u8, pointer: u16) {
         self.set16(s, sn::TX_WR, pointer);
         self.order(s, command::SEND);
+    }
+}
+
+#[cfg(feature = "master")]
+impl<C: Chip, B: Bus> super::client::Connect for Wiznet<C, B> {
+    fn connect(&mut self, s: u8, local_port: u16, ip: [u8; 4], port: u16) {
+        self.set(Block::socket(s), sn::MR.into(), MODE_TCP);
+        self.set16(s, sn::PORT, local_port);
+        self.command(s, command::OPEN);
+        let mut ip = ip;
+        C::transfer(&mut self.bus, Block::socket(s), sn::DIPR.into(), &mut ip, true);
+        self.set16(s, sn::DPORT, port);
+        self.command(s, command::CONNECT);
     }
 }
 
