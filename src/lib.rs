@@ -52,6 +52,9 @@ pub use avr::{NoPin, Slave};
 #[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "tcp"))]
 #[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp"))))]
 pub use avr::{Pin10, TcpServer};
+#[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "tcp", feature = "master"))]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp", feature = "master"))))]
+pub use avr::TcpClient;
 pub use error::Error;
 #[cfg(feature = "ascii")]
 pub use link::config::Mode;

@@ -85,6 +85,8 @@ mod spi;
 mod started;
 #[cfg(feature = "tcp")]
 mod tcp;
+#[cfg(all(feature = "tcp", feature = "master"))]
+mod tcp_client;
 mod timer;
 mod usart;
 mod values;
@@ -97,6 +99,8 @@ pub use no_pin::NoPin;
 pub use slave::Slave;
 #[cfg(feature = "tcp")]
 pub use tcp::{Pin10, TcpServer};
+#[cfg(all(feature = "tcp", feature = "master"))]
+pub use tcp_client::TcpClient;
 
 /// Milliseconds since the slave started, wrapping after 49.7 days: Arduino's `millis()`
 /// (feature `millis`), kept by Timer0, which the slave owns and runs freely at clk/64 (an
@@ -327,7 +331,49 @@ macro_rules! tcp_server {
 
         /// The server's poll, which the crate's Timer0 overflow handler calls.
         #[doc(hidden)]
-        #[export_name = "avr_modbus_feature_tcp_needs_a_tcp_server"]
+        #[export_name = "avr_modbus_feature_tcp_needs_a_tcp_role"]
+        unsafe extern "C" fn __avr_modbus_tcp_overflow() {
+            // SAFETY: called from the Timer0 overflow handler only, interrupts disabled.
+            unsafe { $name.on_overflow() }
+        }
+    };
+}
+
+/// Declares the Modbus TCP client `NAME` (features `tcp` and `master`) on a WIZnet chip
+/// ([`crate::tcp::W5100`] or [`crate::tcp::W5500`]), its chip select on the board's pin 10
+/// (the Ethernet shields') or on a pin type of the application's, with buffers of `N` bytes
+/// for the request and the reply (256 when left out; a read of `q` registers is answered in
+/// 5 + 2`q`). Timer0's overflow interrupt, which the crate binds with feature `tcp`, drives
+/// the client once started. One TCP role per firmware: a `tcp_server!` beside it does not
+/// link.
+///
+/// ```ignore
+/// avr_modbus::tcp_client!(CLIENT: W5100);              // an Ethernet Shield R3, 256-byte buffers
+/// avr_modbus::tcp_client!(CLIENT: W5500, 25);          // an Ethernet Shield 2, 25-byte buffers
+/// avr_modbus::tcp_client!(CLIENT: W5500, CsPin, 25);   // a module's CS elsewhere
+/// ```
+#[cfg(all(feature = "tcp", feature = "master"))]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp", feature = "master"))))]
+#[macro_export]
+macro_rules! tcp_client {
+    ($name:ident : $chip:ty) => {
+        $crate::tcp_client!(@declare $name: $chip, $crate::Pin10, 256);
+    };
+    ($name:ident : $chip:ty, $n:literal) => {
+        $crate::tcp_client!(@declare $name: $chip, $crate::Pin10, $n);
+    };
+    ($name:ident : $chip:ty, $cs:ty) => {
+        $crate::tcp_client!(@declare $name: $chip, $cs, 256);
+    };
+    ($name:ident : $chip:ty, $cs:ty, $n:literal) => {
+        $crate::tcp_client!(@declare $name: $chip, $cs, $n);
+    };
+    (@declare $name:ident : $chip:ty, $cs:ty, $n:literal) => {
+        static $name: $crate::TcpClient<$chip, $cs, { $n }> = $crate::TcpClient::new();
+
+        /// The client's poll, which the crate's Timer0 overflow handler calls.
+        #[doc(hidden)]
+        #[export_name = "avr_modbus_feature_tcp_needs_a_tcp_role"]
         unsafe extern "C" fn __avr_modbus_tcp_overflow() {
             // SAFETY: called from the Timer0 overflow handler only, interrupts disabled.
             unsafe { $name.on_overflow() }

@@ -1,8 +1,8 @@
 //! Timer0's overflow interrupt (every 1.024 ms, 2.048 ms at 8 MHz), bound by the crate with
-//! feature `millis` or `tcp`: `millis()` moves on (`super::clock`), then the TCP server
-//! polls its chip, once started (`super::tcp`): the function [`crate::tcp_server!`] defines
-//! for it. A firmware with feature `tcp` and no `tcp_server!` does not link, the missing
-//! symbol's name saying why. Bound here rather than by
+//! feature `millis` or `tcp`: `millis()` moves on (`super::clock`), then the TCP role polls
+//! its chip, once started (`super::tcp`, `super::tcp_client`): the function the role's macro
+//! ([`crate::tcp_server!`], `tcp_client!`) defines for it, one role per firmware. A firmware
+//! with feature `tcp` and no TCP role does not link, the missing symbol's name saying why. Bound here rather than by
 //! [`crate::slave!`]: it touches nothing of the serial roles', and a firmware without either
 //! feature has no handler at all (the interrupt stays off). The firmware's alone: the host
 //! has no AVR interrupt ABI, so the docs built there (`--cfg docsrs`) leave it out.
@@ -19,13 +19,13 @@ unsafe extern "avr-interrupt" fn timer0_overflow() {
     // SAFETY: as above.
     #[cfg(feature = "tcp")]
     unsafe {
-        avr_modbus_feature_tcp_needs_a_tcp_server()
+        avr_modbus_feature_tcp_needs_a_tcp_role()
     };
 }
 
 #[cfg(all(target_arch = "avr", feature = "tcp"))]
 extern "C" {
-    /// The TCP server's poll, which [`crate::tcp_server!`] defines: its
-    /// [`crate::TcpServer::on_overflow`].
-    fn avr_modbus_feature_tcp_needs_a_tcp_server();
+    /// The TCP role's poll, which its macro defines: [`crate::tcp_server!`] the
+    /// [`crate::TcpServer::on_overflow`], `tcp_client!` the `TcpClient::on_overflow`.
+    fn avr_modbus_feature_tcp_needs_a_tcp_role();
 }

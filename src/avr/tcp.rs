@@ -289,7 +289,7 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Runn
 
 /// About 10 ms of the CPU's time, before Timer0 runs.
 #[inline(never)]
-fn wait_10ms() {
+pub(super) fn wait_10ms() {
     // Four cycles a turn: `sbiw` and `brne` (2 when taken) and the `nop` keeping it a loop.
     let mut turns = (CLOCK_HZ / 100 / 4) as u16;
     while turns != 0 {
@@ -323,7 +323,7 @@ fn start_pin2_interrupt() {
 
 /// Timer0 free-running at clk/64 with its overflow interrupt on: started here unless a
 /// serial role runs it already (which leaves the overflow interrupt on, `super::timer`).
-fn start_timer0() {
+pub(super) fn start_timer0() {
     if TIMSK0.read() & (COMPARES | TOIE0) == 0 {
         TCCR0B.write(0);
         TCCR0A.write(0);

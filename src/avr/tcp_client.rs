@@ -1,0 +1,203 @@
+//! The Modbus TCP client on the AVR (features `tcp` and `master`): the pure client
+//! (`crate::tcp::client`) on a WIZnet chip over the SPI, driven from Timer0's overflow
+//! interrupt every 1.024 ms (2.048 ms at 8 MHz), so that the connection is kept, requests go
+//! out and replies come in whatever the application's main loop does. The application
+//! starts a request and collects its outcome when it likes, as with the RTU [`crate::Master`];
+//! it never touches the chip itself.
+//!
+//! Each overflow reads the socket's state (one register) and, while it is connected, the
+//! bytes received (two): about 1 % of the CPU on a W5100. The poll runs with interrupts
+//! enabled again, so that a serial role's interrupts beside it keep their timing.
+
+use core::ops::Deref;
+
+use embedded_hal::digital::OutputPin;
+
+use super::clock;
+use super::reg::{self, claim};
+use super::spi::{Spi, SPI_BLOCK};
+use super::started::Started;
+use super::tcp::{start_timer0, wait_10ms, Pin10};
+use crate::error::Error;
+use crate::master::{Failure, MasterCounters, Reply, Request, Timeouts};
+use crate::tcp::client::Client;
+use crate::tcp::wiznet::{Chip, Wiznet};
+use crate::tcp::Network;
+
+/// The Modbus TCP client (master): declare it with [`crate::tcp_client!`], start it with the
+/// server's address, the application's SPI and `TC0`, then send requests and collect their
+/// outcomes; nothing waits.
+///
+/// ```ignore
+/// avr_modbus::tcp_client!(CLIENT: W5100);
+/// // in main:
+/// CLIENT.start(NETWORK, [192, 168, 1, 10], 502, dp.SPI, dp.TC0)?;
+/// // in the loop:
+/// let _ = CLIENT.send(0xFF, &Request::ReadHoldingRegisters { address: 0, quantity: 10 });
+/// let outcome = CLIENT.poll(|outcome| outcome.map(|reply| reply.register(0)));
+/// ```
+///
+/// `C` is the chip ([`crate::tcp::W5100`] or [`crate::tcp::W5500`]), `CS` its chip-select
+/// pin ([`Pin10`], the shields', by default), `N` the bytes of each of its two buffers, the
+/// request and the reply, counted as for the RTU [`crate::Master`] (a read of `q` registers
+/// is answered in 5 + 2`q`; 256 fits every one).
+pub struct TcpClient<C, CS = Pin10, const N: usize = 256> {
+    running: Started<Running<C, CS, N>>,
+}
+
+/// The running client: the pure client and the chip.
+struct Running<C, CS, const N: usize> {
+    client: Client<N>,
+    chip: Wiznet<C, Spi<CS>>,
+}
+
+impl<C, CS, const N: usize> TcpClient<C, CS, N> {
+    /// A client not yet started: what [`crate::tcp_client!`] declares.
+    #[doc(hidden)]
+    pub const fn new() -> Self {
+        TcpClient { running: Started::new() }
+    }
+}
+
+impl<C: Chip, const N: usize> TcpClient<C, Pin10, N> {
+    /// Starts the client with the chip's select on the board's pin 10 (the shields'): see
+    /// [`TcpClient::start_with_cs`].
+    pub fn start<S: Deref, T: Deref>(
+        &self,
+        network: Network,
+        server: [u8; 4],
+        port: u16,
+        spi: S,
+        tc0: T,
+    ) -> Result<(), Error>
+    where
+        S::Target: Sized,
+        T::Target: Sized,
+    {
+        self.start_with_cs(network, server, port, spi, tc0, Pin10)
+    }
+}
+
+impl<C: Chip, CS: OutputPin, const N: usize> TcpClient<C, CS, N> {
+    /// Starts the client: takes the SPI and `TC0` from the application's `Peripherals`,
+    /// resets the chip and checks it is a `C`, gives it `network`'s addresses (its port and
+    /// unit id are the server's, unused here), and from here on keeps a connection to
+    /// `server`:`port` (Modbus: 502), opened again whenever it drops. [`Error::NoChip`] when
+    /// the chip does not answer as a `C`; [`Error::WrongPeripheral`] for another peripheral
+    /// than the SPI or `TC0`.
+    pub fn start_with_cs<S: Deref, T: Deref>(
+        &self,
+        network: Network,
+        server: [u8; 4],
+        port: u16,
+        spi: S,
+        tc0: T,
+        cs: CS,
+    ) -> Result<(), Error>
+    where
+        S::Target: Sized,
+        T::Target: Sized,
+    {
+        claim::<_, { SPI_BLOCK.1 }>(spi, SPI_BLOCK.0)?;
+        claim::<_, { reg::TC0.1 }>(tc0, reg::TC0.0)?;
+        let mut chip = Wiznet::<C, _>::new(Spi::new(cs));
+        // The shields hold the chip in reset for up to 560 ms after power-up.
+        let mut tries: u8 = 60;
+        while !chip.init(&network) {
+            tries -= 1;
+            if tries == 0 {
+                return Err(Error::NoChip);
+            }
+            wait_10ms();
+        }
+        self.running.start(|| Running { client: Client::new(server, port), chip })?;
+        reg::free(start_timer0);
+        // SAFETY: the client is in its cell, so its interrupt handler can run.
+        unsafe { reg::enable_interrupts() };
+        Ok(())
+    }
+
+    /// Starts `request` to unit id `unit` (0xFF: the server itself; a gateway's serial
+    /// slaves by their address) and returns at once: the request is checked and built now
+    /// and goes out from the next overflow (within about a millisecond).
+    /// [`Error::NotConnected`] while the connection is down (the client connects again by
+    /// itself: ask again later), [`Error::Busy`] while another request is under way or its
+    /// outcome waits to be collected with [`TcpClient::poll`], [`Error::NotStarted`] before
+    /// [`TcpClient::start`]; a quantity outside the spec's limits, a request or reply longer
+    /// than the buffers are refused before a byte is sent.
+    pub fn send(&self, unit: u8, request: &Request<'_>) -> Result<(), Error> {
+        let now = clock::millis();
+        self.running.locked(|r| r.client.start(unit, request, now)).unwrap_or(Err(Error::NotStarted))
+    }
+
+    /// The outcome of the last request, once it is there: `f` runs on the reply (read in
+    /// place, with interrupts disabled: keep it short) or on why there is none, and the
+    /// client is ready for the next request. `None` while the request is under way, or
+    /// when there is none.
+    pub fn poll<R>(&self, f: impl FnOnce(Result<Reply<'_>, Failure>) -> R) -> Option<R> {
+        self.running
+            .locked(|r| {
+                let result = r.client.outcome().map(f);
+                r.client.collect();
+                result
+            })
+            .flatten()
+    }
+
+    /// True from [`TcpClient::send`] until the outcome is collected with [`TcpClient::poll`].
+    pub fn is_busy(&self) -> bool {
+        self.running.locked(|r| r.client.is_busy()).unwrap_or(false)
+    }
+
+    /// True while the connection to the server is up: [`TcpClient::send`] is refused
+    /// otherwise.
+    pub fn is_connected(&self) -> bool {
+        self.running.locked(|r| r.client.is_connected()).unwrap_or(false)
+    }
+
+    /// Connections made to the server so far (wrapping): one more after each drop.
+    pub fn connections(&self) -> u16 {
+        self.running.locked(|r| r.client.connections()).unwrap_or(0)
+    }
+
+    /// Sets the response timeout (from the request's start to its reply) and the retries,
+    /// from the next request on ([`Timeouts::DEFAULT`]: 1000 ms, one retry; the turnaround
+    /// delay is unused over TCP).
+    pub fn set_timeouts(&self, timeouts: Timeouts) {
+        self.running.locked(|r| r.client.set_timeouts(timeouts));
+    }
+
+    /// The client's counters (all zero before [`TcpClient::start`]): as the RTU master's,
+    /// `crc_errors` and `uart_errors` always 0 (see `crate::tcp` for the rest).
+    pub fn counters(&self) -> MasterCounters {
+        self.running.locked(|r| r.client.counters()).unwrap_or_default()
+    }
+
+    /// Timer0's overflow: the client polled, with interrupts enabled meanwhile; an overflow
+    /// while a poll runs, or before the start, does nothing here.
+    ///
+    /// # Safety
+    /// Only from the Timer0 overflow interrupt handler, with interrupts disabled.
+    #[doc(hidden)]
+    #[inline(always)]
+    pub unsafe fn on_overflow(&self) {
+        // SAFETY: interrupts are disabled on entry; `Running::poll` enables them only while
+        // the client is marked in use, and disables them again before the mark goes.
+        let _ = unsafe { self.running.access_marked(Running::poll) };
+    }
+}
+
+impl<C: Chip, CS: OutputPin, const N: usize> Running<C, CS, N> {
+    /// One poll, interrupts disabled on entry and on return.
+    #[inline(never)]
+    fn poll(&mut self) {
+        let now = clock::millis();
+        // SAFETY: the client is marked in use (`access_marked`), so nothing else reaches it
+        // meanwhile; other interrupts may run.
+        unsafe { reg::enable_interrupts() };
+        self.chip.bus.configure();
+        self.client.poll(&mut self.chip, now);
+        // SAFETY: interrupts off again before the mark goes (`access_marked`'s promise).
+        unsafe { reg::disable_interrupts() };
+    }
+}
