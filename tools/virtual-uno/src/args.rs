@@ -44,6 +44,8 @@ options:
   --cs PORTBIT     the shield's chip select on another pin, e.g. PB4
   --tcp CHIP:HOST  bridge the chip's TCP port CHIP to 127.0.0.1:HOST (repeatable; e.g.
                    502:1502); printed as `tcp: 127.0.0.1:HOST` once the firmware listens
+  --connect CHIP:HOST  bridge the firmware's connections to port CHIP (any address) to
+                   127.0.0.1:HOST, a server on the host (repeatable; e.g. 502:1502)
   -h, --help       this text
 
 Pin numbers (--pin, --watch, `pin`) are the Uno's (0-13, A0-A5) and work on the ATmega328P
@@ -87,6 +89,8 @@ pub struct Args {
     pub cs: Option<(char, u8)>,
     /// `--tcp`, in order.
     pub tcp: Vec<Mapping>,
+    /// `--connect`, in order.
+    pub connect: Vec<Mapping>,
 }
 
 /// The pins watched when `--watch` is not given: the Uno's LED and pins 2-5, on the chips
@@ -116,6 +120,7 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
         wiznet: None,
         cs: None,
         tcp: Vec::new(),
+        connect: Vec::new(),
     };
     let mut elf = None;
     while let Some(word) = words.next() {
@@ -136,6 +141,7 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
             "--wiznet" => args.wiznet = Some(value()?.parse::<Wiznet>().map_err(|e| Some(format!("--wiznet: {e}")))?),
             "--cs" => args.cs = Some(parse_cs(&value()?).map_err(Some)?),
             "--tcp" => args.tcp.push(value()?.parse::<Mapping>().map_err(|e| Some(format!("--tcp: {e}")))?),
+            "--connect" => args.connect.push(value()?.parse::<Mapping>().map_err(|e| Some(format!("--connect: {e}")))?),
             w if w.starts_with('-') => return Err(Some(format!("unknown option {w}"))),
             _ if elf.is_some() => return Err(Some(format!("one firmware file only (got {word} too)"))),
             _ => elf = Some(PathBuf::from(word)),
@@ -144,8 +150,8 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
     if elf.is_none() && args.bootloader.is_none() && args.state.is_none() {
         return Err(Some("no firmware file given".to_owned()));
     }
-    if args.wiznet.is_none() && (!args.tcp.is_empty() || args.cs.is_some()) {
-        return Err(Some("--tcp and --cs need a shield: --wiznet w5100 or w5500".to_owned()));
+    if args.wiznet.is_none() && (!args.tcp.is_empty() || !args.connect.is_empty() || args.cs.is_some()) {
+        return Err(Some("--tcp, --connect and --cs need a shield: --wiznet w5100 or w5500".to_owned()));
     }
     args.elf = elf;
     args.auto_reset &= args.bootloader.is_some();
@@ -222,6 +228,9 @@ mod tests {
         assert_eq!(a.cs, Some(('B', 4)));
         assert_eq!(a.tcp, [Mapping { chip_port: 502, host_port: 1502 }, Mapping { chip_port: 80, host_port: 80 }]);
         assert!(parse(words("--tcp 502:1502 fw.elf")).unwrap_err().unwrap().contains("need a shield"));
+        let a = parse(words("--wiznet w5100 --connect 502:1502 fw.elf")).unwrap();
+        assert_eq!(a.connect, [Mapping { chip_port: 502, host_port: 1502 }]);
+        assert!(parse(words("--connect 502:1502 fw.elf")).unwrap_err().unwrap().contains("need a shield"));
         assert!(parse(words("--wiznet w5300 fw.elf")).unwrap_err().unwrap().contains("w5300"));
         assert!(parse(words("--wiznet w5100 --cs PB9 fw.elf")).unwrap_err().unwrap().contains("PB9"));
         assert!(parse(words("--wiznet w5100 --tcp 0:1 fw.elf")).is_err());

@@ -172,9 +172,13 @@ fn run(args: &args::Args) -> Result<(), String> {
     if let (Some(model), Some((port, bit))) = (args.wiznet, uno.wiznet_cs()) {
         println!("shield: {model} on the SPI port, chip select P{port}{bit}");
     }
-    let mut bridge = match args.tcp.is_empty() {
+    let mut bridge = match args.tcp.is_empty() && args.connect.is_empty() {
         true => None,
-        false => Some(Bridge::bind(&args.tcp).map_err(|e| format!("--tcp: cannot listen on 127.0.0.1: {e}"))?),
+        false => Some(
+            Bridge::bind(&args.tcp)
+                .map_err(|e| format!("--tcp: cannot listen on 127.0.0.1: {e}"))?
+                .with_outgoing(&args.connect),
+        ),
     };
     for cmd in &args.initial {
         cmd.apply(&mut uno).map_err(|e| e.to_string())?;

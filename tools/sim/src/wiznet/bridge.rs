@@ -1,5 +1,9 @@
 //! The host TCP bridge: each port the firmware listens on, bridged to a port on the host's
-//! 127.0.0.1, so that mbpoll, QModMaster or pymodbus reach the simulated chip as a real one.
+//! 127.0.0.1, so that mbpoll, QModMaster or pymodbus reach the simulated chip as a real one;
+//! and each port the firmware connects to ([`Bridge::with_outgoing`]), whatever the address,
+//! to a port on 127.0.0.1, so that a client firmware reaches a server there (pymodbus's,
+//! libmodbus's): the bridge connects when the firmware's SYN goes out, and the socket is
+//! established, or closed at once when nothing listens there (as after an RST).
 //!
 //! Never blocks: [`Bridge::poll`], called from the simulation loop every few thousand cycles,
 //! accepts new host connections, hands each to a socket in SOCK_LISTEN on its chip port (none
@@ -63,6 +67,25 @@ pub enum BridgeEvent {
         /// The chip port it wanted.
         chip_port: u16,
     },
+    /// The firmware's socket `socket` connected to `to`, bridged to the host server at `host`.
+    Dialed {
+        /// The chip's socket.
+        socket: usize,
+        /// Where the firmware connected (Sn_DIPR, Sn_DPORT).
+        to: SocketAddrV4,
+        /// The host server.
+        host: SocketAddr,
+    },
+    /// The firmware's socket `socket` connected to `to`, and nothing listened at `host`: the
+    /// socket was closed as after an RST.
+    DialRefused {
+        /// The chip's socket.
+        socket: usize,
+        /// Where the firmware connected.
+        to: SocketAddrV4,
+        /// The host address tried.
+        host: SocketAddr,
+    },
     /// A bridged connection ended.
     Closed {
         /// The client.
@@ -81,6 +104,12 @@ impl fmt::Display for BridgeEvent {
             BridgeEvent::Connected { peer, socket } => write!(f, "tcp: {peer} connected to socket {socket}"),
             BridgeEvent::Refused { peer, chip_port } => {
                 write!(f, "tcp: {peer} refused: no socket listened on port {chip_port} in time")
+            }
+            BridgeEvent::Dialed { socket, to, host } => {
+                write!(f, "tcp: socket {socket} connected to {to}, bridged to {host}")
+            }
+            BridgeEvent::DialRefused { socket, to, host } => {
+                write!(f, "tcp: socket {socket} connected to {to}: refused, nothing listens on {host}")
             }
             BridgeEvent::Closed { peer, socket, how } => write!(f, "tcp: {peer} on socket {socket}: {how}"),
         }
@@ -119,6 +148,8 @@ struct HostConn {
 /// Bridges chip ports to host ports (see the module docs).
 pub struct Bridge {
     listeners: Vec<Listener>,
+    /// Ports the firmware connects to (`chip_port`), bridged to 127.0.0.1:`host_port`.
+    outgoing: Vec<Mapping>,
     conns: Vec<HostConn>,
     patience: u64,
 }
@@ -140,7 +171,14 @@ impl Bridge {
                 Ok(Listener { mapping, socket, announced: false })
             })
             .collect::<io::Result<Vec<_>>>()?;
-        Ok(Bridge { listeners, conns: Vec::new(), patience: 3_000_000 * CYCLES_PER_US })
+        Ok(Bridge { listeners, outgoing: Vec::new(), conns: Vec::new(), patience: 3_000_000 * CYCLES_PER_US })
+    }
+
+    /// Also bridges the firmware's connections: one to any address on a mapping's
+    /// `chip_port` goes to 127.0.0.1:`host_port` (`502:1502`: a client firmware that
+    /// connects to port 502 reaches the server on the host's port 1502).
+    pub fn with_outgoing(self, mappings: &[Mapping]) -> Bridge {
+        Bridge { outgoing: mappings.to_vec(), ..self }
     }
 
     /// How long (simulated cycles) a client waits for a listening socket before it is refused;
@@ -188,6 +226,34 @@ impl Bridge {
                     host_shut: false,
                 });
             }
+        }
+        for (n, to) in chip.connecting() {
+            let Some(mapping) = self.outgoing.iter().find(|m| m.chip_port == to.port()) else { continue };
+            let host = SocketAddr::from((Ipv4Addr::LOCALHOST, mapping.host_port));
+            // A connection to 127.0.0.1 is made or refused at once: no wait here.
+            let stream = TcpStream::connect(host).and_then(|s| s.set_nonblocking(true).map(|()| s));
+            let Ok(stream) = stream else {
+                chip.refuse_connect(n);
+                events.push(BridgeEvent::DialRefused { socket: n, to, host });
+                continue;
+            };
+            let _ = stream.set_nodelay(true);
+            chip.accept_connect(n);
+            let id = chip.connection(n).map_or(0, |conn| conn.id());
+            chip.set_peer_window(n, Some(HOST_BUFFER));
+            self.conns.push(HostConn {
+                stream,
+                peer: host,
+                chip_port: to.port(),
+                since: now,
+                attached: Some((n, id)),
+                to_chip: Vec::new(),
+                to_host: Vec::new(),
+                host_eof: false,
+                fin_delivered: false,
+                host_shut: false,
+            });
+            events.push(BridgeEvent::Dialed { socket: n, to, host });
         }
         let patience = self.patience;
         self.conns.retain_mut(|c| match step(c, chip, now, patience) {

@@ -193,3 +193,66 @@ fn mappings_parse() {
     assert!("502:".parse::<Mapping>().is_err());
     assert!("x".parse::<Mapping>().is_err());
 }
+
+/// Socket 0 of `chip` connecting to `ip`:`port` (OPEN, Sn_DIPR, Sn_DPORT, CONNECT).
+fn dial(chip: &mut W5x00, ip: [u8; 4], port: u16) {
+    chip.sockets[0].write(sn::MR, mode::TCP);
+    chip.command(0, cmd::OPEN);
+    for (i, b) in ip.iter().enumerate() {
+        chip.sockets[0].write(sn::DIPR + i as u16, *b);
+    }
+    chip.sockets[0].write(sn::DPORT, (port >> 8) as u8);
+    chip.sockets[0].write(sn::DPORT + 1, port as u8);
+    chip.command(0, cmd::CONNECT);
+}
+
+#[test]
+fn a_firmware_connection_to_a_mapped_port_reaches_the_host_server_both_ways() {
+    let server = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let host_port = server.local_addr().unwrap().port();
+    let mut chip = W5x00::new(Wiznet::W5100);
+    dial(&mut chip, [192, 168, 1, 10], 502);
+    assert_eq!(chip.connecting().len(), 1);
+    let bridge = Bridge::bind(&[]).unwrap().with_outgoing(&[Mapping { chip_port: 502, host_port }]);
+    let mut rig = Rig { chip, bridge, events: Vec::new() };
+    rig.until(|r| r.chip.status(0) == state::ESTABLISHED);
+    assert!(matches!(rig.events[0], BridgeEvent::Dialed { socket: 0, .. }), "{:?}", rig.events);
+    let (mut accepted, _) = server.accept().unwrap();
+    accepted.set_read_timeout(Some(Duration::from_secs(2))).unwrap();
+    rig.send(b"request");
+    rig.until(|r| r.chip.tx_pending(0) == 0);
+    let mut got = [0; 7];
+    accepted.read_exact(&mut got).unwrap();
+    assert_eq!(&got, b"request");
+    accepted.write_all(b"reply").unwrap();
+    rig.until(|r| r.chip.sockets[0].rx_received() == 5);
+    assert_eq!(rig.receive(), b"reply");
+    // The server closes: the socket sees the FIN.
+    drop(accepted);
+    rig.until(|r| r.chip.status(0) == state::CLOSE_WAIT);
+}
+
+#[test]
+fn a_firmware_connection_to_a_port_where_nothing_listens_is_closed_at_once() {
+    let free = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let host_port = free.local_addr().unwrap().port();
+    drop(free);
+    let mut chip = W5x00::new(Wiznet::W5100);
+    dial(&mut chip, [10, 0, 0, 1], 502);
+    let bridge = Bridge::bind(&[]).unwrap().with_outgoing(&[Mapping { chip_port: 502, host_port }]);
+    let mut rig = Rig { chip, bridge, events: Vec::new() };
+    rig.until(|r| r.chip.status(0) == state::CLOSED);
+    assert!(matches!(rig.events[0], BridgeEvent::DialRefused { socket: 0, .. }), "{:?}", rig.events);
+    assert_ne!(rig.chip.interrupts(0) & 0x08, 0, "TIMEOUT");
+}
+
+#[test]
+fn a_firmware_connection_to_an_unmapped_port_stays_unanswered() {
+    let mut chip = W5x00::new(Wiznet::W5100);
+    dial(&mut chip, [10, 0, 0, 1], 503);
+    let mut bridge = Bridge::bind(&[]).unwrap().with_outgoing(&[Mapping { chip_port: 502, host_port: 1 }]);
+    for _ in 0..10 {
+        assert!(bridge.poll(&mut chip).is_empty());
+    }
+    assert_eq!(chip.status(0), state::SYNSENT);
+}

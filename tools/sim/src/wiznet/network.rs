@@ -85,6 +85,29 @@ impl W5x00 {
         true
     }
 
+    /// The peer refuses socket `n`'s CONNECT (an RST to its SYN; a real chip also ends so
+    /// once its SYN retransmissions run out): CLOSED, TIMEOUT. `false` if the socket is not
+    /// connecting.
+    pub fn refuse_connect(&mut self, n: usize) -> bool {
+        let Some(s) = self.sockets.get_mut(n).filter(|s| s.sr == state::SYNSENT) else { return false };
+        s.refuse();
+        true
+    }
+
+    /// The sockets in SOCK_SYNSENT (a CONNECT given, no answer yet), each with the address
+    /// and port it connects to (Sn_DIPR, Sn_DPORT).
+    pub fn connecting(&self) -> Vec<(usize, SocketAddrV4)> {
+        self.sockets
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.sr == state::SYNSENT)
+            .map(|(n, s)| {
+                let ip = [s.reg(sn::DIPR), s.reg(sn::DIPR + 1), s.reg(sn::DIPR + 2), s.reg(sn::DIPR + 3)];
+                (n, SocketAddrV4::new(ip.into(), s.reg16(sn::DPORT)))
+            })
+            .collect()
+    }
+
     /// Socket `n`'s connection (the current one, or the last one until another replaces it).
     pub fn connection(&self, n: usize) -> Option<&Connection> {
         self.sockets.get(n)?.conn.as_ref()

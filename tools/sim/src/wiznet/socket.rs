@@ -299,6 +299,12 @@ impl Socket {
         self.ir |= int::CON;
     }
 
+    /// The peer's RST to a SYN: CLOSED, TIMEOUT (as the chips report a failed CONNECT).
+    pub(crate) fn refuse(&mut self) {
+        self.ir |= int::TIMEOUT;
+        self.close_quietly();
+    }
+
     /// Writes as much of `bytes` as the RX buffer has room for, as landed at cycle `at`;
     /// returns how many.
     pub(crate) fn land(&mut self, rx: &mut [u8], bytes: &[u8], at: u64) -> usize {
