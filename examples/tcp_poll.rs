@@ -30,9 +30,7 @@ avr_modbus::tcp_client!(CLIENT: avr_modbus::tcp::W5100, 25);
 
 #[avr_device::entry]
 fn main() -> ! {
-    let Some(dp) = avr_device::atmega328p::Peripherals::take() else {
-        board::halt(avr_modbus::Error::AlreadyStarted)
-    };
+    let Some(dp) = avr_device::atmega328p::Peripherals::take() else { board::halt(avr_modbus::Error::AlreadyStarted) };
     if let Err(error) = CLIENT.start(NETWORK, SERVER, 502, dp.SPI, dp.TC0) {
         board::halt(error);
     }

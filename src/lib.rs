@@ -46,15 +46,15 @@ pub use avr::Eeprom;
 #[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "master"))]
 #[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "master"))))]
 pub use avr::Master;
+#[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "tcp", feature = "master"))]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp", feature = "master"))))]
+pub use avr::TcpClient;
 #[cfg(any(target_arch = "avr", all(doc, docsrs)))]
 #[cfg_attr(docsrs, doc(cfg(target_arch = "avr")))]
 pub use avr::{NoPin, Slave};
 #[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "tcp"))]
 #[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp"))))]
 pub use avr::{Pin10, TcpServer};
-#[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "tcp", feature = "master"))]
-#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp", feature = "master"))))]
-pub use avr::TcpClient;
 pub use error::Error;
 #[cfg(feature = "ascii")]
 pub use link::config::Mode;
