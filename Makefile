@@ -148,11 +148,18 @@ sizes: firmware
 # examples/libmodbus_map.rs (libmodbus's unit-test map on a W5100, with the FC 17, 22 and 23
 # its unit-test-client uses) into target/chips/atmega328p-w5100-libmodbus/: make interop runs
 # tcp_server and libmodbus_map on the virtual shields (tools/virtual-uno/tests/interop_tcp.rs).
+# The TCP client (features tcp and master): examples/tcp_poll.rs (the TCP masters' size
+# figure) and examples/tcp_client_check.rs (what tests/sim_tcp_client.rs and
+# tools/virtual-uno/tests/interop_tcp_client.rs run) into target/chips/atmega328p-tcp-client/,
+# tcp_client_check for the W5500 into target/chips/atmega328p-tcp-client-w5500/.
 TCP_BUILDS := atmega328p:w5100 atmega328p:w5500 atmega328p:w5100-int atmega328p:w5500-int atmega2560:w5500 atmega32u4:w5500
 TCP_FIRMWARE := $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-none/release/examples/tcp_server.elf) \
 	target/chips/atmega328p-tcp/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu.elf \
-	target/chips/atmega328p-w5100-libmodbus/avr-none/release/examples/libmodbus_map.elf
+	target/chips/atmega328p-w5100-libmodbus/avr-none/release/examples/libmodbus_map.elf \
+	target/chips/atmega328p-tcp-client/avr-none/release/examples/tcp_poll.elf \
+	target/chips/atmega328p-tcp-client/avr-none/release/examples/tcp_client_check.elf \
+	target/chips/atmega328p-tcp-client-w5500/avr-none/release/examples/tcp_client_check.elf
 tcp-firmware: setup
 	@for build in $(TCP_BUILDS); do \
 		chip=$${build%%:*}; shield=$${build##*:}; \
@@ -160,6 +167,9 @@ tcp-firmware: setup
 	done
 	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu
 	@.ci/chip-build atmega328p "" atmega328p-w5100-libmodbus examples,tcp,extra-fc,diagnostics libmodbus_map
+	@.ci/chip-build atmega328p "" atmega328p-tcp-client examples,tcp,master tcp_poll tcp_client_check
+	@AVR_MODBUS_EXAMPLE_SHIELD=w5500 .ci/chip-build atmega328p "" atmega328p-tcp-client-w5500 examples,tcp,master \
+		tcp_client_check
 	@.ci/sizes $(TCP_FIRMWARE)
 	@.ci/firmware-check $(TCP_FIRMWARE)
 
@@ -254,7 +264,7 @@ clippy: clippy-tools
 # The tools (the simulator, the virtual Uno, the bench), their tests included.
 clippy-tools: setup
 	$(CARGO) clippy --workspace --exclude avr-modbus --all-targets -- -D warnings
-	$(CARGO) clippy -p virtual-uno --test interop --test interop_tcp -- -D warnings # test = false: not in --all-targets
+	$(CARGO) clippy -p virtual-uno --test interop --test interop_tcp --test interop_tcp_client -- -D warnings # test = false: not in --all-targets
 
 # The feature sets the crate's host tests run under (.ci/host-test: a test target runs under
 # each set that has the features it declares in Cargo.toml and gives the features its source
@@ -314,7 +324,7 @@ sim-test: sim-test-uno sim-test-chips
 # The simulator tests that run what make chips or make fixtures build; every other needs only
 # the Uno's firmware and the bootloaders. (One missing here fails under make test: its ELF is
 # not built yet when sim-test-uno runs it.)
-SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_gateway,sim_tcp,sim_template
+SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_gateway,sim_tcp,sim_tcp_client,sim_template
 
 # Every simulator test built, those that need only the Uno's firmware run; the tools' tests
 # built (make sim-test-chips runs them).
@@ -417,11 +427,13 @@ serve: $(if $(and $(filter atmega328p,$(SERVE_CHIP)),$(if $(SERVE_TCP_SERVER),,y
 
 # mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on the virtual Uno, with answer rates;
 # then over Modbus TCP on the virtual shields (interop_tcp: mbpoll, pymodbus, a raw socket, libmodbus's
-# unit-test-client built under target/libmodbus-tests, TCP_CONNECTIONS one-shot connections, masters at once).
+# unit-test-client built under target/libmodbus-tests, TCP_CONNECTIONS one-shot connections, masters at once);
+# then the firmware's TCP client against pymodbus's TCP server and libmodbus's unit-test-server (interop_tcp_client).
 TCP_CONNECTIONS ?= 100
 interop: firmware-uno bootloaders tcp-firmware
 	$(CARGO) test -p virtual-uno --test interop -- --nocapture --test-threads=1
 	TCP_CONNECTIONS=$(TCP_CONNECTIONS) $(CARGO) test -p virtual-uno --test interop_tcp -- --nocapture --test-threads=1
+	$(CARGO) test -p virtual-uno --test interop_tcp_client -- --nocapture --test-threads=1
 
 # SOAK_TCP_CONNECTIONS one-shot `mbpoll -m tcp -1` connections to tcp_server (W5100) on the virtual
 # Uno, each answered, none refused (~10 min for 10000); the firmware's counters read at the end.

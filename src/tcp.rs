@@ -1,10 +1,12 @@
 //! Modbus TCP (feature `tcp`), Modbus Messaging on TCP/IP Implementation Guide v1.0b: the
-//! server over the WIZnet W5100 and W5500 Ethernet chips.
+//! server over the WIZnet W5100 and W5500 Ethernet chips, and with feature `master` the
+//! client.
 //!
 //! The pure core, tested on the host: the MBAP header (`mbap`), the settings
 //! ([`Network`]), the connections and requests over any chip's TCP sockets (`server`), the
-//! chips' SPI frames and registers (`wiznet`). The AVR layer drives it from Timer0's
-//! overflow interrupt (`TcpServer`, AVR only).
+//! client's connection and transactions (`client`), the chips' SPI frames and registers
+//! (`wiznet`). The AVR layer drives either from Timer0's overflow interrupt (`TcpServer`,
+//! `TcpClient`, AVR only).
 
 #[cfg(feature = "master")]
 pub(crate) mod client;

@@ -30,6 +30,10 @@ const LIBRARIES: [(&str, u64, &str); 5] = [
 /// The targets: flash and static RAM of the contract, the stretch, and the latency bounds.
 const FLASH_TARGET: u64 = 4096;
 const FLASH_STRETCH: u64 = 3072;
+/// The TCP client's sketch (`tcp_poll`): its target, and the Arduino masters' figures quoted
+/// in the issue (Uno, reading 10 holding registers every 100 ms).
+const CLIENT_TARGET: u64 = 4096;
+const CLIENT_PEERS: [(&str, u64); 2] = [("modbus-esp8266", 22_048), ("ArduinoModbus", 23_224)];
 const RAM_TARGET: u64 = 400;
 const W5100_P99_US: f64 = 300.0;
 const W5500_P99_US: f64 = 150.0;
@@ -197,6 +201,10 @@ pub(crate) fn measure(root: &Path, log: &mut Log) -> Result<Option<Measured>> {
         sizes.push((format!("tcp_server ({build})"), avr_size(&chip_build_path(root, build, "tcp_server")).ok()));
     }
     sizes.push(("tcp_rtu".to_owned(), avr_size(&chip_build_path(root, "atmega328p-tcp", "tcp_rtu")).ok()));
+    sizes.push((
+        "tcp_poll (the TCP client, W5100)".to_owned(),
+        avr_size(&chip_build_path(root, "atmega328p-tcp-client", "tcp_poll")).ok(),
+    ));
     let mut latency = Vec::new();
     for variant in VARIANTS {
         eprintln!("bench: tcp_server ({}) latency", variant.0);
@@ -240,6 +248,16 @@ pub(crate) fn section(md: &mut String, measured: &Option<Measured>) -> Result<()
             Some((flash, ram)) => writeln!(md, "| this crate: {name} | {flash} | {ram} B |")?,
             None => writeln!(md, "| this crate: {name} | not built | not built |")?,
         }
+    }
+    if let Some((_, Some((flash, _)))) = m.sizes.iter().find(|(name, _)| name.starts_with("tcp_poll")) {
+        writeln!(
+            md,
+            "\n`tcp_poll` is the TCP client (features `tcp` and `master`) reading 10 holding registers every 100 ms \
+             from a server: {flash} B against a target of ≤ {CLIENT_TARGET} B, {}; the Arduino TCP masters' same \
+             sketch, quoted from the issue: {}.",
+            crate::render::met_text(*flash <= CLIENT_TARGET),
+            CLIENT_PEERS.iter().map(|(name, flash)| format!("{name} {flash} B")).collect::<Vec<_>>().join(", ")
+        )?;
     }
     if let Some((_, Some((flash, ram)))) = m.sizes.first() {
         writeln!(
