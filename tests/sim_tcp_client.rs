@@ -205,3 +205,35 @@ fn a_refused_connection_is_tried_again_every_second() {
     }
     assert_eq!(outcome(&uno)[4], 0, "never connected");
 }
+
+#[test]
+fn the_idle_client_takes_a_few_percent_of_the_cpu_and_a_request_goes_out_within_a_poll() {
+    for chip in [Wiznet::W5100, Wiznet::W5500] {
+        let mut uno = connected(chip);
+        let ovf = uno.vectors().timer0_ovf;
+        uno.reset_isr_stats();
+        let start = uno.now();
+        uno.run_for(us_to_cycles(1_000_000)).unwrap();
+        let share = uno.isr_stats(ovf).cycles as f64 / (uno.now() - start) as f64;
+        // From the command (the main loop calls send within microseconds) to the SEND.
+        let mut delays = Vec::new();
+        for seq in 1..=50u8 {
+            uno.run_for(us_to_cycles(u64::from(seq) * 37)).unwrap();
+            command(&mut uno, seq, 0, 1, 1000, 0, 0xFF);
+            let asked = uno.now();
+            request(&mut uno, 12);
+            delays.push(uno.wiznet().unwrap().sends(0).last().unwrap().cycle - asked);
+            uno.wiznet_mut().unwrap().deliver(0, &adu(u16::from(seq), 0xFF, &registers(&[1])));
+            assert_eq!(result(&mut uno, seq, 10_000).0, 1);
+        }
+        delays.sort_unstable();
+        eprintln!(
+            "tcp_client_check ({chip}): idle, the overflow handler {:.2} % of the CPU; command -> SEND p50 {:.0} µs, max {:.0} µs",
+            100.0 * share,
+            sim::cycles_to_us(delays[25]),
+            sim::cycles_to_us(delays[49])
+        );
+        assert!(share < 0.05, "{chip}: {:.2} %", 100.0 * share);
+        assert!(delays[49] < us_to_cycles(2500), "{chip}: {} cycles", delays[49]);
+    }
+}

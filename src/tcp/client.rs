@@ -43,6 +43,9 @@ const SOCKET: u8 = 0;
 const CONNECT_MS: u32 = 3000;
 /// The wait before another connection after one failed (milliseconds).
 const RETRY_MS: u32 = 1000;
+/// How often the socket's state is read even without an event (milliseconds): an event
+/// missed costs at most this.
+const SWEEP_MS: u32 = 1000;
 /// The first local port; each connection takes the next, up to 0xFFFF, so that a server
 /// never mistakes a new connection for the last one.
 const FIRST_PORT: u16 = 0xC000;
@@ -100,6 +103,8 @@ pub struct Client<const N: usize> {
     link_at: u32,
     local_port: u16,
     connections: u16,
+    /// When the socket's state is next read whatever its events say, milliseconds.
+    sweep_at: u32,
     state: State,
     transaction: u16,
     /// The request: unit id and PDU, as [`Request::encode`] writes an RTU frame.
@@ -134,6 +139,7 @@ impl<const N: usize> Client<N> {
             link_at: 0,
             local_port: 0,
             connections: 0,
+            sweep_at: 0,
             state: State::Idle,
             transaction: 0,
             request: [0; N],
@@ -266,6 +272,16 @@ impl<const N: usize> Client<N> {
                 _ => self.close(chip, now.wrapping_add(RETRY_MS)),
             },
             Link::Connected => {
+                // One register read when nothing happened: the socket has no event (data,
+                // a close, a timeout), and no sweep is due.
+                let sweep = reached(now, self.sweep_at);
+                if chip.events() & 1 << SOCKET == 0 && !sweep {
+                    return self.tick(chip, now);
+                }
+                if sweep {
+                    self.sweep_at = now.wrapping_add(SWEEP_MS);
+                }
+                chip.take_events(SOCKET);
                 let status = chip.status(SOCKET);
                 if status == state::ESTABLISHED || status == state::CLOSE_WAIT {
                     // What the server sent before it closed is still read.
@@ -278,6 +294,11 @@ impl<const N: usize> Client<N> {
                 }
             }
         }
+        self.tick(chip, now);
+    }
+
+    /// The request's timeout checked, and a request due sent.
+    fn tick<S: Sockets>(&mut self, chip: &mut S, now: u32) {
         if matches!(self.state, State::Due | State::Waiting) && now.wrapping_sub(self.deadline) as i32 > 0 {
             self.count(Count::Timeouts);
             self.attempt_failed(Failure::Timeout, now);

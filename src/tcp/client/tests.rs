@@ -3,7 +3,6 @@
 
 use super::*;
 use crate::protocol::Exception;
-use crate::tcp::wiznet::{RECV, SEND_OK};
 
 const SIZE: u16 = 0x800;
 const SERVER: [u8; 4] = [192, 168, 1, 10];
@@ -11,6 +10,8 @@ const SERVER: [u8; 4] = [192, 168, 1, 10];
 /// Socket 0 of the imitation chip, and the server's side of its connection.
 struct Fake {
     status: u8,
+    /// Sn_IR: CON, DISCON, RECV, SEND_OK as the chip sets them.
+    ir: u8,
     /// Every CONNECT: local port, address, port.
     dials: Vec<(u16, [u8; 4], u16)>,
     rx: Vec<u8>,
@@ -29,6 +30,7 @@ impl Default for Fake {
     fn default() -> Self {
         Fake {
             status: state::CLOSED,
+            ir: 0,
             dials: Vec::new(),
             rx: vec![0; SIZE as usize],
             rx_wr: 0,
@@ -47,6 +49,13 @@ impl Fake {
     fn accept(&mut self) {
         assert_eq!(self.status, state::SYNSENT, "no SYN to accept");
         self.status = state::ESTABLISHED;
+        self.ir |= 0x01;
+    }
+
+    /// The server closes (`CLOSE_WAIT`: a FIN) or resets (`CLOSED`): DISCON.
+    fn drop_to(&mut self, status: u8) {
+        self.status = status;
+        self.ir |= 0x02;
     }
 
     /// Bytes from the server land in the receive buffer.
@@ -56,6 +65,7 @@ impl Fake {
             self.rx[usize::from(self.rx_wr % SIZE)] = b;
             self.rx_wr = self.rx_wr.wrapping_add(1);
         }
+        self.ir |= 0x04;
     }
 
     /// What the server received since the last look.
@@ -66,10 +76,10 @@ impl Fake {
 
 impl Sockets for Fake {
     fn events(&mut self) -> u8 {
-        0
+        u8::from(self.ir != 0)
     }
     fn take_events(&mut self, _: u8) -> u8 {
-        0
+        core::mem::take(&mut self.ir)
     }
     fn status(&mut self, s: u8) -> u8 {
         assert_eq!(s, 0);
@@ -129,7 +139,7 @@ impl Sockets for Fake {
             self.sent.push(self.tx[usize::from(self.tx_rd % SIZE)]);
             self.tx_rd = self.tx_rd.wrapping_add(1);
         }
-        let _ = (RECV, SEND_OK);
+        self.ir |= 0x10;
     }
 }
 
@@ -481,7 +491,7 @@ fn a_connection_the_server_closes_is_opened_again_and_the_retry_goes_out_on_it()
         run(&mut client, &mut chip, &mut now, 1);
         chip.take_sent();
         // An RST, or a FIN, with the request unanswered.
-        chip.status = how;
+        chip.drop_to(how);
         run(&mut client, &mut chip, &mut now, 1);
         assert!(!client.is_connected());
         assert_eq!(client.start(0xFF, &READ, now), Err(Error::Busy), "the request is still under way");
@@ -504,7 +514,7 @@ fn a_reply_the_server_sent_before_its_fin_is_taken() {
     client.start(0xFF, &READ, now).unwrap();
     run(&mut client, &mut chip, &mut now, 1);
     chip.deliver(&adu(1, 0xFF, &ten_registers()));
-    chip.status = state::CLOSE_WAIT;
+    chip.drop_to(state::CLOSE_WAIT);
     run(&mut client, &mut chip, &mut now, 1);
     assert_eq!(outcome(&mut client), Some(Ok(values())));
     assert!(!client.is_connected());
@@ -518,7 +528,7 @@ fn a_retry_waits_for_the_connection_within_its_timeout() {
     run(&mut client, &mut chip, &mut now, 1);
     // The connection drops and the server never answers a SYN again: the retry never goes
     // out, and times out too.
-    chip.status = state::CLOSED;
+    chip.drop_to(state::CLOSED);
     run(&mut client, &mut chip, &mut now, 250);
     assert_eq!(outcome(&mut client), Some(Err(Failure::Timeout)));
     assert_eq!(client.counters().requests, 1);
@@ -534,4 +544,16 @@ fn a_write_is_answered_by_its_echo() {
     chip.deliver(&adu(1, 0xFF, &pdu));
     run(&mut client, &mut chip, &mut now, 1);
     assert_eq!(outcome(&mut client), Some(Ok(vec![])));
+}
+
+#[test]
+fn a_quiet_socket_costs_one_register_read_and_a_close_without_an_event_is_seen_within_a_second() {
+    let (mut client, mut chip, mut now) = connected();
+    run(&mut client, &mut chip, &mut now, 1100);
+    // The socket closed and the chip said nothing: seen at the next sweep, at most 1 s later.
+    chip.status = state::CLOSED;
+    run(&mut client, &mut chip, &mut now, 900);
+    assert_eq!(chip.dials.len(), 1, "looked at the state without an event or a sweep");
+    run(&mut client, &mut chip, &mut now, 200);
+    assert_eq!(chip.dials.len(), 2, "the close not seen by the sweep");
 }
