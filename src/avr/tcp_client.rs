@@ -5,9 +5,11 @@
 //! starts a request and collects its outcome when it likes, as with the RTU [`crate::Master`];
 //! it never touches the chip itself.
 //!
-//! Each overflow reads the socket's state (one register) and, while it is connected, the
-//! bytes received (two): about 1 % of the CPU on a W5100. The poll runs with interrupts
-//! enabled again, so that a serial role's interrupts beside it keep their timing.
+//! Each overflow reads the clock and, connected, the chip's socket events (one register); the
+//! socket itself only when it has news (data, a close) or once a second: idle, 3.8 % of the
+//! CPU on a W5100 and 3.6 % on a W5500, `millis()` included (`tests/sim_tcp_client.rs`). The
+//! poll runs with interrupts enabled again, so that a serial role's interrupts beside it keep
+//! their timing.
 
 use core::ops::Deref;
 
