@@ -60,6 +60,8 @@ fn command(uno: &mut Uno, seq: u8, address: u16, quantity: u8, response_ms: u16,
 /// and the registers.
 fn result(uno: &mut Uno, seq: u8, limit_us: u64) -> (u8, Vec<u16>) {
     run_until(uno, limit_us, |uno| outcome(uno)[0] == seq, "the outcome");
+    // The main loop writes the counters after the outcome.
+    uno.run_for(us_to_cycles(1000)).unwrap();
     let out = outcome(uno);
     (out[1], out[11..27].chunks(2).map(|p| u16::from_be_bytes([p[0], p[1]])).collect())
 }

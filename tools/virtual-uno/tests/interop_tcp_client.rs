@@ -101,7 +101,8 @@ impl Rig {
                     .map(|p| u16::from_be_bytes([p[0], p[1]]))
                     .collect();
                 let took = self.ms() - asked;
-                self.log += &format!("{:9.1} ms read {address:#06x} x{quantity}: kind {}, {took:.0} ms\n", self.ms(), out[1]);
+                self.log +=
+                    &format!("{:9.1} ms read {address:#06x} x{quantity}: kind {}, {took:.0} ms\n", self.ms(), out[1]);
                 return (out[1], values, took);
             }
             self.run(1);
@@ -109,9 +110,21 @@ impl Rig {
         panic!("no outcome for {address:#x}:\n{}", self.log);
     }
 
-    /// The counters' low bytes: requests, replies, timeouts, retries, unexpected.
-    fn counters(&self) -> Vec<u8> {
+    /// The counters' low bytes: requests, replies, timeouts, retries, unexpected, 2 ms on (the
+    /// main loop writes them after the outcome).
+    fn counters(&mut self) -> Vec<u8> {
+        self.run(2);
         self.outcome()[5..10].to_vec()
+    }
+}
+
+/// A child killed when dropped, a failed test's included.
+struct Stopped(Child);
+
+impl Drop for Stopped {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
     }
 }
 
@@ -151,7 +164,7 @@ fn pymodbus_reads_and_reconnects(chip: Wiznet) {
     let _one = serialise();
     let port = free_port();
     let out = Arc::new(Mutex::new(String::new()));
-    let mut server = pymodbus_server(port, &out);
+    let mut server = Stopped(pymodbus_server(port, &out));
     let mut rig = Rig::new(chip, port);
     rig.until_connected(1, 3000);
     let expected: Vec<u16> = (0..8).map(|i| 0x1010 + i).collect();
@@ -164,17 +177,21 @@ fn pymodbus_reads_and_reconnects(chip: Wiznet) {
         rig.run(100u64.saturating_sub(took as u64));
     }
     // The server goes away and comes back: the client connects again by itself.
-    stop(&mut server);
+    stop(&mut server.0);
     rig.run(200);
     assert_eq!(rig.outcome()[3], 0, "{chip}: still connected after the server quit\n{}", rig.log);
-    let mut server = pymodbus_server(port, &out);
+    let _server = Stopped(pymodbus_server(port, &out));
     rig.until_connected(2, 3000);
     seq += 1;
     let (kind, values, _) = rig.read(seq, 0x10, 8, 1000);
     assert_eq!((kind, &values), (1, &expected), "{chip} after the reconnection\n{}", rig.log);
-    stop(&mut server);
     let counters = rig.counters();
-    println!("{chip} against pymodbus: {} reads answered, {} timeouts; {}", counters[1], counters[2], rig.log.lines().count());
+    println!(
+        "{chip} against pymodbus: {} reads answered, {} timeouts; {}",
+        counters[1],
+        counters[2],
+        rig.log.lines().count()
+    );
     assert_eq!((counters[1], counters[2]), (21, 0), "{chip}\n{}", rig.log);
 }
 
@@ -192,14 +209,17 @@ fn pymodbus_tcp_server_read_every_100_ms_and_again_after_it_restarts_w5500() {
 fn libmodbus_unit_test_server_wrong_id_late_and_byte_by_byte_replies() {
     let _one = serialise();
     let program = built(workspace().join("target/libmodbus-tests/unit-test-server"), "make setup");
-    // It listens on 127.0.0.1:1502 and serves one connection.
-    let mut server = Command::new(program)
+    // It listens on 127.0.0.1:1502 and serves one connection: another program there (an
+    // interop run of the TCP server's) would answer in its place.
+    drop(TcpListener::bind("127.0.0.1:1502").expect("127.0.0.1:1502 is taken: another program listens there"));
+    let server = Command::new(program)
         .arg("tcp")
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
         .expect("unit-test-server");
+    let _server = Stopped(server);
     let deadline = Instant::now() + Duration::from_secs(5);
     while TcpListener::bind("127.0.0.1:1502").is_ok() {
         assert!(Instant::now() < deadline, "unit-test-server did not listen on 1502");
@@ -230,7 +250,5 @@ fn libmodbus_unit_test_server_wrong_id_late_and_byte_by_byte_replies() {
     assert!(took >= 50.0, "{took} ms: not a byte every 5 ms");
     // The stream is still in step.
     assert_eq!(rig.read(6, 0x160, 3, 1000).0, 1, "{}", rig.log);
-    let _ = server.kill();
-    let _ = server.wait();
     println!("libmodbus 3.1.6 unit-test-server tcp against the TCP client:\n{}", rig.log);
 }
