@@ -143,6 +143,9 @@ pub mod internal {
         pub mod mbap {
             pub use crate::tcp::mbap::*;
         }
+        /// The client over any chip's sockets (with feature `master`).
+        #[cfg(feature = "master")]
+        pub use crate::tcp::client::{Client, Connect};
         pub use crate::tcp::server::{Handler, Server, Sockets};
         pub use crate::tcp::wiznet::{command, sn, state, Block, Bus, Chip, Wiznet, RECV, SEND_OK};
         pub use crate::tcp::{respond, Serving};
