@@ -293,7 +293,7 @@ check: fmt-check clippy-tools unit
 # a combination that starts with EIGHT_MHZ:), then the Uno's examples with every feature and
 # the Mega's gateway.
 FEATURE_COMBOS := $(ALL_FEATURES) $(EIGHT_MHZ):$(ALL_FEATURES) master,ascii master,ufmt eeprom-settings,ascii \
-	eeprom-settings,reply-delay,ascii $(EIGHT_MHZ):master $(EIGHT_MHZ):ascii,millis
+	eeprom-settings,reply-delay,ascii $(EIGHT_MHZ):master $(EIGHT_MHZ):ascii,millis tcp,master
 matrix: matrix-host matrix-avr
 matrix-host: setup
 	.ci/feature-matrix host $(FEATURE_COMBOS)
