@@ -6,6 +6,10 @@
 //! chips' SPI frames and registers (`wiznet`). The AVR layer drives it from Timer0's
 //! overflow interrupt (`TcpServer`, AVR only).
 
+#[cfg(test)]
+pub(crate) mod fake;
+#[cfg(feature = "master")]
+pub(crate) mod gateway;
 pub(crate) mod mbap;
 mod network;
 #[cfg(feature = "eeprom-settings")]
@@ -13,6 +17,8 @@ pub(crate) mod record;
 pub(crate) mod server;
 pub(crate) mod wiznet;
 
+#[cfg(feature = "master")]
+pub use gateway::{Direct, GatewayCounters, GatewaySettings, Routes};
 pub use network::Network;
 #[cfg(feature = "eeprom-settings")]
 pub use record::NETWORK_SLOTS_LEN;
