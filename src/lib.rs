@@ -46,6 +46,9 @@ pub use avr::Eeprom;
 #[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "master"))]
 #[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "master"))))]
 pub use avr::Master;
+#[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "tcp", feature = "master"))]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp", feature = "master"))))]
+pub use avr::TcpGateway;
 #[cfg(any(target_arch = "avr", all(doc, docsrs)))]
 #[cfg_attr(docsrs, doc(cfg(target_arch = "avr")))]
 pub use avr::{NoPin, Slave};
@@ -140,7 +143,9 @@ pub mod internal {
         pub mod mbap {
             pub use crate::tcp::mbap::*;
         }
-        pub use crate::tcp::server::{Handler, Server, Sockets};
+        pub use crate::tcp::server::{Answered, Handler, Server, Sockets};
+        #[cfg(feature = "master")]
+        pub use crate::tcp::gateway::{Gate, Gateway, RtuSide};
         pub use crate::tcp::wiznet::{command, sn, state, Block, Bus, Chip, Wiznet, RECV, SEND_OK};
         pub use crate::tcp::{respond, Serving};
         /// The addresses' EEPROM record (with feature `eeprom-settings`).

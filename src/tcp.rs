@@ -18,7 +18,10 @@ pub(crate) mod server;
 pub(crate) mod wiznet;
 
 #[cfg(feature = "master")]
-pub use gateway::{Direct, GatewayCounters, GatewaySettings, Routes};
+#[doc(hidden)]
+pub use gateway::BUFFER as GATEWAY_BUFFER;
+#[cfg(feature = "master")]
+pub use gateway::{Direct, GatewayCounters, GatewaySettings, Routes, STATUS_REGISTERS};
 pub use network::Network;
 #[cfg(feature = "eeprom-settings")]
 pub use record::NETWORK_SLOTS_LEN;

@@ -71,6 +71,8 @@ mod chip;
 mod clock;
 #[cfg(any(feature = "examples", feature = "eeprom-settings"))]
 mod eeprom;
+#[cfg(all(feature = "tcp", feature = "master"))]
+mod gateway;
 #[cfg(feature = "master")]
 mod master;
 mod mem;
@@ -91,6 +93,8 @@ mod values;
 
 #[cfg(feature = "eeprom-settings")]
 pub use eeprom::Eeprom;
+#[cfg(all(feature = "tcp", feature = "master"))]
+pub use gateway::TcpGateway;
 #[cfg(feature = "master")]
 pub use master::Master;
 pub use no_pin::NoPin;
@@ -327,7 +331,68 @@ macro_rules! tcp_server {
 
         /// The server's poll, which the crate's Timer0 overflow handler calls.
         #[doc(hidden)]
-        #[export_name = "avr_modbus_feature_tcp_needs_a_tcp_server"]
+        #[export_name = "avr_modbus_feature_tcp_needs_a_tcp_role"]
+        unsafe extern "C" fn __avr_modbus_tcp_overflow() {
+            // SAFETY: called from the Timer0 overflow handler only, interrupts disabled.
+            unsafe { $name.on_overflow() }
+        }
+    };
+}
+
+/// Declares the Modbus TCP to RTU gateway `NAME` (features `tcp` and `master`) on a WIZnet
+/// chip ([`crate::tcp::W5100`] or [`crate::tcp::W5500`]) with its select on pin 10, and
+/// optionally the RS-485 driver-enable pin type and the [`crate::tcp::Routes`] type; binds
+/// the serial line's interrupts as [`crate::master!`] does (its USART's RX and TX complete,
+/// Timer0 compare A) and serves the chip from Timer0's overflow as [`crate::tcp_server!`]
+/// does.
+///
+/// ```ignore
+/// avr_modbus::tcp_gateway!(GATEWAY: W5100);                   // pins 0/1, no DE pin
+/// avr_modbus::tcp_gateway!(GATEWAY: W5100, DePin);            // RS-485 DE pin
+/// avr_modbus::tcp_gateway!(GATEWAY: W5500, DePin, MyRoutes);  // routes of its own
+/// avr_modbus::tcp_gateway!(GATEWAY on USART1: W5500, DePin);  // a Mega's Serial1
+/// ```
+///
+/// The handlers use the `avr-interrupt` calling convention: the firmware crate needs
+/// `#![feature(abi_avr_interrupt)]`. Nothing else may handle those interrupts, nor Timer0.
+#[cfg(all(feature = "tcp", feature = "master"))]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp", feature = "master"))))]
+#[macro_export]
+macro_rules! tcp_gateway {
+    ($name:ident on $usart:ident : $chip:ty) => {
+        $crate::tcp_gateway!(@on $usart $name: $chip, $crate::NoPin, $crate::tcp::Direct);
+    };
+    ($name:ident on $usart:ident : $chip:ty, $de:ty) => {
+        $crate::tcp_gateway!(@on $usart $name: $chip, $de, $crate::tcp::Direct);
+    };
+    ($name:ident on $usart:ident : $chip:ty, $de:ty, $routes:ty) => {
+        $crate::tcp_gateway!(@on $usart $name: $chip, $de, $routes);
+    };
+    ($name:ident : $chip:ty) => {
+        $crate::__chip!(default_gateway $name: $chip, $crate::NoPin, $crate::tcp::Direct);
+    };
+    ($name:ident : $chip:ty, $de:ty) => {
+        $crate::__chip!(default_gateway $name: $chip, $de, $crate::tcp::Direct);
+    };
+    ($name:ident : $chip:ty, $de:ty, $routes:ty) => {
+        $crate::__chip!(default_gateway $name: $chip, $de, $routes);
+    };
+    (@on $usart:ident $name:ident : $chip:ty, $de:ty, $routes:ty) => {
+        static $name: $crate::TcpGateway<
+            $chip,
+            $routes,
+            $de,
+            $crate::Pin10,
+            { $crate::tcp::GATEWAY_BUFFER },
+            false,
+            { $crate::__chip!(usart $usart) },
+        > = $crate::TcpGateway::new();
+
+        $crate::__bind_role!(__avr_modbus_gateway_interrupts, $name, $usart, TIMER0_COMPA, master_rx_arrived);
+
+        /// The TCP side's poll, which the crate's Timer0 overflow handler calls.
+        #[doc(hidden)]
+        #[export_name = "avr_modbus_feature_tcp_needs_a_tcp_role"]
         unsafe extern "C" fn __avr_modbus_tcp_overflow() {
             // SAFETY: called from the Timer0 overflow handler only, interrupts disabled.
             unsafe { $name.on_overflow() }

@@ -19,13 +19,13 @@ unsafe extern "avr-interrupt" fn timer0_overflow() {
     // SAFETY: as above.
     #[cfg(feature = "tcp")]
     unsafe {
-        avr_modbus_feature_tcp_needs_a_tcp_server()
+        avr_modbus_feature_tcp_needs_a_tcp_role()
     };
 }
 
 #[cfg(all(target_arch = "avr", feature = "tcp"))]
 extern "C" {
-    /// The TCP server's poll, which [`crate::tcp_server!`] defines: its
-    /// [`crate::TcpServer::on_overflow`].
-    fn avr_modbus_feature_tcp_needs_a_tcp_server();
+    /// The TCP role's poll, which [`crate::tcp_server!`] (or `tcp_gateway!`) defines: its
+    /// `on_overflow`.
+    fn avr_modbus_feature_tcp_needs_a_tcp_role();
 }

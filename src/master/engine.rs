@@ -295,7 +295,7 @@ impl<const N: usize> Engine<N> {
     /// The request buffer, to build a frame to forward in it (address, PDU) for
     /// [`Engine::forward`]; `None` while a request is under way or its outcome waits.
     #[cfg(feature = "tcp")]
-    pub(crate) fn request_mut(&mut self) -> Option<&mut [u8; N]> {
+    pub fn request_mut(&mut self) -> Option<&mut [u8; N]> {
         (!self.is_busy()).then_some(&mut self.request)
     }
 
@@ -306,7 +306,7 @@ impl<const N: usize> Engine<N> {
     /// [`Engine::start`] otherwise; [`Error::TooLong`] for a frame outside 2 to `N` − 2
     /// bytes, [`Error::Busy`] as there.
     #[cfg(feature = "tcp")]
-    pub(crate) fn forward(&mut self, len: usize, retries: u8) -> Result<Action, Error> {
+    pub fn forward(&mut self, len: usize, retries: u8) -> Result<Action, Error> {
         if self.is_busy() {
             return Err(Error::Busy);
         }
@@ -323,12 +323,6 @@ impl<const N: usize> Engine<N> {
         self.state = State::Due;
         self.seal();
         Ok(self.send_if_quiet())
-    }
-
-    /// The function code of the request under way (or answered).
-    #[cfg(feature = "tcp")]
-    pub(crate) fn function(&self) -> u8 {
-        self.expect.function
     }
 
     /// Appends the CRC (in ASCII framing the LRC) to the request [`Engine::begin`] built.

@@ -12,7 +12,8 @@
 //! every connection.
 //!
 //! Unit ids: the gateway's own ([`GatewaySettings::own_unit`], 0xFF by default: "the
-//! device itself", §4.4.1.2) is answered from its own data model; 0 goes to the line as a
+//! device itself", §4.4.1.2) is answered from its own registers (counters, the slaves
+//! down: [`STATUS_REGISTERS`]); 0 goes to the line as a
 //! broadcast (writes only) and gets no TCP answer; any other goes where [`Routes`] says,
 //! and one it does not route gets exception 0A (gateway path unavailable). A slave that
 //! does not answer (after the retries) gets 0B (gateway target device failed to respond)
@@ -25,7 +26,6 @@ use super::mbap::HEADER;
 use super::server::{Answered, Handler, Server, Sockets};
 use crate::master::Failure;
 use crate::protocol::Exception;
-use crate::slave::model::DataModel;
 use crate::slave::pdu::encode_exception;
 
 /// The serial line as the gateway sees it: the RTU master's request buffer, its start,
@@ -85,14 +85,14 @@ impl Default for GatewaySettings {
 }
 
 impl GatewaySettings {
-    /// The defaults: the gateway's own data model at unit 0xFF, a slave that failed to
+    /// The defaults: the gateway's own registers at unit 0xFF, a slave that failed to
     /// answer tried again once a second.
     pub const fn new() -> GatewaySettings {
         GatewaySettings { own_unit: 0xFF, recheck_ms: 1000 }
     }
 
-    /// The unit id the gateway answers itself, from its own data model (248–255: the ids
-    /// a serial slave cannot have).
+    /// The unit id the gateway answers itself, from its own registers (248–255: the ids a
+    /// serial slave cannot have).
     pub const fn own_unit(self, unit: u8) -> GatewaySettings {
         assert!(unit >= 248, "the gateway's own unit id is 248-255 (1-247 are the line's)");
         GatewaySettings { own_unit: unit, ..self }
@@ -273,9 +273,9 @@ impl Gateway {
     }
 }
 
-/// The handler the server calls for each request: the gateway's rules over the line, the
-/// routes and the gateway's own data model.
-pub struct Gate<'a, L, M: ?Sized, R> {
+/// The handler the server calls for each request: the gateway's rules over the line and
+/// the routes, and its own registers.
+pub struct Gate<'a, L, R> {
     /// The gateway's state.
     pub gateway: &'a mut Gateway,
     /// The serial line.
@@ -284,9 +284,20 @@ pub struct Gate<'a, L, M: ?Sized, R> {
     pub routes: &'a R,
     /// The settings.
     pub settings: &'a GatewaySettings,
-    /// The gateway's own data model.
-    pub own: &'a mut M,
+    /// Connections waiting for the line as the poll began (a status register).
+    pub waiting: u8,
 }
+
+/// The gateway's own registers, at its own unit: input registers (FC 4) that FC 3 reads
+/// too. 0–6 the counters in [`GatewayCounters`]' order, 7 the connections waiting for the
+/// line, 8–23 the slaves down (register 8 + n / 16, bit n % 16 for address n).
+pub const STATUS_REGISTERS: u16 = 24;
+
+/// The TCP side's buffer for the gateway: the MBAP header and the longest answer of its
+/// own registers (all 24), or more.
+pub const BUFFER: usize = 64;
+
+const _: () = assert!(BUFFER >= HEADER + 2 + 2 * STATUS_REGISTERS as usize);
 
 /// The write function codes a broadcast may carry (Serial Line §2.1: a broadcast is a
 /// write): 5, 6, 15, 16, 22.
@@ -294,9 +305,46 @@ fn broadcastable(function: u8) -> bool {
     matches!(function, 0x05 | 0x06 | 0x0F | 0x10 | 0x16)
 }
 
-impl<L: RtuSide, M: DataModel + ?Sized, R: Routes> Gate<'_, L, M, R> {
-    /// Sends the request in `adu` (its first `kept` PDU bytes there, the rest in socket
-    /// `s` from `at`) to `address`: true when it went out.
+impl<L: RtuSide, R: Routes> Gate<'_, L, R> {
+    /// Status register `index` (see [`STATUS_REGISTERS`]).
+    fn status(&self, index: u16) -> u16 {
+        let at = usize::from(index);
+        match index {
+            0..=6 => self.gateway.counts[at],
+            7 => u16::from(self.waiting),
+            _ => {
+                let byte = (at - 8) * 2;
+                u16::from_le_bytes([self.gateway.down[byte % 32], self.gateway.down[(byte + 1) % 32]])
+            }
+        }
+    }
+
+    /// Answers a request for the gateway's own unit in `adu`: reads of its registers (FC 3
+    /// or 4), exception 01 for any other function, 03 for a quantity outside 1–125, 02 past
+    /// the last register.
+    fn own(&self, adu: &mut [u8], pdu_len: usize) -> (usize, bool) {
+        let pdu = &mut adu[HEADER..];
+        let word = |at: usize| u16::from_be_bytes([pdu[at], pdu[at + 1]]);
+        let exception = if !matches!(pdu[0], 0x03 | 0x04) {
+            Exception::IllegalFunction
+        } else if pdu_len != 5 || !(1..=125).contains(&word(3)) {
+            Exception::IllegalDataValue
+        } else if u32::from(word(1)) + u32::from(word(3)) > u32::from(STATUS_REGISTERS) {
+            Exception::IllegalDataAddress
+        } else {
+            let (first, quantity) = (word(1), word(3));
+            pdu[1] = (quantity * 2) as u8;
+            for i in 0..quantity {
+                let at = 2 + 2 * usize::from(i);
+                pdu[at..at + 2].copy_from_slice(&self.status(first + i).to_be_bytes());
+            }
+            return (2 + 2 * usize::from(quantity), false);
+        };
+        (encode_exception(pdu, exception), true)
+    }
+
+    /// Sends the request in `adu` (its first PDU bytes there, the rest in socket `s` from
+    /// `at`) to the slave `address`, with `retries`: true when it went out.
     fn forward<S: Sockets>(
         &mut self,
         adu: &mut [u8],
@@ -304,8 +352,7 @@ impl<L: RtuSide, M: DataModel + ?Sized, R: Routes> Gate<'_, L, M, R> {
         chip: &mut S,
         s: u8,
         at: u16,
-        address: u8,
-        retries: u8,
+        (address, retries): (u8, u8),
     ) -> bool {
         let kept = pdu_len.min(adu.len() - HEADER);
         self.line.put(0, &[address]);
@@ -323,9 +370,11 @@ impl<L: RtuSide, M: DataModel + ?Sized, R: Routes> Gate<'_, L, M, R> {
     }
 }
 
-impl<L: RtuSide, M: DataModel + ?Sized, R: Routes> Handler for Gate<'_, L, M, R> {
+impl<L: RtuSide, R: Routes> Handler for Gate<'_, L, R> {
+    const DEFERS: bool = true;
+
     fn handle(&mut self, adu: &mut [u8], pdu_len: usize) -> Option<(usize, bool)> {
-        super::respond(adu, pdu_len, self.own)
+        Some(self.own(adu, pdu_len))
     }
 
     fn ready(&mut self) -> bool {
@@ -349,7 +398,7 @@ impl<L: RtuSide, M: DataModel + ?Sized, R: Routes> Handler for Gate<'_, L, M, R>
         let mut flight = Flight { socket: s, transaction, unit, function, address: 0 };
         if unit == 0 {
             // A broadcast: no answer over TCP either (§4.4.1.2); a read is no broadcast.
-            if broadcastable(function) && self.forward(adu, pdu_len, chip, s, at, 0, 0) {
+            if broadcastable(function) && self.forward(adu, pdu_len, chip, s, at, (0, 0)) {
                 self.gateway.flight = Some(flight);
                 self.gateway.bump(Count::Forwarded);
                 self.gateway.bump(Count::Broadcasts);
@@ -374,7 +423,7 @@ impl<L: RtuSide, M: DataModel + ?Sized, R: Routes> Handler for Gate<'_, L, M, R>
                     self.gateway.recheck_at = now.wrapping_add(u32::from(self.settings.recheck_ms));
                     retries = 0;
                 }
-                if self.forward(adu, pdu_len, chip, s, at, address, retries) {
+                if self.forward(adu, pdu_len, chip, s, at, (address, retries)) {
                     flight.address = address;
                     self.gateway.flight = Some(flight);
                     self.gateway.bump(Count::Forwarded);

@@ -153,6 +153,12 @@ pub trait Handler {
     /// reply PDU's length and whether it is an exception. `None`: no reply.
     fn handle(&mut self, adu: &mut [u8], pdu_len: usize) -> Option<(usize, bool)>;
 
+    /// True for a handler that may not take a request at once ([`Handler::ready`]) or
+    /// answers later ([`Server::answer`]): the server then takes turns among the sockets
+    /// and follows their connections for late answers. A plain server has none of that
+    /// code.
+    const DEFERS: bool = false;
+
     /// True when a request can be taken now. When not, a whole request waits in the chip
     /// until [`Server::resume`] (a gateway whose serial line is busy).
     #[inline(always)]
@@ -256,9 +262,11 @@ impl<const B: usize> Server<B> {
         if second {
             look = 0xFF;
         }
-        let mut s = self.first;
+        // A plain server looks at its sockets in order; one whose handler defers takes
+        // turns, from the socket after the one served last.
+        let mut s = if H::DEFERS { self.first } else { 0 };
         for _ in 0..serving {
-            if s >= serving {
+            if H::DEFERS && s >= serving {
                 s = 0;
             }
             if look & (1 << s) != 0 {
@@ -411,7 +419,7 @@ impl<const B: usize> Server<B> {
         let mut tx = tx_start;
         let mut left = false;
         while received >= HEADER as u16 {
-            if !handler.ready() {
+            if H::DEFERS && !handler.ready() {
                 // Taken when the handler is ready (`resume`).
                 self.waiting |= 1 << s;
                 left = true;
@@ -467,8 +475,10 @@ impl<const B: usize> Server<B> {
             let from = rx;
             rx = rx.wrapping_add(adu);
             received -= adu;
-            self.changed &= !(1 << s);
-            self.first = s + 1;
+            if H::DEFERS {
+                self.changed &= !(1 << s);
+                self.first = s + 1;
+            }
             let Some((reply, exception)) = handler.handle_from(&mut self.buf, pdu_len, chip, s, from) else {
                 continue;
             };
@@ -493,7 +503,7 @@ impl<const B: usize> Server<B> {
             chip.take(s, rx);
             self.rx[at] = rx;
         }
-        if left && self.waiting & (1 << s) == 0 {
+        if left && (!H::DEFERS || self.waiting & (1 << s) == 0) {
             self.again |= 1 << s;
         }
         left

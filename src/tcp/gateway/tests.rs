@@ -167,7 +167,6 @@ struct Rig {
     chip: Fake,
     server: Server<32>,
     gateway: Gateway,
-    own: Regs,
     line: Played,
     settings: GatewaySettings,
 }
@@ -178,7 +177,6 @@ impl Rig {
             chip: Fake::default(),
             server: Server::new(),
             gateway: Gateway::new(),
-            own: regs(0xF000),
             line: Played::new(slaves),
             settings: GatewaySettings::new(),
         };
@@ -203,7 +201,7 @@ impl Rig {
             line: &mut self.line,
             routes: &NotNine,
             settings: &self.settings,
-            own: &mut self.own,
+            waiting: self.server.waiting(),
         };
         self.server.poll(&mut self.chip, &NET, &mut gate, false);
     }
@@ -299,9 +297,9 @@ fn unit_ids_own_broadcast_routed_and_not() {
     let mut rig = Rig::new([(1, Slave::Bank(regs(0x100))), (0, Slave::Dead)]);
     rig.chip.connect(1, [10, 0, 0, 7]);
     // The gateway's own unit, from its own registers; not on the line.
-    rig.chip.deliver(1, &read(1, 0xFF, 2, 2));
+    rig.chip.deliver(1, &read(1, 0xFF, 0, 2));
     rig.settle();
-    assert_eq!(rig.chip.socks[1].sent, read_reply(1, 0xFF, 0xF000, 2, 2));
+    assert_eq!(rig.chip.socks[1].sent, [0, 1, 0, 0, 0, 7, 0xFF, 3, 4, 0, 0, 0, 0]);
     assert!(rig.line.sent.is_empty());
     // Not routed (9), and the ids no slave has (248-254): 0A.
     for (t, unit) in [(2, 9), (3, 248), (4, 254)] {
@@ -408,7 +406,8 @@ fn expected(transaction: u16, unit: u8, start: u16, qty: u16) -> Vec<u8> {
         1 => read_reply(transaction, unit, 0x100, start, qty),
         2 => read_reply(transaction, unit, 0x200, start, qty),
         3 => exception(transaction, unit, 3, 0x0B),
-        0xFF => read_reply(transaction, unit, 0xF000, start, qty),
+        // The gateway's own registers end at 24.
+        0xFF => exception(transaction, unit, 3, 0x02),
         _ => exception(transaction, unit, 3, 0x0A),
     }
 }
@@ -435,7 +434,7 @@ fn every_request_of_every_connection_gets_exactly_its_one_answer() {
                     stream.extend([(transaction >> 8) as u8, transaction as u8, 0, 0, 0, 6, 0, 6, 0, 0, 0, 1]);
                     continue;
                 }
-                let start = (next(&mut seed) % 5) as u16;
+                let start = (next(&mut seed) % 5) as u16 + if unit == 0xFF { 24 } else { 0 };
                 let qty = 1 + (next(&mut seed) % 5) as u16;
                 stream.extend(read(transaction, unit, start, qty));
                 answer.extend(expected(transaction, unit, start, qty));
@@ -458,8 +457,37 @@ fn every_request_of_every_connection_gets_exactly_its_one_answer() {
         }
         rig.line.release();
         rig.settle();
-        for s in 0..4 {
-            assert_eq!(rig.chip.socks[s].sent, answers[s], "round {round}, socket {s}");
+        for (s, answer) in answers.iter().enumerate() {
+            assert_eq!(&rig.chip.socks[s].sent, answer, "round {round}, socket {s}");
         }
     }
+}
+
+#[test]
+fn the_gateways_own_registers_count_what_it_did() {
+    let mut rig = Rig::new([(1, Slave::Bank(regs(0x100))), (3, Slave::Dead), (17, Slave::Dead)]);
+    rig.chip.connect(0, [10, 0, 0, 7]);
+    let stream = [read(1, 1, 0, 1), read(2, 1, 10, 1), read(3, 9, 0, 1), read(4, 3, 0, 1), read(5, 17, 0, 1)].concat();
+    rig.chip.deliver(0, &stream);
+    rig.settle();
+    rig.chip.socks[0].sent.clear();
+    let mut status = read(6, 0xFF, 0, 10);
+    status[7] = 4;
+    rig.chip.deliver(0, &status);
+    rig.settle();
+    // forwarded 4, answers 2, exceptions 1, 0A 1, 0B 2, broadcasts 0, orphaned 0, waiting
+    // 0, slaves 3 and 17 down.
+    let values = [4u16, 2, 1, 1, 2, 0, 0, 0, 1 << 3, 1 << 1];
+    let mut expected = vec![0, 6, 0, 0, 0, 23, 0xFF, 4, 20];
+    expected.extend(values.iter().flat_map(|v| v.to_be_bytes()));
+    assert_eq!(rig.chip.socks[0].sent, expected);
+    // Past the last register: 02; a quantity of 0: 03; a write: 01.
+    rig.chip.socks[0].sent.clear();
+    rig.chip
+        .deliver(0, &[read(7, 0xFF, 20, 5), read(8, 0xFF, 0, 0), vec![0, 9, 0, 0, 0, 6, 0xFF, 6, 0, 0, 0, 1]].concat());
+    rig.settle();
+    assert_eq!(
+        rig.chip.socks[0].sent,
+        [exception(7, 0xFF, 3, 2), exception(8, 0xFF, 3, 3), exception(9, 0xFF, 6, 1)].concat()
+    );
 }
