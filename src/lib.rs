@@ -143,9 +143,9 @@ pub mod internal {
         pub mod mbap {
             pub use crate::tcp::mbap::*;
         }
-        pub use crate::tcp::server::{Answered, Handler, Server, Sockets};
         #[cfg(feature = "master")]
         pub use crate::tcp::gateway::{Gate, Gateway, RtuSide};
+        pub use crate::tcp::server::{Answered, Handler, Server, Sockets};
         pub use crate::tcp::wiznet::{command, sn, state, Block, Bus, Chip, Wiznet, RECV, SEND_OK};
         pub use crate::tcp::{respond, Serving};
         /// The addresses' EEPROM record (with feature `eeprom-settings`).

@@ -103,10 +103,8 @@ impl<DE: OutputPin, const U: u8> RtuSide for Locked<'_, DE, U> {
 
     fn reply(&mut self, at: usize, out: &mut [u8]) {
         self.0.locked(|m| {
-            if let Some(Ok(reply)) = m.engine.outcome() {
-                if let Some(bytes) = reply.data().get(at..at + out.len()) {
-                    out.copy_from_slice(bytes);
-                }
+            if let Some(bytes) = m.engine.answer_pdu().and_then(|pdu| pdu.get(at..at + out.len())) {
+                out.copy_from_slice(bytes);
             }
         });
     }

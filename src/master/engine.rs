@@ -325,6 +325,15 @@ impl<const N: usize> Engine<N> {
         Ok(self.send_if_quiet())
     }
 
+    /// The answer's PDU, function code first, once the request is done and answered:
+    /// what a gateway passes back.
+    #[cfg(feature = "tcp")]
+    pub fn answer_pdu(&self) -> Option<&[u8]> {
+        (self.state == State::Done && self.failure.is_none())
+            .then(|| self.framer.buffer().get(1..2 + usize::from(self.answer)))
+            .flatten()
+    }
+
     /// Appends the CRC (in ASCII framing the LRC) to the request [`Engine::begin`] built.
     pub fn seal(&mut self) {
         // `begin` left room for the CRC: the bound only lets the compiler see it.

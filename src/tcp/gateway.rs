@@ -41,7 +41,7 @@ pub trait RtuSide {
     /// The outcome, once there: the answer's PDU bytes after the function code, or why
     /// there is none (a broadcast's outcome is an answer of 0 bytes).
     fn outcome(&mut self) -> Option<Result<usize, Failure>>;
-    /// Copies the answer's PDU bytes after the function code from `at` into `out`.
+    /// Copies the answer's PDU bytes, from its function code, from `at` into `out`.
     fn reply(&mut self, at: usize, out: &mut [u8]);
     /// The outcome is used: the line is free.
     fn collect(&mut self);
@@ -220,34 +220,30 @@ impl Gateway {
         let Some(flight) = self.flight else { return false };
         let Some(outcome) = line.outcome() else { return false };
         if flight.unit != 0 {
-            let (data, code) = match outcome {
-                Ok(len) => (len, None),
-                Err(Failure::Exception(exception)) => (0, Some(exception)),
-                Err(Failure::Timeout | Failure::BadReply) => (0, Some(Exception::GatewayTargetDeviceFailedToRespond)),
+            // The answer's PDU (function code and data, as the slave sent it, exceptions
+            // too) or, when it did not answer, exception 0B.
+            let (pdu, code) = match outcome {
+                Ok(len) => (1 + len, 0),
+                Err(Failure::Exception(exception)) => (2, exception.code()),
+                Err(Failure::Timeout | Failure::BadReply) => (2, Exception::GatewayTargetDeviceFailedToRespond.code()),
             };
-            // Function code, then the answer's bytes or the exception code.
-            let pdu = 1 + if code.is_some() { 1 } else { data };
             let [t0, t1] = flight.transaction.to_be_bytes();
-            let [l0, l1] = (pdu as u16 + 1).to_be_bytes();
-            let head = [t0, t1, 0, 0, l0, l1, flight.unit];
-            let answered =
-                server.answer(chip, flight.socket, (HEADER + pdu) as u16, code.is_some(), |chip, at, buf| {
-                    let Some(first) = buf.get_mut(..HEADER + 2) else { return };
-                    first[..HEADER].copy_from_slice(&head);
-                    first[HEADER] = flight.function | if code.is_some() { 0x80 } else { 0 };
-                    first[HEADER + 1] = code.map_or(0, Exception::code);
-                    let lead = if code.is_some() { HEADER + 2 } else { HEADER + 1 };
-                    chip.write(flight.socket, at, &mut first[..lead]);
-                    // The answer's bytes, a buffer at a time.
-                    let mut done = 0;
-                    while done < data {
-                        let n = (data - done).min(buf.len());
-                        let chunk = &mut buf[..n];
-                        line.reply(done, chunk);
-                        chip.write(flight.socket, at.wrapping_add((lead + done) as u16), chunk);
-                        done += n;
-                    }
-                });
+            let head = [t0, t1, 0, 0, 0, pdu as u8 + 1, flight.unit, flight.function | 0x80, code];
+            let answered = server.answer(chip, flight.socket, (HEADER + pdu) as u16, code != 0, |chip, at, buf| {
+                let Some(first) = buf.get_mut(..head.len()) else { return };
+                first.copy_from_slice(&head);
+                let lead = if code != 0 { HEADER + 2 } else { HEADER };
+                chip.write(flight.socket, at, &mut first[..lead]);
+                // The answer's bytes, a buffer at a time.
+                let mut done = 0;
+                while lead + done < HEADER + pdu {
+                    let n = (HEADER + pdu - lead - done).min(buf.len());
+                    let chunk = &mut buf[..n];
+                    line.reply(done, chunk);
+                    chip.write(flight.socket, at.wrapping_add((lead + done) as u16), chunk);
+                    done += n;
+                }
+            });
             match answered {
                 Answered::Later => return false,
                 Answered::Gone => self.bump(Count::Orphaned),
@@ -306,39 +302,36 @@ fn broadcastable(function: u8) -> bool {
 }
 
 impl<L: RtuSide, R: Routes> Gate<'_, L, R> {
-    /// Status register `index` (see [`STATUS_REGISTERS`]).
-    fn status(&self, index: u16) -> u16 {
-        let at = usize::from(index);
-        match index {
-            0..=6 => self.gateway.counts[at],
-            7 => u16::from(self.waiting),
-            _ => {
-                let byte = (at - 8) * 2;
-                u16::from_le_bytes([self.gateway.down[byte % 32], self.gateway.down[(byte + 1) % 32]])
-            }
-        }
-    }
-
     /// Answers a request for the gateway's own unit in `adu`: reads of its registers (FC 3
     /// or 4), exception 01 for any other function, 03 for a quantity outside 1–125, 02 past
     /// the last register.
     fn own(&self, adu: &mut [u8], pdu_len: usize) -> (usize, bool) {
+        // The registers, high byte first: the counters, the connections waiting, the
+        // slaves down (each register's two bytes, low byte the lower addresses).
+        let mut registers = [0u8; 2 * STATUS_REGISTERS as usize];
+        let (counts, down) = registers.split_at_mut(16);
+        for (pair, count) in
+            counts.chunks_exact_mut(2).zip(self.gateway.counts.iter().chain(&[u16::from(self.waiting)]))
+        {
+            pair.copy_from_slice(&count.to_be_bytes());
+        }
+        for (pair, bits) in down.chunks_exact_mut(2).zip(self.gateway.down.chunks_exact(2)) {
+            pair[0] = bits[1];
+            pair[1] = bits[0];
+        }
         let pdu = &mut adu[HEADER..];
-        let word = |at: usize| u16::from_be_bytes([pdu[at], pdu[at + 1]]);
+        let first = usize::from(u16::from_be_bytes([pdu[1], pdu[2]]));
+        let quantity = usize::from(u16::from_be_bytes([pdu[3], pdu[4]]));
         let exception = if !matches!(pdu[0], 0x03 | 0x04) {
             Exception::IllegalFunction
-        } else if pdu_len != 5 || !(1..=125).contains(&word(3)) {
+        } else if pdu_len != 5 || !(1..=125).contains(&quantity) {
             Exception::IllegalDataValue
-        } else if u32::from(word(1)) + u32::from(word(3)) > u32::from(STATUS_REGISTERS) {
-            Exception::IllegalDataAddress
+        } else if let Some(values) = registers.get(2 * first..2 * (first + quantity)) {
+            pdu[1] = values.len() as u8;
+            pdu[2..2 + values.len()].copy_from_slice(values);
+            return (2 + values.len(), false);
         } else {
-            let (first, quantity) = (word(1), word(3));
-            pdu[1] = (quantity * 2) as u8;
-            for i in 0..quantity {
-                let at = 2 + 2 * usize::from(i);
-                pdu[at..at + 2].copy_from_slice(&self.status(first + i).to_be_bytes());
-            }
-            return (2 + 2 * usize::from(quantity), false);
+            Exception::IllegalDataAddress
         };
         (encode_exception(pdu, exception), true)
     }
@@ -355,8 +348,9 @@ impl<L: RtuSide, R: Routes> Gate<'_, L, R> {
         (address, retries): (u8, u8),
     ) -> bool {
         let kept = pdu_len.min(adu.len() - HEADER);
-        self.line.put(0, &[address]);
-        self.line.put(1, &adu[HEADER..HEADER + kept]);
+        // The unit id's place becomes the slave's address: the frame, then, as it goes.
+        adu[HEADER - 1] = address;
+        self.line.put(0, &adu[HEADER - 1..HEADER + kept]);
         // The rest of a PDU longer than the buffer, through it.
         let mut done = kept;
         while done < pdu_len {

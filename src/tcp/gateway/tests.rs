@@ -137,8 +137,8 @@ impl RtuSide for Played {
         self.engine.outcome().map(|o| o.map(|reply| reply.data().len()))
     }
     fn reply(&mut self, at: usize, out: &mut [u8]) {
-        let Some(Ok(reply)) = self.engine.outcome() else { panic!("no answer to copy") };
-        out.copy_from_slice(&reply.data()[at..at + out.len()]);
+        let pdu = self.engine.answer_pdu().expect("no answer to copy");
+        out.copy_from_slice(&pdu[at..at + out.len()]);
     }
     fn collect(&mut self) {
         self.engine.collect();
