@@ -224,7 +224,7 @@ package: setup
 # target/fixtures/readme/avr-none/release/readme-{slave,master}.elf. A README block that stops
 # compiling fails here. Their sizes are the stand-in's, not arduino-hal's: on the same README
 # and crate (46fb4c2) 2 B (slave) and 4 B (master) of flash under arduino-hal's, RAM the same.
-README_FIRMWARE := slave master tcp
+README_FIRMWARE := slave master tcp gateway
 readme: setup
 	@echo "fixture: fixtures/readme, uno"
 	fixtures/readme/blocks
