@@ -302,36 +302,37 @@ fn broadcastable(function: u8) -> bool {
 }
 
 impl<L: RtuSide, R: Routes> Gate<'_, L, R> {
+    /// Status register `index` (below [`STATUS_REGISTERS`]).
+    fn status(&self, index: u8) -> u16 {
+        match index {
+            0..=6 => self.gateway.counts[usize::from(index)],
+            7 => u16::from(self.waiting),
+            _ => {
+                let at = usize::from(index - 8) * 2 % 32;
+                u16::from_le_bytes([self.gateway.down[at], self.gateway.down[at + 1]])
+            }
+        }
+    }
+
     /// Answers a request for the gateway's own unit in `adu`: reads of its registers (FC 3
     /// or 4), exception 01 for any other function, 03 for a quantity outside 1–125, 02 past
     /// the last register.
     fn own(&self, adu: &mut [u8], pdu_len: usize) -> (usize, bool) {
-        // The registers, high byte first: the counters, the connections waiting, the
-        // slaves down (each register's two bytes, low byte the lower addresses).
-        let mut registers = [0u8; 2 * STATUS_REGISTERS as usize];
-        let (counts, down) = registers.split_at_mut(16);
-        for (pair, count) in
-            counts.chunks_exact_mut(2).zip(self.gateway.counts.iter().chain(&[u16::from(self.waiting)]))
-        {
-            pair.copy_from_slice(&count.to_be_bytes());
-        }
-        for (pair, bits) in down.chunks_exact_mut(2).zip(self.gateway.down.chunks_exact(2)) {
-            pair[0] = bits[1];
-            pair[1] = bits[0];
-        }
         let pdu = &mut adu[HEADER..];
-        let first = usize::from(u16::from_be_bytes([pdu[1], pdu[2]]));
-        let quantity = usize::from(u16::from_be_bytes([pdu[3], pdu[4]]));
-        let exception = if !matches!(pdu[0], 0x03 | 0x04) {
+        let [function, first_high, first, count_high, count, ..] = *pdu else { return (0, false) };
+        let exception = if !matches!(function, 0x03 | 0x04) {
             Exception::IllegalFunction
-        } else if pdu_len != 5 || !(1..=125).contains(&quantity) {
+        } else if pdu_len != 5 || count_high != 0 || !(1..=125).contains(&count) {
             Exception::IllegalDataValue
-        } else if let Some(values) = registers.get(2 * first..2 * (first + quantity)) {
-            pdu[1] = values.len() as u8;
-            pdu[2..2 + values.len()].copy_from_slice(values);
-            return (2 + values.len(), false);
-        } else {
+        } else if first_high != 0 || u16::from(first) + u16::from(count) > STATUS_REGISTERS {
             Exception::IllegalDataAddress
+        } else {
+            pdu[1] = count * 2;
+            for i in 0..count {
+                let at = 2 + 2 * usize::from(i);
+                pdu[at..at + 2].copy_from_slice(&self.status(first + i).to_be_bytes());
+            }
+            return (2 + 2 * usize::from(count), false);
         };
         (encode_exception(pdu, exception), true)
     }
