@@ -148,13 +148,15 @@ sizes: firmware
 # examples/libmodbus_map.rs (libmodbus's unit-test map on a W5100, with the FC 17, 22 and 23
 # its unit-test-client uses) into target/chips/atmega328p-w5100-libmodbus/: make interop runs
 # tcp_server and libmodbus_map on the virtual shields (tools/virtual-uno/tests/interop_tcp.rs).
-# The TCP to RTU gateway (tcp_gateway, W5100, USART0) into target/chips/atmega328p-tcp-gateway/.
+# The TCP to RTU gateway (tcp_gateway, W5100, USART0) into target/chips/atmega328p-tcp-gateway/,
+# and with the INT line on pin 2 into target/chips/atmega328p-tcp-gateway-int/.
 TCP_BUILDS := atmega328p:w5100 atmega328p:w5500 atmega328p:w5100-int atmega328p:w5500-int atmega2560:w5500 atmega32u4:w5500
 TCP_FIRMWARE := $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-none/release/examples/tcp_server.elf) \
 	target/chips/atmega328p-tcp/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu.elf \
 	target/chips/atmega328p-w5100-libmodbus/avr-none/release/examples/libmodbus_map.elf \
-	target/chips/atmega328p-tcp-gateway/avr-none/release/examples/tcp_gateway.elf
+	target/chips/atmega328p-tcp-gateway/avr-none/release/examples/tcp_gateway.elf \
+	target/chips/atmega328p-tcp-gateway-int/avr-none/release/examples/tcp_gateway.elf
 tcp-firmware: setup
 	@for build in $(TCP_BUILDS); do \
 		chip=$${build%%:*}; shield=$${build##*:}; \
@@ -163,6 +165,7 @@ tcp-firmware: setup
 	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu
 	@.ci/chip-build atmega328p "" atmega328p-w5100-libmodbus examples,tcp,extra-fc,diagnostics libmodbus_map
 	@.ci/chip-build atmega328p "" atmega328p-tcp-gateway examples,tcp,master tcp_gateway
+	@AVR_MODBUS_EXAMPLE_SHIELD=w5100-int .ci/chip-build atmega328p "" atmega328p-tcp-gateway-int examples,tcp,master tcp_gateway
 	@.ci/sizes $(TCP_FIRMWARE)
 	@.ci/firmware-check $(TCP_FIRMWARE)
 

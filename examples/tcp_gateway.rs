@@ -34,14 +34,25 @@
 
 use avr_modbus::board::{self, Pin, Pins};
 use avr_modbus::master::Timeouts;
-use avr_modbus::tcp::{Network, W5100};
+use avr_modbus::tcp::Network;
+#[cfg(not(any(example_shield = "w5500", example_shield = "w5500-int")))]
+use avr_modbus::tcp::W5100;
 use avr_modbus::{Line, Parity, StopBits};
 use panic_halt as _;
 
 const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).evict_after(2);
 const LINE: Line = Line::new(19_200, Parity::Even, StopBits::One);
 
+// This repository builds it for each shield (`AVR_MODBUS_EXAMPLE_SHIELD`): the W5100 by
+// default, the W5500, each also with the INT line on pin 2.
+#[cfg(not(any(example_shield = "w5500", example_shield = "w5100-int", example_shield = "w5500-int")))]
 avr_modbus::tcp_gateway!(GATEWAY: W5100, Pin);
+#[cfg(example_shield = "w5500")]
+avr_modbus::tcp_gateway!(GATEWAY: avr_modbus::tcp::W5500, Pin);
+#[cfg(example_shield = "w5100-int")]
+avr_modbus::tcp_gateway!(GATEWAY: W5100, Pin; pin2_int);
+#[cfg(example_shield = "w5500-int")]
+avr_modbus::tcp_gateway!(GATEWAY: avr_modbus::tcp::W5500, Pin; pin2_int);
 
 #[avr_device::entry]
 fn main() -> ! {

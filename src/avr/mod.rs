@@ -351,40 +351,44 @@ macro_rules! tcp_server {
 /// avr_modbus::tcp_gateway!(GATEWAY: W5100, DePin);            // RS-485 DE pin
 /// avr_modbus::tcp_gateway!(GATEWAY: W5500, DePin, MyRoutes);  // routes of its own
 /// avr_modbus::tcp_gateway!(GATEWAY on USART1: W5500, DePin);  // a Mega's Serial1
+/// avr_modbus::tcp_gateway!(GATEWAY: W5100, DePin; pin2_int);  // INT wired to pin 2
 /// ```
 ///
+/// With `; pin2_int` the chip's INT line on pin 2 serves the TCP side as soon as a request
+/// lands (as `tcp_server!`'s `pin2_int`).
 /// The handlers use the `avr-interrupt` calling convention: the firmware crate needs
 /// `#![feature(abi_avr_interrupt)]`. Nothing else may handle those interrupts, nor Timer0.
 #[cfg(all(feature = "tcp", feature = "master"))]
 #[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp", feature = "master"))))]
 #[macro_export]
 macro_rules! tcp_gateway {
-    ($name:ident on $usart:ident : $chip:ty) => {
-        $crate::tcp_gateway!(@on $usart $name: $chip, $crate::NoPin, $crate::tcp::Direct);
+    ($name:ident on $usart:ident : $chip:ty $(, $de:ty $(, $routes:ty)?)? $(; $int:ident)?) => {
+        $crate::tcp_gateway!(@pick $usart $name: $chip; [$($de)?] [$($($routes)?)?] [$($int)?]);
     };
-    ($name:ident on $usart:ident : $chip:ty, $de:ty) => {
-        $crate::tcp_gateway!(@on $usart $name: $chip, $de, $crate::tcp::Direct);
+    ($name:ident : $chip:ty $(, $de:ty $(, $routes:ty)?)? $(; $int:ident)?) => {
+        $crate::__chip!(default_gateway $name: $chip; [$($de)?] [$($($routes)?)?] [$($int)?]);
     };
-    ($name:ident on $usart:ident : $chip:ty, $de:ty, $routes:ty) => {
-        $crate::tcp_gateway!(@on $usart $name: $chip, $de, $routes);
+    (@pick $usart:ident $name:ident : $chip:ty; [] $routes:tt $int:tt) => {
+        $crate::tcp_gateway!(@pick $usart $name: $chip; [$crate::NoPin] $routes $int);
     };
-    ($name:ident : $chip:ty) => {
-        $crate::__chip!(default_gateway $name: $chip, $crate::NoPin, $crate::tcp::Direct);
+    (@pick $usart:ident $name:ident : $chip:ty; [$de:ty] [] $int:tt) => {
+        $crate::tcp_gateway!(@pick $usart $name: $chip; [$de] [$crate::tcp::Direct] $int);
     };
-    ($name:ident : $chip:ty, $de:ty) => {
-        $crate::__chip!(default_gateway $name: $chip, $de, $crate::tcp::Direct);
+    (@pick $usart:ident $name:ident : $chip:ty; [$de:ty] [$routes:ty] []) => {
+        $crate::tcp_gateway!(@on $usart $name: $chip, $de, $routes, false);
     };
-    ($name:ident : $chip:ty, $de:ty, $routes:ty) => {
-        $crate::__chip!(default_gateway $name: $chip, $de, $routes);
+    (@pick $usart:ident $name:ident : $chip:ty; [$de:ty] [$routes:ty] [pin2_int]) => {
+        $crate::tcp_gateway!(@on $usart $name: $chip, $de, $routes, true);
+        $crate::tcp_server!(@pin2 $name);
     };
-    (@on $usart:ident $name:ident : $chip:ty, $de:ty, $routes:ty) => {
+    (@on $usart:ident $name:ident : $chip:ty, $de:ty, $routes:ty, $int:literal) => {
         static $name: $crate::TcpGateway<
             $chip,
             $routes,
             $de,
             $crate::Pin10,
             { $crate::tcp::GATEWAY_BUFFER },
-            false,
+            $int,
             { $crate::__chip!(usart $usart) },
         > = $crate::TcpGateway::new();
 
