@@ -123,7 +123,8 @@ pub struct GatewayCounters {
     pub no_response: u16,
     /// Broadcasts sent (unit 0, writes).
     pub broadcasts: u16,
-    /// Answers dropped: their connection closed before they came.
+    /// Answers dropped: their connection closed before they came, or did not take them (its
+    /// master does not read).
     pub orphaned: u16,
 }
 
@@ -245,6 +246,8 @@ impl Gateway {
                 }
             });
             match answered {
+                // Cannot last: a request is handed over only while its socket has no SEND on
+                // its way, and nothing else is sent on it until its answer.
                 Answered::Later => return false,
                 Answered::Gone => self.bump(Count::Orphaned),
                 Answered::Sent => {}

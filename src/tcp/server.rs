@@ -187,9 +187,9 @@ pub trait Handler {
 pub enum Answered {
     /// Written and sent.
     Sent,
-    /// The connection that asked is gone: nothing written.
+    /// The connection that asked is gone, or does not read: nothing written.
     Gone,
-    /// Not now (a SEND on its way, or no room): try again at the next poll.
+    /// Not now (a SEND on its way): try again at the next poll.
     Later,
 }
 
@@ -355,8 +355,8 @@ impl<const B: usize> Server<B> {
     /// handed over earlier ([`Handler::handle_from`] returned `None`): `fill` writes the
     /// bytes into the chip from the pointer it gets, with the server's buffer as scratch.
     /// [`Answered::Gone`] when that connection has closed or another has taken the socket
-    /// since, [`Answered::Later`] while a SEND is on its way or the transmit buffer lacks
-    /// room. `exception`: the reply is one (counted).
+    /// since, or its transmit buffer lacks room (its master does not read), and nothing is
+    /// written; [`Answered::Later`] while a SEND is on its way. `exception`: the reply is one (counted).
     pub fn answer<S: Sockets>(
         &mut self,
         chip: &mut S,
@@ -369,9 +369,14 @@ impl<const B: usize> Server<B> {
         if self.changed & (1 << s) != 0 || self.phase[at] != Phase::Connected {
             return Answered::Gone;
         }
-        if self.sending & (1 << s) != 0 || chip.tx_free(s) < len {
+        if self.sending & (1 << s) != 0 {
             self.again |= 1 << s;
             return Answered::Later;
+        }
+        if chip.tx_free(s) < len {
+            // The master does not read its answers: this one is not kept waiting (it would
+            // hold up whatever waits for it).
+            return Answered::Gone;
         }
         let tx = self.tx[at];
         fill(chip, tx, &mut self.buf);

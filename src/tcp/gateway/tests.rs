@@ -491,3 +491,30 @@ fn the_gateways_own_registers_count_what_it_did() {
         [exception(7, 0xFF, 3, 2), exception(8, 0xFF, 3, 3), exception(9, 0xFF, 6, 1)].concat()
     );
 }
+
+#[test]
+fn a_master_that_does_not_read_its_answers_holds_up_only_itself() {
+    let mut rig = Rig::new([(1, Slave::Bank(regs(0x100)))]);
+    rig.chip.connect(0, [10, 0, 0, 7]);
+    rig.chip.connect(1, [10, 0, 0, 8]);
+    // Socket 0's master stops reading: its SEND never completes (no SEND_OK), and its
+    // transmit buffer fills up.
+    rig.chip.socks[0].reading = false;
+    rig.chip.deliver(0, &[read(1, 1, 0, 10), read(2, 1, 0, 10)].concat());
+    rig.settle();
+    assert_eq!(rig.line.sent.len(), 1, "its second request waits for the first answer's SEND");
+    for i in 0..20u16 {
+        rig.chip.deliver(1, &read(100 + i, 1, 0, 1));
+        rig.settle();
+    }
+    let expected: Vec<u8> = (0..20u16).flat_map(|i| read_reply(100 + i, 1, 0x100, 0, 1)).collect();
+    assert_eq!(rig.chip.socks[1].sent, expected, "the other connection was held up");
+    assert_eq!(rig.line.sent.len(), 21);
+    // It reads again: its second request goes out and is answered.
+    rig.chip.socks[0].reading = true;
+    rig.chip.ack(0);
+    rig.chip.socks[0].ir |= crate::tcp::wiznet::SEND_OK;
+    rig.settle();
+    rig.chip.ack(0);
+    assert_eq!(rig.chip.socks[0].sent, [read_reply(1, 1, 0x100, 0, 10), read_reply(2, 1, 0x100, 0, 10)].concat());
+}
