@@ -218,6 +218,8 @@ impl<
         P::Target: Sized,
         T::Target: Sized,
     {
+        // The gateway routes the unit ids itself: `only_unit` would drop the line's.
+        let network = Network { unit: 0, ..network };
         let (chip, network) = open_chip::<C, CS, S, &T::Target>(network, spi, &*tc0, cs)?;
         self.line.running.start_on::<_, _, U>(usart, tc0, || LineRunning::new(line, driver_enable, NoPin))?;
         let forwarding = Forwarding {
