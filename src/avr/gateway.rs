@@ -140,14 +140,16 @@ impl<R: Routes, DE: OutputPin + 'static, const U: u8> Forwarding<R, DE, U> {
 
 impl<R: Routes, DE: OutputPin + 'static, const U: u8> Service for Forwarding<R, DE, U> {
     fn run<S: Sockets, const B: usize>(&mut self, server: &mut Server<B>, chip: &mut S, net: &Network, second: bool) {
-        // The chip first (a connection that closed is seen before its answer is sent),
-        // then the line's answer passed back and, the line free, the next request taken.
-        self.serve(server, chip, net, second);
+        // The line's answer first (the sooner it is sent, the sooner the line takes the
+        // next request), then the chip: the connections that waited for the line, and any
+        // news. An answer for a connection that closed and was not yet seen closed goes to
+        // a socket that has no connection (the chip ignores the SEND); a new connection on
+        // that socket would have had to be seen first (its socket listens again only then).
         let mut line = Locked(&self.line.running);
         if self.gateway.deliver(server, chip, &mut line, &self.settings) {
             server.resume();
-            self.serve(server, chip, net, false);
         }
+        self.serve(server, chip, net, second);
     }
 
     fn pending(&mut self) -> bool {

@@ -184,15 +184,13 @@ impl Rig {
         rig
     }
 
-    /// One poll as the AVR layer makes it: the chip served (closed connections seen),
-    /// then the line's outcome passed back and, the line free, the waiting connections
-    /// served at once.
+    /// One poll as the AVR layer makes it: the line's outcome passed back (and, the line
+    /// free, the waiting connections resumed), then the chip served.
     fn step(&mut self) {
-        self.serve();
         if self.gateway.deliver(&mut self.server, &mut self.chip, &mut self.line, &self.settings) {
             self.server.resume();
-            self.serve();
         }
+        self.serve();
     }
 
     fn serve(&mut self) {
