@@ -148,6 +148,8 @@ sizes: firmware
 # examples/libmodbus_map.rs (libmodbus's unit-test map on a W5100, with the FC 17, 22 and 23
 # its unit-test-client uses) into target/chips/atmega328p-w5100-libmodbus/: make interop runs
 # tcp_server and libmodbus_map on the virtual shields (tools/virtual-uno/tests/interop_tcp.rs).
+# The TCP to RTU gateway (tcp_gateway, W5100, USART0) into target/chips/atmega328p-tcp-gateway/,
+# and with the INT line on pin 2 into target/chips/atmega328p-tcp-gateway-int/.
 # The TCP client (features tcp and master): examples/tcp_poll.rs (the TCP masters' size
 # figure) and examples/tcp_client_check.rs (what tests/sim_tcp_client.rs and
 # tools/virtual-uno/tests/interop_tcp_client.rs run) into target/chips/atmega328p-tcp-client/,
@@ -157,6 +159,8 @@ TCP_FIRMWARE := $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-non
 	target/chips/atmega328p-tcp/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu.elf \
 	target/chips/atmega328p-w5100-libmodbus/avr-none/release/examples/libmodbus_map.elf \
+	target/chips/atmega328p-tcp-gateway/avr-none/release/examples/tcp_gateway.elf \
+	target/chips/atmega328p-tcp-gateway-int/avr-none/release/examples/tcp_gateway.elf \
 	target/chips/atmega328p-tcp-client/avr-none/release/examples/tcp_poll.elf \
 	target/chips/atmega328p-tcp-client/avr-none/release/examples/tcp_client_check.elf \
 	target/chips/atmega328p-tcp-client-w5500/avr-none/release/examples/tcp_client_check.elf
@@ -167,6 +171,8 @@ tcp-firmware: setup
 	done
 	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu
 	@.ci/chip-build atmega328p "" atmega328p-w5100-libmodbus examples,tcp,extra-fc,diagnostics libmodbus_map
+	@.ci/chip-build atmega328p "" atmega328p-tcp-gateway examples,tcp,master tcp_gateway
+	@AVR_MODBUS_EXAMPLE_SHIELD=w5100-int .ci/chip-build atmega328p "" atmega328p-tcp-gateway-int examples,tcp,master tcp_gateway
 	@.ci/chip-build atmega328p "" atmega328p-tcp-client examples,tcp,master tcp_poll tcp_client_check
 	@AVR_MODBUS_EXAMPLE_SHIELD=w5500 .ci/chip-build atmega328p "" atmega328p-tcp-client-w5500 examples,tcp,master \
 		tcp_client_check
@@ -231,7 +237,7 @@ package: setup
 # target/fixtures/readme/avr-none/release/readme-{slave,master}.elf. A README block that stops
 # compiling fails here. Their sizes are the stand-in's, not arduino-hal's: on the same README
 # and crate (46fb4c2) 2 B (slave) and 4 B (master) of flash under arduino-hal's, RAM the same.
-README_FIRMWARE := slave master tcp tcp-client
+README_FIRMWARE := slave master tcp gateway tcp-client
 readme: setup
 	@echo "fixture: fixtures/readme, uno"
 	fixtures/readme/blocks

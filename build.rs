@@ -173,7 +173,8 @@ fn macro_of(chip: &Facts) -> String {
              }};\n    \
              (vector $other:ident $what:ident) => {{ \"\" }};\n    \
              (default $($slave:tt)*) => {{ $crate::slave!(@on USART{default} $($slave)*); }};\n    \
-             (default_master $($master:tt)*) => {{ $crate::master!(@on USART{default} $($master)*); }};\n\
+             (default_master $($master:tt)*) => {{ $crate::master!(@on USART{default} $($master)*); }};\n    \
+             (default_gateway $($gateway:tt)*) => {{ $crate::tcp_gateway!(@pick USART{default} $($gateway)*); }};\n\
          }}\n",
         name = chip.part,
         family = chip.family,
@@ -201,7 +202,8 @@ fn unsupported(chips: &[Facts], seen: &str) -> String {
              (vector $($what:ident)*) => {{ \"\" }};\n    \
              (usart $what:ident) => {{ 0 }};\n    \
              (default $($slave:tt)*) => {{ $crate::slave!(@on USART0 $($slave)*); }};\n    \
-             (default_master $($master:tt)*) => {{ $crate::master!(@on USART0 $($master)*); }};\n\
+             (default_master $($master:tt)*) => {{ $crate::master!(@on USART0 $($master)*); }};\n    \
+             (default_gateway $($gateway:tt)*) => {{ $crate::tcp_gateway!(@pick USART0 $($gateway)*); }};\n\
          }}\n"
     )
 }

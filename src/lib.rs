@@ -49,6 +49,9 @@ pub use avr::Master;
 #[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "tcp", feature = "master"))]
 #[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp", feature = "master"))))]
 pub use avr::TcpClient;
+#[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "tcp", feature = "master"))]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp", feature = "master"))))]
+pub use avr::TcpGateway;
 #[cfg(any(target_arch = "avr", all(doc, docsrs)))]
 #[cfg_attr(docsrs, doc(cfg(target_arch = "avr")))]
 pub use avr::{NoPin, Slave};
@@ -146,7 +149,9 @@ pub mod internal {
         /// The client over any chip's sockets (with feature `master`).
         #[cfg(feature = "master")]
         pub use crate::tcp::client::{Client, Connect};
-        pub use crate::tcp::server::{Handler, Server, Sockets};
+        #[cfg(feature = "master")]
+        pub use crate::tcp::gateway::{Gate, Gateway, RtuSide};
+        pub use crate::tcp::server::{Answered, Handler, Server, Sockets};
         pub use crate::tcp::wiznet::{command, sn, state, Block, Bus, Chip, Wiznet, RECV, SEND_OK};
         pub use crate::tcp::{respond, Serving};
         /// The addresses' EEPROM record (with feature `eeprom-settings`).

@@ -10,6 +10,10 @@
 
 #[cfg(feature = "master")]
 pub(crate) mod client;
+#[cfg(test)]
+pub(crate) mod fake;
+#[cfg(feature = "master")]
+pub(crate) mod gateway;
 pub(crate) mod mbap;
 mod network;
 #[cfg(feature = "eeprom-settings")]
@@ -17,6 +21,11 @@ pub(crate) mod record;
 pub(crate) mod server;
 pub(crate) mod wiznet;
 
+#[cfg(feature = "master")]
+#[doc(hidden)]
+pub use gateway::BUFFER as GATEWAY_BUFFER;
+#[cfg(feature = "master")]
+pub use gateway::{Direct, GatewayCounters, GatewaySettings, Routes, STATUS_REGISTERS};
 pub use network::Network;
 #[cfg(feature = "eeprom-settings")]
 pub use record::NETWORK_SLOTS_LEN;

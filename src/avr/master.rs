@@ -32,7 +32,7 @@ mod ascii;
 /// zeros at the start goes on through `tx_next`.
 #[repr(C)]
 pub(crate) struct Running<DE, LED, const N: usize, const U: u8> {
-    engine: Engine<N>,
+    pub(crate) engine: Engine<N>,
     /// Index of the request's next byte.
     tx_next: usize,
     usart: Usart<U>,
@@ -42,7 +42,7 @@ pub(crate) struct Running<DE, LED, const N: usize, const U: u8> {
 }
 
 impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED, N, U> {
-    fn new(line: Line, mut driver_enable: DE, mut led: LED) -> Self {
+    pub(crate) fn new(line: Line, mut driver_enable: DE, mut led: LED) -> Self {
         // The power-up wait: T3.5 of silence before the first request (none in ASCII).
         #[allow(unused_mut)]
         let (usart, mut timer) = open_line(&line, &mut driver_enable, &mut led);
@@ -57,7 +57,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
     /// the rest from the transmit-complete interrupt. Out of line: the application's
     /// request and Timer0's compare interrupt both send.
     #[inline(never)]
-    fn act(&mut self, action: Action) {
+    pub(crate) fn act(&mut self, action: Action) {
         if action == Action::Send {
             let _ = self.driver_enable.set_high();
             let _ = self.led.set_high();
@@ -75,7 +75,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
     /// Timer0 compare A: T1.5, T3.5, or a turn of the timer with neither (about once a
     /// millisecond), when the response timeout and the turnaround delay are checked.
     #[inline(always)]
-    fn on_timer_compare(&mut self) {
+    pub(crate) fn on_timer_compare(&mut self) {
         match self.engine.framing() {
             Framing::Rtu => self.on_rtu_compare(),
             #[cfg(feature = "ascii")]
@@ -147,7 +147,7 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<DE, LED
 /// answered in 5 + 2`q` bytes, a write of `q` registers takes 9 + 2`q`); 256 fits every
 /// one. `U` is the number of the USART it serves, as `master!` names it.
 pub struct Master<DE = NoPin, LED = NoPin, const N: usize = MAX_FRAME, const U: u8 = 0> {
-    running: Started<Running<DE, LED, N, U>>,
+    pub(crate) running: Started<Running<DE, LED, N, U>>,
 }
 
 impl<DE, LED, const N: usize, const U: u8> Master<DE, LED, N, U> {

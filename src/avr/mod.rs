@@ -71,6 +71,8 @@ mod chip;
 mod clock;
 #[cfg(any(feature = "examples", feature = "eeprom-settings"))]
 mod eeprom;
+#[cfg(all(feature = "tcp", feature = "master"))]
+mod gateway;
 #[cfg(feature = "master")]
 mod master;
 mod mem;
@@ -93,6 +95,8 @@ mod values;
 
 #[cfg(feature = "eeprom-settings")]
 pub use eeprom::Eeprom;
+#[cfg(all(feature = "tcp", feature = "master"))]
+pub use gateway::TcpGateway;
 #[cfg(feature = "master")]
 pub use master::Master;
 pub use no_pin::NoPin;
@@ -339,13 +343,78 @@ macro_rules! tcp_server {
     };
 }
 
+/// Declares the Modbus TCP to RTU gateway `NAME` (features `tcp` and `master`) on a WIZnet
+/// chip ([`crate::tcp::W5100`] or [`crate::tcp::W5500`]) with its select on pin 10, and
+/// optionally the RS-485 driver-enable pin type and the [`crate::tcp::Routes`] type; binds
+/// the serial line's interrupts as [`crate::master!`] does (its USART's RX and TX complete,
+/// Timer0 compare A) and serves the chip from Timer0's overflow as [`crate::tcp_server!`]
+/// does.
+///
+/// ```ignore
+/// avr_modbus::tcp_gateway!(GATEWAY: W5100);                   // pins 0/1, no DE pin
+/// avr_modbus::tcp_gateway!(GATEWAY: W5100, DePin);            // RS-485 DE pin
+/// avr_modbus::tcp_gateway!(GATEWAY: W5500, DePin, MyRoutes);  // routes of its own
+/// avr_modbus::tcp_gateway!(GATEWAY on USART1: W5500, DePin);  // a Mega's Serial1
+/// avr_modbus::tcp_gateway!(GATEWAY: W5100, DePin; pin2_int);  // INT wired to pin 2
+/// ```
+///
+/// With `; pin2_int` the chip's INT line on pin 2 serves the TCP side as soon as a request
+/// lands (as `tcp_server!`'s `pin2_int`).
+/// The handlers use the `avr-interrupt` calling convention: the firmware crate needs
+/// `#![feature(abi_avr_interrupt)]`. Nothing else may handle those interrupts, nor Timer0.
+#[cfg(all(feature = "tcp", feature = "master"))]
+#[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp", feature = "master"))))]
+#[macro_export]
+macro_rules! tcp_gateway {
+    ($name:ident on $usart:ident : $chip:ty $(, $de:ty $(, $routes:ty)?)? $(; $int:ident)?) => {
+        $crate::tcp_gateway!(@pick $usart $name: $chip; [$($de)?] [$($($routes)?)?] [$($int)?]);
+    };
+    ($name:ident : $chip:ty $(, $de:ty $(, $routes:ty)?)? $(; $int:ident)?) => {
+        $crate::__chip!(default_gateway $name: $chip; [$($de)?] [$($($routes)?)?] [$($int)?]);
+    };
+    (@pick $usart:ident $name:ident : $chip:ty; [] $routes:tt $int:tt) => {
+        $crate::tcp_gateway!(@pick $usart $name: $chip; [$crate::NoPin] $routes $int);
+    };
+    (@pick $usart:ident $name:ident : $chip:ty; [$de:ty] [] $int:tt) => {
+        $crate::tcp_gateway!(@pick $usart $name: $chip; [$de] [$crate::tcp::Direct] $int);
+    };
+    (@pick $usart:ident $name:ident : $chip:ty; [$de:ty] [$routes:ty] []) => {
+        $crate::tcp_gateway!(@on $usart $name: $chip, $de, $routes, false);
+    };
+    (@pick $usart:ident $name:ident : $chip:ty; [$de:ty] [$routes:ty] [pin2_int]) => {
+        $crate::tcp_gateway!(@on $usart $name: $chip, $de, $routes, true);
+        $crate::tcp_server!(@pin2 $name);
+    };
+    (@on $usart:ident $name:ident : $chip:ty, $de:ty, $routes:ty, $int:literal) => {
+        static $name: $crate::TcpGateway<
+            $chip,
+            $routes,
+            $de,
+            $crate::Pin10,
+            { $crate::tcp::GATEWAY_BUFFER },
+            $int,
+            { $crate::__chip!(usart $usart) },
+        > = $crate::TcpGateway::new();
+
+        $crate::__bind_role!(__avr_modbus_gateway_interrupts, $name, $usart, TIMER0_COMPA, master_rx_arrived);
+
+        /// The TCP side's poll, which the crate's Timer0 overflow handler calls.
+        #[doc(hidden)]
+        #[export_name = "avr_modbus_feature_tcp_needs_a_tcp_role"]
+        unsafe extern "C" fn __avr_modbus_tcp_overflow() {
+            // SAFETY: called from the Timer0 overflow handler only, interrupts disabled.
+            unsafe { $name.on_overflow() }
+        }
+    };
+}
+
 /// Declares the Modbus TCP client `NAME` (features `tcp` and `master`) on a WIZnet chip
 /// ([`crate::tcp::W5100`] or [`crate::tcp::W5500`]), its chip select on the board's pin 10
 /// (the Ethernet shields') or on a pin type of the application's, with buffers of `N` bytes
 /// for the request and the reply (256 when left out; a read of `q` registers is answered in
 /// 5 + 2`q`). Timer0's overflow interrupt, which the crate binds with feature `tcp`, drives
-/// the client once started. One TCP role per firmware: a `tcp_server!` beside it does not
-/// link.
+/// the client once started. One TCP role per firmware: a `tcp_server!` or `tcp_gateway!` beside
+/// it does not link.
 ///
 /// ```ignore
 /// avr_modbus::tcp_client!(CLIENT: W5100);              // an Ethernet Shield R3, 256-byte buffers

@@ -26,6 +26,6 @@ unsafe extern "avr-interrupt" fn timer0_overflow() {
 #[cfg(all(target_arch = "avr", feature = "tcp"))]
 extern "C" {
     /// The TCP role's poll, which its macro defines: [`crate::tcp_server!`] the
-    /// [`crate::TcpServer::on_overflow`], `tcp_client!` the `TcpClient::on_overflow`.
+    /// [`crate::TcpServer::on_overflow`], `tcp_gateway!` and `tcp_client!` theirs.
     fn avr_modbus_feature_tcp_needs_a_tcp_role();
 }

@@ -58,19 +58,43 @@ const COMPARES: u8 = 1 << 1 | 1 << 2;
 /// pin ([`Pin10`], the shields', by default), `B` the bytes of its one buffer (the MBAP
 /// header and the model's longest PDU; [`crate::tcp_server!`] works it out).
 pub struct TcpServer<M, C, CS = Pin10, const B: usize = 260, const INT: bool = false> {
-    running: Started<Running<M, C, CS, B, INT>>,
+    running: Started<Running<Served<M>, C, CS, B, INT>>,
 }
 
-/// The running server: the pure server, the chip, the settings, the model.
-struct Running<M, C, CS, const B: usize, const INT: bool> {
-    server: Server<B>,
+/// What a running TCP role does with the chip when it has news: the server serves its
+/// model; the gateway also passes its serial line's answers back.
+pub(crate) trait Service {
+    /// Serves the chip once (interrupts enabled).
+    fn run<S: Sockets, const B: usize>(&mut self, server: &mut Server<B>, chip: &mut S, net: &Network, second: bool);
+
+    /// True when there is work beside the chip's news (a gateway's answer to pass back).
+    #[inline(always)]
+    fn pending(&mut self) -> bool {
+        false
+    }
+}
+
+/// The server's service: its data model.
+pub(crate) struct Served<M>(pub(crate) M);
+
+impl<M: DataModel> Service for Served<M> {
+    #[inline(always)]
+    fn run<S: Sockets, const B: usize>(&mut self, server: &mut Server<B>, chip: &mut S, net: &Network, second: bool) {
+        server.poll(chip, net, &mut Serving(&mut self.0), second);
+    }
+}
+
+/// A running TCP role: the pure server, the chip, the settings, the service (the model, or
+/// the gateway's parts).
+pub(crate) struct Running<V, C, CS, const B: usize, const INT: bool> {
+    pub(crate) server: Server<B>,
     chip: Wiznet<C, Spi<CS>>,
     network: Network,
-    model: M,
+    pub(crate) service: V,
     /// Overflows since the last whole second.
     overflows: u16,
     /// The application has the SPI ([`TcpServer::with_spi`]): the poll waits.
-    lent: bool,
+    pub(crate) lent: bool,
 }
 
 impl<M, C, CS, const B: usize, const INT: bool> TcpServer<M, C, CS, B, INT> {
@@ -113,29 +137,9 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> TcpS
         S::Target: Sized,
         T::Target: Sized,
     {
-        claim::<_, { SPI_BLOCK.1 }>(spi, SPI_BLOCK.0)?;
-        claim::<_, { reg::TC0.1 }>(tc0, reg::TC0.0)?;
-        let mut chip = Wiznet::<C, _>::new(Spi::new(cs));
-        // The shields hold the chip in reset for up to 560 ms after power-up (a reset chip
-        // on the board): tried every 10 ms for 0.6 s before giving up.
-        let mut tries: u8 = 60;
-        while !chip.init(&network) {
-            tries -= 1;
-            if tries == 0 {
-                return Err(Error::NoChip);
-            }
-            wait_10ms();
-        }
-        let network = Network { sockets: network.sockets.min(C::SOCKETS), ..network };
-        self.running.start(|| Running { server: Server::new(), chip, network, model, overflows: 0, lent: false })?;
-        reg::free(|| {
-            start_timer0();
-            if INT {
-                start_pin2_interrupt();
-            }
-        });
-        // SAFETY: the server is in its cell, so its interrupt handler can run.
-        unsafe { reg::enable_interrupts() };
+        let (chip, network) = open_chip::<C, CS, S, T>(network, spi, tc0, cs)?;
+        self.running.start(|| Running::new(chip, network, Served(model)))?;
+        start_interrupts::<INT>();
         Ok(())
     }
 
@@ -171,7 +175,7 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> TcpS
     /// Runs `f` on the data model with interrupts disabled: `None` before
     /// [`TcpServer::start`] or inside another `with`. Keep `f` short.
     pub fn with<R>(&self, f: impl FnOnce(&mut M) -> R) -> Option<R> {
-        self.running.locked(|r| f(&mut r.model))
+        self.running.locked(|r| f(&mut r.service.0))
     }
 
     /// Lends the SPI to the application for `f` (the shield's SD card, CS on pin 4, or any
@@ -180,15 +184,7 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> TcpS
     /// outside, a poll can come between two bytes of the application's transfer. `None`
     /// before the start or inside another `with`.
     pub fn with_spi<R>(&self, f: impl FnOnce() -> R) -> Option<R> {
-        self.running.locked(|r| r.lent = true)?;
-        let result = f();
-        self.running.locked(|r| {
-            r.lent = false;
-            if INT {
-                pin2_interrupt(true);
-            }
-        });
-        Some(result)
+        lend_spi(&self.running, f)
     }
 
     /// The server's counters (all zero before [`TcpServer::start`]).
@@ -239,12 +235,17 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Valu
     }
 }
 
-impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Running<M, C, CS, B, INT> {
+impl<V: Service, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Running<V, C, CS, B, INT> {
+    /// A role about to run on `chip`.
+    pub(crate) fn new(chip: Wiznet<C, Spi<CS>>, network: Network, service: V) -> Self {
+        Running { server: Server::new(), chip, network, service, overflows: 0, lent: false }
+    }
+
     /// One poll, from the overflow interrupt (interrupts disabled on entry and on return):
     /// the second counted, then, unless the application has the SPI, the chip served with
     /// interrupts enabled.
     #[inline(never)]
-    fn poll(&mut self) {
+    pub(crate) fn poll(&mut self) {
         self.overflows += 1;
         let second = self.overflows >= OVERFLOWS_PER_SECOND;
         if second {
@@ -253,17 +254,20 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Runn
         // With the INT line, the overflow only counts seconds and retries what was left;
         // polled, it first asks the chip whether a socket has news (one register, with
         // interrupts still off: 6 µs on the W5100) and leaves at once when none has.
-        if self.lent || (!second && self.server.is_quiet() && (INT || self.chip.events() == 0)) {
+        if self.lent
+            || (!second && self.server.is_quiet() && !self.service.pending() && (INT || self.chip.events() == 0))
+        {
             return;
         }
         self.serve(second);
     }
 
-    /// Pin 2's interrupt: the chip served, unless the application has the SPI (its
-    /// `with_spi` unmasks the interrupt when it is done). Events that come meanwhile keep
-    /// the line low, and the interrupt, unmasked at the end, comes again at once.
+    /// Pin 2's interrupt, or work that cannot wait for the next poll: the chip served,
+    /// unless the application has the SPI (its `with_spi` unmasks the interrupt when it is
+    /// done). Events that come meanwhile keep the line low, and the interrupt, unmasked at
+    /// the end, comes again at once.
     #[inline(never)]
-    fn on_event(&mut self) {
+    pub(crate) fn on_event(&mut self) {
         if !self.lent {
             self.serve(false);
         }
@@ -274,11 +278,11 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Runn
     /// does not pay for its registers.
     #[inline(never)]
     fn serve(&mut self, second: bool) {
-        // SAFETY: the server is marked in use (`access_marked`), so nothing else reaches it
+        // SAFETY: the role is marked in use (`access_marked`), so nothing else reaches it
         // meanwhile; other interrupts may run, which is the point.
         unsafe { reg::enable_interrupts() };
         self.chip.bus.configure();
-        self.server.poll(&mut self.chip, &self.network, &mut Serving(&mut self.model), second);
+        self.service.run(&mut self.server, &mut self.chip, &self.network, second);
         // SAFETY: interrupts off again before the mark goes (`access_marked`'s promise).
         unsafe { reg::disable_interrupts() };
         if INT {
@@ -287,9 +291,68 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Runn
     }
 }
 
+/// Resets the chip on `cs` and checks it is a `C`, gives it `network`'s addresses, after
+/// claiming the SPI and `TC0`: what a TCP role's start does before anything runs.
+/// [`Error::NoChip`] when the chip does not answer as a `C`.
+pub(crate) fn open_chip<C: Chip, CS: OutputPin, S: Deref, T: Deref>(
+    network: Network,
+    spi: S,
+    tc0: T,
+    cs: CS,
+) -> Result<(Wiznet<C, Spi<CS>>, Network), Error>
+where
+    S::Target: Sized,
+    T::Target: Sized,
+{
+    claim::<_, { SPI_BLOCK.1 }>(spi, SPI_BLOCK.0)?;
+    claim::<_, { reg::TC0.1 }>(tc0, reg::TC0.0)?;
+    let mut chip = Wiznet::<C, _>::new(Spi::new(cs));
+    // The shields hold the chip in reset for up to 560 ms after power-up (a reset chip
+    // on the board): tried every 10 ms for 0.6 s before giving up.
+    let mut tries: u8 = 60;
+    while !chip.init(&network) {
+        tries -= 1;
+        if tries == 0 {
+            return Err(Error::NoChip);
+        }
+        wait_10ms();
+    }
+    let network = Network { sockets: network.sockets.min(C::SOCKETS), ..network };
+    Ok((chip, network))
+}
+
+/// Timer0's overflow (and with `INT` pin 2's interrupt) started, and interrupts enabled:
+/// the end of a TCP role's start, its state in its cell.
+pub(crate) fn start_interrupts<const INT: bool>() {
+    reg::free(|| {
+        start_timer0();
+        if INT {
+            start_pin2_interrupt();
+        }
+    });
+    // SAFETY: the role is in its cell, so its interrupt handler can run.
+    unsafe { reg::enable_interrupts() };
+}
+
+/// Lends the SPI to the application for `f` (see [`TcpServer::with_spi`]).
+pub(crate) fn lend_spi<V, C, CS, const B: usize, const INT: bool, R>(
+    running: &Started<Running<V, C, CS, B, INT>>,
+    f: impl FnOnce() -> R,
+) -> Option<R> {
+    running.locked(|r| r.lent = true)?;
+    let result = f();
+    running.locked(|r| {
+        r.lent = false;
+        if INT {
+            pin2_interrupt(true);
+        }
+    });
+    Some(result)
+}
+
 /// About 10 ms of the CPU's time, before Timer0 runs.
 #[inline(never)]
-pub(super) fn wait_10ms() {
+fn wait_10ms() {
     // Four cycles a turn: `sbiw` and `brne` (2 when taken) and the `nop` keeping it a loop.
     let mut turns = (CLOCK_HZ / 100 / 4) as u16;
     while turns != 0 {
@@ -304,7 +367,7 @@ const EIMSK: Reg = Reg::at(0x3D);
 
 /// Pin 2's external interrupt enabled or masked.
 #[inline(always)]
-fn pin2_interrupt(on: bool) {
+pub(crate) fn pin2_interrupt(on: bool) {
     let (_, _, bit, _, _) = CHIP.pin2_int;
     EIMSK.modify(|m| if on { m | 1 << bit } else { m & !(1 << bit) });
 }
@@ -323,7 +386,7 @@ fn start_pin2_interrupt() {
 
 /// Timer0 free-running at clk/64 with its overflow interrupt on: started here unless a
 /// serial role runs it already (which leaves the overflow interrupt on, `super::timer`).
-pub(super) fn start_timer0() {
+fn start_timer0() {
     if TIMSK0.read() & (COMPARES | TOIE0) == 0 {
         TCCR0B.write(0);
         TCCR0A.write(0);

@@ -16,10 +16,10 @@ use core::ops::Deref;
 use embedded_hal::digital::OutputPin;
 
 use super::clock;
-use super::reg::{self, claim};
-use super::spi::{Spi, SPI_BLOCK};
+use super::reg;
+use super::spi::Spi;
 use super::started::Started;
-use super::tcp::{start_timer0, wait_10ms, Pin10};
+use super::tcp::{open_chip, start_interrupts, Pin10};
 use crate::error::Error;
 use crate::master::{Failure, MasterCounters, Reply, Request, Timeouts};
 use crate::tcp::client::Client;
@@ -100,22 +100,9 @@ impl<C: Chip, CS: OutputPin, const N: usize> TcpClient<C, CS, N> {
         S::Target: Sized,
         T::Target: Sized,
     {
-        claim::<_, { SPI_BLOCK.1 }>(spi, SPI_BLOCK.0)?;
-        claim::<_, { reg::TC0.1 }>(tc0, reg::TC0.0)?;
-        let mut chip = Wiznet::<C, _>::new(Spi::new(cs));
-        // The shields hold the chip in reset for up to 560 ms after power-up.
-        let mut tries: u8 = 60;
-        while !chip.init(&network) {
-            tries -= 1;
-            if tries == 0 {
-                return Err(Error::NoChip);
-            }
-            wait_10ms();
-        }
+        let (chip, _) = open_chip::<C, _, _, _>(network, spi, tc0, cs)?;
         self.running.start(|| Running { client: Client::new(server, port), chip })?;
-        reg::free(start_timer0);
-        // SAFETY: the client is in its cell, so its interrupt handler can run.
-        unsafe { reg::enable_interrupts() };
+        start_interrupts::<false>();
         Ok(())
     }
 

@@ -292,6 +292,48 @@ impl<const N: usize> Engine<N> {
         Ok(self.send_if_quiet())
     }
 
+    /// The request buffer, to build a frame to forward in it (address, PDU) for
+    /// [`Engine::forward`]; `None` while a request is under way or its outcome waits.
+    #[cfg(feature = "tcp")]
+    pub fn request_mut(&mut self) -> Option<&mut [u8; N]> {
+        (!self.is_busy()).then_some(&mut self.request)
+    }
+
+    /// Starts the frame of `len` bytes (address, PDU) built in the request buffer
+    /// ([`Engine::request_mut`]), sealed, with `retries` tries more after the first: a
+    /// gateway's request, passed on as it came. Its answer is any frame from its address
+    /// with its function code, or that code's exception; address 0 is a broadcast. As
+    /// [`Engine::start`] otherwise; [`Error::TooLong`] for a frame outside 2 to `N` − 2
+    /// bytes, [`Error::Busy`] as there.
+    #[cfg(feature = "tcp")]
+    pub fn forward(&mut self, len: usize, retries: u8) -> Result<Action, Error> {
+        if self.is_busy() {
+            return Err(Error::Busy);
+        }
+        if len < 2 || len + 2 > N {
+            return Err(Error::TooLong);
+        }
+        let (slave, function) = (self.request[0], self.request[1]);
+        self.request_len = len;
+        self.expect = Expect { slave, function, shape: crate::master::request::Shape::Any, quantity: 0 };
+        let timeouts = self.timeouts();
+        self.retries_left = retries;
+        self.wait = if slave == 0 { timeouts.turnaround_ms } else { timeouts.response_ms };
+        self.answer = 0;
+        self.state = State::Due;
+        self.seal();
+        Ok(self.send_if_quiet())
+    }
+
+    /// The answer's PDU, function code first, once the request is done and answered:
+    /// what a gateway passes back.
+    #[cfg(feature = "tcp")]
+    pub fn answer_pdu(&self) -> Option<&[u8]> {
+        (self.state == State::Done && self.failure.is_none())
+            .then(|| self.framer.buffer().get(1..2 + usize::from(self.answer)))
+            .flatten()
+    }
+
     /// Appends the CRC (in ASCII framing the LRC) to the request [`Engine::begin`] built.
     pub fn seal(&mut self) {
         // `begin` left room for the CRC: the bound only lets the compiler see it.

@@ -124,6 +124,16 @@ pub struct Server<const B: usize = { mbap::MAX_ADU }> {
     /// Sockets to look at in the next poll whatever their events say: requests left for
     /// lack of room to answer, a socket that must be opened.
     again: u8,
+    /// Sockets with a whole request the handler could not take yet ([`Handler::ready`]):
+    /// looked at again once [`Server::resume`] is called.
+    waiting: u8,
+    /// Bit n: socket n's connection changed (closed, or a new one) since it last handed a
+    /// request over; an answer that comes later ([`Server::answer`]) is then for a
+    /// connection that is gone.
+    changed: u8,
+    /// The socket looked at first: the one after the socket that last handed a request
+    /// over, so that sockets take turns when the handler takes one at a time.
+    first: u8,
     /// The counters, in the order of [`TcpCounters`]'s fields.
     counts: [u16; COUNTS],
     buf: [u8; B],
@@ -142,6 +152,45 @@ pub trait Handler {
     /// shorter) that starts at `adu[HEADER]`, writing the reply PDU over it; returns the
     /// reply PDU's length and whether it is an exception. `None`: no reply.
     fn handle(&mut self, adu: &mut [u8], pdu_len: usize) -> Option<(usize, bool)>;
+
+    /// True for a handler that may not take a request at once ([`Handler::ready`]) or
+    /// answers later ([`Server::answer`]): the server then takes turns among the sockets
+    /// and follows their connections for late answers. A plain server has none of that
+    /// code.
+    const DEFERS: bool = false;
+
+    /// True when a request can be taken now. When not, a whole request waits in the chip
+    /// until [`Server::resume`] (a gateway whose serial line is busy).
+    #[inline(always)]
+    fn ready(&mut self) -> bool {
+        true
+    }
+
+    /// [`Handler::handle`], told where the request came from: socket `s` of `chip`, the
+    /// ADU's first byte at `at` in its receive buffer (for a handler that reads more of
+    /// it than the buffer holds, or answers later with [`Server::answer`]).
+    #[inline(always)]
+    fn handle_from<S: Sockets>(
+        &mut self,
+        adu: &mut [u8],
+        pdu_len: usize,
+        _chip: &mut S,
+        _s: u8,
+        _at: u16,
+    ) -> Option<(usize, bool)> {
+        self.handle(adu, pdu_len)
+    }
+}
+
+/// What became of an answer given to [`Server::answer`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Answered {
+    /// Written and sent.
+    Sent,
+    /// The connection that asked is gone, or does not read: nothing written.
+    Gone,
+    /// Not now (a SEND on its way): try again at the next poll.
+    Later,
 }
 
 impl<F: FnMut(&mut [u8], usize) -> Option<(usize, bool)>> Handler for F {
@@ -169,6 +218,9 @@ impl<const B: usize> Server<B> {
             rx: [0; SOCKETS],
             tx: [0; SOCKETS],
             again: 0xFF,
+            waiting: 0,
+            changed: 0,
+            first: 0,
             counts: [0; COUNTS],
             buf: [0; B],
         }
@@ -210,10 +262,17 @@ impl<const B: usize> Server<B> {
         if second {
             look = 0xFF;
         }
-        for s in 0..serving {
+        // A plain server looks at its sockets in order; one whose handler defers takes
+        // turns, from the socket after the one served last.
+        let mut s = if H::DEFERS { self.first } else { 0 };
+        for _ in 0..serving {
+            if H::DEFERS && s >= serving {
+                s = 0;
+            }
             if look & (1 << s) != 0 {
                 self.service(chip, net, handler, s, second);
             }
+            s += 1;
         }
         if second {
             self.tick(chip, net, serving);
@@ -270,13 +329,67 @@ impl<const B: usize> Server<B> {
         }
     }
 
-    /// Socket `s` enters `phase`: its idle time from zero, no SEND on its way.
+    /// Socket `s` enters `phase`: its idle time from zero, no SEND on its way, its
+    /// connection changed for answers to come.
     #[inline(never)]
     fn enter(&mut self, s: u8, phase: Phase) {
         let at = usize::from(s) % SOCKETS;
         self.phase[at] = phase;
         self.idle[at] = 0;
         self.sending &= !(1 << s);
+        self.changed |= 1 << s;
+    }
+
+    /// The sockets left waiting for the handler ([`Handler::ready`]) are looked at in the
+    /// next poll.
+    pub fn resume(&mut self) {
+        self.again |= core::mem::take(&mut self.waiting);
+    }
+
+    /// How many sockets hold a whole request the handler has not taken yet.
+    pub fn waiting(&self) -> u8 {
+        self.waiting.count_ones() as u8
+    }
+
+    /// Sends a reply of `len` bytes (header and PDU) on socket `s`, for a request it
+    /// handed over earlier ([`Handler::handle_from`] returned `None`): `fill` writes the
+    /// bytes into the chip from the pointer it gets, with the server's buffer as scratch.
+    /// [`Answered::Gone`] when that connection has closed or another has taken the socket
+    /// since, or its transmit buffer lacks room (its master does not read), and nothing is
+    /// written; [`Answered::Later`] while a SEND is on its way. `exception`: the reply is one (counted).
+    pub fn answer<S: Sockets>(
+        &mut self,
+        chip: &mut S,
+        s: u8,
+        len: u16,
+        exception: bool,
+        fill: impl FnOnce(&mut S, u16, &mut [u8]),
+    ) -> Answered {
+        let at = usize::from(s) % SOCKETS;
+        if self.changed & (1 << s) != 0 || self.phase[at] != Phase::Connected {
+            return Answered::Gone;
+        }
+        if self.sending & (1 << s) != 0 {
+            self.again |= 1 << s;
+            return Answered::Later;
+        }
+        if chip.tx_free(s) < len {
+            // The master does not read its answers: this one is not kept waiting (it would
+            // hold up whatever waits for it).
+            return Answered::Gone;
+        }
+        let tx = self.tx[at];
+        fill(chip, tx, &mut self.buf);
+        let tx = tx.wrapping_add(len);
+        chip.send(s, tx);
+        self.tx[at] = tx;
+        self.sending |= 1 << s;
+        self.idle[at] = 0;
+        self.bump(Count::Requests);
+        if exception {
+            self.bump(Count::Exceptions);
+        }
+        Answered::Sent
     }
 
     /// Opens socket `s` and listens on the port.
@@ -311,6 +424,12 @@ impl<const B: usize> Server<B> {
         let mut tx = tx_start;
         let mut left = false;
         while received >= HEADER as u16 {
+            if H::DEFERS && !handler.ready() {
+                // Taken when the handler is ready (`resume`).
+                self.waiting |= 1 << s;
+                left = true;
+                break;
+            }
             // The header and, in the same transfer, the body of the usual request (FC 1-6:
             // 12 bytes in all); a longer one's rest below.
             let first = usize::from(received).min(USUAL);
@@ -358,9 +477,14 @@ impl<const B: usize> Server<B> {
             if kept > first - HEADER {
                 chip.read(s, rx.wrapping_add(first as u16), &mut body[first - HEADER..kept]);
             }
+            let from = rx;
             rx = rx.wrapping_add(adu);
             received -= adu;
-            let Some((reply, exception)) = handler.handle(&mut self.buf, pdu_len) else {
+            if H::DEFERS {
+                self.changed &= !(1 << s);
+                self.first = s + 1;
+            }
+            let Some((reply, exception)) = handler.handle_from(&mut self.buf, pdu_len, chip, s, from) else {
                 continue;
             };
             self.bump(Count::Requests);
@@ -384,7 +508,7 @@ impl<const B: usize> Server<B> {
             chip.take(s, rx);
             self.rx[at] = rx;
         }
-        if left {
+        if left && (!H::DEFERS || self.waiting & (1 << s) == 0) {
             self.again |= 1 << s;
         }
         left

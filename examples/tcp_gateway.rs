@@ -1,0 +1,72 @@
+/*!
+ * A Modbus TCP to RTU gateway on an Uno: an Arduino Ethernet Shield (W5100) in front, an
+ * RS-485 line behind. Every TCP master's request for units 1-247 goes to the slave of that
+ * address on the line and its answer back to that master, with its transaction id; the
+ * requests of all connections wait their turn for the line in the chip (none is dropped),
+ * the connections take turns. Unit 0 is a broadcast (writes; no answer), a slave that does
+ * not answer gets exception 0B (and is then answered 0B at once, tried again each second),
+ * 248-254 get 0A, and the gateway's own registers answer at unit 255 (0xFF).
+ *
+ * Wiring: the shield on the Uno (chip select pin 10, SPI on pins 11-13 through the ICSP
+ * header, so pin 13 cannot be the transceiver's driver enable); pins 0 (RX) and 1 (TX) to
+ * an RS-485 transceiver's RO and DI, its DE and /RE joined on pin 3, A/B to the line.
+ *
+ * Network: 192.168.1.177/24, port 502. Line: 19200 8E1, a response timeout of 100 ms, one
+ * retry.
+ *
+ * | unit 255 (FC 3 or 4) | meaning                                                |
+ * |----------------------|--------------------------------------------------------|
+ * | 0                    | requests sent on the line                              |
+ * | 1                    | answers passed back (the slaves' exceptions included)  |
+ * | 2                    | of them, exceptions                                    |
+ * | 3                    | 0A sent (unit not routed)                              |
+ * | 4                    | 0B sent (no answer, or the slave down)                 |
+ * | 5                    | broadcasts                                             |
+ * | 6                    | answers whose connection had closed                    |
+ * | 7                    | connections waiting for the line                       |
+ * | 8-23                 | slaves down: register 8 + n / 16, bit n % 16           |
+ *
+ * The main loop is the application's: here it does nothing.
+ */
+#![no_std]
+#![no_main]
+#![feature(abi_avr_interrupt)]
+
+use avr_modbus::board::{self, Pin, Pins};
+use avr_modbus::master::Timeouts;
+use avr_modbus::tcp::Network;
+#[cfg(not(any(example_shield = "w5500", example_shield = "w5500-int")))]
+use avr_modbus::tcp::W5100;
+use avr_modbus::{Line, Parity, StopBits};
+use panic_halt as _;
+
+const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).evict_after(2);
+const LINE: Line = Line::new(19_200, Parity::Even, StopBits::One);
+
+// This repository builds it for each shield (`AVR_MODBUS_EXAMPLE_SHIELD`): the W5100 by
+// default, the W5500, each also with the INT line on pin 2.
+#[cfg(not(any(example_shield = "w5500", example_shield = "w5100-int", example_shield = "w5500-int")))]
+avr_modbus::tcp_gateway!(GATEWAY: W5100, Pin);
+#[cfg(example_shield = "w5500")]
+avr_modbus::tcp_gateway!(GATEWAY: avr_modbus::tcp::W5500, Pin);
+#[cfg(example_shield = "w5100-int")]
+avr_modbus::tcp_gateway!(GATEWAY: W5100, Pin; pin2_int);
+#[cfg(example_shield = "w5500-int")]
+avr_modbus::tcp_gateway!(GATEWAY: avr_modbus::tcp::W5500, Pin; pin2_int);
+
+#[avr_device::entry]
+fn main() -> ! {
+    let Some(dp) = avr_device::atmega328p::Peripherals::take() else { board::halt(avr_modbus::Error::AlreadyStarted) };
+    let pins = match Pins::new(&*dp.PORTB, &*dp.PORTC, &*dp.PORTD) {
+        Ok(pins) => pins,
+        Err(error) => board::halt(error),
+    };
+    let driver_enable = pins.d3.into_output();
+    if let Err(error) =
+        GATEWAY.start_with_pins(NETWORK, LINE, dp.SPI, dp.USART0, dp.TC0, avr_modbus::Pin10, driver_enable)
+    {
+        board::halt(error);
+    }
+    GATEWAY.set_timeouts(Timeouts { response_ms: 100, turnaround_ms: 20, retries: 1 });
+    loop {}
+}
