@@ -1,9 +1,9 @@
 //! Timer0's overflow interrupt (every 1.024 ms, 2.048 ms at 8 MHz), bound by the crate with
 //! feature `millis` or `tcp`: `millis()` moves on (`super::clock`), then the TCP role polls
-//! its chip, once started (`super::tcp`, `super::tcp_client`): the function the role's macro
-//! ([`crate::tcp_server!`], `tcp_client!`) defines for it, one role per firmware. A firmware
-//! with feature `tcp` and no TCP role does not link, the missing symbol's name saying why. Bound here rather than by
-//! [`crate::slave!`]: it touches nothing of the serial roles', and a firmware without either
+//! its chip, once started (`super::tcp`, `super::gateway`, `super::tcp_client`): the function
+//! the role's macro ([`crate::tcp_server!`], `tcp_gateway!`, `tcp_client!`) defines for it,
+//! one role per firmware. A firmware with feature `tcp` and no TCP role does not link, the
+//! missing symbol's name saying why. Bound here rather than by [`crate::slave!`]: it touches nothing of the serial roles', and a firmware without either
 //! feature has no handler at all (the interrupt stays off). The firmware's alone: the host
 //! has no AVR interrupt ABI, so the docs built there (`--cfg docsrs`) leave it out.
 
