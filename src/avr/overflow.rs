@@ -3,9 +3,10 @@
 //! its chip, once started (`super::tcp`, `super::gateway`, `super::tcp_client`): the function
 //! the role's macro ([`crate::tcp_server!`], `tcp_gateway!`, `tcp_client!`) defines for it,
 //! one role per firmware. A firmware with feature `tcp` and no TCP role does not link, the
-//! missing symbol's name saying why. Bound here rather than by [`crate::slave!`]: it touches nothing of the serial roles', and a firmware without either
-//! feature has no handler at all (the interrupt stays off). The firmware's alone: the host
-//! has no AVR interrupt ABI, so the docs built there (`--cfg docsrs`) leave it out.
+//! missing symbol's name saying why. Bound here rather than by [`crate::slave!`]: it touches
+//! nothing of the serial roles', and a firmware without either feature has no handler at all
+//! (the interrupt stays off). The firmware's alone: the host has no AVR interrupt ABI, so the
+//! docs built there (`--cfg docsrs`) leave it out.
 
 /// TIMER0_OVF.
 #[cfg(target_arch = "avr")]
