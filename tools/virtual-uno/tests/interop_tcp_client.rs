@@ -206,7 +206,16 @@ fn pymodbus_tcp_server_read_every_100_ms_and_again_after_it_restarts_w5500() {
 }
 
 #[test]
-fn libmodbus_unit_test_server_wrong_id_late_and_byte_by_byte_replies() {
+fn libmodbus_unit_test_server_wrong_id_late_and_byte_by_byte_replies_w5100() {
+    libmodbus_unit_test_server(Wiznet::W5100);
+}
+
+#[test]
+fn libmodbus_unit_test_server_wrong_id_late_and_byte_by_byte_replies_w5500() {
+    libmodbus_unit_test_server(Wiznet::W5500);
+}
+
+fn libmodbus_unit_test_server(chip: Wiznet) {
     let _one = serialise();
     let program = built(workspace().join("target/libmodbus-tests/unit-test-server"), "make setup");
     // It listens on 127.0.0.1:1502 and serves one connection: another program there (an
@@ -225,7 +234,7 @@ fn libmodbus_unit_test_server_wrong_id_late_and_byte_by_byte_replies() {
         assert!(Instant::now() < deadline, "unit-test-server did not listen on 1502");
         thread::sleep(Duration::from_millis(20));
     }
-    let mut rig = Rig::new(Wiznet::W5100, 1502);
+    let mut rig = Rig::new(chip, 1502);
     rig.until_connected(1, 3000);
     // Transaction 1: the registers at 0x160 (UT_REGISTERS_ADDRESS), zeros.
     assert_eq!(rig.read(1, 0x160, 3, 1000).0, 1, "{}", rig.log);
@@ -250,5 +259,5 @@ fn libmodbus_unit_test_server_wrong_id_late_and_byte_by_byte_replies() {
     assert!(took >= 50.0, "{took} ms: not a byte every 5 ms");
     // The stream is still in step.
     assert_eq!(rig.read(6, 0x160, 3, 1000).0, 1, "{}", rig.log);
-    println!("libmodbus 3.1.6 unit-test-server tcp against the TCP client:\n{}", rig.log);
+    println!("libmodbus 3.1.6 unit-test-server tcp against the TCP client ({chip}):\n{}", rig.log);
 }
