@@ -5,11 +5,11 @@
 //! starts a request and collects its outcome when it likes, as with the RTU [`crate::Master`];
 //! it never touches the chip itself.
 //!
-//! Each overflow reads the clock and, connected, the chip's socket events (one register); the
-//! socket itself only when it has news (data, a close) or once a second: idle, 3.8 % of the
-//! CPU on a W5100 and 3.6 % on a W5500, `millis()` included (`tests/sim_tcp_client.rs`). The
-//! poll runs with interrupts enabled again, so that a serial role's interrupts beside it keep
-//! their timing.
+//! Connected and with no request under way, each overflow reads the chip's socket events
+//! (one register) and leaves when there are none; the clock and the socket itself are read
+//! when it has news (data, a close), while a request is under way, and at least once a
+//! second. The poll runs with interrupts enabled again, so that a serial role's interrupts
+//! beside it keep their timing.
 
 use core::ops::Deref;
 
@@ -21,8 +21,10 @@ use super::spi::Spi;
 use super::started::Started;
 use super::tcp::{open_chip, start_interrupts, Pin10};
 use crate::error::Error;
+use crate::link::timing::{CLOCK_HZ, TIMER0_DIVISOR};
 use crate::master::{Failure, MasterCounters, Reply, Request, Timeouts};
 use crate::tcp::client::Client;
+use crate::tcp::server::Sockets;
 use crate::tcp::wiznet::{Chip, Wiznet};
 use crate::tcp::Network;
 
@@ -51,7 +53,12 @@ pub struct TcpClient<C, CS = Pin10, const N: usize = 256> {
 struct Running<C, CS, const N: usize> {
     client: Client<N>,
     chip: Wiznet<C, Spi<CS>>,
+    /// Overflows since the last whole poll.
+    overflows: u16,
 }
+
+/// Timer0 overflows in a second: 976 at 16 MHz (1.024 ms each), 488 at 8 MHz.
+const OVERFLOWS_PER_SECOND: u16 = (CLOCK_HZ / TIMER0_DIVISOR / 256) as u16;
 
 impl<C, CS, const N: usize> TcpClient<C, CS, N> {
     /// A client not yet started: what [`crate::tcp_client!`] declares.
@@ -101,7 +108,7 @@ impl<C: Chip, CS: OutputPin, const N: usize> TcpClient<C, CS, N> {
         T::Target: Sized,
     {
         let (chip, _) = open_chip::<C, _, _, _>(network, spi, tc0, cs)?;
-        self.running.start(|| Running { client: Client::new(server, port), chip })?;
+        self.running.start(|| Running { client: Client::new(server, port), chip, overflows: 0 })?;
         start_interrupts::<false>();
         Ok(())
     }
@@ -177,9 +184,16 @@ impl<C: Chip, CS: OutputPin, const N: usize> TcpClient<C, CS, N> {
 }
 
 impl<C: Chip, CS: OutputPin, const N: usize> Running<C, CS, N> {
-    /// One poll, interrupts disabled on entry and on return.
+    /// One poll, interrupts disabled on entry and on return. Quiet (connected, no request
+    /// under way), it asks the chip whether the socket has news (one register, interrupts
+    /// still off: 6 µs on a W5100) and leaves at once when it has none, but once a second.
     #[inline(never)]
     fn poll(&mut self) {
+        self.overflows += 1;
+        if self.overflows < OVERFLOWS_PER_SECOND && self.client.is_quiet() && self.chip.events() == 0 {
+            return;
+        }
+        self.overflows = 0;
         let now = clock::millis();
         // SAFETY: the client is marked in use (`access_marked`), so nothing else reaches it
         // meanwhile; other interrupts may run.

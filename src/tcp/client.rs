@@ -194,6 +194,13 @@ impl<const N: usize> Client<N> {
         self.link == Link::Connected
     }
 
+    /// True while there is nothing to do but watch the connection: connected, and no request
+    /// under way. A poll that finds the chip without events then changes nothing until the
+    /// sweep is due, and a caller may leave it out (at least once a second).
+    pub fn is_quiet(&self) -> bool {
+        self.link == Link::Connected && matches!(self.state, State::Idle | State::Done)
+    }
+
     /// True from [`Client::start`] until the outcome is collected ([`Client::collect`]).
     pub fn is_busy(&self) -> bool {
         self.state != State::Idle
