@@ -55,6 +55,8 @@ struct Running<C, CS, const N: usize> {
     chip: Wiznet<C, Spi<CS>>,
     /// Overflows since the last whole poll.
     overflows: u16,
+    /// The application has the SPI ([`TcpClient::with_spi`]): the poll waits.
+    lent: bool,
 }
 
 /// Timer0 overflows in a second: 976 at 16 MHz (1.024 ms each), 488 at 8 MHz.
@@ -108,7 +110,7 @@ impl<C: Chip, CS: OutputPin, const N: usize> TcpClient<C, CS, N> {
         T::Target: Sized,
     {
         let (chip, _) = open_chip::<C, _, _, _>(network, spi, tc0, cs)?;
-        self.running.start(|| Running { client: Client::new(server, port), chip, overflows: 0 })?;
+        self.running.start(|| Running { client: Client::new(server, port), chip, overflows: 0, lent: false })?;
         start_interrupts::<false>();
         Ok(())
     }
@@ -169,6 +171,18 @@ impl<C: Chip, CS: OutputPin, const N: usize> TcpClient<C, CS, N> {
         self.running.locked(|r| r.client.counters()).unwrap_or_default()
     }
 
+    /// Lends the SPI to the application for `f` (the shield's SD card, CS on pin 4, or any
+    /// other SPI device; start the client with `&*dp.SPI` to keep `dp.SPI` for your HAL's
+    /// driver): the client does not touch the chip meanwhile (a reply waits in it, a request
+    /// waits to go out, timeouts run on), and sets the SPI up again for itself afterwards.
+    /// Use the SPI only inside `f`. `None` before the start or inside another call.
+    pub fn with_spi<R>(&self, f: impl FnOnce() -> R) -> Option<R> {
+        self.running.locked(|r| r.lent = true)?;
+        let result = f();
+        self.running.locked(|r| r.lent = false);
+        Some(result)
+    }
+
     /// Timer0's overflow: the client polled, with interrupts enabled meanwhile; an overflow
     /// while a poll runs, or before the start, does nothing here.
     ///
@@ -190,7 +204,7 @@ impl<C: Chip, CS: OutputPin, const N: usize> Running<C, CS, N> {
     #[inline(never)]
     fn poll(&mut self) {
         self.overflows += 1;
-        if self.overflows < OVERFLOWS_PER_SECOND && self.client.is_quiet() && self.chip.events() == 0 {
+        if self.lent || self.overflows < OVERFLOWS_PER_SECOND && self.client.is_quiet() && self.chip.events() == 0 {
             return;
         }
         self.overflows = 0;
