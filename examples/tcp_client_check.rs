@@ -8,7 +8,7 @@
  *
  * `TCP_COMMAND`, written by the test: sequence number (a new one starts a request), address
  * (2 bytes, high first), quantity (1–8), response timeout in ms (2 bytes, high first),
- * retries, unit id.
+ * retries, unit id, then milliseconds to hold the SPI (`with_spi`) right after `send`.
  *
  * `TCP_OUTCOME`, written by the firmware: the sequence number of the outcome, its kind (1
  * the registers, 2 timeout, 3 bad reply, 4 exception, 5 refused by `send`), the exception
@@ -23,7 +23,7 @@ use core::sync::atomic::{AtomicU8, Ordering::Relaxed};
 
 use avr_modbus::master::{Failure, Request, Timeouts};
 use avr_modbus::tcp::Network;
-use avr_modbus::{board, Error};
+use avr_modbus::{board, millis, Error};
 use panic_halt as _;
 
 const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x03], [192, 168, 1, 177]);
@@ -40,7 +40,7 @@ const ZERO: AtomicU8 = AtomicU8::new(0);
 /// counts as unsafe: no other symbol of the firmware has these names) for the tests.
 #[allow(unsafe_code)]
 #[no_mangle]
-static TCP_COMMAND: [AtomicU8; 8] = [ZERO; 8];
+static TCP_COMMAND: [AtomicU8; 9] = [ZERO; 9];
 /// The firmware's outcome (see the header).
 #[allow(unsafe_code)]
 #[no_mangle]
@@ -71,7 +71,17 @@ fn main() -> ! {
             CLIENT.set_timeouts(Timeouts { response_ms: word(4), turnaround_ms: 0, retries: get(6) });
             let request = Request::ReadHoldingRegisters { address: word(1), quantity: u16::from(get(3)) };
             match CLIENT.send(get(7), &request) {
-                Ok(()) => started = seq,
+                Ok(()) => {
+                    started = seq;
+                    let hold = u32::from(get(8));
+                    if hold != 0 {
+                        // The SPI is the application's meanwhile: nothing goes out.
+                        CLIENT.with_spi(|| {
+                            let since = millis();
+                            while millis().wrapping_sub(since) < hold {}
+                        });
+                    }
+                }
                 // Not connected yet: asked again at the next turn.
                 Err(Error::NotConnected) => {}
                 Err(error) => {

@@ -239,3 +239,18 @@ fn the_idle_client_takes_a_few_percent_of_the_cpu_and_a_request_goes_out_within_
         assert!(delays[49] < us_to_cycles(2500), "{chip}: {} cycles", delays[49]);
     }
 }
+
+#[test]
+fn while_the_application_has_the_spi_the_request_waits_and_goes_out_after() {
+    let mut uno = connected(Wiznet::W5100);
+    let (w0, w1) = (1000u16.to_be_bytes()[0], 1000u16.to_be_bytes()[1]);
+    // A read, then the SPI held 30 ms by the application.
+    uno.write_symbol("TCP_COMMAND", &[1, 0, 0, 1, w0, w1, 0, 0xFF, 30]).unwrap();
+    let asked = uno.now();
+    let request = request(&mut uno, 12);
+    assert_eq!(request, adu(1, 0xFF, &[0x03, 0, 0, 0, 1]));
+    let waited = uno.wiznet().unwrap().sends(0).last().unwrap().cycle - asked;
+    assert!(waited >= us_to_cycles(30_000), "sent {waited} cycles after send, the SPI lent for 30 ms");
+    uno.wiznet_mut().unwrap().deliver(0, &adu(1, 0xFF, &registers(&[7])));
+    assert_eq!(result(&mut uno, 1, 10_000).0, 1);
+}
