@@ -29,6 +29,7 @@ use uno_sim::{Error, LineError, Uno, F_CPU};
 use crate::args::{char_cycles, DePin};
 use crate::control::Command;
 use crate::line::{receive_error, Settings};
+use crate::net::Net;
 use crate::pty::{Link, Pty};
 use crate::side::Side;
 
@@ -49,6 +50,8 @@ pub struct Board {
     pub side: Option<Side>,
     /// Watched pins.
     pub watch: Vec<u8>,
+    /// Its shield's TCP bridge, if it has one.
+    pub net: Option<Net>,
     pins_shown: String,
     serial: Option<Settings>,
     stopped: bool,
@@ -81,6 +84,7 @@ impl Board {
             de,
             side,
             watch,
+            net: None,
             pins_shown: String::new(),
             serial: None,
             stopped: false,
@@ -371,6 +375,7 @@ impl Bus {
             }
         }
         self.now = target;
+        self.poll_networks();
 
         // DE samples.
         let levels: Vec<bool> = self.boards.iter().map(Board::de_level).collect();
@@ -428,6 +433,17 @@ impl Bus {
         }
         self.report_boards();
         Ok(())
+    }
+
+    /// The boards' TCP bridges that are due: connections and messages printed with the board's
+    /// name and the simulated time.
+    fn poll_networks(&mut self) {
+        for b in &mut self.boards {
+            let Some(net) = b.net.as_mut().filter(|net| b.uno.now() >= net.next_poll()) else { continue };
+            for line in net.poll(&mut b.uno) {
+                println!("{} {} {line}", stamp(self.now), b.name);
+            }
+        }
     }
 
     /// Bytes an outside program wrote to board `i`'s pty of its own: on their way to its USART.
