@@ -70,8 +70,11 @@ use pace::{cycles_to_duration, Clock};
 use pty::{Link, Pty};
 use side::Side;
 
-/// Falling behind the wall clock by more than this is reported.
-const LAG_WARN: Duration = Duration::from_millis(50);
+/// Falling behind the wall clock by more than this is reported, and the pacing clock starts
+/// again from the simulation's time. Kept short: a pty's bytes are put on the line at the
+/// clock's cycle (`Bus::pty_sent`), so a clock far ahead of a slow simulation makes an outside
+/// program (pymodbus) answer that much later in simulated time, past a master's timeout.
+const LAG_WARN: Duration = Duration::from_millis(10);
 /// How often falling behind is reported, at most.
 const LAG_REPORT_EVERY: Duration = Duration::from_secs(5);
 /// Wall time spent simulating before looking at the ptys and commands again.
