@@ -20,7 +20,7 @@ EXAMPLES := $(filter-out gateway $(TCP_EXAMPLES),$(patsubst examples/%.rs,%,$(wi
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: tcp-firmware soak-tcp sim-test-uno sim-test-chips clippy-tools help setup bootloaders virtual-boards demo-firmware demos demo-lab demo-tcp firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package readme sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
+.PHONY: demo-plant tcp-firmware soak-tcp sim-test-uno sim-test-chips clippy-tools help setup bootloaders virtual-boards demo-firmware demos demo-lab demo-tcp firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package readme sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
 
 help:
 	@echo "Two commands do everything: make demo and make test. Every target:"
@@ -28,8 +28,9 @@ help:
 	@echo "  make demo-lab    - the lab's control application: a master and two slaves on a virtual RS-485 line"
 	@echo "  make demos       - make demo for the Uno and the Mega 2560, then make demo-lab (what make test runs, with make demo-tcp)"
 	@echo "  make demo-tcp    - the TCP server on a virtual Uno with a virtual Ethernet shield, polled over Modbus TCP by mbpoll (SHIELD=w5500)"
+	@echo "  make demo-plant  - a plant: a SCADA over Modbus TCP, a virtual Uno gateway with its shield, the lab's two boards and pymodbus on the RS-485 line (ARGS=--serve keeps it running)"
 	@echo "  make serve       - keep a virtual board running for QModMaster or any master (EXAMPLE=uno_slave, BOARD=mega2560 USART=1; SHIELD=w5100|w5500 TCP_PORT=1502: Modbus TCP on 127.0.0.1)"
-	@echo "  make test        - make check, matrix, docs, firmware, fixtures, sim-test, interop, demos, virtual-test, in three lanes (.ci/test; what CI runs)"
+	@echo "  make test        - make check, matrix, docs, firmware, fixtures, sim-test, interop, demos, demo-tcp, demo-plant, virtual-test, in three lanes (.ci/test; what CI runs)"
 	@echo "  make check       - the edit loop: make fmt-check, make clippy-tools and make unit (lints as it builds)"
 	@echo "  make setup       - install and check the toolchain, simulator, masters and flashing tools"
 	@echo "  make firmware    - make firmware-uno, then make chips"
@@ -365,6 +366,15 @@ demos: setup bootloaders
 # polled over Modbus TCP by mbpoll (SHIELD=w5500 for the W5500).
 demo-tcp: setup tcp-firmware
 	demo/tcp.sh $(or $(SHIELD),w5100)
+
+# A whole plant on the virtual network (demo/plant.sh): mbpoll -m tcp as the SCADA, through
+# examples/tcp_gateway.rs on a virtual Uno with a virtual W5100 (its port 502 on
+# 127.0.0.1:TCP_PORT), to the lab's button box and light tower (examples/lab_lights.rs twice)
+# and pymodbus's serial server (unit 3, demo/plant_slave.py) on one virtual RS-485 line; every
+# frame and every TCP request and answer printed. ARGS=--serve keeps the plant running for
+# QModMaster after the checks.
+demo-plant: setup firmware-uno tcp-firmware
+	TCP_PORT=$(TCP_PORT) demo/plant.sh $(ARGS)
 
 # The lab's control application on a virtual RS-485 line (tools/virtual-uno's virtual-line):
 # examples/lab_control.rs (the master) and examples/lab_lights.rs twice (the button box and
