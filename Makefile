@@ -59,7 +59,7 @@ help:
 	@echo "  make sim-test-uno - make sim-test's tests that run only the Uno's firmware"
 	@echo "  make sim-test-chips - make sim-test's tests that run other chips' firmware or the fixtures (SIM_CHIPS), the tools' tests"
 	@echo "  make virtual-test - the virtual Uno's and virtual line's tests (boards paced to real time on ptys)"
-	@echo "  make interop     - mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on virtual boards, serial and TCP"
+	@echo "  make interop     - mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on virtual boards, serial and TCP, and through the TCP gateway"
 	@echo "  make bench       - size targets (met or not; flash as the avr-hal template builds), flash, RAM, stack, interrupt cycles, turnaround -> bench/results.md"
 	@echo "  make bench-features - minimal built with each optional feature, for make bench"
 	@echo "  make fuzz        - coverage-guided fuzz targets (FUZZ_SECONDS each), then a long property run"
@@ -87,6 +87,7 @@ firmware-uno: setup
 	$(CARGO) uno $(addprefix --example ,$(MASTER_EXAMPLES)) --features examples,master
 	$(CARGO) uno --example ascii_master --features examples,master,ascii
 	$(CARGO) uno --example slow_master --features examples,reply-delay
+	$(CARGO) uno --example libmodbus_map_rtu --features examples,extra-fc,diagnostics
 	@.ci/sizes $(FIRMWARE)
 	@.ci/firmware-check $(FIRMWARE)
 
@@ -258,7 +259,7 @@ clippy: clippy-tools
 # The tools (the simulator, the virtual Uno, the bench), their tests included.
 clippy-tools: setup
 	$(CARGO) clippy --workspace --exclude avr-modbus --all-targets -- -D warnings
-	$(CARGO) clippy -p virtual-uno --test interop --test interop_tcp -- -D warnings # test = false: not in --all-targets
+	$(CARGO) clippy -p virtual-uno --test interop --test interop_tcp --test interop_gateway -- -D warnings # test = false: not in --all-targets
 
 # The feature sets the crate's host tests run under (.ci/host-test: a test target runs under
 # each set that has the features it declares in Cargo.toml and gives the features its source
@@ -430,11 +431,15 @@ serve: $(if $(and $(filter atmega328p,$(SERVE_CHIP)),$(if $(SERVE_TCP_SERVER),,y
 
 # mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on the virtual Uno, with answer rates;
 # then over Modbus TCP on the virtual shields (interop_tcp: mbpoll, pymodbus, a raw socket, libmodbus's
-# unit-test-client built under target/libmodbus-tests, TCP_CONNECTIONS one-shot connections, masters at once).
+# unit-test-client built under target/libmodbus-tests, TCP_CONNECTIONS one-shot connections, masters at once);
+# then through the TCP to RTU gateway on the virtual line (interop_gateway: libmodbus's unit-test-client to
+# libmodbus_map_rtu, mbpoll and pymodbus to pymodbus's serial server, a slave switched off, 0A, 0B, clients
+# gone mid-request).
 TCP_CONNECTIONS ?= 100
 interop: firmware-uno bootloaders tcp-firmware
 	$(CARGO) test -p virtual-uno --test interop -- --nocapture --test-threads=1
 	TCP_CONNECTIONS=$(TCP_CONNECTIONS) $(CARGO) test -p virtual-uno --test interop_tcp -- --nocapture --test-threads=1
+	$(CARGO) test -p virtual-uno --test interop_gateway -- --nocapture --test-threads=1
 
 # SOAK_TCP_CONNECTIONS one-shot `mbpoll -m tcp -1` connections to tcp_server (W5100) on the virtual
 # Uno, each answered, none refused (~10 min for 10000); the firmware's counters read at the end.
