@@ -320,6 +320,12 @@ fn mbpoll_through_the_gateway_to_pymodbus_switched_off_and_on() {
     check(mbpoll(&line, "-a 3 -t 3 -r 1 -c 2", ""), "[2]: \t12289", &mut log);
     check(mbpoll(&line, "-a 3 -t 4 -r 11", ""), "Illegal data address", &mut log);
     check(mbpoll(&line, "-a 12 -t 4 -r 1", ""), "Target device failed to respond", &mut log);
+    // mbpoll cannot ask units 248-254 (0A is pymodbus's check): libmodbus's modbus_set_slave
+    // refuses them over TCP, mbpoll goes on, and the request goes to unit 255, the gateway.
+    let before = line.count("request tid 0x0001 unit 255 ");
+    check(mbpoll(&line, "-a 250 -t 4 -r 1", ""), "[1]: \t", &mut log);
+    let asked = if line.count("request tid 0x0001 unit 255 ") == before + 1 { "255" } else { "another" };
+    check(format!("# mbpoll -a 250 asked unit {asked}\n"), "asked unit 255", &mut log);
     // Switched off: 0B after the line's timeout and retry, then at once while it is down.
     drop(slave);
     let started = Instant::now();
