@@ -42,6 +42,10 @@ if [ -z "${VIRTUAL_LINE:-}" ]; then
 fi
 [ -x "$VIRTUAL_LINE" ] || die "$VIRTUAL_LINE is missing"
 
+if (exec 3<>"/dev/tcp/127.0.0.1/$port") 2>/dev/null; then
+  die "127.0.0.1:$port is taken (another virtual board, a test?): TCP_PORT=N for another port"
+fi
+
 work=$(mktemp -d)
 log=$work/plant.log
 control=$work/control
@@ -100,7 +104,7 @@ for _ in $(seq 100); do
   [ -e "$tty" ] && break
   sleep 0.05
 done
-"$python" "$root/demo/plant_slave.py" "$tty" --unit 3 --resync >>"$log" 2>&1 &
+"$python" "$root/demo/plant_slave.py" "$tty" --unit 3 --resync --turnaround-ms 2 >>"$log" 2>&1 &
 slave=$!
 wait_for "gateway tcp: 127.0.0.1:$port" 10 || die "the gateway never listened on 127.0.0.1:$port"
 wait_for "plant_slave: unit 3 on" 10 || die "pymodbus's server did not start"

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """pymodbus's serial RTU server as one slave among others on an RS-485 line (`make demo-plant`).
 
-    python3 demo/plant_slave.py PORT [--unit 3] [--resync] [--seconds 0] [--debug]
+    python3 demo/plant_slave.py PORT [--unit 3] [--resync] [--turnaround-ms 0] [--seconds 0] [--debug]
 
 One unit (3 by default), a stand-in for a device nobody here wrote (protocol addresses):
     holding registers 0-9   0x0300 + i
@@ -21,8 +21,11 @@ for its byte count and swallows up to 255 bytes of what follows). A real receive
 by silence, which a pty's reader cannot time (the host's scheduling puts gaps of several ms
 inside a frame). --resync takes instead the request that the bytes heard last form, its
 length from its function code and its CRC right, and drops what came before; without it
-pymodbus's framing is left as it ships. A pty carries no parity bit: the line's 8E1 reaches
-it as 8N1 (see tools/virtual-uno/src/line.rs).
+pymodbus's framing is left as it ships. On a pty pymodbus answers a fraction of a millisecond
+after a request's last byte, sooner than the 3.5 character times of silence a slave leaves
+before it answers (2 ms at 19200; a USB adapter's latency hides this on a real line), and while
+the master's driver may still be on: --turnaround-ms MS waits that long first. A pty carries
+no parity bit: the line's 8E1 reaches it as 8N1 (see tools/virtual-uno/src/line.rs).
 
 Unit-0 broadcasts are not taken (pymodbus 3.0 with broadcast_enable accepts every unit id,
 and would answer 0B for the others' units: not on a shared line).
@@ -55,6 +58,7 @@ class ResyncFramer(ModbusRtuFramer):
 
     RESYNC = False
     DEBUG = False
+    TURNAROUND = 0.0
     KEEP = 256  # the longest RTU frame: older bytes cannot belong to a request still coming
 
     def __init__(self, *args, **kwargs):
@@ -64,6 +68,12 @@ class ResyncFramer(ModbusRtuFramer):
     def processIncomingPacket(self, data, callback, unit, **kwargs):  # pylint: disable=invalid-name
         if self.DEBUG:
             print(f"plant_slave: {time.monotonic():.4f} heard {data.hex(' ')}", file=sys.stderr, flush=True)
+        if self.TURNAROUND:
+            inner = callback
+
+            def callback(request):  # pylint: disable=function-redefined
+                asyncio.get_running_loop().call_later(self.TURNAROUND, inner, request)
+
         if not self.RESYNC:
             super().processIncomingPacket(data, callback, unit, **kwargs)
             return
@@ -104,6 +114,7 @@ async def serve(args):
         zero_mode=True,  # pymodbus 3.0 otherwise adds 1 to every protocol address
     )
     ResyncFramer.RESYNC = args.resync
+    ResyncFramer.TURNAROUND = args.turnaround_ms / 1000
     ResyncFramer.DEBUG = args.debug
     server = await StartAsyncSerialServer(
         context=ModbusServerContext(slaves={args.unit: unit}, single=False),
@@ -141,6 +152,7 @@ def main():
     parser.add_argument("port")
     parser.add_argument("--unit", type=int, default=3)
     parser.add_argument("--resync", action="store_true", help="take the request the last bytes heard form (see above)")
+    parser.add_argument("--turnaround-ms", type=float, default=0.0, help="wait this long before answering (see above)")
     parser.add_argument("--seconds", type=float, default=0.0, help="serve this long (0: until SIGTERM)")
     parser.add_argument("--debug", action="store_true", help="pymodbus's debug log on stderr")
     args = parser.parse_args()

@@ -23,6 +23,7 @@
 //! or when another transmitter starts without it (reported).
 
 use std::collections::VecDeque;
+use std::time::{Duration, Instant};
 
 use uno_sim::{Error, LineError, Uno, F_CPU};
 
@@ -165,12 +166,18 @@ pub struct PtyPort {
     out: VecDeque<(u64, u8)>,
     /// Settings last reported.
     reported: Option<Settings>,
+    /// When the program was last handed bytes: the wall time and the simulated cycle.
+    heard: Option<(Instant, u64)>,
 }
+
+/// How long after it was handed bytes a program's own bytes count as its reaction to them
+/// ([`Bus::reaction`]).
+const REACTION: Duration = Duration::from_millis(200);
 
 impl PtyPort {
     /// A pty port.
     pub fn new(name: String, pty: Pty, link: Option<Link>) -> PtyPort {
-        PtyPort { name, pty, _link: link, tx_last_end: 0, out: VecDeque::new(), reported: None }
+        PtyPort { name, pty, _link: link, tx_last_end: 0, out: VecDeque::new(), reported: None, heard: None }
     }
 }
 
@@ -309,6 +316,19 @@ impl Bus {
             t = t.min(c.decide.max(self.now + 1));
         }
         t
+    }
+
+    /// The cycle at which an outside program on pty `k` that writes now reacts to the bytes it
+    /// was last handed, if that was less than [`REACTION`] ago: the cycle they reached it plus
+    /// the wall time since. Its reaction time is kept in simulated time, whatever the
+    /// simulation's speed: a slow simulation that was not running while pymodbus answered
+    /// (2 cores, several programs) would otherwise see it answer at once, in the answer's
+    /// own turnaround, colliding with the master's DE still high.
+    pub fn reaction(&self, k: usize) -> Option<u64> {
+        let (wall, cycle) = self.ptys[k].heard?;
+        let since = wall.elapsed();
+        (since < REACTION)
+            .then(|| cycle + u64::try_from(since.as_nanos() * u128::from(F_CPU) / 1_000_000_000).unwrap_or(0))
     }
 
     /// Bytes an outside program wrote to pty `k`: on the line from cycle `at` (not before
@@ -653,6 +673,7 @@ impl Bus {
                 let bytes: Vec<u8> = p.out.drain(..due).map(|(_, b)| b).collect();
                 // Nobody reading: the pty's buffer fills and the rest is lost, as on a wire.
                 p.pty.write(&bytes).map_err(|e| format!("{}: writing the pty: {e}", p.name))?;
+                p.heard = Some((Instant::now(), self.now));
             }
         }
         Ok(())

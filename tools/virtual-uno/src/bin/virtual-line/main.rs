@@ -71,9 +71,10 @@ use pty::{Link, Pty};
 use side::Side;
 
 /// Falling behind the wall clock by more than this is reported, and the pacing clock starts
-/// again from the simulation's time. Kept short: a pty's bytes are put on the line at the
-/// clock's cycle (`Bus::pty_sent`), so a clock far ahead of a slow simulation makes an outside
-/// program (pymodbus) answer that much later in simulated time, past a master's timeout.
+/// again from the simulation's time. Kept short: a pty's bytes go on the line no sooner than
+/// the clock's cycle (`Bus::pty_sent`), so a clock far ahead of a slow simulation makes an
+/// outside program (pymodbus) answer that much later in simulated time, past a master's
+/// timeout.
 const LAG_WARN: Duration = Duration::from_millis(10);
 /// How often falling behind is reported, at most.
 const LAG_REPORT_EVERY: Duration = Duration::from_secs(5);
@@ -259,7 +260,9 @@ fn run(args: args::Args) -> Result<(), String> {
             if ready[1 + k] {
                 let n = bus.ptys[k].pty.read(&mut buf).map_err(|e| format!("reading the pty: {e}"))?;
                 if n > 0 {
-                    let at = if args.pace { clock.due() } else { bus.now };
+                    // Paced: when the wall clock says, or its reaction to what it heard.
+                    let at =
+                        if args.pace { bus.reaction(k).map_or(clock.due(), |r| r.max(clock.due())) } else { bus.now };
                     bus.pty_sent(k, &buf[..n], at)?;
                 }
             }
