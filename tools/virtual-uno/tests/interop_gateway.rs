@@ -366,3 +366,95 @@ fn pymodbus_tcp_client_through_the_gateway_with_faults() {
     assert!(line.wait_for("request cut short", Duration::from_secs(1)), "{}", transcript(&out, &line));
     assert_eq!(line.count("COLLISION") + line.count("bad CRC"), 0, "{}", transcript(&out, &line));
 }
+
+// ------------------------------------------------------------------------------------------
+// Several masters at once, to every slave of a plant
+
+/// `N frames transmitted, M received, E errors` of an mbpoll run stopped with SIGINT.
+fn mbpoll_statistics(out: &str) -> Option<(u64, u64, u64)> {
+    let line = out.lines().find(|l| l.contains("frames transmitted"))?;
+    let numbers: Vec<u64> = line.split(|c: char| !c.is_ascii_digit()).filter_map(|w| w.parse().ok()).collect();
+    Some((*numbers.first()?, *numbers.get(1)?, *numbers.get(2)?))
+}
+
+#[test]
+fn four_masters_at_once_through_the_gateway_to_two_boards_pymodbus_and_the_gateway_itself() {
+    let _one = serialise();
+    let lab = built(target_dir().join("avr-atmega328p/release/examples/lab_lights.elf"), "make firmware");
+    let tty = tty("plant");
+    let members: Vec<String> = [
+        format!("--board box={}", lab.display()),
+        "de=10 watch=none".into(),
+        format!("--board tower={}", lab.display()),
+        "de=10 pin12=low watch=none".into(),
+        format!("--pty pymodbus={tty}"),
+    ]
+    .iter()
+    .flat_map(|w| w.split_whitespace().map(str::to_owned).collect::<Vec<_>>())
+    .collect();
+    let line = Line::start(0, &members);
+    // Among other slaves: pymodbus's framing resynchronised, and its answer held back for the
+    // line's silence (demo/plant_slave.py says why).
+    let mut child = Command::new(python())
+        .arg(workspace().join("demo/plant_slave.py"))
+        .args([tty.as_str(), "--unit", "3", "--resync", "--turnaround-ms", "2"])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start demo/plant_slave.py");
+    thread::sleep(Duration::from_millis(1500));
+    let asks = ["-a 1 -t 1 -r 1 -c 2", "-a 2 -t 0 -r 1 -c 4", "-a 3 -t 4 -r 1 -c 4", "-a 255 -t 4 -r 1 -c 8"];
+    let masters: Vec<(String, Child, Arc<Mutex<String>>)> = asks
+        .iter()
+        .map(|ask| {
+            let mut child = Command::new("mbpoll")
+                .args(["-m", "tcp", "-p", &line.port.to_string(), "-l", "20", "-q"])
+                .args(ask.split_whitespace())
+                .arg("127.0.0.1")
+                .stdin(Stdio::null())
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()
+                .expect("start mbpoll");
+            let out = Arc::new(Mutex::new(String::new()));
+            collect(child.stdout.take().unwrap(), out.clone());
+            collect(child.stderr.take().unwrap(), out.clone());
+            ((*ask).to_owned(), child, out)
+        })
+        .collect();
+    thread::sleep(Duration::from_secs(6));
+    let mut report = String::new();
+    let mut all_answered = true;
+    for (ask, mut child, out) in masters {
+        let _ = nix::sys::signal::kill(nix::unistd::Pid::from_raw(child.id() as i32), nix::sys::signal::Signal::SIGINT);
+        let deadline = Instant::now() + Duration::from_secs(3);
+        while child.try_wait().unwrap().is_none() && Instant::now() < deadline {
+            thread::sleep(Duration::from_millis(20));
+        }
+        stop(&mut child);
+        thread::sleep(Duration::from_millis(50));
+        let out = out.lock().unwrap().clone();
+        let stats = mbpoll_statistics(&out);
+        // The poll under way when SIGINT came may go unanswered; none may fail.
+        let ok = stats.is_some_and(|(sent, received, errors)| sent >= 20 && received + 1 >= sent && errors == 0);
+        all_answered &= ok;
+        report += &format!("mbpoll {ask}: {stats:?} (sent, received, errors){}\n", if ok { "" } else { " FAILED" });
+        if !ok {
+            report += &out;
+        }
+    }
+    stop(&mut child);
+    let requests = line.count("request tid");
+    let answers = line.count("answer tid");
+    let frames = line.count("frame from");
+    report += &format!(
+        "through the gateway: {requests} TCP requests, {answers} answers; {frames} frames on the line, {} collisions, \
+         {} frames after too short a silence\n",
+        line.count("COLLISION"),
+        line.count("character times after the previous frame")
+    );
+    println!("{report}");
+    assert!(all_answered, "{}", transcript(&report, &line));
+    assert_eq!(line.count("COLLISION") + line.count("bad CRC"), 0, "{}", transcript(&report, &line));
+}
