@@ -5,8 +5,10 @@
 //! slave 17); mbpoll and pymodbus's TCP client (`demo/pymodbus_gateway_check.py`) to pymodbus's
 //! serial server on a pty (`demo/plant_slave.py`, unit 3), with faults on both sides: the slave
 //! switched off and on again (0B, then answers), units nobody answers (0B) or the gateway does
-//! not route (0A), clients that go away mid-request. Each test starts its own line (one at a
-//! time: each keeps a core busy) and fails with the master's transcript and the line's log.
+//! not route (0A), clients that go away mid-request; four mbpoll masters at once to the lab's
+//! two boards (examples/lab_lights.rs), pymodbus and the gateway itself. Each test starts its
+//! own line (one at a time: each keeps a core busy) and fails with the master's transcript and
+//! the line's log.
 //!
 //! Needs `make firmware` (libmodbus_map_rtu), `make tcp-firmware` (tcp_gateway) and what `make
 //! setup` installs: mbpoll, Debian's python3-pymodbus 3.0 with python3-serial-asyncio,
