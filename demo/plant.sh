@@ -206,6 +206,8 @@ echo
 echo "=== demo-plant: $checks checks, $((checks - failed)) passed; $requests TCP requests, $answers answers; $frames frames on the line"
 grep -o 'frames: [^;]*' "$log" | tail -n 1 | sed 's/^/=== /' || true
 [ "$bad" -eq 0 ] || { echo "=== $bad frames collided, were cut or failed their CRC"; failed=$((failed + 1)); }
+short=$(grep 'frame from' "$log" | grep -c 'character times after the previous frame' || true)
+[ "$short" -eq 0 ] || echo "=== $short frames came after less than 3.5 character times of silence"
 if [ "$failed" -ne 0 ]; then
   echo "=== FAILED"
   exit 1
