@@ -20,7 +20,7 @@ EXAMPLES := $(filter-out gateway $(TCP_EXAMPLES),$(patsubst examples/%.rs,%,$(wi
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: tcp-firmware soak-tcp sim-test-uno sim-test-chips clippy-tools help setup bootloaders virtual-boards demo-firmware demos demo-lab demo-tcp firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package readme sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
+.PHONY: demo-plant tcp-firmware soak-tcp sim-test-uno sim-test-chips clippy-tools help setup bootloaders virtual-boards demo-firmware demos demo-lab demo-tcp firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package readme sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
 
 help:
 	@echo "Two commands do everything: make demo and make test. Every target:"
@@ -28,8 +28,9 @@ help:
 	@echo "  make demo-lab    - the lab's control application: a master and two slaves on a virtual RS-485 line"
 	@echo "  make demos       - make demo for the Uno and the Mega 2560, then make demo-lab (what make test runs, with make demo-tcp)"
 	@echo "  make demo-tcp    - the TCP server on a virtual Uno with a virtual Ethernet shield, polled over Modbus TCP by mbpoll (SHIELD=w5500)"
+	@echo "  make demo-plant  - a plant: a SCADA over Modbus TCP, a virtual Uno gateway with its shield, the lab's two boards and pymodbus on the RS-485 line (ARGS=--serve keeps it running)"
 	@echo "  make serve       - keep a virtual board running for QModMaster or any master (EXAMPLE=uno_slave, BOARD=mega2560 USART=1; SHIELD=w5100|w5500 TCP_PORT=1502: Modbus TCP on 127.0.0.1)"
-	@echo "  make test        - make check, matrix, docs, firmware, fixtures, sim-test, interop, demos, virtual-test, in three lanes (.ci/test; what CI runs)"
+	@echo "  make test        - make check, matrix, docs, firmware, fixtures, sim-test, interop, demos, demo-tcp, demo-plant, virtual-test, in three lanes (.ci/test; what CI runs)"
 	@echo "  make check       - the edit loop: make fmt-check, make clippy-tools and make unit (lints as it builds)"
 	@echo "  make setup       - install and check the toolchain, simulator, masters and flashing tools"
 	@echo "  make firmware    - make firmware-uno, then make chips"
@@ -58,7 +59,7 @@ help:
 	@echo "  make sim-test-uno - make sim-test's tests that run only the Uno's firmware"
 	@echo "  make sim-test-chips - make sim-test's tests that run other chips' firmware or the fixtures (SIM_CHIPS), the tools' tests"
 	@echo "  make virtual-test - the virtual Uno's and virtual line's tests (boards paced to real time on ptys)"
-	@echo "  make interop     - mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on virtual boards, serial and TCP"
+	@echo "  make interop     - mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on virtual boards, serial and TCP, and through the TCP gateway"
 	@echo "  make bench       - size targets (met or not; flash as the avr-hal template builds), flash, RAM, stack, interrupt cycles, turnaround -> bench/results.md"
 	@echo "  make bench-features - minimal built with each optional feature, for make bench"
 	@echo "  make fuzz        - coverage-guided fuzz targets (FUZZ_SECONDS each), then a long property run"
@@ -86,6 +87,7 @@ firmware-uno: setup
 	$(CARGO) uno $(addprefix --example ,$(MASTER_EXAMPLES)) --features examples,master
 	$(CARGO) uno --example ascii_master --features examples,master,ascii
 	$(CARGO) uno --example slow_master --features examples,reply-delay
+	$(CARGO) uno --example libmodbus_map_rtu --features examples,extra-fc,diagnostics
 	@.ci/sizes $(FIRMWARE)
 	@.ci/firmware-check $(FIRMWARE)
 
@@ -270,7 +272,7 @@ clippy: clippy-tools
 # The tools (the simulator, the virtual Uno, the bench), their tests included.
 clippy-tools: setup
 	$(CARGO) clippy --workspace --exclude avr-modbus --all-targets -- -D warnings
-	$(CARGO) clippy -p virtual-uno --test interop --test interop_tcp --test interop_tcp_client -- -D warnings # test = false: not in --all-targets
+	$(CARGO) clippy -p virtual-uno --test interop --test interop_tcp --test interop_gateway --test interop_tcp_client -- -D warnings # test = false: not in --all-targets
 
 # The feature sets the crate's host tests run under (.ci/host-test: a test target runs under
 # each set that has the features it declares in Cargo.toml and gives the features its source
@@ -379,6 +381,15 @@ demos: setup bootloaders
 demo-tcp: setup tcp-firmware
 	demo/tcp.sh $(or $(SHIELD),w5100)
 
+# A whole plant on the virtual network (demo/plant.sh): mbpoll -m tcp as the SCADA, through
+# examples/tcp_gateway.rs on a virtual Uno with a virtual W5100 (its port 502 on
+# 127.0.0.1:TCP_PORT), to the lab's button box and light tower (examples/lab_lights.rs twice)
+# and pymodbus's serial server (unit 3, demo/plant_slave.py) on one virtual RS-485 line; every
+# frame and every TCP request and answer printed. ARGS=--serve keeps the plant running for
+# QModMaster after the checks.
+demo-plant: setup firmware-uno tcp-firmware
+	TCP_PORT=$(TCP_PORT) demo/plant.sh $(ARGS)
+
 # The lab's control application on a virtual RS-485 line (tools/virtual-uno's virtual-line):
 # examples/lab_control.rs (the master) and examples/lab_lights.rs twice (the button box and
 # the light tower); START and STOP pressed with pin commands, every frame printed with its
@@ -434,11 +445,15 @@ serve: $(if $(and $(filter atmega328p,$(SERVE_CHIP)),$(if $(SERVE_TCP_SERVER),,y
 # mbpoll, pymodbus, minimalmodbus and libmodbus against the firmware on the virtual Uno, with answer rates;
 # then over Modbus TCP on the virtual shields (interop_tcp: mbpoll, pymodbus, a raw socket, libmodbus's
 # unit-test-client built under target/libmodbus-tests, TCP_CONNECTIONS one-shot connections, masters at once);
+# then through the TCP to RTU gateway on the virtual line (interop_gateway: libmodbus's unit-test-client to
+# libmodbus_map_rtu, mbpoll and pymodbus to pymodbus's serial server, a slave switched off, 0A, 0B, clients
+# gone mid-request).
 # then the firmware's TCP client against pymodbus's TCP server and libmodbus's unit-test-server (interop_tcp_client).
 TCP_CONNECTIONS ?= 100
 interop: firmware-uno bootloaders tcp-firmware
 	$(CARGO) test -p virtual-uno --test interop -- --nocapture --test-threads=1
 	TCP_CONNECTIONS=$(TCP_CONNECTIONS) $(CARGO) test -p virtual-uno --test interop_tcp -- --nocapture --test-threads=1
+	$(CARGO) test -p virtual-uno --test interop_gateway -- --nocapture --test-threads=1
 	$(CARGO) test -p virtual-uno --test interop_tcp_client -- --nocapture --test-threads=1
 
 # SOAK_TCP_CONNECTIONS one-shot `mbpoll -m tcp -1` connections to tcp_server (W5100) on the virtual

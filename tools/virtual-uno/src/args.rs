@@ -46,6 +46,8 @@ options:
                    502:1502); printed as `tcp: 127.0.0.1:HOST` once the firmware listens
   --connect CHIP:HOST  bridge the firmware's connections to port CHIP (any address) to
                    127.0.0.1:HOST, a server on the host (repeatable; e.g. 502:1502)
+  --messages       print each Modbus TCP request and answer through the bridge (connection,
+                   transaction id, unit id, function code, the bytes)
   -h, --help       this text
 
 Pin numbers (--pin, --watch, `pin`) are the Uno's (0-13, A0-A5) and work on the ATmega328P
@@ -91,6 +93,8 @@ pub struct Args {
     pub tcp: Vec<Mapping>,
     /// `--connect`, in order.
     pub connect: Vec<Mapping>,
+    /// `--messages`.
+    pub messages: bool,
 }
 
 /// The pins watched when `--watch` is not given: the Uno's LED and pins 2-5, on the chips
@@ -121,6 +125,7 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
         cs: None,
         tcp: Vec::new(),
         connect: Vec::new(),
+        messages: false,
     };
     let mut elf = None;
     while let Some(word) = words.next() {
@@ -140,6 +145,7 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
             "--watch" => args.watch = Some(parse_watch(&value()?).map_err(Some)?),
             "--wiznet" => args.wiznet = Some(value()?.parse::<Wiznet>().map_err(|e| Some(format!("--wiznet: {e}")))?),
             "--cs" => args.cs = Some(parse_cs(&value()?).map_err(Some)?),
+            "--messages" => args.messages = true,
             "--tcp" => args.tcp.push(value()?.parse::<Mapping>().map_err(|e| Some(format!("--tcp: {e}")))?),
             "--connect" => args.connect.push(value()?.parse::<Mapping>().map_err(|e| Some(format!("--connect: {e}")))?),
             w if w.starts_with('-') => return Err(Some(format!("unknown option {w}"))),
@@ -152,6 +158,9 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
     }
     if args.wiznet.is_none() && (!args.tcp.is_empty() || !args.connect.is_empty() || args.cs.is_some()) {
         return Err(Some("--tcp, --connect and --cs need a shield: --wiznet w5100 or w5500".to_owned()));
+    }
+    if args.messages && args.tcp.is_empty() && args.connect.is_empty() {
+        return Err(Some("--messages needs a bridge: --tcp 502:1502 or --connect 502:1502".to_owned()));
     }
     args.elf = elf;
     args.auto_reset &= args.bootloader.is_some();
@@ -235,6 +244,8 @@ mod tests {
         assert!(parse(words("--wiznet w5100 --cs PB9 fw.elf")).unwrap_err().unwrap().contains("PB9"));
         assert!(parse(words("--wiznet w5100 --tcp 0:1 fw.elf")).is_err());
         assert_eq!(parse(words("fw.elf")).unwrap().wiznet, None);
+        assert!(parse(words("--wiznet w5100 --tcp 502:1502 --messages fw.elf")).unwrap().messages);
+        assert!(parse(words("--wiznet w5100 --messages fw.elf")).unwrap_err().unwrap().contains("needs a bridge"));
     }
 
     #[test]

@@ -25,6 +25,8 @@ mod commands;
 mod control;
 mod dtr;
 mod line;
+mod mbap;
+mod net;
 mod pace;
 mod pty;
 mod state;
@@ -39,13 +41,13 @@ use std::time::{Duration, Instant};
 use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
 use nix::sys::signal::{SigSet, Signal};
 use nix::sys::signalfd::{SfdFlags, SignalFd};
-use uno_sim::wiznet::Bridge;
 use uno_sim::{Options, ResetCause, Uno, CYCLES_PER_US};
 
 use commands::{CommandSource, ControlFifo};
 use control::Command;
 use dtr::Dtr;
 use line::Settings;
+use net::Net;
 use pace::{cycles_to_duration, Clock};
 use pty::{Link, Pty};
 use state::State;
@@ -53,8 +55,6 @@ use wire::Wire;
 
 /// Simulated time run per loop turn, at most (1 ms).
 const SLICE_CYCLES: u64 = 1_000 * CYCLES_PER_US;
-/// With a TCP bridge, the simulated time between two of its polls, at most (250 µs).
-const BRIDGE_CYCLES: u64 = 4_000;
 /// Falling behind the wall clock by more than this is reported.
 const LAG_WARN: Duration = Duration::from_millis(20);
 /// How often falling behind is reported, at most.
@@ -172,13 +172,11 @@ fn run(args: &args::Args) -> Result<(), String> {
     if let (Some(model), Some((port, bit))) = (args.wiznet, uno.wiznet_cs()) {
         println!("shield: {model} on the SPI port, chip select P{port}{bit}");
     }
-    let mut bridge = match args.tcp.is_empty() && args.connect.is_empty() {
+    let mut net = match args.tcp.is_empty() && args.connect.is_empty() {
         true => None,
-        false => Some(
-            Bridge::bind(&args.tcp)
-                .map_err(|e| format!("--tcp: cannot listen on 127.0.0.1: {e}"))?
-                .with_outgoing(&args.connect),
-        ),
+        false => {
+            Some(Net::bind(&args.tcp, args.messages).map_err(|e| format!("--tcp: {e}"))?.with_outgoing(&args.connect))
+        }
     };
     for cmd in &args.initial {
         cmd.apply(&mut uno).map_err(|e| e.to_string())?;
@@ -288,7 +286,7 @@ fn run(args: &args::Args) -> Result<(), String> {
         let due = clock.due();
         if due > uno.now() && !stopped {
             let target = due.min(uno.now() + SLICE_CYCLES);
-            match run_slice(&mut uno, target, bridge.as_mut()) {
+            match run_slice(&mut uno, target, net.as_mut()) {
                 Err(e @ uno_sim::Error::Stopped { .. }) if whole_board => {
                     println!("stopped: {e}; the board waits for a reset");
                     stopped = true;
@@ -358,18 +356,18 @@ fn run(args: &args::Args) -> Result<(), String> {
     Ok(())
 }
 
-/// Runs the board up to `target`; with a TCP bridge, in steps of [`BRIDGE_CYCLES`], the bridge
+/// Runs the board up to `target`; with a TCP bridge, in steps of `net::BRIDGE_CYCLES`, the bridge
 /// polled after each (its events printed).
-fn run_slice(uno: &mut Uno, target: u64, mut bridge: Option<&mut Bridge>) -> Result<(), uno_sim::Error> {
+fn run_slice(uno: &mut Uno, target: u64, mut net: Option<&mut Net>) -> Result<(), uno_sim::Error> {
     loop {
-        let step = match bridge {
-            Some(_) => target.min(uno.now() + BRIDGE_CYCLES),
+        let step = match &net {
+            Some(net) => target.min(net.next_poll().max(uno.now() + 1)),
             None => target,
         };
         uno.run_until(step)?;
-        if let (Some(bridge), Some(chip)) = (bridge.as_deref_mut(), uno.wiznet_mut()) {
-            for event in bridge.poll(chip) {
-                println!("{event}");
+        if let Some(net) = net.as_deref_mut().filter(|net| uno.now() >= net.next_poll()) {
+            for line in net.poll(uno) {
+                println!("{line}");
             }
         }
         if uno.now() >= target {

@@ -86,6 +86,17 @@ pub enum BridgeEvent {
         /// The host address tried.
         host: SocketAddr,
     },
+    /// Bytes that went through a bridged connection (only with [`Bridge::with_traffic`]).
+    Bytes {
+        /// The client.
+        peer: SocketAddr,
+        /// The chip's socket.
+        socket: usize,
+        /// True from the client to the chip, false from the chip to the client.
+        to_chip: bool,
+        /// The bytes, as read from one side (a TCP stream: not cut at messages).
+        bytes: Vec<u8>,
+    },
     /// A bridged connection ended.
     Closed {
         /// The client.
@@ -110,6 +121,10 @@ impl fmt::Display for BridgeEvent {
             }
             BridgeEvent::DialRefused { socket, to, host } => {
                 write!(f, "tcp: socket {socket} connected to {to}: refused, nothing listens on {host}")
+            }
+            BridgeEvent::Bytes { peer, socket, to_chip, bytes } => {
+                let way = if *to_chip { "to the chip" } else { "from the chip" };
+                write!(f, "tcp: {peer} on socket {socket}: {} bytes {way}", bytes.len())
             }
             BridgeEvent::Closed { peer, socket, how } => write!(f, "tcp: {peer} on socket {socket}: {how}"),
         }
@@ -152,6 +167,7 @@ pub struct Bridge {
     outgoing: Vec<Mapping>,
     conns: Vec<HostConn>,
     patience: u64,
+    traffic: bool,
 }
 
 impl fmt::Debug for Bridge {
@@ -171,7 +187,13 @@ impl Bridge {
                 Ok(Listener { mapping, socket, announced: false })
             })
             .collect::<io::Result<Vec<_>>>()?;
-        Ok(Bridge { listeners, outgoing: Vec::new(), conns: Vec::new(), patience: 3_000_000 * CYCLES_PER_US })
+        Ok(Bridge {
+            listeners,
+            outgoing: Vec::new(),
+            conns: Vec::new(),
+            patience: 3_000_000 * CYCLES_PER_US,
+            traffic: false,
+        })
     }
 
     /// Also bridges the firmware's connections: one to any address on a mapping's
@@ -179,6 +201,12 @@ impl Bridge {
     /// connects to port 502 reaches the server on the host's port 1502).
     pub fn with_outgoing(self, mappings: &[Mapping]) -> Bridge {
         Bridge { outgoing: mappings.to_vec(), ..self }
+    }
+
+    /// Reports the bytes each connection carries, both ways, as [`BridgeEvent::Bytes`]
+    /// (before its other events of the same round), for a tool that prints the messages.
+    pub fn with_traffic(self) -> Bridge {
+        Bridge { traffic: true, ..self }
     }
 
     /// How long (simulated cycles) a client waits for a listening socket before it is refused;
@@ -255,8 +283,8 @@ impl Bridge {
             });
             events.push(BridgeEvent::Dialed { socket: n, to, host });
         }
-        let patience = self.patience;
-        self.conns.retain_mut(|c| match step(c, chip, now, patience) {
+        let (patience, traffic) = (self.patience, self.traffic);
+        self.conns.retain_mut(|c| match step(c, chip, now, patience, traffic.then_some(&mut events)) {
             Step::Keep(None) => true,
             Step::Keep(Some(e)) => {
                 events.push(e);
@@ -276,8 +304,14 @@ enum Step {
     Drop(BridgeEvent),
 }
 
-/// One client's round.
-fn step(c: &mut HostConn, chip: &mut W5x00, now: u64, patience: u64) -> Step {
+/// One client's round; with `traffic`, the bytes it moved are pushed there.
+fn step(
+    c: &mut HostConn,
+    chip: &mut W5x00,
+    now: u64,
+    patience: u64,
+    mut traffic: Option<&mut Vec<BridgeEvent>>,
+) -> Step {
     let Some((n, id)) = c.attached else {
         let peer = match c.peer {
             SocketAddr::V4(v4) => v4,
@@ -311,7 +345,12 @@ fn step(c: &mut HostConn, chip: &mut W5x00, now: u64, patience: u64) -> Step {
         let mut buf = [0u8; READ_CHUNK];
         match c.stream.read(&mut buf) {
             Ok(0) => c.host_eof = true,
-            Ok(k) => c.to_chip.extend_from_slice(&buf[..k]),
+            Ok(k) => {
+                c.to_chip.extend_from_slice(&buf[..k]);
+                if let Some(events) = traffic.as_deref_mut() {
+                    events.push(BridgeEvent::Bytes { peer, socket: n, to_chip: true, bytes: buf[..k].to_vec() });
+                }
+            }
             Err(e) if e.kind() == io::ErrorKind::WouldBlock || e.kind() == io::ErrorKind::Interrupted => {}
             Err(_) => {
                 chip.peer_reset(n);
@@ -329,13 +368,21 @@ fn step(c: &mut HostConn, chip: &mut W5x00, now: u64, patience: u64) -> Step {
     }
 
     // chip -> client
-    c.to_host.extend(chip.take_sent(n));
+    let mut sent = chip.take_sent(n);
+    c.to_host.extend_from_slice(&sent);
     if write_some(c).is_err() {
         chip.peer_reset(n);
         return closed("reset by the client");
     }
     chip.set_peer_window(n, Some(HOST_BUFFER.saturating_sub(c.to_host.len())));
-    c.to_host.extend(chip.take_sent(n));
+    let more = chip.take_sent(n);
+    c.to_host.extend_from_slice(&more);
+    if let Some(events) = traffic {
+        sent.extend(more);
+        if !sent.is_empty() {
+            events.push(BridgeEvent::Bytes { peer, socket: n, to_chip: false, bytes: sent });
+        }
+    }
 
     let Some(conn) = chip.connection(n) else { return Step::Keep(None) };
     if conn.fin_from_chip() && c.to_host.is_empty() && !c.host_shut {

@@ -256,3 +256,39 @@ fn a_firmware_connection_to_an_unmapped_port_stays_unanswered() {
     }
     assert_eq!(chip.status(0), state::SYNSENT);
 }
+
+#[test]
+fn with_traffic_the_bytes_of_each_way_are_reported_as_they_pass() {
+    let mut rig = Rig::new();
+    rig.bridge = Bridge::bind(&[Mapping { chip_port: 502, host_port: 0 }]).unwrap().with_traffic();
+    let mut client = rig.client();
+    client.write_all(b"request").unwrap();
+    let mut got = Vec::new();
+    rig.until(|r| {
+        got.extend(r.receive());
+        got.len() >= 7
+    });
+    rig.send(b"reply");
+    let mut back = Vec::new();
+    rig.until(|_| {
+        back.extend(read_some(&mut client).unwrap_or_default());
+        back.len() >= 5
+    });
+    let moved = |way: bool| -> Vec<u8> {
+        rig.events
+            .iter()
+            .filter_map(|e| match e {
+                BridgeEvent::Bytes { socket: 0, to_chip, bytes, .. } if *to_chip == way => Some(bytes.clone()),
+                _ => None,
+            })
+            .flatten()
+            .collect()
+    };
+    assert_eq!((moved(true), moved(false)), (b"request".to_vec(), b"reply".to_vec()));
+    // Without it, none.
+    let mut quiet = Rig::new();
+    let mut client = quiet.client();
+    client.write_all(b"x").unwrap();
+    quiet.until(|r| !r.receive().is_empty());
+    assert!(!quiet.events.iter().any(|e| matches!(e, BridgeEvent::Bytes { .. })), "{:?}", quiet.events);
+}

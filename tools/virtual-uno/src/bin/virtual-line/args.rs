@@ -3,7 +3,8 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use uno_sim::{Chip, F_CPU};
+use uno_sim::wiznet::Mapping;
+use uno_sim::{Chip, Wiznet, F_CPU};
 
 use crate::control::Command;
 use crate::line::{Parity, Settings};
@@ -37,6 +38,15 @@ options:
                      pinN=low|high|z drive input pin N from the start (e.g. pin12=low)
                      watch=LIST      pins printed when they change: 4,5,6,7 or none
                                      (default 2,3,4,5,6,7)
+                     wiznet=CHIP     an Ethernet shield on its SPI port: w5100 or
+                                     w5500, chip select on the board's pin 10
+                     cs=PORTBIT      the shield's chip select on another pin (PB4)
+                     tcp=CHIP:HOST   bridge the shield's TCP port CHIP to
+                                     127.0.0.1:HOST (repeatable; e.g. 502:1502):
+                                     `NAME tcp: 127.0.0.1:HOST` once the firmware
+                                     listens, then each connection and each Modbus
+                                     TCP request and answer (`NAME conn 127.0.0.1:PORT
+                                     (socket N) request tid 0x0001 unit 1 fc 0x02 …`)
   --pty NAME[=PATH]  a pseudo-terminal on the line for an outside program (mbpoll,
                    pymodbus); PATH becomes a symlink to it (removed on exit)
   --baud N         the line's baud rate (default 19200), for ptys and the frame silence
@@ -114,6 +124,12 @@ pub struct BoardArgs {
     pub initial: Vec<Command>,
     /// `watch=`.
     pub watch: Vec<u8>,
+    /// `wiznet=`.
+    pub wiznet: Option<Wiznet>,
+    /// `cs=`.
+    pub cs: Option<(char, u8)>,
+    /// `tcp=`, in order.
+    pub tcp: Vec<Mapping>,
 }
 
 /// One `--pty`.
@@ -186,6 +202,12 @@ pub fn parse(words: impl Iterator<Item = String>) -> Result<Args, Option<String>
                 while let Some(opt) = words.next_if(|w| !w.starts_with('-')) {
                     board_option(&mut board, &opt).map_err(Some)?;
                 }
+                if board.wiznet.is_none() && (!board.tcp.is_empty() || board.cs.is_some()) {
+                    return Err(Some(format!(
+                        "--board {}: tcp= and cs= need a shield: wiznet=w5100 or w5500",
+                        board.name
+                    )));
+                }
                 args.boards.push(board);
             }
             "--pty" => {
@@ -247,6 +269,9 @@ fn parse_board(spec: &str) -> Result<BoardArgs, String> {
         side: None,
         initial: Vec::new(),
         watch: DEFAULT_WATCH.to_vec(),
+        wiznet: None,
+        cs: None,
+        tcp: Vec::new(),
     })
 }
 
@@ -264,6 +289,12 @@ fn board_option(board: &mut BoardArgs, opt: &str) -> Result<(), String> {
                 .map(|p| parse_pin(p).ok_or_else(|| bad(&format!("bad pin `{p}`"))))
                 .collect::<Result<_, _>>()?;
         }
+        "wiznet" => board.wiznet = Some(value.parse::<Wiznet>().map_err(|e| bad(&e.to_string()))?),
+        "cs" => match parse_de(value) {
+            Some(DePin::Port(port, bit)) => board.cs = Some((port, bit)),
+            _ => return Err(bad("not a port pin such as PB2")),
+        },
+        "tcp" => board.tcp.push(value.parse::<Mapping>().map_err(|e| bad(&e))?),
         k if k.starts_with("pin") => {
             board.initial.push(Command::parse_pin_option(&format!("{}={value}", &k[3..])).map_err(|e| bad(&e))?);
         }
@@ -275,7 +306,7 @@ fn board_option(board: &mut BoardArgs, opt: &str) -> Result<(), String> {
             }
             board.side = Some(SideArgs { usart, link: Path::new(path).to_owned() });
         }
-        _ => return Err(bad("unknown (de, usart, usartN, chip, pinN, watch)")),
+        _ => return Err(bad("unknown (de, usart, usartN, chip, pinN, watch, wiznet, cs, tcp)")),
     }
     Ok(())
 }
@@ -397,6 +428,21 @@ mod tests {
         assert!(err("--board gw=g.elf usart4=pty:/tmp/x").contains("usart0-usart3"));
         assert!(err("--board gw=g.elf usart0=pty:/a usart2=pty:/b").contains("one USART"));
         assert!(err("--board gw=g.elf de=PB8").contains("port pin"));
+    }
+
+    #[test]
+    fn a_tcp_gateway_with_its_shield_bridged_to_the_host() {
+        let a = parse(words("--board gw=g.elf de=3 wiznet=w5100 tcp=502:1502 --pty slave=/tmp/ttyP")).unwrap();
+        let gw = &a.boards[0];
+        assert_eq!((gw.wiznet, gw.cs), (Some(Wiznet::W5100), None));
+        assert_eq!(gw.tcp, [Mapping { chip_port: 502, host_port: 1502 }]);
+        let a = parse(words("--board gw=g.elf wiznet=w5500 cs=PB4 tcp=502:0 tcp=80")).unwrap();
+        assert_eq!((a.boards[0].cs, a.boards[0].tcp.len()), (Some(('B', 4)), 2));
+        let err = |s: &str| parse(words(s)).unwrap_err().unwrap();
+        assert!(err("--board gw=g.elf tcp=502:1502").contains("need a shield"));
+        assert!(err("--board gw=g.elf wiznet=w5300").contains("w5300"));
+        assert!(err("--board gw=g.elf wiznet=w5100 cs=10").contains("port pin"));
+        assert!(err("--board gw=g.elf wiznet=w5100 tcp=0:1").contains("502:1502"));
     }
 
     #[test]

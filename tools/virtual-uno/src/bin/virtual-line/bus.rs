@@ -23,12 +23,14 @@
 //! or when another transmitter starts without it (reported).
 
 use std::collections::VecDeque;
+use std::time::{Duration, Instant};
 
 use uno_sim::{Error, LineError, Uno, F_CPU};
 
 use crate::args::{char_cycles, DePin};
 use crate::control::Command;
 use crate::line::{receive_error, Settings};
+use crate::net::Net;
 use crate::pty::{Link, Pty};
 use crate::side::Side;
 
@@ -49,6 +51,8 @@ pub struct Board {
     pub side: Option<Side>,
     /// Watched pins.
     pub watch: Vec<u8>,
+    /// Its shield's TCP bridge, if it has one.
+    pub net: Option<Net>,
     pins_shown: String,
     serial: Option<Settings>,
     stopped: bool,
@@ -81,6 +85,7 @@ impl Board {
             de,
             side,
             watch,
+            net: None,
             pins_shown: String::new(),
             serial: None,
             stopped: false,
@@ -161,12 +166,18 @@ pub struct PtyPort {
     out: VecDeque<(u64, u8)>,
     /// Settings last reported.
     reported: Option<Settings>,
+    /// When the program was last handed bytes: the wall time and the simulated cycle.
+    heard: Option<(Instant, u64)>,
 }
+
+/// How long after it was handed bytes a program's own bytes count as its reaction to them
+/// ([`Bus::reaction`]).
+const REACTION: Duration = Duration::from_millis(200);
 
 impl PtyPort {
     /// A pty port.
     pub fn new(name: String, pty: Pty, link: Option<Link>) -> PtyPort {
-        PtyPort { name, pty, _link: link, tx_last_end: 0, out: VecDeque::new(), reported: None }
+        PtyPort { name, pty, _link: link, tx_last_end: 0, out: VecDeque::new(), reported: None, heard: None }
     }
 }
 
@@ -307,6 +318,19 @@ impl Bus {
         t
     }
 
+    /// The cycle at which an outside program on pty `k` that writes now reacts to the bytes it
+    /// was last handed, if that was less than [`REACTION`] ago: the cycle they reached it plus
+    /// the wall time since. Its reaction time is kept in simulated time, whatever the
+    /// simulation's speed: a slow simulation that was not running while pymodbus answered
+    /// (2 cores, several programs) would otherwise see it answer at once, in the answer's
+    /// own turnaround, colliding with the master's DE still high.
+    pub fn reaction(&self, k: usize) -> Option<u64> {
+        let (wall, cycle) = self.ptys[k].heard?;
+        let since = wall.elapsed();
+        (since < REACTION)
+            .then(|| cycle + u64::try_from(since.as_nanos() * u128::from(F_CPU) / 1_000_000_000).unwrap_or(0))
+    }
+
     /// Bytes an outside program wrote to pty `k`: on the line from cycle `at` (not before
     /// now), back to back. Paced, `at` is the cycle the wall clock says: a simulation that
     /// fell behind (a busy machine) does not see an outside program answer sooner, in
@@ -371,6 +395,7 @@ impl Bus {
             }
         }
         self.now = target;
+        self.poll_networks();
 
         // DE samples.
         let levels: Vec<bool> = self.boards.iter().map(Board::de_level).collect();
@@ -428,6 +453,17 @@ impl Bus {
         }
         self.report_boards();
         Ok(())
+    }
+
+    /// The boards' TCP bridges that are due: connections and messages printed with the board's
+    /// name and the simulated time.
+    fn poll_networks(&mut self) {
+        for b in &mut self.boards {
+            let Some(net) = b.net.as_mut().filter(|net| b.uno.now() >= net.next_poll()) else { continue };
+            for line in net.poll(&mut b.uno) {
+                println!("{} {} {line}", stamp(self.now), b.name);
+            }
+        }
     }
 
     /// Bytes an outside program wrote to board `i`'s pty of its own: on their way to its USART.
@@ -637,6 +673,7 @@ impl Bus {
                 let bytes: Vec<u8> = p.out.drain(..due).map(|(_, b)| b).collect();
                 // Nobody reading: the pty's buffer fills and the rest is lost, as on a wire.
                 p.pty.write(&bytes).map_err(|e| format!("{}: writing the pty: {e}", p.name))?;
+                p.heard = Some((Instant::now(), self.now));
             }
         }
         Ok(())

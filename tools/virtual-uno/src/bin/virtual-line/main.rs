@@ -9,6 +9,15 @@
 //!              --at 2 'set box pin2 low' --at 2.3 'set box pin2 z'
 //! ```
 //!
+//! A TCP gateway: an Uno with an Ethernet shield, its port 502 on 127.0.0.1:1502, the
+//! line's slaves behind it (one of them pymodbus on a pty), every Modbus TCP request and
+//! answer printed with its connection beside the frames on the line:
+//!
+//! ```text
+//! virtual-line --board gw=tcp_gateway.elf de=3 wiznet=w5100 tcp=502:1502 \
+//!              --board box=lab_lights.elf de=10 --pty pymodbus=/tmp/ttyPLANT
+//! ```
+//!
 //! A Mega gateway: its master's USART1 on the line (DE on PB7, the Mega's pin 13), its
 //! slave's USART0 on a pty of its own for an outside master, a field device on a pty:
 //!
@@ -28,6 +37,10 @@ mod control;
 #[allow(dead_code)]
 #[path = "../../line.rs"]
 mod line;
+#[path = "../../mbap.rs"]
+mod mbap;
+#[path = "../../net.rs"]
+mod net;
 #[path = "../../pace.rs"]
 mod pace;
 #[allow(dead_code)]
@@ -52,12 +65,17 @@ use uno_sim::{Options, Uno};
 use args::LineCommand;
 use bus::{stamp, Board, Bus, PtyPort};
 use commands::{CommandSource, ControlFifo};
+use net::Net;
 use pace::{cycles_to_duration, Clock};
 use pty::{Link, Pty};
 use side::Side;
 
-/// Falling behind the wall clock by more than this is reported.
-const LAG_WARN: Duration = Duration::from_millis(50);
+/// Falling behind the wall clock by more than this is reported, and the pacing clock starts
+/// again from the simulation's time. Kept short: a pty's bytes go on the line no sooner than
+/// the clock's cycle (`Bus::pty_sent`), so a clock far ahead of a slow simulation makes an
+/// outside program (pymodbus) answer that much later in simulated time, past a master's
+/// timeout.
+const LAG_WARN: Duration = Duration::from_millis(10);
 /// How often falling behind is reported, at most.
 const LAG_REPORT_EVERY: Duration = Duration::from_secs(5);
 /// Wall time spent simulating before looking at the ptys and commands again.
@@ -111,7 +129,8 @@ fn run(args: args::Args) -> Result<(), String> {
     let mut boards = Vec::new();
     for b in &args.boards {
         let second_usart = b.side.as_ref().map(|s| s.usart);
-        let options = Options { chip: b.chip, usart: b.usart, second_usart, ..Options::new() };
+        let options =
+            Options { chip: b.chip, usart: b.usart, second_usart, wiznet: b.wiznet, wiznet_cs: b.cs, ..Options::new() };
         let mut uno = Uno::load_with(&b.elf, options).map_err(|e| format!("{}: {e}", b.name))?;
         if second_usart == Some(uno.usart()) {
             return Err(format!("{}: USART{} is on the line; its pty needs another", b.name, uno.usart()));
@@ -151,7 +170,14 @@ fn run(args: args::Args) -> Result<(), String> {
             }
             None => None,
         };
-        boards.push(Board::new(b.name.clone(), uno, b.de, side, watch));
+        if let (Some(model), Some((port, bit))) = (b.wiznet, uno.wiznet_cs()) {
+            println!("{} board {}: shield {model} on the SPI port, chip select P{port}{bit}", stamp(0), b.name);
+        }
+        let mut board = Board::new(b.name.clone(), uno, b.de, side, watch);
+        if !b.tcp.is_empty() {
+            board.net = Some(Net::bind(&b.tcp, true).map_err(|e| format!("{}: tcp=: {e}", b.name))?);
+        }
+        boards.push(board);
     }
     let mut ptys = Vec::new();
     for p in &args.ptys {
@@ -234,7 +260,9 @@ fn run(args: args::Args) -> Result<(), String> {
             if ready[1 + k] {
                 let n = bus.ptys[k].pty.read(&mut buf).map_err(|e| format!("reading the pty: {e}"))?;
                 if n > 0 {
-                    let at = if args.pace { clock.due() } else { bus.now };
+                    // Paced: when the wall clock says, or its reaction to what it heard.
+                    let at =
+                        if args.pace { bus.reaction(k).map_or(clock.due(), |r| r.max(clock.due())) } else { bus.now };
                     bus.pty_sent(k, &buf[..n], at)?;
                 }
             }

@@ -1,0 +1,69 @@
+//! A simulated board's Ethernet shield on the host's network: its TCP bridge (chip ports on
+//! 127.0.0.1, `uno_sim::wiznet::Bridge`), polled from the simulation loop every
+//! [`BRIDGE_CYCLES`] (SIMAVR.md item 12: never block, the host's time is not the chip's).
+//! Optionally each Modbus TCP request and answer it carries is printed (`mbap`). The single
+//! board (`virtual-uno --tcp`) and a board on the line (`virtual-line --board … tcp=`) share it.
+
+use uno_sim::wiznet::{Bridge, BridgeEvent, Mapping};
+use uno_sim::Uno;
+
+use crate::mbap::Streams;
+
+/// The simulated time between two polls of the bridge, at most (250 µs).
+pub const BRIDGE_CYCLES: u64 = 4_000;
+
+/// The bridge of one board's shield.
+pub struct Net {
+    bridge: Bridge,
+    /// The messages, when they are printed.
+    messages: Option<Streams>,
+    /// The cycle of the last poll.
+    polled: u64,
+}
+
+impl Net {
+    /// Listens on 127.0.0.1 for each mapping; with `messages`, the Modbus TCP messages are
+    /// reported too.
+    pub fn bind(mappings: &[Mapping], messages: bool) -> Result<Net, String> {
+        let bridge = Bridge::bind(mappings).map_err(|e| format!("cannot listen on 127.0.0.1: {e}"))?;
+        let (bridge, messages) = match messages {
+            true => (bridge.with_traffic(), Some(Streams::default())),
+            false => (bridge, None),
+        };
+        Ok(Net { bridge, messages, polled: 0 })
+    }
+
+    /// Also bridges the firmware's connections to each mapping's chip port, whatever the
+    /// address, to 127.0.0.1:`host_port` (`virtual-uno --connect`; a board on `virtual-line`
+    /// has no such option yet, hence the allowance).
+    #[allow(dead_code)]
+    pub fn with_outgoing(self, mappings: &[Mapping]) -> Net {
+        Net { bridge: self.bridge.with_outgoing(mappings), ..self }
+    }
+
+    /// The cycle the next poll is due.
+    pub fn next_poll(&self) -> u64 {
+        self.polled + BRIDGE_CYCLES
+    }
+
+    /// One round of the bridge at the board's clock: what happened, as lines to print (`tcp:
+    /// …` for the connections, `conn … request/answer …` for the messages).
+    pub fn poll(&mut self, uno: &mut Uno) -> Vec<String> {
+        self.polled = uno.now();
+        let Some(chip) = uno.wiznet_mut() else { return Vec::new() };
+        let mut lines = Vec::new();
+        for event in self.bridge.poll(chip) {
+            match (&event, &mut self.messages) {
+                (BridgeEvent::Bytes { peer, socket, to_chip, bytes }, Some(streams)) => {
+                    lines.extend(streams.feed(*peer, *socket, *to_chip, bytes));
+                }
+                (BridgeEvent::Closed { peer, socket, .. }, Some(streams)) => {
+                    lines.extend(streams.closed(*peer, *socket));
+                    lines.push(event.to_string());
+                }
+                _ => lines.push(event.to_string()),
+            }
+        }
+        lines
+    }
+}
