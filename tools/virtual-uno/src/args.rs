@@ -240,6 +240,7 @@ mod tests {
         let a = parse(words("--wiznet w5100 --connect 502:1502 fw.elf")).unwrap();
         assert_eq!(a.connect, [Mapping { chip_port: 502, host_port: 1502 }]);
         assert!(parse(words("--connect 502:1502 fw.elf")).unwrap_err().unwrap().contains("need a shield"));
+        assert!(parse(words("--wiznet w5100 --connect 502:1502 --messages fw.elf")).unwrap().messages);
         assert!(parse(words("--wiznet w5300 fw.elf")).unwrap_err().unwrap().contains("w5300"));
         assert!(parse(words("--wiznet w5100 --cs PB9 fw.elf")).unwrap_err().unwrap().contains("PB9"));
         assert!(parse(words("--wiznet w5100 --tcp 0:1 fw.elf")).is_err());

@@ -19,6 +19,9 @@ pub struct Net {
     messages: Option<Streams>,
     /// The cycle of the last poll.
     polled: u64,
+    /// The firmware's own connections (`--connect`), server and socket: their requests go
+    /// from the chip.
+    dialed: Vec<(std::net::SocketAddr, usize)>,
 }
 
 impl Net {
@@ -30,7 +33,7 @@ impl Net {
             true => (bridge.with_traffic(), Some(Streams::default())),
             false => (bridge, None),
         };
-        Ok(Net { bridge, messages, polled: 0 })
+        Ok(Net { bridge, messages, polled: 0, dialed: Vec::new() })
     }
 
     /// Also bridges the firmware's connections to each mapping's chip port, whatever the
@@ -54,10 +57,17 @@ impl Net {
         let mut lines = Vec::new();
         for event in self.bridge.poll(chip) {
             match (&event, &mut self.messages) {
+                (BridgeEvent::Dialed { socket, host, .. }, _) => {
+                    self.dialed.push((*host, *socket));
+                    lines.push(event.to_string());
+                }
                 (BridgeEvent::Bytes { peer, socket, to_chip, bytes }, Some(streams)) => {
-                    lines.extend(streams.feed(*peer, *socket, *to_chip, bytes));
+                    // Requests go to the chip, but on the firmware's own connections.
+                    let requests = *to_chip != self.dialed.contains(&(*peer, *socket));
+                    lines.extend(streams.feed(*peer, *socket, requests, bytes));
                 }
                 (BridgeEvent::Closed { peer, socket, .. }, Some(streams)) => {
+                    self.dialed.retain(|d| *d != (*peer, *socket));
                     lines.extend(streams.closed(*peer, *socket));
                     lines.push(event.to_string());
                 }
