@@ -156,16 +156,18 @@ impl Frame {
 // ---------------------------------------------------------------------------------------
 // The slaves
 
-/// One RS-485 slave: its registers, whether it is powered, the requests it executed.
+/// One RS-485 slave: its registers, whether it is powered, and how late it answers the
+/// next request if not T3.5 + 0.5 ms after its end.
 struct Slave {
     id: u8,
     registers: [u16; REGISTERS],
     on: bool,
+    late_once: Option<u64>,
 }
 
 impl Slave {
     fn new(id: u8) -> Slave {
-        Slave { id, registers: initial_registers(id), on: true }
+        Slave { id, registers: initial_registers(id), on: true, late_once: None }
     }
 
     /// Executes `frame` (address, PDU, CRC already checked), addressed to it or broadcast;
@@ -419,10 +421,11 @@ impl Rig {
         }
         let mut reply = None;
         for slave in self.slaves.iter_mut().filter(|s| s.on && (bytes[0] == 0 || bytes[0] == s.id)) {
-            reply = slave.execute(bytes);
+            let after = slave.late_once.take().unwrap_or(self.line.t35() + us_to_cycles(SLAVE_DELAY_US));
+            reply = slave.execute(bytes).map(|reply| (reply, after));
         }
-        if let Some(reply) = reply {
-            let start = frame.end + self.line.t35() + us_to_cycles(SLAVE_DELAY_US);
+        if let Some((reply, after)) = reply {
+            let start = frame.end + after;
             let end = self.uno.send_frame(&reply, start + self.char_cycles, 0).expect("reply scheduled");
             self.log.push(Frame { who: Who::Slave(bytes[0]), bytes: reply, start, end, max_gap: 0 });
         }
@@ -939,4 +942,28 @@ fn each_request_is_one_frame_after_t35_with_de_high_around_it_and_only_it() {
         assert!(!high_during, "DE high while slave {:?} answered", f.who);
     }
     rig.check_line();
+}
+
+/// A slave that answers late, its reply still on the line as the response timeout passes:
+/// the gateway's retry waits until T3.5 after that reply's end (Serial Line v1.02 §2.5.1.1:
+/// T3.5 between any two frames), and its answer is the one passed back.
+#[test]
+fn a_retry_waits_t35_after_a_late_reply_still_on_the_line() {
+    let mut rig = Rig::boot();
+    let m = rig.connect();
+    let now = rig.now();
+    let mut answers = Vec::new();
+    for late_ms in [90, 95, 98] {
+        // FC 4 of 7 registers: a reply of 19 characters, 10.9 ms on the line.
+        rig.slaves[2].late_once = Some(ms(late_ms));
+        answers.push(rig.ask(m, 3, &read_pdu(4, 0, 7)));
+    }
+    rig.dump();
+    // The line first: a retry sent into the late reply shows there.
+    rig.check_line();
+    let requests: Vec<&Frame> = rig.requests().filter(|f| f.start > now).collect();
+    assert_eq!(requests.len(), 6, "each request and its retry");
+    for (late_ms, answer) in [90, 95, 98].into_iter().zip(answers) {
+        assert_eq!(answer, registers_pdu(4, &initial_registers(3)[..7]), "{late_ms} ms");
+    }
 }
