@@ -219,7 +219,7 @@ impl Slave {
 
 /// Slave `id`'s registers at power-up.
 fn initial_registers(id: u8) -> [u16; REGISTERS] {
-    std::array::from_fn(|i| u16::from(id) << 12 | 0x0100 * i as u16 | u16::from(id))
+    std::array::from_fn(|i| (u16::from(id) << 12) | (0x0100 * i as u16) | u16::from(id))
 }
 
 // ---------------------------------------------------------------------------------------
@@ -247,6 +247,7 @@ struct Answer {
 
 /// A TCP master on one socket: what it asked, what it got.
 struct Master {
+    /// Its socket (`usize::MAX` once its connection is gone).
     socket: usize,
     next_transaction: u16,
     /// In the order they were sent: answers must come in that order.
@@ -590,7 +591,7 @@ fn four_masters_three_slaves_one_switched_off_every_request_one_answer() {
     }
     // Each master's next unit, in turn 1, 2, 3 from a different one.
     let mut next_unit: Vec<u8> = (0..4).map(|m| (m % 3) as u8 + 1).collect();
-    let mut checked = vec![0usize; 4];
+    let mut checked = [0usize; 4];
     let mut slave2 = true;
     let slice = rig.char_cycles / 2;
     while rig.now() < stop_at + ms(600) {
@@ -966,4 +967,55 @@ fn a_retry_waits_t35_after_a_late_reply_still_on_the_line() {
     for (late_ms, answer) in [90, 95, 98].into_iter().zip(answers) {
         assert_eq!(answer, registers_pdu(4, &initial_registers(3)[..7]), "{late_ms} ms");
     }
+}
+
+// ---------------------------------------------------------------------------------------
+// (e) connections that close while their request is on the line
+
+/// A connection reset while its request is on the line: its answer is dropped and counted
+/// (register 6 at unit 0xFF), never sent to the next connection on that socket, whose own
+/// request is answered.
+#[test]
+fn an_answer_for_a_connection_reset_meanwhile_is_dropped_not_sent_to_its_successor() {
+    let mut rig = Rig::boot();
+    let (old, other) = (rig.connect(), rig.connect());
+    let now = rig.now();
+    rig.ask_at(old, 1, &read_pdu(3, 0, 8), now);
+    let before = rig.requests().count();
+    rig.run_for(ms(8));
+    assert_eq!(rig.requests().count(), before + 1, "the request went on the line");
+    let socket = rig.masters[old].socket;
+    rig.uno.wiznet_mut().unwrap().peer_reset(socket);
+    // Gone: its socket is no longer its own.
+    rig.masters[old].outstanding.clear();
+    rig.masters[old].socket = usize::MAX;
+    rig.run_for(ms(3));
+    let new = rig.connect();
+    assert_eq!(rig.masters[new].socket, socket, "the newcomer on the same socket");
+    assert_eq!(rig.ask(new, 3, &read_pdu(3, 0, 1)), registers_pdu(3, &initial_registers(3)[..1]));
+    assert!(rig.masters[old].answers.is_empty());
+    let registers = status(&mut rig, other, 4);
+    assert_eq!(registers[6], 1, "answers whose connection had closed: {registers:?}");
+    rig.check_line();
+}
+
+/// A master that closes its side (FIN) right after its request still reads: it gets its
+/// answer, then the gateway's FIN, and the socket listens again (as the plain TCP server
+/// does, tests/sim_tcp.rs).
+#[test]
+fn a_master_that_sends_its_fin_after_its_request_gets_the_answer_then_a_fin() {
+    let mut rig = Rig::boot();
+    let m = rig.connect();
+    let socket = rig.masters[m].socket;
+    let now = rig.now();
+    rig.ask_at(m, 1, &read_pdu(3, 0, 2), now);
+    rig.uno.wiznet_mut().unwrap().peer_fin(socket);
+    rig.run_for(ms(60));
+    let chip = rig.uno.wiznet().unwrap();
+    let conn = chip.connection(socket).unwrap();
+    assert!(conn.fin_from_chip() && !conn.reset_by_chip(), "{conn:?}");
+    assert_eq!(chip.status(socket), state::LISTEN);
+    let got: Vec<Vec<u8>> = rig.masters[m].answers.iter().map(|a| a.pdu.clone()).collect();
+    assert_eq!(got, [registers_pdu(3, &initial_registers(1)[..2])], "the answer before the FIN");
+    rig.check_line();
 }
