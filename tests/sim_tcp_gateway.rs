@@ -40,8 +40,8 @@ const RETRIES: usize = 1;
 const RECHECK_MS: u64 = 1000;
 /// A slave answers this long after T3.5 following a request's end.
 const SLAVE_DELAY_US: u64 = 500;
-/// Holding registers each slave has (0–7).
-const REGISTERS: usize = 8;
+/// Holding registers each slave has (0–124: a read of all of them is the longest answer).
+const REGISTERS: usize = 125;
 /// The RS-485 driver enable: pin 3.
 const DE: (char, u8) = ('D', 3);
 /// Exceptions (Application Protocol §7): illegal function, illegal data address, gateway
@@ -832,7 +832,7 @@ fn units_248_to_254_get_0a_unit_0_is_a_broadcast_and_0xff_the_gateways_registers
     assert_eq!(status(&mut rig, m, 4), [0; 24], "at start");
     // 1. A read of slave 1, and one past slave 3's registers (its exception 02).
     assert_eq!(rig.ask(m, 1, &read_pdu(3, 0, 2)), registers_pdu(3, &initial_registers(1)[..2]));
-    assert_eq!(rig.ask(m, 3, &read_pdu(3, 7, 2)), exception(3, ILLEGAL_ADDRESS));
+    assert_eq!(rig.ask(m, 3, &read_pdu(3, 124, 2)), exception(3, ILLEGAL_ADDRESS));
     // 2. Units 248 and 254: 0A, nothing on the line.
     let before = rig.requests().count();
     assert_eq!(rig.ask(m, 248, &read_pdu(3, 0, 1)), exception(3, PATH_UNAVAILABLE));
@@ -1018,4 +1018,44 @@ fn a_master_that_sends_its_fin_after_its_request_gets_the_answer_then_a_fin() {
     let got: Vec<Vec<u8>> = rig.masters[m].answers.iter().map(|a| a.pdu.clone()).collect();
     assert_eq!(got, [registers_pdu(3, &initial_registers(1)[..2])], "the answer before the FIN");
     rig.check_line();
+}
+
+// ---------------------------------------------------------------------------------------
+// (f) the longest requests and answers
+
+/// Requests and answers longer than the gateway's 64-byte TCP buffer go through it a piece
+/// at a time: FC 16 of 123 registers (an RTU frame of 255 bytes, 146 ms on the line), then
+/// a read of 60 of them back (an answer of 125 bytes).
+#[test]
+fn requests_and_answers_longer_than_the_buffer_go_through_whole() {
+    let mut rig = Rig::boot();
+    let m = rig.connect();
+    let values: Vec<u16> = (0..123).map(|i| 0xA000 + i).collect();
+    let write = write_multiple_pdu(2, &values);
+    assert_eq!(rig.ask(m, 1, &write), write[..5], "FC 16 of 123 registers");
+    let sent = rig.requests().last().unwrap().clone();
+    assert_eq!(sent.bytes.len(), 255);
+    assert_eq!(sent.bytes[..sent.bytes.len() - 2], [&[1][..], &write].concat());
+    let mut expected: Vec<u16> = initial_registers(1).to_vec();
+    expected[2..125].copy_from_slice(&values);
+    assert_eq!(rig.ask(m, 1, &read_pdu(3, 0, 60)), registers_pdu(3, &expected[..60]), "FC 3 of 60 registers");
+    rig.check_line();
+}
+
+/// The longest answer, FC 3 of 125 registers (255 bytes: 146 ms on the line at 19200 8E1),
+/// from a slave that answers at once: the example's response timeout (100 ms) runs out while
+/// the answer is coming, so the master retries, the retry's answer is cut short the same
+/// way, the TCP master gets 0B and the slave is taken to be down for a second (every
+/// request to it answered 0B meanwhile). Ignored: fails until the response timeout stops
+/// once the answer has begun (or the example's covers the longest answer, 160 ms or more).
+#[test]
+#[ignore = "fails: the 100 ms response timeout cuts a 146 ms answer short"]
+fn a_read_of_125_registers_is_answered_at_19200() {
+    let mut rig = Rig::boot();
+    let m = rig.connect();
+    let answer = rig.ask(m, 1, &read_pdu(3, 0, 125));
+    rig.dump();
+    rig.check_line();
+    assert_eq!(answer, registers_pdu(3, &initial_registers(1)), "FC 3 of 125 registers");
+    assert_eq!(rig.ask(m, 1, &read_pdu(3, 0, 1)), registers_pdu(3, &initial_registers(1)[..1]), "slave 1 after it");
 }
