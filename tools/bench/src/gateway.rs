@@ -1,7 +1,8 @@
 //! The Modbus TCP to RTU gateway (features `tcp` and `master`: `examples/tcp_gateway.rs` as
-//! `make tcp-firmware` builds it, an Uno with a W5100, RS-485 on USART0 at 19200 8E1): its
-//! flash and static RAM, and the three overheads issue 36 sets targets for, at p99 with four
-//! TCP masters polling three slaves:
+//! `make tcp-firmware` builds it, an Uno with a W5100, RS-485 on USART0 at 19200 8E1, the
+//! chip polled or, `tcp_gateway!(…; pin2_int)`, served from its INT line on pin 2): its flash
+//! and static RAM, and the three overheads issue 36 sets targets for, at p99 with four TCP
+//! masters polling three slaves:
 //!
 //! 1. to the line: from a TCP request's last byte in the chip to the RTU request's first
 //!    start bit, less the part of T3.5 the line was still owed after the frame before it
@@ -32,8 +33,8 @@ use crate::modbus::crc16;
 use crate::random::Lcg;
 use crate::Result;
 
-/// `make tcp-firmware`'s build of the gateway.
-const BUILD: &str = "atmega328p-tcp-gateway";
+/// `make tcp-firmware`'s builds of the gateway: build directory, INT line wired.
+const VARIANTS: [(&str, bool); 2] = [("atmega328p-tcp-gateway", false), ("atmega328p-tcp-gateway-int", true)];
 const NAME: &str = "tcp_gateway";
 /// TCP masters, each on a socket of its own (the W5100 has four).
 const MASTERS: usize = 4;
@@ -119,8 +120,13 @@ fn kind(a: &SpiAccess) -> Kind {
     }
 }
 
-/// Everything measured.
-pub(crate) struct Measured {
+/// Everything measured: each variant built.
+pub(crate) type Measured = Vec<Variant>;
+
+/// One build's figures.
+pub(crate) struct Variant {
+    build: &'static str,
+    int: bool,
     size: Option<(u64, u64)>,
     to_line: Overhead,
     to_tcp: Overhead,
@@ -157,13 +163,18 @@ fn register(id: u8, at: u16) -> u16 {
     u16::from(id) << 12 | at << 4 | 0x5
 }
 
-/// The gateway, its three slaves and four masters, run for [`SECONDS`].
-fn run(root: &Path, log: &mut Log) -> Result<Measured> {
-    let elf = chip_build_path(root, BUILD, NAME);
-    let mut uno = Uno::load_with(&elf, Options::new().wiznet(Wiznet::W5100))?;
+/// The gateway of `build`, its three slaves and four masters, run for [`SECONDS`].
+fn run(root: &Path, (build, int): (&'static str, bool), log: &mut Log) -> Result<Variant> {
+    let elf = chip_build_path(root, build, NAME);
+    let mut options = Options::new().wiznet(Wiznet::W5100);
+    if int {
+        // The W5100 shield's solder jumper: INT to pin 2 (PD2).
+        options = options.wiznet_int('D', 2);
+    }
+    let mut uno = Uno::load_with(&elf, options)?;
     while !(0..4).all(|n| uno.wiznet().is_some_and(|w| w.status(n) == state::LISTEN)) {
         if uno.now() > us_to_cycles(100_000) {
-            return Err(format!("{BUILD}/{NAME}: the sockets never listened").into());
+            return Err(format!("{build}/{NAME}: the sockets never listened").into());
         }
         uno.run_for(us_to_cycles(100))?;
     }
@@ -288,7 +299,9 @@ fn run(root: &Path, log: &mut Log) -> Result<Measured> {
     for o in [&mut to_line, &mut to_tcp, &mut next] {
         o.cycles.sort_unstable();
     }
-    Ok(Measured {
+    Ok(Variant {
+        build,
+        int,
         size: avr_size(&elf).ok(),
         to_line,
         to_tcp,
@@ -298,13 +311,14 @@ fn run(root: &Path, log: &mut Log) -> Result<Measured> {
     })
 }
 
-/// Runs the gateway's measurements; nothing if its build is missing.
+/// Runs the gateway's measurements on each variant built; nothing if none is.
 pub(crate) fn measure(root: &Path, log: &mut Log) -> Result<Option<Measured>> {
-    if !chip_build_path(root, BUILD, NAME).is_file() {
-        return Ok(None);
+    let mut measured = Vec::new();
+    for variant in VARIANTS.into_iter().filter(|(build, _)| chip_build_path(root, build, NAME).is_file()) {
+        eprintln!("bench: {NAME} ({}), four TCP masters and three RTU slaves, {SECONDS} s", variant.0);
+        measured.push(run(root, variant, log)?);
     }
-    eprintln!("bench: {NAME}, four TCP masters and three RTU slaves, {SECONDS} s");
-    run(root, log).map(Some)
+    Ok((!measured.is_empty()).then_some(measured))
 }
 
 fn us(cycles: u64) -> String {
@@ -314,85 +328,105 @@ fn us(cycles: u64) -> String {
 /// The section.
 pub(crate) fn section(md: &mut String, measured: &Option<Measured>) -> Result<()> {
     writeln!(md, "\n## The Modbus TCP to RTU gateway (features `tcp` and `master`)\n")?;
-    let Some(m) = measured else {
-        writeln!(md, "Not measured: `{BUILD}/{NAME}` is missing (`make tcp-firmware`).")?;
+    let Some(variants) = measured else {
+        writeln!(md, "Not measured: `{NAME}` is not built (`make tcp-firmware`).")?;
         return Ok(());
     };
-    match m.size {
-        Some((flash, ram)) => writeln!(
-            md,
-            "`{NAME}` (an Uno, a W5100 polled every Timer0 overflow, RS-485 on USART0 at 19200 8E1, DE on pin 3), as \
-             `make tcp-firmware` builds it: **{flash} B** of flash, **{ram} B** of static RAM.\n"
-        )?,
-        None => writeln!(md, "`{NAME}`: avr-size could not read its sizes.\n")?,
+    writeln!(
+        md,
+        "`{NAME}`: an Uno, a W5100, RS-485 on USART0 at 19200 8E1, DE on pin 3, as `make tcp-firmware` builds it; \
+         the chip polled every Timer0 overflow (1.024 ms) or served from its INT line on pin 2.\n"
+    )?;
+    writeln!(md, "| firmware | flash B | static RAM |\n|---|---:|---:|")?;
+    for v in variants {
+        match v.size {
+            Some((flash, ram)) => writeln!(md, "| {NAME} ({}) | {flash} | {ram} B |", v.build)?,
+            None => writeln!(md, "| {NAME} ({}) | ? | ? |", v.build)?,
+        }
     }
     writeln!(
         md,
-        "Four TCP masters, each on its own connection, ask three slaves (answering T3.5 + {SLAVE_DELAY_US} µs after a \
-         request's end) for one or two holding registers, each waiting for its answer and then 0–{THINK_MS} ms, for \
-         {SECONDS} simulated seconds: {} transactions. T3.5 = {}. The overheads of issue 36, in simulated cycles:\n",
-        m.transactions,
+        "\nFour TCP masters, each on its own connection, ask three slaves (answering T3.5 + {SLAVE_DELAY_US} µs after \
+         a request's end) for one or two holding registers, each waiting for its answer and then 0–{THINK_MS} ms, for \
+         {SECONDS} simulated seconds; each request lands in the chip at a random phase of the firmware's poll. \
+         T3.5 = {}. The overheads of issue 36, in simulated cycles:\n\n\
+         1. to the line: a request's last byte in the chip (or, if later, the end of the T3.5 the line still owed \
+         after the frame before it) → the RTU request's first start bit;\n\
+         2. to TCP: the RTU reply's last stop bit + T3.5 → the TCP reply's SEND;\n\
+         3. the next request, with requests queued: the last reply's last stop bit + T3.5 → the next RTU \
+         request's first start bit.\n",
         us(T35)
     )?;
-    writeln!(
-        md,
-        "| overhead | from → to | samples | p50 | p99 | max | target (p99) |\n|---|---|---:|---:|---:|---:|---|"
-    )?;
-    let rows: [(&str, &str, &Overhead, f64); 3] = [
-        (
-            "1. to the line",
-            "a request's last byte in the chip, or the end of the T3.5 the line still owed → the RTU request's first \
-             start bit",
-            &m.to_line,
-            TO_LINE_US,
-        ),
-        ("2. to TCP", "the RTU reply's last stop bit + T3.5 → the TCP reply's SEND", &m.to_tcp, TO_TCP_US),
-        (
-            "3. the next request",
-            "requests queued: the last reply's last stop bit + T3.5 → the next RTU request's first start bit",
-            &m.next,
-            NEXT_US,
-        ),
-    ];
-    for (name, span, o, target) in rows {
-        let p99 = o.percentile(99);
-        writeln!(
-            md,
-            "| {name} | {span} | {} | {} | {} | {} | ≤ {target:.0} µs: {} |",
-            o.cycles.len(),
-            us(o.percentile(50)),
-            us(p99),
-            us(o.cycles.last().copied().unwrap_or(0)),
-            crate::render::met_text(!o.cycles.is_empty() && cycles_to_us(p99) <= target)
-        )?;
+    writeln!(md, "| chip served | transactions | overhead | samples | p50 | p99 | max | target (p99) |")?;
+    writeln!(md, "|---|---:|---|---:|---:|---:|---:|---|")?;
+    for v in variants {
+        for (name, o, target) in v.rows() {
+            let p99 = o.percentile(99);
+            writeln!(
+                md,
+                "| {} | {} | {name} | {} | {} | {} | {} | ≤ {target:.0} µs: {} |",
+                served(v),
+                v.transactions,
+                o.cycles.len(),
+                us(o.percentile(50)),
+                us(p99),
+                us(o.cycles.last().copied().unwrap_or(0)),
+                crate::render::met_text(!o.cycles.is_empty() && cycles_to_us(p99) <= target)
+            )?;
+        }
     }
     writeln!(
         md,
         "\nWhere the time goes, on average per sample: the time from the window's start to its first SPI access \
-         (overhead 1: mostly the wait for the next poll, every Timer0 overflow of 1.024 ms; 2 and 3: Timer0's \
-         compare interrupt at T3.5, the reply judged, the chip's poll begun), the W5100 SPI accesses inside the \
-         window by what they reach (one 4-byte frame each, even for one byte of a buffer: {} apart at the median \
-         within a burst, so {} each), and the rest (the firmware's work between accesses).\n",
-        us(m.per_access),
-        us(m.per_access)
+         (overhead 1 polled: mostly the wait for the next poll; 2 and 3: Timer0's compare interrupt at T3.5, the \
+         reply judged, the chip's service begun), the W5100 SPI accesses inside the window by what they reach (one \
+         4-byte frame each, even for one byte of a buffer), their time at the median spacing of two accesses in a \
+         burst, and the rest (the firmware's work between accesses).\n"
     )?;
-    write!(md, "| overhead | mean | before the first access |")?;
+    write!(md, "| chip served | overhead | mean | before the first access |")?;
     for name in KIND_NAMES {
         write!(md, " {name} |")?;
     }
-    writeln!(md, " accesses | their time | the rest |\n|---|---:|---:|{}---:|---:|---:|", "---:|".repeat(KINDS))?;
-    for (name, _, o, _) in rows {
-        let n = o.cycles.len().max(1) as u64;
-        let (mean, before) = (o.cycles.iter().sum::<u64>() / n, o.before_spi.iter().sum::<u64>() / n);
-        write!(md, "| {name} | {} | {} |", us(mean), us(before))?;
-        for k in [Kind::Ir, Kind::SocketState, Kind::Pointers, Kind::TxBuffer, Kind::RxBuffer, Kind::Other] {
-            write!(md, " {:.1} |", o.mean_accesses(k))?;
+    writeln!(md, " accesses | their time | the rest |\n|---|---|---:|---:|{}---:|---:|---:|", "---:|".repeat(KINDS))?;
+    for v in variants {
+        for (name, o, _) in v.rows() {
+            let n = o.cycles.len().max(1) as u64;
+            let (mean, before) = (o.cycles.iter().sum::<u64>() / n, o.before_spi.iter().sum::<u64>() / n);
+            write!(md, "| {} | {name} | {} | {} |", served(v), us(mean), us(before))?;
+            for k in [Kind::Ir, Kind::SocketState, Kind::Pointers, Kind::TxBuffer, Kind::RxBuffer, Kind::Other] {
+                write!(md, " {:.1} |", o.mean_accesses(k))?;
+            }
+            let accesses = o.accesses.iter().sum::<u64>() as f64 / n as f64;
+            let spi = (accesses * v.per_access as f64) as u64;
+            writeln!(
+                md,
+                " {accesses:.1} | {} ({:.1} µs each) | {} |",
+                us(spi),
+                cycles_to_us(v.per_access),
+                us(mean.saturating_sub(before + spi))
+            )?;
         }
-        let accesses = o.accesses.iter().sum::<u64>() as f64 / n as f64;
-        let spi = (accesses * m.per_access as f64) as u64;
-        writeln!(md, " {accesses:.1} | {} | {} |", us(spi), us(mean.saturating_sub(before + spi)))?;
     }
     Ok(())
+}
+
+fn served(v: &Variant) -> &'static str {
+    if v.int {
+        "INT line"
+    } else {
+        "polled"
+    }
+}
+
+impl Variant {
+    /// The three overheads with their names and targets.
+    fn rows(&self) -> [(&'static str, &Overhead, f64); 3] {
+        [
+            ("1. to the line", &self.to_line, TO_LINE_US),
+            ("2. to TCP", &self.to_tcp, TO_TCP_US),
+            ("3. the next request", &self.next, NEXT_US),
+        ]
+    }
 }
 
 /// `bench gateway`: the section alone.
