@@ -31,6 +31,11 @@ use sim::{chip_variant_firmware, crc16, cycles_to_us, us_to_cycles, with_crc, Li
 use uno_sim::wiznet::regs::state;
 use uno_sim::{Chip, Options, Parity, TxByte, Uno, Wiznet};
 
+/// `make tcp-firmware`'s gateways: the build's suffix, and whether the chip's INT line is
+/// wired (pin 2) and serves it, or it polls the chip every Timer0 overflow.
+type Build = (&'static str, bool);
+const BUILDS: [Build; 2] = [("-tcp-gateway", false), ("-tcp-gateway-int", true)];
+
 /// The gateway's port.
 const PORT: u16 = 502;
 /// The example's response timeout and retries on the line.
@@ -283,10 +288,18 @@ struct Rig {
 }
 
 impl Rig {
-    /// Boots the gateway with slaves 1, 2 and 3 on its line, until its sockets listen.
-    fn boot() -> Rig {
-        let elf = chip_variant_firmware(Chip::Atmega328p, 0, "-tcp-gateway", "tcp_gateway");
-        let mut uno = Uno::load_with(elf, Options::new().wiznet(Wiznet::W5100)).expect("firmware loads");
+    /// Boots the gateway `build` with slaves 1, 2 and 3 on its line, until its sockets
+    /// listen.
+    fn boot(build: Build) -> Rig {
+        let (variant, int) = build;
+        eprintln!("tcp_gateway{variant}:");
+        let elf = chip_variant_firmware(Chip::Atmega328p, 0, variant, "tcp_gateway");
+        let mut options = Options::new().wiznet(Wiznet::W5100);
+        if int {
+            // The W5100 shield's solder jumper: INT to pin 2 (PD2).
+            options = options.wiznet_int('D', 2);
+        }
+        let mut uno = Uno::load_with(elf, options).expect("firmware loads");
         while !(0..4).all(|n| uno.wiznet().unwrap().status(n) == state::LISTEN) {
             assert!(uno.now() < ms(100), "the sockets never listened");
             uno.run_for(us_to_cycles(100)).unwrap();
@@ -577,7 +590,13 @@ type Owned = [Option<[u16; 2]>; 3];
 /// others go on the line and at most 400 ms pass.
 #[test]
 fn four_masters_three_slaves_one_switched_off_every_request_one_answer() {
-    let mut rig = Rig::boot();
+    for build in BUILDS {
+        four_masters_three_slaves_one_switched_off_every_request_one_answer_on(build);
+    }
+}
+
+fn four_masters_three_slaves_one_switched_off_every_request_one_answer_on(build: Build) {
+    let mut rig = Rig::boot(build);
     let masters: Vec<usize> = (0..4).map(|_| rig.connect()).collect();
     let mut rng = Rng(0x5EED_6A7E);
     let start = rig.now();
@@ -785,7 +804,13 @@ fn check_polled_answer(m: usize, answer: &Answer, owned: &mut Owned, off_at: u64
 /// another master's requests take their turns.
 #[test]
 fn split_and_pipelined_requests_are_answered_once_whole_and_in_order() {
-    let mut rig = Rig::boot();
+    for build in BUILDS {
+        split_and_pipelined_requests_are_answered_once_whole_and_in_order_on(build);
+    }
+}
+
+fn split_and_pipelined_requests_are_answered_once_whole_and_in_order_on(build: Build) {
+    let mut rig = Rig::boot(build);
     let (a, b) = (rig.connect(), rig.connect());
     // Split: the header cut in two, then the PDU byte by byte, 300 µs apart.
     for cuts in [vec![3, 7, 8, 9, 10, 11], (1..12).collect::<Vec<usize>>()] {
@@ -847,7 +872,13 @@ fn status(rig: &mut Rig, m: usize, function: u8) -> Vec<u16> {
 /// the gateway's registers, which count all of it.
 #[test]
 fn units_248_to_254_get_0a_unit_0_is_a_broadcast_and_0xff_the_gateways_registers() {
-    let mut rig = Rig::boot();
+    for build in BUILDS {
+        units_248_to_254_get_0a_unit_0_is_a_broadcast_and_0xff_the_gateways_registers_on(build);
+    }
+}
+
+fn units_248_to_254_get_0a_unit_0_is_a_broadcast_and_0xff_the_gateways_registers_on(build: Build) {
+    let mut rig = Rig::boot(build);
     let m = rig.connect();
     assert_eq!(status(&mut rig, m, 4), [0; 24], "at start");
     // 1. A read of slave 1, and one past slave 3's registers (its exception 02).
@@ -931,7 +962,13 @@ fn watch_de(rig: &mut Rig, until: u64) -> Vec<(u64, bool)> {
 /// its last stop bit, once per request, and is low whenever a slave answers.
 #[test]
 fn each_request_is_one_frame_after_t35_with_de_high_around_it_and_only_it() {
-    let mut rig = Rig::boot();
+    for build in BUILDS {
+        each_request_is_one_frame_after_t35_with_de_high_around_it_and_only_it_on(build);
+    }
+}
+
+fn each_request_is_one_frame_after_t35_with_de_high_around_it_and_only_it_on(build: Build) {
+    let mut rig = Rig::boot(build);
     let (a, b) = (rig.connect(), rig.connect());
     let now = rig.now();
     rig.ask_at(a, 1, &read_pdu(3, 0, 8), now);
@@ -970,7 +1007,13 @@ fn each_request_is_one_frame_after_t35_with_de_high_around_it_and_only_it() {
 /// T3.5 between any two frames), and its answer is the one passed back.
 #[test]
 fn a_retry_waits_t35_after_a_late_reply_still_on_the_line() {
-    let mut rig = Rig::boot();
+    for build in BUILDS {
+        a_retry_waits_t35_after_a_late_reply_still_on_the_line_on(build);
+    }
+}
+
+fn a_retry_waits_t35_after_a_late_reply_still_on_the_line_on(build: Build) {
+    let mut rig = Rig::boot(build);
     let m = rig.connect();
     let now = rig.now();
     let mut answers = Vec::new();
@@ -997,7 +1040,13 @@ fn a_retry_waits_t35_after_a_late_reply_still_on_the_line() {
 /// request is answered.
 #[test]
 fn an_answer_for_a_connection_reset_meanwhile_is_dropped_not_sent_to_its_successor() {
-    let mut rig = Rig::boot();
+    for build in BUILDS {
+        an_answer_for_a_connection_reset_meanwhile_is_dropped_not_sent_to_its_successor_on(build);
+    }
+}
+
+fn an_answer_for_a_connection_reset_meanwhile_is_dropped_not_sent_to_its_successor_on(build: Build) {
+    let mut rig = Rig::boot(build);
     let (old, other) = (rig.connect(), rig.connect());
     let now = rig.now();
     rig.ask_at(old, 1, &read_pdu(3, 0, 8), now);
@@ -1024,7 +1073,13 @@ fn an_answer_for_a_connection_reset_meanwhile_is_dropped_not_sent_to_its_success
 /// does, tests/sim_tcp.rs).
 #[test]
 fn a_master_that_sends_its_fin_after_its_request_gets_the_answer_then_a_fin() {
-    let mut rig = Rig::boot();
+    for build in BUILDS {
+        a_master_that_sends_its_fin_after_its_request_gets_the_answer_then_a_fin_on(build);
+    }
+}
+
+fn a_master_that_sends_its_fin_after_its_request_gets_the_answer_then_a_fin_on(build: Build) {
+    let mut rig = Rig::boot(build);
     let m = rig.connect();
     let socket = rig.masters[m].socket;
     let now = rig.now();
@@ -1048,7 +1103,13 @@ fn a_master_that_sends_its_fin_after_its_request_gets_the_answer_then_a_fin() {
 /// a read of 60 of them back (an answer of 125 bytes).
 #[test]
 fn requests_and_answers_longer_than_the_buffer_go_through_whole() {
-    let mut rig = Rig::boot();
+    for build in BUILDS {
+        requests_and_answers_longer_than_the_buffer_go_through_whole_on(build);
+    }
+}
+
+fn requests_and_answers_longer_than_the_buffer_go_through_whole_on(build: Build) {
+    let mut rig = Rig::boot(build);
     let m = rig.connect();
     let values: Vec<u16> = (0..123).map(|i| 0xA000 + i).collect();
     let write = write_multiple_pdu(2, &values);
@@ -1071,7 +1132,13 @@ fn requests_and_answers_longer_than_the_buffer_go_through_whole() {
 #[test]
 #[ignore = "fails: the 100 ms response timeout cuts a 146 ms answer short"]
 fn a_read_of_125_registers_is_answered_at_19200() {
-    let mut rig = Rig::boot();
+    for build in BUILDS {
+        a_read_of_125_registers_is_answered_at_19200_on(build);
+    }
+}
+
+fn a_read_of_125_registers_is_answered_at_19200_on(build: Build) {
+    let mut rig = Rig::boot(build);
     let m = rig.connect();
     let answer = rig.ask(m, 1, &read_pdu(3, 0, 125));
     rig.dump();
@@ -1090,7 +1157,13 @@ fn a_read_of_125_registers_is_answered_at_19200() {
 /// meets the outcome at every phase.
 #[test]
 fn an_answer_is_passed_back_at_once_when_its_outcome_comes_while_the_chip_is_served() {
-    let mut rig = Rig::boot();
+    for build in BUILDS {
+        an_answer_is_passed_back_at_once_when_its_outcome_comes_while_the_chip_is_served_on(build);
+    }
+}
+
+fn an_answer_is_passed_back_at_once_when_its_outcome_comes_while_the_chip_is_served_on(build: Build) {
+    let mut rig = Rig::boot(build);
     let (a, b) = (rig.connect(), rig.connect());
     let mut late = Vec::new();
     for k in 0..48u64 {
