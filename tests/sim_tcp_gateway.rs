@@ -1,15 +1,16 @@
 //! `examples/tcp_gateway.rs` (the Modbus TCP to RTU gateway: an Uno, a W5100 shield, RS-485
 //! on USART0 at 19200 8E1, the transceiver's DE on pin 3 = PD3, a response timeout of 100 ms
-//! and one retry) on the simulated Uno and shield, as `make tcp-firmware` builds it.
+//! and one retry) on the simulated Uno and shield, as `make tcp-firmware` builds it: the chip
+//! polled every Timer0 overflow, and served from its INT line on pin 2; every test runs both.
 //!
 //! The test plays both sides on simulated time: three RS-485 slaves on the line (ids 1, 2
-//! and 3, eight holding registers each, answering T3.5 + 0.5 ms after a request's end, as
+//! and 3, 125 holding registers each, answering T3.5 + 0.5 ms after a request's end, as
 //! real slaves do) and TCP masters on the shield's sockets (requests landing in the chip at
 //! any phase of the firmware's poll, whole, split, or several in one segment). Every frame
 //! on the line is logged with the cycle of its first start bit and of its last stop bit,
 //! and every test ends by checking the log (Serial Line v1.02 §2.5.1.1): each request of
 //! the gateway starts T3.5 or more after the previous frame's end, is one frame (no gap
-//! over T1.5 inside) and carries the right CRC.
+//! over T1.5 inside) and carries the right CRC. `GATEWAY_DUMP=1` prints the log.
 //!
 //! The gateway's rules (Implementation Guide v1.0b §4.4.1.2, §4.4.2.5; `src/tcp/gateway.rs`):
 //! requests wait in the chip until the line is free, connections take turns, each answer
@@ -19,7 +20,8 @@
 //! unit 0xFF.
 //!
 //! Build: `make tcp-firmware` (or `.ci/chip-build atmega328p "" atmega328p-tcp-gateway
-//! examples,tcp,master tcp_gateway`). One character at 19200 8E1 is 11 bits = 573 µs;
+//! examples,tcp,master tcp_gateway`, and `AVR_MODBUS_EXAMPLE_SHIELD=w5100-int` into
+//! `atmega328p-tcp-gateway-int`). One character at 19200 8E1 is 11 bits = 573 µs;
 //! T1.5 = 859 µs, T3.5 = 2005 µs.
 
 mod sim;
