@@ -11,7 +11,7 @@
  * header, so pin 13 cannot be the transceiver's driver enable); pins 0 (RX) and 1 (TX) to
  * an RS-485 transceiver's RO and DI, its DE and /RE joined on pin 3, A/B to the line.
  *
- * Network: 192.168.1.177/24, port 502. Line: 19200 8E1, a response timeout of 100 ms, one
+ * Network: 192.168.1.177/24, port 502. Line: 19200 8E1, a response timeout of 200 ms, one
  * retry.
  *
  * | unit 255 (FC 3 or 4) | meaning                                                |
@@ -67,6 +67,9 @@ fn main() -> ! {
     {
         board::halt(error);
     }
-    GATEWAY.set_timeouts(Timeouts { response_ms: 100, turnaround_ms: 20, retries: 1 });
+    // The response timeout covers the longest answer on the line (FC 3 of 125 registers:
+    // 255 bytes, 146 ms at 19200) and the slave's time to answer; 0B comes after two tries,
+    // 400 ms, inside a TCP master's own timeout (mbpoll's is 1 s).
+    GATEWAY.set_timeouts(Timeouts { response_ms: 200, turnaround_ms: 20, retries: 1 });
     loop {}
 }

@@ -282,9 +282,21 @@ impl<V: Service, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Runnin
         // meanwhile; other interrupts may run, which is the point.
         unsafe { reg::enable_interrupts() };
         self.chip.bus.configure();
-        self.service.run(&mut self.server, &mut self.chip, &self.network, second);
-        // SAFETY: interrupts off again before the mark goes (`access_marked`'s promise).
-        unsafe { reg::disable_interrupts() };
+        let mut second = second;
+        loop {
+            self.service.run(&mut self.server, &mut self.chip, &self.network, second);
+            second = false;
+            // SAFETY: interrupts off again before the mark goes (`access_marked`'s promise).
+            unsafe { reg::disable_interrupts() };
+            // Work that came while the chip was served (a gateway's answer from the line:
+            // its interrupt found the role in use and left it) is done now, not at the next
+            // poll; asked with interrupts off, so that none comes between.
+            if !self.service.pending() {
+                break;
+            }
+            // SAFETY: as above: the role is still marked in use.
+            unsafe { reg::enable_interrupts() };
+        }
         if INT {
             pin2_interrupt(true);
         }

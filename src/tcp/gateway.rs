@@ -379,6 +379,12 @@ impl<L: RtuSide, R: Routes> Handler for Gate<'_, L, R> {
         self.gateway.flight.is_none() && self.line.is_free()
     }
 
+    /// The request on the line came from `s` (a broadcast too: its connection is kept
+    /// until the turnaround ends).
+    fn owes(&self, s: u8) -> bool {
+        self.gateway.flight.is_some_and(|f| f.socket == s)
+    }
+
     fn handle_from<S: Sockets>(
         &mut self,
         adu: &mut [u8],

@@ -166,6 +166,13 @@ pub trait Handler {
         true
     }
 
+    /// True while a request of socket `s` is under way (its answer comes later, through
+    /// [`Server::answer`]): a connection the master closed on its side is kept until then.
+    #[inline(always)]
+    fn owes(&self, _s: u8) -> bool {
+        false
+    }
+
     /// [`Handler::handle`], told where the request came from: socket `s` of `chip`, the
     /// ADU's first byte at `at` in its receive buffer (for a handler that reads more of
     /// it than the buffer holds, or answers later with [`Server::answer`]).
@@ -310,10 +317,16 @@ impl<const B: usize> Server<B> {
                 }
                 let left = self.serve(chip, handler, net, s);
                 if status == state::CLOSE_WAIT && !left {
-                    // The master closed its side and every request it sent is answered.
-                    chip.command(s, command::DISCON);
-                    self.enter(s, Phase::Closing);
-                    self.again |= 1 << s;
+                    if H::DEFERS && handler.owes(s) {
+                        // Its last answer is still to come: looked at again once it is
+                        // sent (`resume`), and closed then.
+                        self.waiting |= 1 << s;
+                    } else {
+                        // The master closed its side and every request it sent is answered.
+                        chip.command(s, command::DISCON);
+                        self.enter(s, Phase::Closing);
+                        self.again |= 1 << s;
+                    }
                 }
             }
             // SYN received, FIN_WAIT, CLOSING, TIME_WAIT, LAST_ACK: on their way, looked at

@@ -388,6 +388,26 @@ fn an_answer_for_a_connection_that_closed_is_dropped() {
     assert!(!rig.gateway.is_forwarding());
 }
 
+#[test]
+fn a_master_that_closes_its_side_after_its_request_gets_the_answer_then_a_fin() {
+    let mut rig = Rig::new([(1, Slave::Bank(regs(0x100)))]);
+    rig.chip.connect(0, [10, 0, 0, 7]);
+    rig.chip.deliver(0, &read(5, 1, 0, 2));
+    // Its FIN comes with the request: the socket is in CLOSE_WAIT.
+    rig.chip.socks[0].status = crate::tcp::wiznet::state::CLOSE_WAIT;
+    rig.chip.socks[0].ir |= 0x02;
+    rig.line.hold = true;
+    rig.step();
+    assert!(rig.gateway.is_forwarding());
+    rig.step();
+    assert!(!rig.chip.socks[0].fin, "closed while its answer was on the line");
+    rig.line.release();
+    rig.settle();
+    assert_eq!(rig.chip.socks[0].sent, read_reply(5, 1, 0x100, 0, 2));
+    assert!(rig.chip.socks[0].fin, "no FIN after the answer");
+    assert_eq!(rig.gateway.counters().orphaned, 0);
+}
+
 /// xorshift64: the random streams' source, the same every run.
 fn next(seed: &mut u64) -> u64 {
     *seed ^= *seed << 13;

@@ -22,7 +22,9 @@
 //! from `Master::send` to the request's first start bit (`poll_holding`); `bench master`
 //! measures that part alone, printed, not written. The main loop's own critical sections
 //! (`call_loop`: each call's interrupts-off cycles, and the replies' turnaround while it
-//! calls the slave as fast as it can); `bench calls` measures that part alone. Every figure
+//! calls the slave as fast as it can); `bench calls` measures that part alone. Modbus TCP
+//! ([`tcp`]; `bench tcp` alone) and the TCP to RTU gateway's sizes and overheads with four
+//! TCP masters polling three RTU slaves ([`gateway`]; `bench gateway` alone). Every figure
 //! comes from this run; all timings are simulated cycles, so a run on any machine gives the
 //! same numbers.
 //!
@@ -41,6 +43,7 @@ mod chips;
 mod elf;
 mod features;
 mod firmware;
+mod gateway;
 mod log;
 mod master;
 mod modbus;
@@ -75,6 +78,8 @@ fn main() -> ExitCode {
         Some("calls") => return print_only(calls::only(&root, &mut log), &log),
         // `bench tcp`: Modbus TCP alone, printed and not written.
         Some("tcp") => return print_only(tcp::only(&root, &mut log), &log),
+        // `bench gateway`: the TCP to RTU gateway alone, printed and not written.
+        Some("gateway") => return print_only(gateway::only(&root, &mut log), &log),
         _ => {}
     }
     let started = Instant::now();

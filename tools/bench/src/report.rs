@@ -28,6 +28,8 @@ pub(crate) struct Report {
     pub(crate) master: master::Measured,
     /// Modbus TCP, if built.
     pub(crate) tcp: Option<crate::tcp::Measured>,
+    /// The TCP to RTU gateway, if built.
+    pub(crate) gateway: Option<crate::gateway::Measured>,
 }
 
 impl Report {
@@ -46,6 +48,7 @@ impl Report {
             chips: chip_runs(root, log)?,
             master: master::measure(root, log)?,
             tcp: crate::tcp::measure(root, log)?,
+            gateway: crate::gateway::measure(root, log)?,
         })
     }
 

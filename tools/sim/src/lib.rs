@@ -783,9 +783,17 @@ impl Uno {
     }
 
     /// Executes one instruction (while the CPU sleeps: advances to the next scheduled event, by at
-    /// most 1000 cycles). Useful to attribute cycles to code, e.g. by [`Step::vector`].
+    /// most 1000 cycles). Useful to attribute cycles to code, e.g. by [`Step::vector`]. A shield's
+    /// INT line, if wired, is brought up to date first, as [`Uno::run_until`] keeps it.
     pub fn step(&mut self) -> Result<Step, Error> {
         self.check_alive()?;
+        if self.shield_int() {
+            // The INT line as `run_until` keeps it: the chip brought to now (data due lands),
+            // the line driven from it.
+            let _ = self.wiznet_mut();
+            // SAFETY: `shim` is valid and exclusively borrowed.
+            unsafe { ffi::uno_spi_sync(self.raw_mut()) };
+        }
         let before = self.now();
         let (mut pc, mut vector, mut entered, mut response) = (0u32, -1 as c_int, -1 as c_int, 0u64);
         let limit = before.saturating_add(STEP_SLEEP_LIMIT);

@@ -28,6 +28,7 @@ pub(crate) fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
     libraries::section(&mut md, r)?;
     master::section(&mut md, root, &r.master)?;
     crate::tcp::section(&mut md, &r.tcp)?;
+    crate::gateway::section(&mut md, &r.gateway)?;
     features::section(&mut md, &r.features)?;
     sizes::section(&mut md, &r.profiles)?;
     chips::section(&mut md, &r.chips)?;

@@ -107,6 +107,20 @@ struct Frame {
     control: u8,
 }
 
+/// One access the firmware made over the SPI, for a record of where its SPI time goes
+/// ([`W5x00::record_spi`]): a W5100 frame (4 bytes), or one data byte of a W5500 frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SpiAccess {
+    /// The cycle its last byte completed.
+    pub cycle: u64,
+    /// The address in the chip's map (W5100), or in the block (W5500).
+    pub addr: u16,
+    /// The W5500's block select (BSB, 0 on the W5100).
+    pub block: u8,
+    /// A write (else a read).
+    pub write: bool,
+}
+
 /// A simulated W5100 or W5500: its registers and memory, its SPI decoder, and the peers of
 /// its sockets' connections.
 #[derive(Debug)]
@@ -124,6 +138,8 @@ pub struct W5x00 {
     next_id: u64,
     open_pointers: u16,
     spi_bytes: u64,
+    /// The accesses recorded since [`W5x00::record_spi`] turned the record on.
+    spi_log: Option<Vec<SpiAccess>>,
 }
 
 impl W5x00 {
@@ -143,6 +159,7 @@ impl W5x00 {
             next_id: 1,
             open_pointers: 0,
             spi_bytes: 0,
+            spi_log: None,
         };
         chip.reset();
         chip
@@ -239,10 +256,35 @@ impl W5x00 {
         } else {
             self.clock = self.clock.max(cycle);
         }
-        Some(match self.model {
+        let (index, addr, control) = (self.frame.index, self.frame.addr, self.frame.control);
+        let miso = match self.model {
             Wiznet::W5100 => self.w5100_byte(mosi),
             Wiznet::W5500 => self.w5500_byte(mosi),
-        })
+        };
+        if let Some(log) = self.spi_log.as_mut() {
+            let access = match self.model {
+                Wiznet::W5100 if index % 4 == 3 => {
+                    Some(SpiAccess { cycle, addr, block: 0, write: control == w5100::WRITE })
+                }
+                Wiznet::W5500 if index >= 3 => {
+                    Some(SpiAccess { cycle, addr, block: control >> 3, write: control & w5500::RWB_WRITE != 0 })
+                }
+                _ => None,
+            };
+            log.extend(access);
+        }
+        Some(miso)
+    }
+
+    /// Turns the record of SPI accesses on (emptied) or off: what [`W5x00::take_spi_log`]
+    /// returns.
+    pub fn record_spi(&mut self, on: bool) {
+        self.spi_log = on.then(Vec::new);
+    }
+
+    /// The SPI accesses recorded since the last call (none while the record is off).
+    pub fn take_spi_log(&mut self) -> Vec<SpiAccess> {
+        self.spi_log.as_mut().map(std::mem::take).unwrap_or_default()
     }
 
     /// SPI bytes exchanged while selected, since power-on.

@@ -618,3 +618,27 @@ fn model_names_parse() {
     assert!("w5300".parse::<Wiznet>().is_err());
     assert_eq!(Wiznet::W5100.to_string(), "w5100");
 }
+
+#[test]
+fn the_spi_record_names_each_w5100_frame_and_each_w5500_data_byte() {
+    let mut d = Driver::new(Wiznet::W5100);
+    d.w5100_write(0x0001, &[0xC0]);
+    assert!(d.chip.take_spi_log().is_empty(), "recorded while off");
+    d.chip.record_spi(true);
+    d.w5100_write(0x0401, &[0x40]);
+    d.w5100_read(0x0426, 2);
+    let log = d.chip.take_spi_log();
+    let seen: Vec<(u16, bool)> = log.iter().map(|a| (a.addr, a.write)).collect();
+    assert_eq!(seen, [(0x0401, true), (0x0426, false), (0x0427, false)]);
+    assert!(log.windows(2).all(|w| w[0].cycle < w[1].cycle));
+    assert!(d.chip.take_spi_log().is_empty(), "taken");
+
+    let mut d = Driver::new(Wiznet::W5500);
+    d.chip.record_spi(true);
+    d.w5500(0x0D, 0x0024, false, &[0, 0]);
+    let seen: Vec<(u8, u16, bool)> = d.chip.take_spi_log().iter().map(|a| (a.block, a.addr, a.write)).collect();
+    assert_eq!(seen, [(0x0D, 0x0024, false), (0x0D, 0x0025, false)]);
+    d.chip.record_spi(false);
+    d.w5500(0x0D, 0x0024, false, &[0, 0]);
+    assert!(d.chip.take_spi_log().is_empty(), "recorded while off");
+}
