@@ -71,5 +71,6 @@ fn main() -> ! {
     // 255 bytes, 146 ms at 19200) and the slave's time to answer; 0B comes after two tries,
     // 400 ms, inside a TCP master's own timeout (mbpoll's is 1 s).
     GATEWAY.set_timeouts(Timeouts { response_ms: 200, turnaround_ms: 20, retries: 1 });
+    #[allow(clippy::empty_loop)]
     loop {}
 }
