@@ -48,6 +48,9 @@ const THINK_MS: u64 = 60;
 const TO_LINE_US: f64 = 200.0;
 const TO_TCP_US: f64 = 300.0;
 const NEXT_US: f64 = 25.0;
+/// Issue 36's flash and static RAM targets for the gateway on the Uno.
+const FLASH_TARGET: u64 = 6144;
+const RAM_TARGET: u64 = 700;
 
 /// T3.5 at 19200 8E1: 3.5 characters of 11 bits, in cycles.
 const T35: u64 = (35 * 11 * uno_sim::F_CPU).div_ceil(10 * 19_200);
@@ -343,6 +346,17 @@ pub(crate) fn section(md: &mut String, measured: &Option<Measured>) -> Result<()
             Some((flash, ram)) => writeln!(md, "| {NAME} ({}) | {flash} | {ram} B |", v.build)?,
             None => writeln!(md, "| {NAME} ({}) | ? | ? |", v.build)?,
         }
+    }
+    if let Some((flash, ram)) = variants.first().and_then(|v| v.size) {
+        let verdict = |met: bool| if met { "met" } else { "**not met**" };
+        writeln!(
+            md,
+            "\nTargets (polled build): flash ≤ {FLASH_TARGET} B: {flash} B, {}; static RAM ≤ {RAM_TARGET} B: {ram} B, {}. \
+             The peers, quoted from the issue: budulinek arduino-modbus-rtu-tcp-gateway 8.1 31 998 B / 1 599 B, \
+             emelianov modbus-esp8266 4.1's bridge 25 580 B / 645 B.",
+            verdict(flash <= FLASH_TARGET),
+            verdict(ram <= RAM_TARGET)
+        )?;
     }
     writeln!(
         md,
