@@ -333,7 +333,11 @@ macro_rules! tcp_server {
         static $name: $crate::TcpServer<$model, $chip, $cs, { <$model as $crate::DataModel>::FRAME + 4 }, $int> =
             $crate::TcpServer::new();
 
-        /// The server's poll, which the crate's Timer0 overflow handler calls.
+        $crate::tcp_server!(@overflow $name);
+    };
+    (@overflow $name:ident) => {
+        /// The TCP role's poll, which the crate's Timer0 overflow handler calls: every TCP role
+        /// (`tcp_server!`, `tcp_gateway!`, `tcp_client!`) defines it, once per firmware.
         #[doc(hidden)]
         #[export_name = "avr_modbus_feature_tcp_needs_a_tcp_role"]
         unsafe extern "C" fn __avr_modbus_tcp_overflow() {
@@ -398,13 +402,7 @@ macro_rules! tcp_gateway {
 
         $crate::__bind_role!(__avr_modbus_gateway_interrupts, $name, $usart, TIMER0_COMPA, master_rx_arrived);
 
-        /// The TCP side's poll, which the crate's Timer0 overflow handler calls.
-        #[doc(hidden)]
-        #[export_name = "avr_modbus_feature_tcp_needs_a_tcp_role"]
-        unsafe extern "C" fn __avr_modbus_tcp_overflow() {
-            // SAFETY: called from the Timer0 overflow handler only, interrupts disabled.
-            unsafe { $name.on_overflow() }
-        }
+        $crate::tcp_server!(@overflow $name);
     };
 }
 
@@ -440,12 +438,6 @@ macro_rules! tcp_client {
     (@declare $name:ident : $chip:ty, $cs:ty, $n:literal) => {
         static $name: $crate::TcpClient<$chip, $cs, { $n }> = $crate::TcpClient::new();
 
-        /// The client's poll, which the crate's Timer0 overflow handler calls.
-        #[doc(hidden)]
-        #[export_name = "avr_modbus_feature_tcp_needs_a_tcp_role"]
-        unsafe extern "C" fn __avr_modbus_tcp_overflow() {
-            // SAFETY: called from the Timer0 overflow handler only, interrupts disabled.
-            unsafe { $name.on_overflow() }
-        }
+        $crate::tcp_server!(@overflow $name);
     };
 }
