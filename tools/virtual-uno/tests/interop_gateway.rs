@@ -17,7 +17,7 @@
 
 mod common;
 
-use common::{collect, run, serialise, stop, workspace};
+use common::{collect, run, serialise, stop, workspace, Spawned};
 
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
@@ -47,8 +47,7 @@ fn python() -> String {
 
 /// A running `virtual-line`: the gateway (DE on pin 3) and the rest, stopped when dropped.
 struct Line {
-    child: Child,
-    log: Arc<Mutex<String>>,
+    process: Spawned,
     /// Where the gateway's port 502 is on 127.0.0.1.
     port: u16,
 }
@@ -57,60 +56,30 @@ impl Line {
     /// The gateway with its port 502 on 127.0.0.1:`host_port` (0: any) and `members` (more
     /// `--board`/`--pty` words); waits until the firmware listens.
     fn start(host_port: u16, members: &[String]) -> Line {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_virtual-line"))
-            .arg("--no-stdin")
-            .arg("--board")
-            .arg(format!("gateway={}", gateway_firmware().display()))
-            .args(["de=3", "wiznet=w5100", &format!("tcp=502:{host_port}"), "watch=none"])
-            .args(members)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("start virtual-line");
-        let log = Arc::new(Mutex::new(String::new()));
-        collect(child.stdout.take().unwrap(), log.clone());
-        collect(child.stderr.take().unwrap(), log.clone());
-        let mut line = Line { child, log, port: 0 };
-        let deadline = Instant::now() + Duration::from_secs(10);
-        let prefix = "gateway tcp: 127.0.0.1:";
-        line.port = loop {
-            let log = line.log();
-            if let Some(at) = log.find(prefix) {
-                let rest = &log[at + prefix.len()..];
-                break rest[..rest.find(' ').unwrap_or(rest.len())].parse().expect("the port virtual-line printed");
-            }
-            assert!(Instant::now() < deadline, "the gateway did not listen in 10 s:\n{log}");
-            thread::sleep(Duration::from_millis(20));
-        };
-        line
+        let process = Spawned::start(
+            Command::new(env!("CARGO_BIN_EXE_virtual-line"))
+                .arg("--no-stdin")
+                .arg("--board")
+                .arg(format!("gateway={}", gateway_firmware().display()))
+                .args(["de=3", "wiznet=w5100", &format!("tcp=502:{host_port}"), "watch=none"])
+                .args(members),
+        );
+        let port = process.port_after("gateway tcp: 127.0.0.1:", "the gateway");
+        Line { process, port }
     }
 
     fn log(&self) -> String {
-        self.log.lock().unwrap().clone()
+        self.process.log()
     }
 
     /// Lines of the log with `what`.
     fn count(&self, what: &str) -> usize {
-        self.log().lines().filter(|l| l.contains(what)).count()
+        self.process.count(what)
     }
 
     /// Waits up to `limit` for a line of the log with `what`.
     fn wait_for(&self, what: &str, limit: Duration) -> bool {
-        let deadline = Instant::now() + limit;
-        while Instant::now() < deadline {
-            if self.log().contains(what) {
-                return true;
-            }
-            thread::sleep(Duration::from_millis(20));
-        }
-        false
-    }
-}
-
-impl Drop for Line {
-    fn drop(&mut self) {
-        stop(&mut self.child);
+        self.process.wait_for(what, limit)
     }
 }
 
@@ -122,34 +91,17 @@ fn transcript(master: &str, line: &Line) -> String {
 /// pymodbus's serial server as unit 3 on the pty `tty` (demo/plant_slave.py), alone with the
 /// gateway on the line: pymodbus's own framing. Stopped (switched off) when dropped.
 struct Pymodbus {
-    child: Child,
+    _process: Spawned,
 }
 
 impl Pymodbus {
     fn start(tty: &str) -> Pymodbus {
-        let mut child = Command::new(python())
-            .arg(workspace().join("demo/plant_slave.py"))
-            .args([tty, "--unit", "3"])
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("start demo/plant_slave.py");
-        let log = Arc::new(Mutex::new(String::new()));
-        collect(child.stdout.take().unwrap(), log.clone());
-        collect(child.stderr.take().unwrap(), log.clone());
-        let deadline = Instant::now() + Duration::from_secs(10);
-        while !log.lock().unwrap().contains("plant_slave: unit 3 on") {
-            assert!(Instant::now() < deadline, "pymodbus's server did not start:\n{}", log.lock().unwrap());
-            thread::sleep(Duration::from_millis(20));
-        }
-        Pymodbus { child }
-    }
-}
-
-impl Drop for Pymodbus {
-    fn drop(&mut self) {
-        stop(&mut self.child);
+        let process = Spawned::start(
+            Command::new(python()).arg(workspace().join("demo/plant_slave.py")).args([tty, "--unit", "3"]),
+        );
+        let up = process.wait_for("plant_slave: unit 3 on", Duration::from_secs(10));
+        assert!(up, "pymodbus's server did not start:\n{}", process.log());
+        Pymodbus { _process: process }
     }
 }
 

@@ -19,7 +19,7 @@
 
 mod common;
 
-use common::{collect, python, run, serialise, stop, workspace};
+use common::{collect, python, run, serialise, workspace, Spawned};
 
 use std::io::{ErrorKind, Read, Write};
 use std::net::{Shutdown, TcpStream};
@@ -46,8 +46,7 @@ fn tcp_server(shield: &str) -> PathBuf {
 
 /// A running `virtual-uno` with a shield, stopped with SIGTERM when dropped.
 struct Board {
-    child: Child,
-    log: Arc<Mutex<String>>,
+    process: Spawned,
     /// Where the chip's port 502 is on 127.0.0.1.
     port: u16,
 }
@@ -61,34 +60,17 @@ impl Board {
 
     /// The same on 127.0.0.1:`host_port` (0: any).
     fn on_port(firmware: &Path, shield: &str, host_port: u16) -> Board {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_virtual-uno"))
-            .args(["--no-stdin", "--wiznet", shield, "--tcp", &format!("502:{host_port}")])
-            .arg(firmware)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("start virtual-uno");
-        let log = Arc::new(Mutex::new(String::new()));
-        collect(child.stdout.take().unwrap(), log.clone());
-        collect(child.stderr.take().unwrap(), log.clone());
-        let mut board = Board { child, log, port: 0 };
-        let deadline = Instant::now() + Duration::from_secs(10);
-        let prefix = "tcp: 127.0.0.1:";
-        board.port = loop {
-            let log = board.log();
-            if let Some(at) = log.find(prefix) {
-                let rest = &log[at + prefix.len()..];
-                break rest[..rest.find(' ').unwrap_or(rest.len())].parse().expect("the port virtual-uno printed");
-            }
-            assert!(Instant::now() < deadline, "the firmware did not listen in 10 s:\n{log}");
-            thread::sleep(Duration::from_millis(20));
-        };
-        board
+        let process = Spawned::start(
+            Command::new(env!("CARGO_BIN_EXE_virtual-uno"))
+                .args(["--no-stdin", "--wiznet", shield, "--tcp", &format!("502:{host_port}")])
+                .arg(firmware),
+        );
+        let port = process.port_after("tcp: 127.0.0.1:", "the firmware");
+        Board { process, port }
     }
 
     fn log(&self) -> String {
-        self.log.lock().unwrap().clone()
+        self.process.log()
     }
 
     /// A connection to the chip's port 502, replies awaited up to 3 s.
@@ -111,13 +93,7 @@ impl Board {
 
     /// How many lines of the log contain `what`.
     fn count(&self, what: &str) -> usize {
-        self.log().lines().filter(|l| l.contains(what)).count()
-    }
-}
-
-impl Drop for Board {
-    fn drop(&mut self) {
-        stop(&mut self.child);
+        self.process.count(what)
     }
 }
 

@@ -1,5 +1,6 @@
 //! What the interop tests share: one virtual board at a time, the workspace, a child's
-//! output collected, a command run with a time limit, a child stopped, the Python.
+//! output collected, a program kept running with its log, a command run with a time limit,
+//! a child stopped, the Python.
 #![allow(dead_code)]
 
 use std::io::{BufRead, BufReader, Read};
@@ -41,6 +42,70 @@ pub fn stop(child: &mut Child) {
     }
     let _ = child.kill();
     let _ = child.wait();
+}
+
+/// A program kept running with its stdout and stderr collected into one log; stopped
+/// (`stop`) when dropped.
+pub struct Spawned {
+    child: Child,
+    log: Arc<Mutex<String>>,
+}
+
+impl Spawned {
+    pub fn start(cmd: &mut Command) -> Spawned {
+        let mut child = cmd
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap_or_else(|e| panic!("cannot start {cmd:?}: {e}"));
+        let log = Arc::new(Mutex::new(String::new()));
+        collect(child.stdout.take().unwrap(), log.clone());
+        collect(child.stderr.take().unwrap(), log.clone());
+        Spawned { child, log }
+    }
+
+    pub fn log(&self) -> String {
+        self.log.lock().unwrap().clone()
+    }
+
+    /// How many lines of the log contain `what`.
+    pub fn count(&self, what: &str) -> usize {
+        self.log().lines().filter(|l| l.contains(what)).count()
+    }
+
+    /// Waits up to `limit` for `what` in the log.
+    pub fn wait_for(&self, what: &str, limit: Duration) -> bool {
+        let deadline = Instant::now() + limit;
+        while Instant::now() < deadline {
+            if self.log().contains(what) {
+                return true;
+            }
+            thread::sleep(Duration::from_millis(20));
+        }
+        false
+    }
+
+    /// The port the log prints after `prefix` (`tcp: 127.0.0.1:` and the port: where a bridge
+    /// listens), waited for up to 10 s; `what` names the program in the failure.
+    pub fn port_after(&self, prefix: &str, what: &str) -> u16 {
+        let deadline = Instant::now() + Duration::from_secs(10);
+        loop {
+            let log = self.log();
+            if let Some(at) = log.find(prefix) {
+                let rest = &log[at + prefix.len()..];
+                return rest[..rest.find(' ').unwrap_or(rest.len())].parse().expect("the port printed");
+            }
+            assert!(Instant::now() < deadline, "{what} did not listen in 10 s:\n{log}");
+            thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for Spawned {
+    fn drop(&mut self) {
+        stop(&mut self.child);
+    }
 }
 
 /// Runs `cmd` to completion (killed after `limit`); returns success and stdout + stderr.
