@@ -104,6 +104,27 @@ pub struct MasterCounters {
     pub unexpected: u16,
 }
 
+impl MasterCounters {
+    /// The counters kept as an array in the order of the fields (a master's engine's, the
+    /// TCP client's).
+    pub(crate) fn from_counts(counts: [u16; COUNTS]) -> MasterCounters {
+        let [requests, crc_errors, uart_errors, overruns, malformed, replies, exceptions, timeouts, retries, unexpected] =
+            counts;
+        MasterCounters {
+            requests,
+            crc_errors,
+            uart_errors,
+            overruns,
+            malformed,
+            replies,
+            exceptions,
+            timeouts,
+            retries,
+            unexpected,
+        }
+    }
+}
+
 /// A counter's place in [`Engine::counts`]: the order of [`MasterCounters`]'s fields. A
 /// damaged frame's counter is at [`FrameError::counter`], as in the slave's.
 #[derive(Clone, Copy)]
@@ -120,7 +141,7 @@ enum Count {
     Unexpected,
 }
 
-const COUNTS: usize = Count::Unexpected as usize + 1;
+pub(crate) const COUNTS: usize = Count::Unexpected as usize + 1;
 
 const _: () = {
     use FrameError::*;
@@ -230,20 +251,7 @@ impl<const N: usize> Engine<N> {
 
     /// The counters.
     pub fn counters(&self) -> MasterCounters {
-        let [requests, crc_errors, uart_errors, overruns, malformed, replies, exceptions, timeouts, retries, unexpected] =
-            self.counts;
-        MasterCounters {
-            requests,
-            crc_errors,
-            uart_errors,
-            overruns,
-            malformed,
-            replies,
-            exceptions,
-            timeouts,
-            retries,
-            unexpected,
-        }
+        MasterCounters::from_counts(self.counts)
     }
 
     /// One more in `count`, wrapping ([`crate::link::bump`]).
