@@ -34,36 +34,15 @@ const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x02], [192
     // With every socket taken, the connection idle 2 s makes room for a newcomer (default 10 s).
     .evict_after(2);
 
-avr_modbus::register_map! {
-    /// libmodbus's unit-test map, at its addresses.
-    struct UnitTest {
-        305..=341,
-        10453..=10474,
-        30265,
-        40353..=40384,
-    }
-}
+include!("libmodbus/unit_test.rs");
 
 avr_modbus::tcp_server!(SERVER: UnitTest, W5100);
-
-/// UT_INPUT_BITS_TAB: the discrete inputs from 0x1C4 on, LSB first.
-const INPUT_BITS: [u8; 3] = [0xAC, 0xDB, 0x35];
-/// UT_INPUT_BITS_NB.
-const INPUT_BITS_NB: u16 = 0x16;
 
 #[avr_device::entry]
 fn main() -> ! {
     let Some(dp) = avr_device::atmega328p::Peripherals::take() else { board::halt(avr_modbus::Error::AlreadyStarted) };
     let mut map = UnitTest::new();
-    for i in 0..INPUT_BITS_NB {
-        let bit = INPUT_BITS[usize::from(i / 8)] >> (i % 8) & 1;
-        if let Err(error) = map.set(10453 + u32::from(i), u16::from(bit)) {
-            board::halt(error);
-        }
-    }
-    if let Err(error) = map.set(30265, 0x000A) {
-        board::halt(error);
-    }
+    set_unit_test_values(&mut map);
     // FC 17's description: 8 bytes, so that the reply's byte count is the 10 the client checks.
     #[cfg(feature = "diagnostics")]
     map.set_device_info(b"UnoW5100");

@@ -30,22 +30,9 @@ use panic_halt as _;
 /// libmodbus's SERVER_ID, 19200 8E1.
 const CONFIG: Config = Config::new(17, 19_200, Parity::Even, StopBits::One);
 
-avr_modbus::register_map! {
-    /// libmodbus's unit-test map, at its addresses.
-    struct UnitTest {
-        305..=341,
-        10453..=10474,
-        30265,
-        40353..=40384,
-    }
-}
+include!("libmodbus/unit_test.rs");
 
 avr_modbus::slave!(SLAVE: UnitTest, Pin, Pin);
-
-/// UT_INPUT_BITS_TAB: the discrete inputs from 0x1C4 on, LSB first.
-const INPUT_BITS: [u8; 3] = [0xAC, 0xDB, 0x35];
-/// UT_INPUT_BITS_NB.
-const INPUT_BITS_NB: u16 = 0x16;
 
 #[avr_device::entry]
 fn main() -> ! {
@@ -55,15 +42,7 @@ fn main() -> ! {
         Err(error) => board::halt(error),
     };
     let mut map = UnitTest::new();
-    for i in 0..INPUT_BITS_NB {
-        let bit = INPUT_BITS[usize::from(i / 8)] >> (i % 8) & 1;
-        if let Err(error) = map.set(10453 + u32::from(i), u16::from(bit)) {
-            board::halt(error);
-        }
-    }
-    if let Err(error) = map.set(30265, 0x000A) {
-        board::halt(error);
-    }
+    set_unit_test_values(&mut map);
     map.set_device_info(b"UnoRS485");
     let driver_enable = pins.d10.into_output();
     let led = pins.d13.into_output();
