@@ -17,4 +17,5 @@ pub use request::Request;
 #[doc(hidden)]
 pub mod internal {
     pub use super::engine::{Action, Engine};
+    pub use super::request::Shape;
 }

@@ -25,7 +25,9 @@ pub(crate) mod wiznet;
 #[doc(hidden)]
 pub use gateway::BUFFER as GATEWAY_BUFFER;
 #[cfg(feature = "master")]
-pub use gateway::{Direct, GatewayCounters, GatewaySettings, Routes, STATUS_REGISTERS};
+pub use gateway::{
+    Direct, GatewayCounters, GatewaySettings, Routes, SlaveHealth, HEALTH_REGISTERS, STATUS_REGISTERS, TRACKED,
+};
 pub use network::Network;
 #[cfg(feature = "eeprom-settings")]
 pub use record::NETWORK_SLOTS_LEN;

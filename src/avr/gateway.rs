@@ -23,8 +23,11 @@ use super::tcp::{lend_spi, open_chip, start_interrupts, Pin10, Running, Service}
 use crate::error::Error;
 use crate::link::config::Line;
 use crate::link::framer::MAX_FRAME;
+use crate::master::request::Shape;
 use crate::master::{Failure, MasterCounters, Timeouts};
-use crate::tcp::gateway::{Direct, Gate, Gateway, GatewayCounters, GatewaySettings, Routes, RtuSide, BUFFER};
+use crate::tcp::gateway::{
+    Direct, Gate, Gateway, GatewayCounters, GatewaySettings, Routes, RtuSide, SlaveHealth, BUFFER,
+};
 use crate::tcp::server::{Server, Sockets};
 use crate::tcp::wiznet::Chip;
 use crate::tcp::{Network, TcpCounters};
@@ -85,9 +88,9 @@ impl<DE: OutputPin, const U: u8> RtuSide for Locked<'_, DE, U> {
         });
     }
 
-    fn forward(&mut self, len: usize, retries: u8) -> bool {
+    fn forward(&mut self, len: usize, retries: u8, response_ms: u16, shape: Shape) -> bool {
         self.0
-            .locked(|m| match m.engine.forward(len, retries) {
+            .locked(|m| match m.engine.forward(len, retries, response_ms, shape) {
                 Ok(action) => {
                     m.act(action);
                     true
@@ -133,6 +136,7 @@ impl<R: Routes, DE: OutputPin + 'static, const U: u8> Forwarding<R, DE, U> {
             routes: &self.routes,
             settings: &self.settings,
             waiting,
+            first: 0,
         };
         server.poll(chip, net, &mut gate, second);
     }
@@ -243,7 +247,8 @@ impl<
         self.line.set_timeouts(timeouts);
     }
 
-    /// Sets the gateway's own unit id and how often a slave that failed is tried again.
+    /// Sets the gateway's own unit id, after how many misses in a row a slave is taken to
+    /// be down, and how often a slave that is down is tried again ([`GatewaySettings`]).
     pub fn set_settings(&self, settings: GatewaySettings) {
         self.tcp.locked(|r| r.service.settings = settings);
     }
@@ -268,10 +273,18 @@ impl<
         self.line.counters()
     }
 
-    /// True when the slave at `address` failed to answer its last request (its requests
-    /// get 0B at once until it is tried again).
+    /// True when the slave at `address` is taken to be down: it missed
+    /// [`GatewaySettings::down_after`] requests in a row (its requests get 0B at once until
+    /// it is tried again).
     pub fn is_down(&self, address: u8) -> bool {
-        self.tcp.locked(|r| r.service.gateway.is_down(address)).unwrap_or(false)
+        self.health(address).down
+    }
+
+    /// What the gateway knows of the slave at `address`: its answers, its misses, its
+    /// misses in a row, whether it is down (all zero for a slave not asked, or not among
+    /// the [`crate::tcp::TRACKED`] asked most recently).
+    pub fn health(&self, address: u8) -> SlaveHealth {
+        self.tcp.locked(|r| r.service.gateway.health(address, &r.service.settings)).unwrap_or_default()
     }
 
     /// How many connections hold a request waiting for the line (besides the one on it).

@@ -308,13 +308,20 @@ impl<const N: usize> Engine<N> {
     }
 
     /// Starts the frame of `len` bytes (address, PDU) built in the request buffer
-    /// ([`Engine::request_mut`]), sealed, with `retries` tries more after the first: a
-    /// gateway's request, passed on as it came. Its answer is any frame from its address
-    /// with its function code, or that code's exception; address 0 is a broadcast. As
-    /// [`Engine::start`] otherwise; [`Error::TooLong`] for a frame outside 2 to `N` − 2
-    /// bytes, [`Error::Busy`] as there.
+    /// ([`Engine::request_mut`]), sealed, with `retries` tries more after the first and a
+    /// response timeout of `response_ms` (0: the one set): a gateway's request, passed on
+    /// as it came. Its answer is a frame from its address with its function code and of
+    /// `shape`, or that code's exception; address 0 is a broadcast. As [`Engine::start`]
+    /// otherwise; [`Error::TooLong`] for a frame outside 2 to `N` − 2 bytes,
+    /// [`Error::Busy`] as there.
     #[cfg(feature = "tcp")]
-    pub fn forward(&mut self, len: usize, retries: u8) -> Result<Action, Error> {
+    pub(crate) fn forward(
+        &mut self,
+        len: usize,
+        retries: u8,
+        response_ms: u16,
+        shape: crate::master::request::Shape,
+    ) -> Result<Action, Error> {
         if self.is_busy() {
             return Err(Error::Busy);
         }
@@ -323,10 +330,14 @@ impl<const N: usize> Engine<N> {
         }
         let (slave, function) = (self.request[0], self.request[1]);
         self.request_len = len;
-        self.expect = Expect { slave, function, shape: crate::master::request::Shape::Any, quantity: 0 };
+        self.expect = Expect { slave, function, shape, quantity: 0 };
         let timeouts = self.timeouts();
         self.retries_left = retries;
-        self.wait = if slave == 0 { timeouts.turnaround_ms } else { timeouts.response_ms };
+        self.wait = match (slave, response_ms) {
+            (0, _) => timeouts.turnaround_ms,
+            (_, 0) => timeouts.response_ms,
+            (_, ms) => ms,
+        };
         self.answer = 0;
         self.state = State::Due;
         self.seal();

@@ -101,7 +101,7 @@ pub enum Request<'a> {
 /// `Any` first: [`Expect::NONE`] is then all zeros, and so is most of a new master, which
 /// its start writes in a few runs of zeros rather than from a copy in flash.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Shape {
+pub enum Shape {
     /// Anything (a raw request).
     Any,
     /// A byte count, then that many bytes (FC 1–4, 23).

@@ -12,21 +12,35 @@
 //! every connection.
 //!
 //! Unit ids: the gateway's own ([`GatewaySettings::own_unit`], 0xFF by default: "the
-//! device itself", §4.4.1.2) is answered from its own registers (counters, the slaves
-//! down: [`STATUS_REGISTERS`]); 0 goes to the line as a
-//! broadcast (writes only) and gets no TCP answer; any other goes where [`Routes`] says,
-//! and one it does not route gets exception 0A (gateway path unavailable). A slave that
-//! does not answer (after the retries) gets 0B (gateway target device failed to respond)
-//! and is taken to be down: its requests get 0B at once, without the line, but for one
-//! try every [`GatewaySettings::recheck_ms`], so that a dead slave costs the line at most
-//! one response timeout that often and never starves the live ones. Its first answer
-//! brings it back.
+//! device itself", §4.4.1.2) is answered from its own registers (counters, the slaves'
+//! health: [`STATUS_REGISTERS`], [`HEALTH_REGISTERS`]); 0 goes to the line as a broadcast
+//! (writes only) and gets no TCP answer, a read to 0 gets 0A (no slave can answer it); any
+//! other goes where [`Routes`] says, and one it does not route gets exception 0A (gateway
+//! path unavailable).
+//!
+//! What goes to the line is checked first as the slave's engine checks it (FC 1–6, 15, 16,
+//! 22, 23: quantities, byte counts, FC 5's value, the PDU's length; other codes as they
+//! come): a request the slave would refuse for its form is answered here with the
+//! exception the TCP server gives the same ADU (03, or 02 for a range past 65535), and
+//! never reaches the line. The answer awaited has the form the request asks (a read's
+//! byte count, a write's echo): an answer from another slave is ignored (the timeout
+//! runs on), a damaged or short one ends the try, and the request is sent again while
+//! retries are left.
+//!
+//! A slave that does not answer a request (after the retries) gets 0B (gateway target
+//! device failed to respond); after [`GatewaySettings::down_after`] such misses in a row it
+//! is taken to be down: its requests get 0B at once, without the line, but for one try
+//! every [`GatewaySettings::recheck_ms`], so that a dead slave costs the line at most one
+//! response timeout that often and never starves the live ones. Any answer, an exception
+//! too, ends the run of misses. The gateway keeps this health for the [`TRACKED`] slaves
+//! asked most recently.
 
 use super::mbap::HEADER;
 use super::server::{Answered, Handler, Server, Sockets};
+use crate::master::request::Shape;
 use crate::master::Failure;
 use crate::protocol::Exception;
-use crate::slave::pdu::encode_exception;
+use crate::slave::pdu::{encode_exception, read_write_check, value_check, Request};
 
 /// The serial line as the gateway sees it: the RTU master's request buffer, its start,
 /// its outcome. On the AVR each call is a short critical section.
@@ -36,8 +50,9 @@ pub trait RtuSide {
     /// Writes `bytes` from `at` into the request being built (address, PDU), while free.
     fn put(&mut self, at: usize, bytes: &[u8]);
     /// Sends the request of `len` bytes built with [`RtuSide::put`], with `retries` tries
-    /// more: false when it is refused (too long).
-    fn forward(&mut self, len: usize, retries: u8) -> bool;
+    /// more, a response timeout of `response_ms` (0: the line's), an answer of `shape`
+    /// awaited: false when it is refused (too long).
+    fn forward(&mut self, len: usize, retries: u8, response_ms: u16, shape: Shape) -> bool;
     /// The outcome, once there: the answer's PDU bytes after the function code, or why
     /// there is none (a broadcast's outcome is an answer of 0 bytes).
     fn outcome(&mut self) -> Option<Result<usize, Failure>>;
@@ -57,6 +72,15 @@ pub trait RtuSide {
 pub trait Routes {
     /// The slave address (1–247) for `unit`, or `None`.
     fn route(&self, unit: u8) -> Option<u8>;
+
+    /// The response timeout of `unit`'s requests in milliseconds, for a slave slower (or
+    /// faster) than the line's timeout allows ([`crate::master::Timeouts::response_ms`]);
+    /// `None`, the default, keeps the line's. The retries and the broadcasts' turnaround
+    /// stay the line's.
+    #[inline(always)]
+    fn response_ms(&self, _unit: u8) -> Option<u16> {
+        None
+    }
 }
 
 /// Units 1–247 to the slave of the same address, the others unavailable: the usual
@@ -75,6 +99,7 @@ impl Routes for Direct {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct GatewaySettings {
     pub(crate) own_unit: u8,
+    pub(crate) down_after: u8,
     pub(crate) recheck_ms: u16,
 }
 
@@ -85,10 +110,10 @@ impl Default for GatewaySettings {
 }
 
 impl GatewaySettings {
-    /// The defaults: the gateway's own registers at unit 0xFF, a slave that failed to
-    /// answer tried again once a second.
+    /// The defaults: the gateway's own registers at unit 0xFF, a slave taken to be down
+    /// after 3 requests in a row without an answer, and then tried again once a second.
     pub const fn new() -> GatewaySettings {
-        GatewaySettings { own_unit: 0xFF, recheck_ms: 1000 }
+        GatewaySettings { own_unit: 0xFF, down_after: 3, recheck_ms: 1000 }
     }
 
     /// The unit id the gateway answers itself, from its own registers (248–255: the ids a
@@ -98,8 +123,16 @@ impl GatewaySettings {
         GatewaySettings { own_unit: unit, ..self }
     }
 
-    /// How long a slave that failed to answer is taken to be down (its requests answered
-    /// 0B at once) before one request tries it again: 1 to 60 000 ms.
+    /// After how many requests in a row without an answer (each after its retries) a
+    /// slave is taken to be down: 1–255, or 0 for never (every request then goes to the
+    /// line, a dead slave's too). 3 by default: one lost frame, or one request the slave
+    /// does not answer, never takes a slave away from every master.
+    pub const fn down_after(self, misses: u8) -> GatewaySettings {
+        GatewaySettings { down_after: misses, ..self }
+    }
+
+    /// How long a slave that is down has its requests answered 0B at once before one
+    /// request tries it again (one try, no retry): 1 to 60 000 ms.
     pub const fn recheck_ms(self, ms: u16) -> GatewaySettings {
         assert!(ms >= 1 && ms <= 60_000, "recheck_ms is 1-60000");
         GatewaySettings { recheck_ms: ms, ..self }
@@ -126,6 +159,40 @@ pub struct GatewayCounters {
     /// Answers dropped: their connection closed before they came, or did not take them (its
     /// master does not read).
     pub orphaned: u16,
+    /// Requests answered by the gateway with an exception for their form (03, 02), as the
+    /// slave would have answered them: never sent on the line.
+    pub malformed: u16,
+}
+
+/// What the gateway knows of one slave's answers ([`crate::TcpGateway::health`], and at
+/// [`HEALTH_REGISTERS`]): all zero for a slave it has not asked since it started, or not
+/// among the [`TRACKED`] asked most recently.
+#[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SlaveHealth {
+    /// Requests it answered (exceptions included; each wraps after 65535).
+    pub answers: u16,
+    /// Requests it did not answer, after their retries (0B sent).
+    pub misses: u16,
+    /// Misses since its last answer (up to 255).
+    pub misses_in_a_row: u8,
+    /// Taken to be down: [`GatewaySettings::down_after`] misses in a row. Its requests get
+    /// 0B at once, but for one try every [`GatewaySettings::recheck_ms`].
+    pub down: bool,
+}
+
+/// How many slaves the gateway keeps the health of ([`SlaveHealth`]): the ones asked most
+/// recently. A slave asked after that many others loses its record (a dead one is then
+/// tried again as a live one).
+pub const TRACKED: usize = 8;
+
+/// One slave's record: its address (0: none), its misses in a row, answers and misses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+struct Slot {
+    address: u8,
+    in_a_row: u8,
+    answers: u16,
+    misses: u16,
 }
 
 /// A counter's place in [`Gateway::counts`].
@@ -138,9 +205,10 @@ enum Count {
     NoResponse,
     Broadcasts,
     Orphaned,
+    Malformed,
 }
 
-const COUNTS: usize = Count::Orphaned as usize + 1;
+const COUNTS: usize = Count::Malformed as usize + 1;
 
 /// The request on the line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -155,12 +223,12 @@ struct Flight {
     address: u8,
 }
 
-/// The gateway's state: the request on the line, the slaves down, the counters.
+/// The gateway's state: the request on the line, the slaves' health, the counters.
 #[derive(Clone, Debug)]
 pub struct Gateway {
     flight: Option<Flight>,
-    /// Bit `u` of the 256: unit `u` failed to answer and is taken to be down.
-    down: [u8; 32],
+    /// The slaves asked most recently, the last one first.
+    slots: [Slot; TRACKED],
     /// When the next request to a slave that is down goes to the line.
     recheck_at: u32,
     counts: [u16; COUNTS],
@@ -173,34 +241,59 @@ impl Default for Gateway {
 }
 
 impl Gateway {
-    /// A gateway with nothing on the line and every slave taken to be up.
+    /// A gateway with nothing on the line and no slave asked yet.
     pub const fn new() -> Gateway {
-        Gateway { flight: None, down: [0; 32], recheck_at: 0, counts: [0; COUNTS] }
+        const NONE: Slot = Slot { address: 0, in_a_row: 0, answers: 0, misses: 0 };
+        Gateway { flight: None, slots: [NONE; TRACKED], recheck_at: 0, counts: [0; COUNTS] }
     }
 
     /// The counters.
     pub fn counters(&self) -> GatewayCounters {
-        let [forwarded, answers, exceptions, unavailable, no_response, broadcasts, orphaned] = self.counts;
-        GatewayCounters { forwarded, answers, exceptions, unavailable, no_response, broadcasts, orphaned }
+        let [forwarded, answers, exceptions, unavailable, no_response, broadcasts, orphaned, malformed] = self.counts;
+        GatewayCounters { forwarded, answers, exceptions, unavailable, no_response, broadcasts, orphaned, malformed }
     }
 
     fn bump(&mut self, count: Count) {
         crate::link::bump(&mut self.counts, count as u8);
     }
 
-    /// True when the slave at `address` failed to answer its last request.
-    pub fn is_down(&self, address: u8) -> bool {
-        self.down[usize::from(address / 8)] & 1 << (address % 8) != 0
+    /// The record of the slave at `address`, if it has one.
+    fn slot(&self, address: u8) -> Option<&Slot> {
+        self.slots.iter().find(|slot| slot.address == address && address != 0)
     }
 
-    fn set_down(&mut self, address: u8, down: bool) {
-        let byte = &mut self.down[usize::from(address / 8)];
-        let bit = 1 << (address % 8);
-        if down {
-            *byte |= bit;
-        } else {
-            *byte &= !bit;
+    /// What the gateway knows of the slave at `address`.
+    pub fn health(&self, address: u8, settings: &GatewaySettings) -> SlaveHealth {
+        let Some(slot) = self.slot(address) else { return SlaveHealth::default() };
+        SlaveHealth {
+            answers: slot.answers,
+            misses: slot.misses,
+            misses_in_a_row: slot.in_a_row,
+            down: settings.down_after != 0 && slot.in_a_row >= settings.down_after,
         }
+    }
+
+    /// True when the slave at `address` is taken to be down.
+    pub fn is_down(&self, address: u8, settings: &GatewaySettings) -> bool {
+        self.health(address, settings).down
+    }
+
+    /// The slave at `address` is asked: its record first (a new one, in place of the
+    /// record of the slave asked least recently, when it has none).
+    fn asked(&mut self, address: u8) {
+        let mut at = TRACKED - 1;
+        let mut slot = Slot { address, ..Slot::default() };
+        for (i, s) in self.slots.iter().enumerate() {
+            if s.address == address {
+                (at, slot) = (i, *s);
+                break;
+            }
+        }
+        while at > 0 {
+            self.slots[at] = self.slots[at - 1];
+            at -= 1;
+        }
+        self.slots[0] = slot;
     }
 
     /// True while a request is on the line (its answer not yet passed back).
@@ -260,11 +353,20 @@ impl Gateway {
                 }
                 Err(_) => self.bump(Count::NoResponse),
             }
-            let down = matches!(outcome, Err(Failure::Timeout | Failure::BadReply));
-            if down {
-                self.recheck_at = line.now().wrapping_add(u32::from(settings.recheck_ms));
+            // The request's slave was asked last: its record is the first.
+            let slot = &mut self.slots[0];
+            if slot.address == flight.address {
+                if matches!(outcome, Err(Failure::Timeout | Failure::BadReply)) {
+                    slot.misses = slot.misses.wrapping_add(1);
+                    slot.in_a_row = slot.in_a_row.saturating_add(1);
+                    if settings.down_after != 0 && slot.in_a_row == settings.down_after {
+                        self.recheck_at = line.now().wrapping_add(u32::from(settings.recheck_ms));
+                    }
+                } else {
+                    slot.answers = slot.answers.wrapping_add(1);
+                    slot.in_a_row = 0;
+                }
             }
-            self.set_down(flight.address, down);
         }
         line.collect();
         self.flight = None;
@@ -285,18 +387,30 @@ pub struct Gate<'a, L, R> {
     pub settings: &'a GatewaySettings,
     /// Connections waiting for the line as the poll began (a status register).
     pub waiting: u8,
+    /// The first register of the read of its own registers being answered.
+    pub first: u16,
 }
 
 /// The gateway's own registers, at its own unit: input registers (FC 4) that FC 3 reads
-/// too. 0–6 the counters in [`GatewayCounters`]' order, 7 the connections waiting for the
-/// line, 8–23 the slaves down (register 8 + n / 16, bit n % 16 for address n).
-pub const STATUS_REGISTERS: u16 = 24;
+/// too. 0–7 the counters in [`GatewayCounters`]' order, 8 the connections waiting for the
+/// line; the slaves' health from [`HEALTH_REGISTERS`] on.
+pub const STATUS_REGISTERS: u16 = 9;
 
-/// The TCP side's buffer for the gateway: the MBAP header and the longest answer of its
-/// own registers (all 24), or more.
-pub const BUFFER: usize = 64;
+/// Where the slaves' health starts among the gateway's own registers: four registers for
+/// address n from `HEALTH_REGISTERS + 4 × n` (256 + 4 × n): its answers, its misses, its
+/// misses in a row, 1 while it is down ([`SlaveHealth`]). 0–255, so that a read of one
+/// slave's four never spans two ranges.
+pub const HEALTH_REGISTERS: u16 = 256;
 
-const _: () = assert!(BUFFER >= HEADER + 2 + 2 * STATUS_REGISTERS as usize);
+/// The last of the slaves' health registers.
+const HEALTH_END: u16 = HEALTH_REGISTERS + 4 * 256 - 1;
+
+/// The TCP side's buffer for the gateway: the MBAP header and the first bytes of a PDU,
+/// enough for every check of a request's form (FC 23's: 10 bytes); requests, answers and
+/// the gateway's own registers pass through it a buffer at a time.
+pub const BUFFER: usize = 32;
+
+const _: () = assert!(BUFFER >= HEADER + 10);
 
 /// The write function codes a broadcast may carry (Serial Line §2.1: a broadcast is a
 /// write): 5, 6, 15, 16, 22.
@@ -304,44 +418,76 @@ fn broadcastable(function: u8) -> bool {
     matches!(function, 0x05 | 0x06 | 0x0F | 0x10 | 0x16)
 }
 
+/// Checks the request PDU of `len` bytes (its first bytes in `pdu`, 10 at least) with the
+/// slave engine's own checks ([`Request::parse`], FC 22's length, FC 23's
+/// [`read_write_check`]: 03 for a quantity, byte count, FC 5 value or length that does not
+/// fit the function code, then 02 for a range past 65535), and returns the form of its
+/// answer: a read's byte count, a write's echo. A function code the engine does not know
+/// goes as it came.
+fn form(pdu: &[u8], len: usize) -> Result<Shape, Exception> {
+    match pdu.first() {
+        Some(0x16) => value_check(len == 7).map(|()| Shape::Any),
+        Some(0x17) => read_write_check(pdu, len).map(|(_, qty)| Shape::Count((2 * qty) as u8)),
+        _ => match Request::parse(pdu, len) {
+            Ok(request) if request.is_write() => Ok(Shape::Echo),
+            Ok(request) => Ok(Shape::Count(request.data_len)),
+            Err(Exception::IllegalFunction) => Ok(Shape::Any),
+            Err(exception) => Err(exception),
+        },
+    }
+}
+
 impl<L: RtuSide, R: Routes> Gate<'_, L, R> {
-    /// Status register `index` (below [`STATUS_REGISTERS`]).
-    fn status(&self, index: u8) -> u16 {
-        match index {
-            0..=6 => self.gateway.counts[usize::from(index)],
-            7 => u16::from(self.waiting),
-            _ => {
-                let at = usize::from(index - 8) * 2 % 32;
-                u16::from_le_bytes([self.gateway.down[at], self.gateway.down[at + 1]])
+    /// Own register `index`: `None` where there is none.
+    fn status(&self, index: u16) -> Option<u16> {
+        let gateway = &*self.gateway;
+        Some(match index {
+            0..=7 => gateway.counts[usize::from(index)],
+            8 => u16::from(self.waiting),
+            HEALTH_REGISTERS..=HEALTH_END => {
+                let at = index - HEALTH_REGISTERS;
+                let health = gateway.health((at / 4) as u8, self.settings);
+                match at % 4 {
+                    0 => health.answers,
+                    1 => health.misses,
+                    2 => u16::from(health.misses_in_a_row),
+                    _ => u16::from(health.down),
+                }
             }
-        }
+            _ => return None,
+        })
     }
 
     /// Answers a request for the gateway's own unit in `adu`: reads of its registers (FC 3
-    /// or 4), exception 01 for any other function, 03 for a quantity outside 1–125, 02 past
-    /// the last register.
-    fn own(&self, adu: &mut [u8], pdu_len: usize) -> (usize, bool) {
+    /// or 4), exception 01 for any other function, 03 for a quantity outside 1–125, 02
+    /// where a register is missing. The values past the buffer come through
+    /// [`Handler::more`].
+    fn own(&mut self, adu: &mut [u8], pdu_len: usize) -> (usize, bool) {
         let pdu = &mut adu[HEADER..];
-        let [function, first_high, first, count_high, count, ..] = *pdu else { return (0, false) };
+        let [function, first_high, first_low, count_high, count, ..] = *pdu else { return (0, false) };
+        let first = u16::from_be_bytes([first_high, first_low]);
         let exception = if !matches!(function, 0x03 | 0x04) {
             Exception::IllegalFunction
         } else if pdu_len != 5 || count_high != 0 || !(1..=125).contains(&count) {
             Exception::IllegalDataValue
-        } else if first_high != 0 || u16::from(first) + u16::from(count) > STATUS_REGISTERS {
+        } else if self.status(first).is_none() || self.status(first.wrapping_add(u16::from(count) - 1)).is_none() {
+            // Both ends there: so is every register between (the gap between the two
+            // ranges is longer than 125 registers).
             Exception::IllegalDataAddress
         } else {
             pdu[1] = count * 2;
-            for i in 0..count {
-                let at = 2 + 2 * usize::from(i);
-                pdu[at..at + 2].copy_from_slice(&self.status(first + i).to_be_bytes());
-            }
+            self.first = first;
+            let end = (HEADER + 2 + 2 * usize::from(count)).min(adu.len());
+            self.more(HEADER + 2, &mut adu[HEADER + 2..end]);
             return (2 + 2 * usize::from(count), false);
         };
         (encode_exception(pdu, exception), true)
     }
 
     /// Sends the request in `adu` (its first PDU bytes there, the rest in socket `s` from
-    /// `at`) to the slave `address`, with `retries`: true when it went out.
+    /// `at`) to the slave `address`, with `retries`, its response timeout and the form of
+    /// its answer: true when it went out.
+    #[allow(clippy::too_many_arguments)]
     fn forward<S: Sockets>(
         &mut self,
         adu: &mut [u8],
@@ -349,7 +495,8 @@ impl<L: RtuSide, R: Routes> Gate<'_, L, R> {
         chip: &mut S,
         s: u8,
         at: u16,
-        (address, retries): (u8, u8),
+        (address, retries, response_ms): (u8, u8, u16),
+        shape: Shape,
     ) -> bool {
         let kept = pdu_len.min(adu.len() - HEADER);
         // The unit id's place becomes the slave's address: the frame, then, as it goes.
@@ -364,15 +511,25 @@ impl<L: RtuSide, R: Routes> Gate<'_, L, R> {
             self.line.put(1 + done, chunk);
             done += n;
         }
-        self.line.forward(1 + pdu_len, retries)
+        self.line.forward(1 + pdu_len, retries, response_ms, shape)
     }
 }
 
 impl<L: RtuSide, R: Routes> Handler for Gate<'_, L, R> {
     const DEFERS: bool = true;
+    const LONG: bool = true;
 
     fn handle(&mut self, adu: &mut [u8], pdu_len: usize) -> Option<(usize, bool)> {
         Some(self.own(adu, pdu_len))
+    }
+
+    /// The bytes of a reply of its own registers from byte `at` of the ADU on.
+    fn more(&mut self, at: usize, out: &mut [u8]) {
+        for (i, byte) in out.iter_mut().enumerate() {
+            let k = at + i - (HEADER + 2);
+            let [high, low] = self.status(self.first.wrapping_add((k / 2) as u16)).unwrap_or(0).to_be_bytes();
+            *byte = if k % 2 == 0 { high } else { low };
+        }
     }
 
     fn ready(&mut self) -> bool {
@@ -400,44 +557,55 @@ impl<L: RtuSide, R: Routes> Handler for Gate<'_, L, R> {
         }
         let transaction = u16::from_be_bytes([adu[0], adu[1]]);
         let mut flight = Flight { socket: s, transaction, unit, function, address: 0 };
+        let route = if unit == 0 {
+            // A broadcast (§4.4.1.2) is a write; a read has nobody to answer it: 0A.
+            broadcastable(function).then_some(0)
+        } else {
+            self.routes.route(unit)
+        };
+        let Some(address) = route else {
+            self.gateway.bump(Count::Unavailable);
+            return Some((encode_exception(&mut adu[HEADER..], Exception::GatewayPathUnavailable), true));
+        };
+        let shape = match form(&adu[HEADER..], pdu_len) {
+            Ok(shape) => shape,
+            Err(exception) => {
+                // As the slave would answer it; a broadcast, nobody.
+                self.gateway.bump(Count::Malformed);
+                return (unit != 0).then(|| (encode_exception(&mut adu[HEADER..], exception), true));
+            }
+        };
         if unit == 0 {
-            // A broadcast: no answer over TCP either (§4.4.1.2); a read is no broadcast.
-            if broadcastable(function) && self.forward(adu, pdu_len, chip, s, at, (0, 0)) {
+            // No answer over TCP either (§4.4.1.2).
+            if self.forward(adu, pdu_len, chip, s, at, (0, 0, 0), shape) {
                 self.gateway.flight = Some(flight);
                 self.gateway.bump(Count::Forwarded);
                 self.gateway.bump(Count::Broadcasts);
             }
             return None;
         }
-        let exception = match self.routes.route(unit) {
-            None => {
-                self.gateway.bump(Count::Unavailable);
-                Exception::GatewayPathUnavailable
+        let mut retries = self.line.retries();
+        if self.gateway.is_down(address, self.settings) {
+            let now = self.line.now();
+            if (now.wrapping_sub(self.gateway.recheck_at) as i32) < 0 {
+                self.gateway.bump(Count::NoResponse);
+                let exception = Exception::GatewayTargetDeviceFailedToRespond;
+                return Some((encode_exception(&mut adu[HEADER..], exception), true));
             }
-            Some(address) => {
-                let mut retries = self.line.retries();
-                if self.gateway.is_down(address) {
-                    let now = self.line.now();
-                    if (now.wrapping_sub(self.gateway.recheck_at) as i32) < 0 {
-                        self.gateway.bump(Count::NoResponse);
-                        let exception = Exception::GatewayTargetDeviceFailedToRespond;
-                        return Some((encode_exception(&mut adu[HEADER..], exception), true));
-                    }
-                    // Tried once, and the next try of a slave down waits again.
-                    self.gateway.recheck_at = now.wrapping_add(u32::from(self.settings.recheck_ms));
-                    retries = 0;
-                }
-                if self.forward(adu, pdu_len, chip, s, at, (address, retries)) {
-                    flight.address = address;
-                    self.gateway.flight = Some(flight);
-                    self.gateway.bump(Count::Forwarded);
-                    return None;
-                }
-                self.gateway.bump(Count::Unavailable);
-                Exception::GatewayPathUnavailable
-            }
-        };
-        Some((encode_exception(&mut adu[HEADER..], exception), true))
+            // Tried once, and the next try of a slave down waits again.
+            self.gateway.recheck_at = now.wrapping_add(u32::from(self.settings.recheck_ms));
+            retries = 0;
+        }
+        let response_ms = self.routes.response_ms(unit).unwrap_or(0);
+        if self.forward(adu, pdu_len, chip, s, at, (address, retries, response_ms), shape) {
+            self.gateway.asked(address);
+            flight.address = address;
+            self.gateway.flight = Some(flight);
+            self.gateway.bump(Count::Forwarded);
+            return None;
+        }
+        self.gateway.bump(Count::Unavailable);
+        Some((encode_exception(&mut adu[HEADER..], Exception::GatewayPathUnavailable), true))
     }
 }
 

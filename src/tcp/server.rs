@@ -159,6 +159,14 @@ pub trait Handler {
     /// code.
     const DEFERS: bool = false;
 
+    /// True for a handler whose replies may be longer than the server's buffer: the
+    /// server writes the buffer, then asks [`Handler::more`] for the rest.
+    const LONG: bool = false;
+
+    /// The reply's bytes from byte `at` of its ADU on (past the buffer), into `out`.
+    #[inline(always)]
+    fn more(&mut self, _at: usize, _out: &mut [u8]) {}
+
     /// True when a request can be taken now. When not, a whole request waits in the chip
     /// until [`Server::resume`] (a gateway whose serial line is busy).
     #[inline(always)]
@@ -479,7 +487,7 @@ impl<const B: usize> Server<B> {
                 received -= adu;
                 continue;
             }
-            if usize::from(free) < B {
+            if usize::from(free) < if H::LONG { mbap::MAX_ADU } else { B } {
                 // No room for the longest reply: the master is not reading. Its requests
                 // wait; the other sockets go on.
                 left = true;
@@ -504,9 +512,17 @@ impl<const B: usize> Server<B> {
             if exception {
                 self.bump(Count::Exceptions);
             }
-            let len = (HEADER + reply).min(B);
+            let len = if H::LONG { HEADER + reply } else { (HEADER + reply).min(B) };
             mbap::seal(&mut self.buf, len - HEADER);
-            chip.write(s, tx, &mut self.buf[..len]);
+            chip.write(s, tx, &mut self.buf[..len.min(B)]);
+            // A long reply's rest, a buffer at a time.
+            let mut done = B;
+            while H::LONG && done < len {
+                let chunk = &mut self.buf[..(len - done).min(B)];
+                handler.more(done, chunk);
+                chip.write(s, tx.wrapping_add(done as u16), chunk);
+                done += chunk.len();
+            }
             tx = tx.wrapping_add(len as u16);
             free -= len as u16;
             self.idle[usize::from(s) % SOCKETS] = 0;

@@ -1,10 +1,7 @@
 //! FC 22 (0x16, Mask Write Register) and FC 23 (0x17, Read/Write Multiple Registers),
 //! Modbus Application Protocol v1.1b3 §6.16 and §6.17 (feature `extra-fc`).
 
-use super::{
-    range_check, read_response, value_check, word, written_values_check, Exception, FunctionCode, MAX_READ_REGISTERS,
-    MAX_READ_WRITE_REGISTERS,
-};
+use super::{read_response, read_write_check, value_check, word, Exception, FunctionCode};
 use crate::protocol::reference::Table;
 use crate::slave::model::{Access, DataModel};
 
@@ -37,11 +34,7 @@ pub fn respond<M: DataModel + ?Sized>(
         return Ok(7);
     }
     let (write_start, write_qty) = (word(request, 5), word(request, 7));
-    // Every 03 comes before any 02.
-    super::quantity_check(b, MAX_READ_REGISTERS)?;
-    written_values_check(request, len, 10, Table::HoldingRegisters, write_qty, MAX_READ_WRITE_REGISTERS)?;
-    range_check(start, b)?;
-    range_check(write_start, write_qty)?;
+    read_write_check(request, len)?;
     if !model.has_range(Table::HoldingRegisters, start, b) {
         return Err(Exception::IllegalDataAddress);
     }

@@ -21,6 +21,21 @@ enum Slave {
     Bank(Regs),
     /// Answers nothing.
     Dead,
+    /// Answers from its bank this many milliseconds after the request.
+    Slow(u32, Regs),
+}
+
+/// What the line does to the next answer (one fault per answer, in order).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Fault {
+    /// Lost.
+    Dropped,
+    /// Sent from the next address.
+    WrongSlave,
+    /// A byte damaged: the CRC fails.
+    Damaged,
+    /// The last data byte missing (with a right CRC).
+    Short,
 }
 
 /// The serial line: the master's engine, the slaves, the clock, every frame sent.
@@ -33,6 +48,8 @@ struct Played {
     /// The line is held: a request stays under way until `release`.
     held: Option<Action>,
     hold: bool,
+    /// Faults for the next answers, the first one next.
+    faults: Vec<Option<Fault>>,
 }
 
 /// A bank whose holding registers 40001-40010 hold `base + i`.
@@ -51,7 +68,15 @@ impl Played {
         engine.set_timeouts(Timeouts { response_ms: 100, turnaround_ms: 20, retries: 1 });
         // The power-up silence.
         assert_eq!(engine.on_end_deadline(), Action::None);
-        Played { engine, slaves: slaves.into_iter().collect(), now: 1000, sent: Vec::new(), held: None, hold: false }
+        Played {
+            engine,
+            slaves: slaves.into_iter().collect(),
+            now: 1000,
+            sent: Vec::new(),
+            held: None,
+            hold: false,
+            faults: Vec::new(),
+        }
     }
 
     /// Plays the line from `action` until the request is done: each try sent, answered
@@ -62,35 +87,62 @@ impl Played {
             self.now += 1 + frame.len() as u32 / 2;
             self.sent.push((self.now, frame.clone()));
             self.engine.on_sent(self.now);
-            let answer = match self.slaves.get_mut(&frame[0]) {
-                Some(Slave::Bank(bank)) if frame[0] != 0 => {
-                    let mut adu = vec![0u8; 7];
-                    adu.extend_from_slice(&frame[1..frame.len() - 2]);
-                    adu.resize(7 + 256, 0);
-                    let pdu_len = frame.len() - 3;
-                    let (n, _) = crate::tcp::respond(&mut adu, pdu_len, bank).unwrap();
-                    let mut reply = vec![frame[0]];
-                    reply.extend_from_slice(&adu[7..7 + n]);
-                    reply.extend_from_slice(&Crc16::new().update_slice(&reply).to_wire());
-                    Some(reply)
-                }
-                Some(Slave::Bank(bank)) => {
-                    // A broadcast: carried out, unanswered.
-                    let mut adu = vec![0u8; 7];
-                    adu.extend_from_slice(&frame[1..frame.len() - 2]);
-                    adu.resize(7 + 256, 0);
-                    let _ = crate::tcp::respond(&mut adu, frame.len() - 3, bank);
-                    None
-                }
-                _ => None,
+            let (delay, bank) = match self.slaves.get_mut(&frame[0]) {
+                Some(Slave::Bank(bank)) => (0, Some(bank)),
+                Some(Slave::Slow(delay, bank)) => (*delay, Some(bank)),
+                _ => (0, None),
             };
+            let mut answer = bank.and_then(|bank| {
+                let mut adu = vec![0u8; 7];
+                adu.extend_from_slice(&frame[1..frame.len() - 2]);
+                adu.resize(7 + 256, 0);
+                let pdu_len = frame.len() - 3;
+                // A broadcast is carried out, unanswered.
+                let (n, _) = crate::tcp::respond(&mut adu, pdu_len, bank)?;
+                let mut reply = vec![frame[0]];
+                reply.extend_from_slice(&adu[7..7 + n]);
+                (frame[0] != 0).then_some(reply)
+            });
+            let fault = if answer.is_none() || self.faults.is_empty() { None } else { self.faults.remove(0) };
+            match fault {
+                Some(Fault::Dropped) => answer = None,
+                Some(Fault::WrongSlave) => answer.as_mut().unwrap()[0] += 1,
+                Some(Fault::Short) => {
+                    answer.as_mut().unwrap().pop();
+                }
+                _ => {}
+            }
+            let answer = answer.map(|mut reply| {
+                let crc = Crc16::new().update_slice(&reply).to_wire();
+                reply.extend_from_slice(&crc);
+                if fault == Some(Fault::Damaged) {
+                    reply[1] ^= 0x40;
+                }
+                reply
+            });
+            // A slow answer comes once the timeout has had its chance.
+            if delay > 0 {
+                self.now += delay;
+                action = self.engine.on_tick(self.now);
+                if action == Action::Send || self.engine.outcome().is_some() {
+                    // Too late: the master has given this try up.
+                    continue;
+                }
+            }
             match answer {
                 Some(reply) => {
                     self.now += 1 + reply.len() as u32 / 2;
+                    let wrong = reply[0] != frame[0];
                     for b in reply {
                         self.engine.on_byte(b);
                     }
                     action = self.engine.on_end_deadline();
+                    if wrong && action == Action::None && self.engine.outcome().is_none() {
+                        // Ignored: the timeout runs on.
+                        let wait = self.engine.timeouts().response_ms;
+                        self.now += u32::from(wait) + 2;
+                        action = self.engine.on_tick(self.now);
+                    }
                 }
                 None => {
                     assert_eq!(self.engine.on_end_deadline(), Action::None);
@@ -120,8 +172,8 @@ impl RtuSide for Played {
     fn put(&mut self, at: usize, bytes: &[u8]) {
         self.engine.request_mut().expect("put while busy")[at..at + bytes.len()].copy_from_slice(bytes);
     }
-    fn forward(&mut self, len: usize, retries: u8) -> bool {
-        match self.engine.forward(len, retries) {
+    fn forward(&mut self, len: usize, retries: u8, response_ms: u16, shape: Shape) -> bool {
+        match self.engine.forward(len, retries, response_ms, shape) {
             Ok(action) if self.hold => {
                 self.held = Some(action);
                 true
@@ -151,12 +203,17 @@ impl RtuSide for Played {
     }
 }
 
-/// Routes 1-247 as they are, but unit 9, which is routed nowhere.
+/// Routes 1-247 as they are, but unit 9, which is routed nowhere; unit 5's slave has a
+/// response timeout of 500 ms (the line's is 100 ms).
 struct NotNine;
 
 impl Routes for NotNine {
     fn route(&self, unit: u8) -> Option<u8> {
         (unit != 9).then(|| Direct.route(unit)).flatten()
+    }
+
+    fn response_ms(&self, unit: u8) -> Option<u16> {
+        (unit == 5).then_some(500)
     }
 }
 
@@ -200,6 +257,7 @@ impl Rig {
             routes: &NotNine,
             settings: &self.settings,
             waiting: self.server.waiting(),
+            first: 0,
         };
         self.server.poll(&mut self.chip, &NET, &mut gate, false);
     }
@@ -308,18 +366,19 @@ fn unit_ids_own_broadcast_routed_and_not() {
     }
     assert!(rig.line.sent.is_empty());
     assert_eq!(rig.gateway.counters().unavailable, 3);
-    // Unit 0: a write goes out as a broadcast, unanswered; a read goes nowhere.
+    // Unit 0: a write goes out as a broadcast, unanswered; a read, which no slave may
+    // answer, gets 0A at once.
     rig.chip.socks[1].sent.clear();
-    let mut write = vec![0, 5, 0, 0, 0, 6, 0, 6, 0, 1, 0x12, 0x34];
+    let write = vec![0, 5, 0, 0, 0, 6, 0, 6, 0, 1, 0x12, 0x34];
     rig.chip.deliver(1, &write);
     rig.chip.deliver(1, &read(6, 0, 0, 1));
-    write[1] = 7;
     rig.chip.deliver(1, &read(8, 1, 0, 1));
     rig.settle();
     let frames: Vec<Vec<u8>> = rig.line.sent.iter().map(|(_, f)| f[..f.len() - 2].to_vec()).collect();
     assert_eq!(frames, [vec![0, 6, 0, 1, 0x12, 0x34], vec![1, 3, 0, 0, 0, 1]]);
-    assert_eq!(rig.chip.socks[1].sent, read_reply(8, 1, 0x100, 0, 1), "only the unit 1 read is answered");
+    assert_eq!(rig.chip.socks[1].sent, [exception(6, 0, 3, 0x0A), read_reply(8, 1, 0x100, 0, 1)].concat());
     assert_eq!(rig.gateway.counters().broadcasts, 1);
+    assert_eq!(rig.gateway.counters().unavailable, 4);
 }
 
 #[test]
@@ -334,37 +393,153 @@ fn a_slaves_exception_is_passed_back_as_it_came() {
     assert_eq!((counts.answers, counts.exceptions, counts.no_response), (1, 1, 0));
 }
 
+/// Socket 0's answers since the last call, cleared.
+fn answers(rig: &mut Rig) -> Vec<u8> {
+    core::mem::take(&mut rig.chip.socks[0].sent)
+}
+
 #[test]
-fn a_dead_slave_gets_0b_after_its_retries_then_at_once_until_rechecked() {
+fn a_dead_slave_is_down_after_three_misses_then_gets_0b_at_once_until_rechecked() {
     let mut rig = Rig::new([(1, Slave::Bank(regs(0x100))), (3, Slave::Dead)]);
     rig.chip.connect(0, [10, 0, 0, 7]);
-    rig.chip.deliver(0, &read(1, 3, 0, 1));
-    rig.settle();
-    assert_eq!(rig.chip.socks[0].sent, exception(1, 3, 3, 0x0B));
-    assert_eq!(rig.line.sent.len(), 2, "the request and its retry");
-    assert!(rig.gateway.is_down(3));
+    // Three misses, each after its try and retry: 0B, and down only after the third.
+    for t in 1..=3 {
+        rig.chip.deliver(0, &read(t, 3, 0, 1));
+        rig.settle();
+        assert_eq!(answers(&mut rig), exception(t, 3, 3, 0x0B));
+        assert_eq!(rig.line.sent.len(), 2 * usize::from(t), "the request and its retry");
+        assert_eq!(rig.gateway.is_down(3, &rig.settings), t == 3, "after {t} misses");
+    }
+    let health = rig.gateway.health(3, &rig.settings);
+    assert_eq!(health, SlaveHealth { answers: 0, misses: 3, misses_in_a_row: 3, down: true });
     // Down: answered at once, the line untouched, the live slave served.
-    rig.chip.socks[0].sent.clear();
-    rig.chip.deliver(0, &[read(2, 3, 0, 1), read(3, 1, 0, 1)].concat());
+    rig.chip.deliver(0, &[read(4, 3, 0, 1), read(5, 1, 0, 1)].concat());
     rig.settle();
-    assert_eq!(rig.chip.socks[0].sent, [exception(2, 3, 3, 0x0B), read_reply(3, 1, 0x100, 0, 1)].concat());
-    assert_eq!(rig.line.sent.len(), 3);
+    assert_eq!(answers(&mut rig), [exception(4, 3, 3, 0x0B), read_reply(5, 1, 0x100, 0, 1)].concat());
+    assert_eq!(rig.line.sent.len(), 7);
     // Once the recheck time has come: one try, no retry.
     rig.line.now += 1000;
-    rig.chip.socks[0].sent.clear();
-    rig.chip.deliver(0, &read(4, 3, 0, 1));
+    rig.chip.deliver(0, &read(6, 3, 0, 1));
     rig.settle();
-    assert_eq!(rig.chip.socks[0].sent, exception(4, 3, 3, 0x0B));
-    assert_eq!(rig.line.sent.len(), 4);
-    // It comes back: answered, up again.
+    assert_eq!(answers(&mut rig), exception(6, 3, 3, 0x0B));
+    assert_eq!(rig.line.sent.len(), 8);
+    // It comes back: answered at the next recheck, up again, its run of misses ended.
     rig.line.slaves.insert(3, Slave::Bank(regs(0x300)));
     rig.line.now += 1000;
-    rig.chip.socks[0].sent.clear();
-    rig.chip.deliver(0, &[read(5, 3, 0, 1), read(6, 3, 1, 1)].concat());
+    rig.chip.deliver(0, &[read(7, 3, 0, 1), read(8, 3, 1, 1)].concat());
     rig.settle();
-    assert_eq!(rig.chip.socks[0].sent, [read_reply(5, 3, 0x300, 0, 1), read_reply(6, 3, 0x300, 1, 1)].concat());
-    assert!(!rig.gateway.is_down(3));
-    assert_eq!(rig.gateway.counters().no_response, 3);
+    assert_eq!(answers(&mut rig), [read_reply(7, 3, 0x300, 0, 1), read_reply(8, 3, 0x300, 1, 1)].concat());
+    assert_eq!(
+        rig.gateway.health(3, &rig.settings),
+        SlaveHealth { answers: 2, misses: 4, misses_in_a_row: 0, down: false }
+    );
+    assert_eq!(rig.gateway.counters().no_response, 5);
+}
+
+#[test]
+fn any_answer_an_exception_too_ends_a_run_of_misses() {
+    let mut rig = Rig::new([(1, Slave::Bank(regs(0x100)))]);
+    rig.chip.connect(0, [10, 0, 0, 7]);
+    // Two misses (each try and retry lost), an exception (40011 missing), two misses:
+    // never three in a row.
+    rig.line.faults = [Some(Fault::Dropped); 4].to_vec();
+    rig.chip.deliver(0, &[read(1, 1, 0, 1), read(2, 1, 0, 1), read(3, 1, 10, 1)].concat());
+    rig.settle();
+    rig.line.faults = [Some(Fault::Dropped); 4].to_vec();
+    rig.chip.deliver(0, &[read(4, 1, 0, 1), read(5, 1, 0, 1), read(6, 1, 0, 1)].concat());
+    rig.settle();
+    let expected = [
+        exception(1, 1, 3, 0x0B),
+        exception(2, 1, 3, 0x0B),
+        exception(3, 1, 3, 0x02),
+        exception(4, 1, 3, 0x0B),
+        exception(5, 1, 3, 0x0B),
+        read_reply(6, 1, 0x100, 0, 1),
+    ];
+    assert_eq!(answers(&mut rig), expected.concat());
+    assert_eq!(
+        rig.gateway.health(1, &rig.settings),
+        SlaveHealth { answers: 2, misses: 4, misses_in_a_row: 0, down: false }
+    );
+}
+
+#[test]
+fn down_after_0_never_takes_a_slave_down() {
+    let mut rig = Rig::new([(3, Slave::Dead)]);
+    rig.settings = rig.settings.down_after(0);
+    rig.chip.connect(0, [10, 0, 0, 7]);
+    for t in 1..=5 {
+        rig.chip.deliver(0, &read(t, 3, 0, 1));
+        rig.settle();
+    }
+    assert_eq!(rig.line.sent.len(), 10, "every request tried and retried");
+    assert_eq!(
+        rig.gateway.health(3, &rig.settings),
+        SlaveHealth { answers: 0, misses: 5, misses_in_a_row: 5, down: false }
+    );
+    // And 1: down at the first miss.
+    rig.settings = rig.settings.down_after(1);
+    assert!(rig.gateway.is_down(3, &rig.settings));
+}
+
+#[test]
+fn a_slave_that_drops_one_frame_in_twenty_is_never_down_and_every_request_is_answered() {
+    let mut rig = Rig::new([(1, Slave::Bank(regs(0x100)))]);
+    rig.settings = rig.settings.down_after(1);
+    rig.chip.connect(0, [10, 0, 0, 7]);
+    let mut seed = 0x2545_F491_4F6C_DD1Du64;
+    for t in 0..400u16 {
+        // Each answer lost, damaged, cut short or from the wrong address, one in twenty.
+        let fault = match next(&mut seed) % 80 {
+            0 => Some(Fault::Dropped),
+            1 => Some(Fault::Damaged),
+            2 => Some(Fault::Short),
+            3 => Some(Fault::WrongSlave),
+            _ => None,
+        };
+        rig.line.faults.push(fault);
+        rig.line.faults.push(None);
+        rig.chip.deliver(0, &read(t, 1, t % 10, 1));
+        rig.settle();
+        rig.line.faults.clear();
+        assert_eq!(answers(&mut rig), read_reply(t, 1, 0x100, t % 10, 1), "request {t} ({fault:?})");
+        assert!(!rig.gateway.is_down(1, &rig.settings), "down at request {t}");
+    }
+    let health = rig.gateway.health(1, &rig.settings);
+    assert_eq!((health.answers, health.misses), (400, 0));
+    assert!(rig.line.sent.len() > 410, "no fault was played: {} frames", rig.line.sent.len());
+}
+
+#[test]
+fn a_wrong_slaves_damaged_or_short_answer_is_retried_within_the_transaction() {
+    for fault in [Fault::WrongSlave, Fault::Damaged, Fault::Short] {
+        let mut rig = Rig::new([(1, Slave::Bank(regs(0x100)))]);
+        rig.chip.connect(0, [10, 0, 0, 7]);
+        rig.line.faults = vec![Some(fault)];
+        rig.chip.deliver(0, &read(1, 1, 2, 3));
+        rig.settle();
+        assert_eq!(answers(&mut rig), read_reply(1, 1, 0x100, 2, 3), "{fault:?}");
+        assert_eq!(rig.line.sent.len(), 2, "{fault:?}: the request and its retry");
+        assert_eq!(rig.gateway.health(1, &rig.settings).misses, 0, "{fault:?}");
+        // Without a retry left: 0B, a miss.
+        rig.line.engine.set_timeouts(Timeouts { response_ms: 100, turnaround_ms: 20, retries: 0 });
+        rig.line.faults = vec![Some(fault)];
+        rig.chip.deliver(0, &read(2, 1, 2, 3));
+        rig.settle();
+        assert_eq!(answers(&mut rig), exception(2, 1, 3, 0x0B), "{fault:?}");
+        assert_eq!(rig.gateway.health(1, &rig.settings).misses, 1, "{fault:?}");
+    }
+}
+
+#[test]
+fn a_route_with_its_own_response_timeout_waits_for_its_slow_slave() {
+    // Slaves 4 and 5 answer after 300 ms; the line's timeout is 100 ms, unit 5's 500 ms.
+    let mut rig = Rig::new([(4, Slave::Slow(300, regs(0x400))), (5, Slave::Slow(300, regs(0x500)))]);
+    rig.chip.connect(0, [10, 0, 0, 7]);
+    rig.chip.deliver(0, &[read(1, 5, 0, 2), read(2, 4, 0, 2)].concat());
+    rig.settle();
+    assert_eq!(answers(&mut rig), [read_reply(1, 5, 0x500, 0, 2), exception(2, 4, 3, 0x0B)].concat());
+    assert_eq!(rig.line.sent.len(), 3, "unit 5 once, unit 4 and its retry");
 }
 
 #[test]
@@ -424,7 +599,7 @@ fn expected(transaction: u16, unit: u8, start: u16, qty: u16) -> Vec<u8> {
         1 => read_reply(transaction, unit, 0x100, start, qty),
         2 => read_reply(transaction, unit, 0x200, start, qty),
         3 => exception(transaction, unit, 3, 0x0B),
-        // The gateway's own registers end at 24.
+        // The gateway's own registers end at 9.
         0xFF => exception(transaction, unit, 3, 0x02),
         _ => exception(transaction, unit, 3, 0x0A),
     }
@@ -452,7 +627,7 @@ fn every_request_of_every_connection_gets_exactly_its_one_answer() {
                     stream.extend([(transaction >> 8) as u8, transaction as u8, 0, 0, 0, 6, 0, 6, 0, 0, 0, 1]);
                     continue;
                 }
-                let start = (next(&mut seed) % 5) as u16 + if unit == 0xFF { 24 } else { 0 };
+                let start = (next(&mut seed) % 5) as u16 + if unit == 0xFF { 9 } else { 0 };
                 let qty = 1 + (next(&mut seed) % 5) as u16;
                 stream.extend(read(transaction, unit, start, qty));
                 answer.extend(expected(transaction, unit, start, qty));
@@ -484,30 +659,150 @@ fn every_request_of_every_connection_gets_exactly_its_one_answer() {
 #[test]
 fn the_gateways_own_registers_count_what_it_did() {
     let mut rig = Rig::new([(1, Slave::Bank(regs(0x100))), (3, Slave::Dead), (17, Slave::Dead)]);
+    rig.settings = rig.settings.down_after(1);
     rig.chip.connect(0, [10, 0, 0, 7]);
-    let stream = [read(1, 1, 0, 1), read(2, 1, 10, 1), read(3, 9, 0, 1), read(4, 3, 0, 1), read(5, 17, 0, 1)].concat();
+    let mut padded = read(6, 1, 0, 1);
+    padded.extend([0xAA, 0xBB]);
+    padded[5] += 2;
+    let stream =
+        [read(1, 1, 0, 1), read(2, 1, 10, 1), read(3, 9, 0, 1), read(4, 3, 0, 1), read(5, 17, 0, 1), padded].concat();
     rig.chip.deliver(0, &stream);
     rig.settle();
     rig.chip.socks[0].sent.clear();
-    let mut status = read(6, 0xFF, 0, 10);
+    let mut status = read(7, 0xFF, 0, 9);
     status[7] = 4;
     rig.chip.deliver(0, &status);
     rig.settle();
-    // forwarded 4, answers 2, exceptions 1, 0A 1, 0B 2, broadcasts 0, orphaned 0, waiting
-    // 0, slaves 3 and 17 down.
-    let values = [4u16, 2, 1, 1, 2, 0, 0, 0, 1 << 3, 1 << 1];
-    let mut expected = vec![0, 6, 0, 0, 0, 23, 0xFF, 4, 20];
+    // forwarded 4, answers 2, exceptions 1, 0A 1, 0B 2, broadcasts 0, orphaned 0,
+    // malformed 1, waiting 0.
+    let values = [4u16, 2, 1, 1, 2, 0, 0, 1, 0];
+    let mut expected = vec![0, 7, 0, 0, 0, 21, 0xFF, 4, 18];
     expected.extend(values.iter().flat_map(|v| v.to_be_bytes()));
-    assert_eq!(rig.chip.socks[0].sent, expected);
-    // Past the last register: 02; a quantity of 0: 03; a write: 01.
-    rig.chip.socks[0].sent.clear();
-    rig.chip
-        .deliver(0, &[read(7, 0xFF, 20, 5), read(8, 0xFF, 0, 0), vec![0, 9, 0, 0, 0, 6, 0xFF, 6, 0, 0, 0, 1]].concat());
+    assert_eq!(answers(&mut rig), expected);
+    // Slave 1's and 3's health: answers, misses, misses in a row, down.
+    rig.chip.deliver(0, &[read(8, 0xFF, 256 + 4, 4), read(9, 0xFF, 256 + 12, 4)].concat());
     rig.settle();
-    assert_eq!(
-        rig.chip.socks[0].sent,
-        [exception(7, 0xFF, 3, 2), exception(8, 0xFF, 3, 3), exception(9, 0xFF, 6, 1)].concat()
+    let health = |t: u16, values: [u16; 4]| {
+        let mut adu = vec![0, t as u8, 0, 0, 0, 11, 0xFF, 3, 8];
+        adu.extend(values.iter().flat_map(|v| v.to_be_bytes()));
+        adu
+    };
+    assert_eq!(answers(&mut rig), [health(8, [2, 0, 0, 0]), health(9, [0, 1, 1, 1])].concat());
+    // Past the last register, or between the two ranges: 02; a quantity of 0: 03; a
+    // write: 01.
+    rig.chip.deliver(
+        0,
+        &[
+            read(10, 0xFF, 5, 5),
+            read(11, 0xFF, 200, 60),
+            read(12, 0xFF, 1270, 11),
+            read(13, 0xFF, 0, 0),
+            vec![0, 14, 0, 0, 0, 6, 0xFF, 6, 0, 0, 0, 1],
+        ]
+        .concat(),
     );
+    rig.settle();
+    let expected =
+        [exception(10, 0xFF, 3, 2), exception(11, 0xFF, 3, 2), exception(12, 0xFF, 3, 2), exception(13, 0xFF, 3, 3)];
+    assert_eq!(answers(&mut rig), [expected.concat(), exception(14, 0xFF, 6, 1)].concat());
+}
+
+/// An ADU for `unit` with the PDU `pdu`, its length field from it.
+fn adu(transaction: u16, unit: u8, pdu: &[u8]) -> Vec<u8> {
+    let mut adu = vec![(transaction >> 8) as u8, transaction as u8, 0, 0, 0, pdu.len() as u8 + 1, unit];
+    adu.extend_from_slice(pdu);
+    adu
+}
+
+/// Requests whose form no slave accepts, each with what the spec answers.
+const MALFORMED: [(&str, &[u8], u8); 13] = [
+    ("FC 3 padded", &[3, 0, 0, 0, 4, 0xAA, 0xBB], 3),
+    ("FC 6 a byte too long", &[6, 0, 1, 0, 2, 0], 3),
+    ("FC 3 of 126", &[3, 0, 0, 0, 126], 3),
+    ("FC 4 of 0", &[4, 0, 0, 0, 0], 3),
+    ("FC 1 of 2001", &[1, 0, 0, 0x07, 0xD1], 3),
+    ("FC 5 value 0x1234", &[5, 0, 1, 0x12, 0x34], 3),
+    ("FC 15 of 10 with a byte count of 1", &[15, 0, 0, 0, 10, 1, 0xFF], 3),
+    ("FC 16 of 2 with a byte count of 3", &[16, 0, 0, 0, 2, 3, 1, 2, 3], 3),
+    ("FC 16 of 2 with 6 bytes", &[16, 0, 0, 0, 2, 4, 1, 2, 3, 4, 5, 6], 3),
+    ("FC 16 of 124", &[16, 0, 0, 0, 124, 248], 3),
+    ("FC 3 past 65535", &[3, 0xFF, 0xFF, 0, 2], 2),
+    ("FC 22 a byte too long", &[0x16, 0, 1, 0xFF, 0, 0, 1, 0], 3),
+    ("FC 23 writing 2 with a byte count of 2", &[0x17, 0, 0, 0, 1, 0, 0, 0, 2, 2, 0, 1], 3),
+];
+
+#[test]
+fn a_malformed_request_is_answered_as_the_server_answers_it_and_never_reaches_the_line() {
+    let mut rig = Rig::new([(1, Slave::Bank(regs(0x100))), (0, Slave::Bank(regs(0x100)))]);
+    rig.chip.connect(0, [10, 0, 0, 7]);
+    for (t, (what, pdu, code)) in MALFORMED.iter().enumerate() {
+        rig.chip.deliver(0, &adu(t as u16, 1, pdu));
+        rig.settle();
+        let answer = answers(&mut rig);
+        assert_eq!(answer, exception(t as u16, 1, pdu[0], *code), "{what}");
+        // The TCP server's answer to the same ADU (FC 22 and 23 with feature extra-fc,
+        // 01 without).
+        if crate::slave::pdu::extra::ENABLED || pdu[0] < 0x16 {
+            let mut server = adu(t as u16, 1, pdu);
+            server.resize(260, 0);
+            let (n, _) = crate::tcp::respond(&mut server, pdu.len(), &mut regs(0)).unwrap();
+            crate::tcp::mbap::seal(&mut server, n);
+            assert_eq!(answer, server[..7 + n], "{what}: not the server's answer");
+        }
+        // As a broadcast: nothing sent, nothing answered (a read: 0A, as any read to 0).
+        rig.chip.deliver(0, &adu(t as u16, 0, pdu));
+        rig.settle();
+        let expected = if broadcastable(pdu[0]) { vec![] } else { exception(t as u16, 0, pdu[0], 0x0A) };
+        assert_eq!(answers(&mut rig), expected, "{what} as a broadcast");
+    }
+    assert!(rig.line.sent.is_empty(), "on the line: {:?}", rig.line.sent);
+    let writes = MALFORMED.iter().filter(|(_, pdu, _)| broadcastable(pdu[0])).count();
+    assert_eq!(rig.gateway.counters().malformed, (MALFORMED.len() + writes) as u16);
+    assert_eq!(rig.gateway.health(1, &rig.settings), SlaveHealth::default(), "counted against the slave");
+    // The same requests well formed go out.
+    rig.chip.deliver(0, &[adu(20, 1, &[3, 0, 0, 0, 4]), adu(21, 1, &[16, 0, 0, 0, 2, 4, 1, 2, 3, 4])].concat());
+    rig.settle();
+    assert_eq!(rig.line.sent.len(), 2);
+}
+
+#[test]
+fn a_read_of_125_own_registers_comes_whole_through_the_small_buffer() {
+    let mut rig = Rig::new([(1, Slave::Bank(regs(0x100))), (2, Slave::Dead)]);
+    rig.chip.connect(0, [10, 0, 0, 7]);
+    for t in 0..7 {
+        rig.chip.deliver(0, &read(t, 1 + (t % 2) as u8, 0, 1));
+        rig.settle();
+    }
+    answers(&mut rig);
+    // Registers 256-380: the health of slaves 0 to 31 (1: 4 answers, 2: 3 misses, down).
+    rig.chip.deliver(0, &read(9, 0xFF, 256, 125));
+    rig.settle();
+    let mut values = [0u16; 125];
+    values[4..8].copy_from_slice(&[4, 0, 0, 0]);
+    values[8..12].copy_from_slice(&[0, 3, 3, 1]);
+    let mut expected = vec![0, 9, 0, 0, 0, 253, 0xFF, 3, 250];
+    expected.extend(values.iter().flat_map(|v| v.to_be_bytes()));
+    assert_eq!(answers(&mut rig), expected);
+}
+
+#[test]
+fn the_slaves_asked_most_recently_keep_their_health() {
+    // Unit 9 is routed nowhere: slaves 1-8 and 10.
+    let addresses: Vec<u8> = (1..=TRACKED as u8).chain([10]).collect();
+    let mut rig = Rig::new(addresses.iter().map(|&a| (a, Slave::Bank(regs(0x100)))));
+    rig.chip.connect(0, [10, 0, 0, 7]);
+    // Slaves 1 to 8, 1 again, then 10: slave 2, asked least recently, loses its record.
+    let units = (1..=TRACKED as u8).chain([1, 10]);
+    for (t, unit) in units.enumerate() {
+        rig.chip.deliver(0, &read(t as u16, unit, 0, 1));
+        rig.settle();
+    }
+    assert_eq!(rig.line.sent.len(), TRACKED + 2);
+    assert_eq!(rig.gateway.health(1, &rig.settings).answers, 2);
+    assert_eq!(rig.gateway.health(2, &rig.settings), SlaveHealth::default(), "its record was the oldest");
+    for a in (3..=TRACKED as u8).chain([10]) {
+        assert_eq!(rig.gateway.health(a, &rig.settings).answers, 1, "slave {a}");
+    }
 }
 
 #[test]
