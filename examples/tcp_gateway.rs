@@ -3,9 +3,11 @@
  * RS-485 line behind. Every TCP master's request for units 1-247 goes to the slave of that
  * address on the line and its answer back to that master, with its transaction id; the
  * requests of all connections wait their turn for the line in the chip (none is dropped),
- * the connections take turns. Unit 0 is a broadcast (writes; no answer), a slave that does
- * not answer gets exception 0B (and is then answered 0B at once, tried again each second),
- * 248-254 get 0A, and the gateway's own registers answer at unit 255 (0xFF).
+ * the connections take turns. Unit 0 is a broadcast (writes; no answer; a read gets 0A),
+ * a request malformed for its function code gets the exception the slave would give (03,
+ * 02) without reaching the line, a slave that does not answer gets exception 0B (and after
+ * 3 such requests in a row is taken to be down: answered 0B at once, tried again each
+ * second), 248-254 get 0A, and the gateway's own registers answer at unit 255 (0xFF).
  *
  * Wiring: the shield on the Uno (chip select pin 10, SPI on pins 11-13 through the ICSP
  * header, so pin 13 cannot be the transceiver's driver enable); pins 0 (RX) and 1 (TX) to
@@ -19,12 +21,13 @@
  * | 0                    | requests sent on the line                              |
  * | 1                    | answers passed back (the slaves' exceptions included)  |
  * | 2                    | of them, exceptions                                    |
- * | 3                    | 0A sent (unit not routed)                              |
+ * | 3                    | 0A sent (unit not routed, a read to unit 0)            |
  * | 4                    | 0B sent (no answer, or the slave down)                 |
  * | 5                    | broadcasts                                             |
  * | 6                    | answers whose connection had closed                    |
- * | 7                    | connections waiting for the line                       |
- * | 8-23                 | slaves down: register 8 + n / 16, bit n % 16           |
+ * | 7                    | malformed requests answered by the gateway             |
+ * | 8                    | connections waiting for the line                       |
+ * | 256 + 4n ... + 3     | slave n: answers, misses, misses in a row, down (1/0)  |
  *
  * The main loop is the application's: here it does nothing.
  */

@@ -315,7 +315,7 @@ impl<const N: usize> Engine<N> {
     /// otherwise; [`Error::TooLong`] for a frame outside 2 to `N` − 2 bytes,
     /// [`Error::Busy`] as there.
     #[cfg(feature = "tcp")]
-    pub(crate) fn forward(
+    pub fn forward(
         &mut self,
         len: usize,
         retries: u8,

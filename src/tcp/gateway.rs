@@ -70,7 +70,8 @@ pub trait RtuSide {
 /// exception 0A (gateway path unavailable). The gateway's own unit and 0 (broadcast) never
 /// come here.
 pub trait Routes {
-    /// The slave address (1–247) for `unit`, or `None`.
+    /// The slave address (1–247) for `unit` (1–254, never the gateway's own), or `None`;
+    /// any other address is taken as `None`.
     fn route(&self, unit: u8) -> Option<u8>;
 
     /// The response timeout of `unit`'s requests in milliseconds, for a slave slower (or
@@ -561,7 +562,8 @@ impl<L: RtuSide, R: Routes> Handler for Gate<'_, L, R> {
             // A broadcast (§4.4.1.2) is a write; a read has nobody to answer it: 0A.
             broadcastable(function).then_some(0)
         } else {
-            self.routes.route(unit)
+            // A route elsewhere than 1-247 is none.
+            self.routes.route(unit).filter(|address| address.wrapping_sub(1) < 247)
         };
         let Some(address) = route else {
             self.gateway.bump(Count::Unavailable);

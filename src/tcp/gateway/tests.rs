@@ -209,7 +209,13 @@ struct NotNine;
 
 impl Routes for NotNine {
     fn route(&self, unit: u8) -> Option<u8> {
-        (unit != 9).then(|| Direct.route(unit)).flatten()
+        match unit {
+            9 => None,
+            // Nowhere a slave can be: taken as no route.
+            250 => Some(0),
+            251 => Some(248),
+            _ => Direct.route(unit),
+        }
     }
 
     fn response_ms(&self, unit: u8) -> Option<u16> {
@@ -357,15 +363,15 @@ fn unit_ids_own_broadcast_routed_and_not() {
     rig.settle();
     assert_eq!(rig.chip.socks[1].sent, [0, 1, 0, 0, 0, 7, 0xFF, 3, 4, 0, 0, 0, 0]);
     assert!(rig.line.sent.is_empty());
-    // Not routed (9), and the ids no slave has (248-254): 0A.
-    for (t, unit) in [(2, 9), (3, 248), (4, 254)] {
+    // Not routed (9), routed to 0 or 248 (250, 251), and the ids no slave has (248-254): 0A.
+    for (t, unit) in [(2, 9), (3, 248), (4, 254), (5, 250), (6, 251)] {
         rig.chip.socks[1].sent.clear();
         rig.chip.deliver(1, &read(t, unit, 0, 1));
         rig.settle();
         assert_eq!(rig.chip.socks[1].sent, exception(t, unit, 3, 0x0A), "unit {unit}");
     }
     assert!(rig.line.sent.is_empty());
-    assert_eq!(rig.gateway.counters().unavailable, 3);
+    assert_eq!(rig.gateway.counters().unavailable, 5);
     // Unit 0: a write goes out as a broadcast, unanswered; a read, which no slave may
     // answer, gets 0A at once.
     rig.chip.socks[1].sent.clear();
@@ -378,7 +384,7 @@ fn unit_ids_own_broadcast_routed_and_not() {
     assert_eq!(frames, [vec![0, 6, 0, 1, 0x12, 0x34], vec![1, 3, 0, 0, 0, 1]]);
     assert_eq!(rig.chip.socks[1].sent, [exception(6, 0, 3, 0x0A), read_reply(8, 1, 0x100, 0, 1)].concat());
     assert_eq!(rig.gateway.counters().broadcasts, 1);
-    assert_eq!(rig.gateway.counters().unavailable, 4);
+    assert_eq!(rig.gateway.counters().unavailable, 6);
 }
 
 #[test]
