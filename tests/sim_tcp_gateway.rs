@@ -389,7 +389,8 @@ impl Rig {
         let master = &mut self.masters[m];
         master.last_landing = landed;
         // A broadcast gets no answer: one would be taken for the next request's.
-        if unit != 0 {
+        // A broadcast write gets no answer; a read to unit 0 gets 0A.
+        if unit != 0 || !matches!(pdu[0], 0x05 | 0x06 | 0x0F | 0x10 | 0x16) {
             master.outstanding.push_back(Asked { transaction, unit, pdu: pdu.to_vec(), landed });
         }
         transaction
@@ -601,8 +602,8 @@ type Owned = [Option<[u16; 2]>; 3];
 /// each (a response timeout apart), the others at once but for one try (no retry) every
 /// `recheck_ms`; once slave 2 answers again (at its next recheck) its data again. Slaves 1
 /// and 3 are never starved: the masters' shares are even, and while a request waits, at
-/// most 10 requests of the others go on the line and at most the dead slave's three misses
-/// (1.2 s) and 200 ms pass.
+/// most the dead slave's six tries before it is down and 8 requests of the others go on the
+/// line, and at most those six tries (1.2 s) and 200 ms pass.
 #[test]
 fn four_masters_three_slaves_one_switched_off_every_request_one_answer() {
     for build in BUILDS {
@@ -677,7 +678,8 @@ fn four_masters_three_slaves_one_switched_off_every_request_one_answer_on(build:
         fmt_ms(retry)
     );
     let rechecks: Vec<&&Frame> = tries[TRIES_BEFORE_DOWN..].iter().take_while(|f| f.start < on_at).collect();
-    assert!(rechecks.len() >= 2, "{} rechecks in 3 s off", rechecks.len());
+    // Three misses (1.2 s) before it is down, then a recheck a second.
+    assert!(!rechecks.is_empty(), "no recheck in 3 s off");
     let mut previous = tries[TRIES_BEFORE_DOWN - 1].end;
     for f in &rechecks {
         let after = f.start - previous;
@@ -764,7 +766,8 @@ fn four_masters_three_slaves_one_switched_off_every_request_one_answer_on(build:
     );
     let (least, most) = (*shares.iter().min().unwrap(), *shares.iter().max().unwrap());
     assert!(least >= 40 && 10 * least >= 8 * most, "uneven shares of the line: {shares:?}");
-    assert!(worst_crowd <= 10, "a request waited while {worst_crowd} others went on the line");
+    // The dead slave's tries before it is down, and the others' turns.
+    assert!(worst_crowd <= TRIES_BEFORE_DOWN + 8, "a request waited while {worst_crowd} others went on the line");
     // At worst behind the dead slave's misses before it is down, and a few live requests.
     assert!(
         *latencies.last().unwrap() <= ms(TRIES_BEFORE_DOWN as u64 * RESPONSE_TIMEOUT_MS + 200),
@@ -1212,16 +1215,16 @@ fn an_answer_is_passed_back_at_once_when_its_outcome_comes_while_the_chip_is_ser
 // ---------------------------------------------------------------------------------------
 // (h) a lossy line, and what never reaches it
 
-/// Slaves 1, 2 and 3 each lose one request in twenty (noise on the line), while four masters
+/// Slaves 1, 2 and 3 each lose one request in eight (noise on the line), while four masters
 /// poll them for 4 simulated seconds: every request gets its answer (the retry's, when the
 /// first try is lost), or 0B where the try and its retry were both lost; no slave is ever
 /// taken to be down (no 0B without a try on the line for it), and at the end the gateway's
 /// health registers show each slave up with its misses counted.
 #[test]
-fn a_line_that_loses_one_request_in_twenty_takes_no_slave_down() {
+fn a_line_that_loses_one_request_in_eight_takes_no_slave_down() {
     let mut rig = Rig::boot(BUILDS[0]);
     for (i, slave) in rig.slaves.iter_mut().enumerate() {
-        slave.loses = Some((Rng(0x105E + i as u64), 20));
+        slave.loses = Some((Rng(0x105E + i as u64), 8));
     }
     let masters: Vec<usize> = (0..4).map(|_| rig.connect()).collect();
     let mut rng = Rng(0x1055_11E5);
@@ -1240,13 +1243,16 @@ fn a_line_that_loses_one_request_in_twenty_takes_no_slave_down() {
         rig.run_for(slice);
     }
     let lost = rig.requests().filter(|f| f.address() != 0).count() as u64;
-    let (mut data, mut zero_b) = (0, 0);
+    let (mut data, mut zero_b) = (0u64, 0u16);
     for master in &rig.masters {
         assert!(master.outstanding.is_empty(), "requests never answered: {:02X?}", master.outstanding);
         for a in &master.answers {
             if a.pdu == exception(3, NO_RESPONSE) {
                 zero_b += 1;
-                let tried = rig.requests().filter(|f| f.start >= a.asked.landed && f.end <= a.sent).count();
+                let tried = rig
+                    .requests()
+                    .filter(|f| f.address() == a.asked.unit && f.start >= a.asked.landed && f.end <= a.sent)
+                    .count();
                 assert!(tried > RETRIES, "0B after {tried} tries: the slave was taken to be down");
             } else {
                 data += 1;
@@ -1269,9 +1275,10 @@ fn a_line_that_loses_one_request_in_twenty_takes_no_slave_down() {
          the slaves' misses {misses}",
         lost
     );
-    assert!(data >= 200, "only {data} answers");
+    assert!(data >= 100, "only {data} answers");
+    assert!(zero_b > 0, "no try and retry were both lost: the test tested no miss");
     assert_eq!(misses, zero_b, "misses counted");
-    assert!(lost > data + zero_b, "no request was lost: the test tested nothing");
+    assert!(lost > data + u64::from(zero_b), "no request was lost: the test tested nothing");
     rig.check_line();
 }
 
