@@ -615,9 +615,10 @@ fn expected(transaction: u16, unit: u8, start: u16, qty: u16) -> Vec<u8> {
 fn every_request_of_every_connection_gets_exactly_its_one_answer() {
     // Random streams on four connections at once: reads of live slaves (1, 2), a dead one
     // (3), units routed nowhere (9, 248), the gateway's own (0xFF) and broadcast writes
-    // (0), pipelined and cut anywhere, delivered in random order while the line is held
-    // and released at random. Every request gets exactly its answer, on its connection,
-    // in the order sent; the broadcasts none.
+    // (0), some padded, some with another protocol id, pipelined and cut anywhere,
+    // delivered in random order while the line is held and released at random. Every
+    // request gets exactly its answer, on its connection, in the order sent; the
+    // broadcasts and other protocols none; the live slaves are never down.
     let mut seed = 0x9E37_79B9_7F4A_7C15u64;
     for round in 0..200 {
         let mut rig = Rig::new([(1, Slave::Bank(regs(0x100))), (2, Slave::Bank(regs(0x200))), (3, Slave::Dead)]);
@@ -635,8 +636,30 @@ fn every_request_of_every_connection_gets_exactly_its_one_answer() {
                 }
                 let start = (next(&mut seed) % 5) as u16 + if unit == 0xFF { 9 } else { 0 };
                 let qty = 1 + (next(&mut seed) % 5) as u16;
-                stream.extend(read(transaction, unit, start, qty));
-                answer.extend(expected(transaction, unit, start, qty));
+                match next(&mut seed) % 8 {
+                    // Padded: 03 from a slave's unit (0A and 0B come first), nothing on
+                    // the line.
+                    0 if unit != 0xFF => {
+                        let mut padded = read(transaction, unit, start, qty);
+                        padded[5] += 1;
+                        padded.push(0xEE);
+                        stream.extend(padded);
+                        answer.extend(match expected(transaction, unit, start, qty) {
+                            e if e[7] == 0x83 && e[8] != 0x0B => e,
+                            _ => exception(transaction, unit, 3, 0x03),
+                        });
+                    }
+                    // Another protocol id: dropped, nothing answered, the stream goes on.
+                    1 => {
+                        let mut other = read(transaction, unit, start, qty);
+                        other[3] = 1;
+                        stream.extend(other);
+                    }
+                    _ => {
+                        stream.extend(read(transaction, unit, start, qty));
+                        answer.extend(expected(transaction, unit, start, qty));
+                    }
+                }
             }
             streams.push(stream);
             answers.push(answer);
@@ -659,6 +682,10 @@ fn every_request_of_every_connection_gets_exactly_its_one_answer() {
         for (s, answer) in answers.iter().enumerate() {
             assert_eq!(&rig.chip.socks[s].sent, answer, "round {round}, socket {s}");
         }
+        for unit in [1, 2] {
+            assert_eq!(rig.gateway.health(unit, &rig.settings).misses, 0, "round {round}, slave {unit}");
+        }
+        assert!(rig.line.sent.iter().all(|(_, f)| f.len() == 8), "round {round}: a padded request on the line");
     }
 }
 
