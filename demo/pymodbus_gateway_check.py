@@ -5,7 +5,8 @@
 
 Every function code on the slave behind the gateway (demo/plant_slave.py's map), the slave's
 own exception passed through, 0A for units 248-254 (not routed), 0B for a unit nobody answers,
-the gateway's registers at unit 255, then clients that go away mid-request (half a request
+a read to unit 0 (0A) and a padded request (03, never on the line), the gateway's registers and
+the slaves' health at unit 255, then clients that go away mid-request (half a request
 then a close, a whole request then a close before the answer, a request then an RST) and a
 client after them still answered. One line per step, then
 `pymodbus_gateway_check: N steps, M failed`; exits 1 if any failed.
@@ -51,8 +52,13 @@ def adu(tid, unit, pdu):
 
 
 def counters(client):
-    """The gateway's registers 40001-40024 at unit 255."""
-    return answer(client.read_holding_registers(0, 24, slave=255), "registers")
+    """The gateway's registers 40001-40009 at unit 255: its counters, the connections waiting."""
+    return answer(client.read_holding_registers(0, 9, slave=255), "registers")
+
+
+def health(client, slave):
+    """What the gateway knows of `slave`: answers, misses, misses in a row, down (registers 256 + 4n)."""
+    return answer(client.read_holding_registers(256 + 4 * slave, 4, slave=255), "registers")
 
 
 def check(host, port, unit):
@@ -79,17 +85,27 @@ def check(host, port, unit):
     for other in (248, 250, 254):
         step(f"FC03 unit {other}: not routed, 0A", answer(client.read_holding_registers(0, 1, slave=other), "registers"),
              "exception 0A")
-    step("FC03 unit 9: nobody on the line answers, 0B",
-         answer(client.read_holding_registers(0, 1, slave=9), "registers"), "exception 0B")
+    step("FC03 unit 0: a read cannot be a broadcast, 0A at once",
+         answer(client.read_holding_registers(0, 1, slave=0), "registers"), "exception 0A")
+    padded = adu(0x7A00, unit, bytes([0x03, 0x00, 0x00, 0x00, 0x04, 0xAA, 0xBB]))
+    with socket.create_connection((host, port)) as s:
+        s.sendall(padded)
+        step(f"FC03 unit {unit} with two bytes of padding: 03 from the gateway, as the slave would answer",
+             s.recv(64), adu(0x7A00, unit, bytes([0x83, 0x03])))
+    for n in (1, 2, 3):
+        step(f"FC03 unit 9: nobody on the line answers, 0B after the tries ({n} of 3)",
+             answer(client.read_holding_registers(0, 1, slave=9), "registers"), "exception 0B")
     started = time.monotonic()
-    step("FC03 unit 9 again: 0B at once (down until rechecked)",
+    step("FC03 unit 9 again: 0B at once (down after 3 misses in a row, until rechecked)",
          answer(client.read_holding_registers(0, 1, slave=9), "registers"), "exception 0B")
     step("  ... in less than 100 ms (no line timeout)", time.monotonic() - started < 0.1, True)
     after = counters(client)
     if isinstance(before, list) and isinstance(after, list):
-        step("unit 255: 0A sent (register 3) up by 3", after[3] - before[3], 3)
-        step("unit 255: 0B sent (register 4) up by 2", after[4] - before[4], 2)
-        step("unit 255: slave 9 down (register 8 + 9 / 16, bit 9 % 16)", after[8] >> 9 & 1, 1)
+        step("unit 255: 0A sent (register 3) up by 4", after[3] - before[3], 4)
+        step("unit 255: 0B sent (register 4) up by 4", after[4] - before[4], 4)
+        step("unit 255: malformed requests (register 7) up by 1", after[7] - before[7], 1)
+        step("unit 255: slave 9's health (answers, misses, in a row, down)", health(client, 9), [0, 3, 3, 1])
+        step(f"unit 255: slave {unit}'s health: no miss, not down", health(client, unit)[1:], [0, 0, 0])
     else:
         step("unit 255: the gateway's registers", (before, after), "registers")
     client.close()
@@ -117,7 +133,7 @@ def check(host, port, unit):
         # already on the line, else its request goes with the reset connection.
         step("unit 255: answers whose connection had closed (register 6) up by 0 or 1", final[6] - after[6] in (0, 1),
              True)
-        step("unit 255: no connection waiting (register 7)", final[7], 0)
+        step("unit 255: no connection waiting (register 8)", final[8], 0)
     client.close()
     failed = RESULTS.count(False)
     print(f"pymodbus_gateway_check: {len(RESULTS)} steps, {failed} failed", flush=True)
