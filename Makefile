@@ -446,8 +446,8 @@ serve: $(if $(and $(filter atmega328p,$(SERVE_CHIP)),$(if $(SERVE_TCP_SERVER),,y
 # then over Modbus TCP on the virtual shields (interop_tcp: mbpoll, pymodbus, a raw socket, libmodbus's
 # unit-test-client built under target/libmodbus-tests, TCP_CONNECTIONS one-shot connections, masters at once);
 # then through the TCP to RTU gateway on the virtual line (interop_gateway: libmodbus's unit-test-client to
-# libmodbus_map_rtu, mbpoll and pymodbus to pymodbus's serial server, a slave switched off, 0A, 0B, clients
-# gone mid-request).
+# libmodbus_map_rtu and to libmodbus's own unit-test-server in RTU mode on a pty, mbpoll and pymodbus to
+# pymodbus's serial server, a slave switched off, 0A, 0B, clients gone mid-request).
 # then the firmware's TCP client against pymodbus's TCP server and libmodbus's unit-test-server (interop_tcp_client).
 TCP_CONNECTIONS ?= 100
 interop: firmware-uno bootloaders tcp-firmware

@@ -19,6 +19,7 @@
 
 mod common;
 
+use common::libmodbus::{self, Check, Run};
 use common::{collect, python, run, serialise, workspace, Spawned};
 
 use std::io::{ErrorKind, Read, Write};
@@ -800,26 +801,9 @@ fn a_killed_or_frozen_master_gives_its_socket_back_w5100() {
 // ------------------------------------------------------------------------------------------
 // libmodbus's own unit-test-client
 
-/// libmodbus 3.1.6's test programs, built by `.ci/libmodbus-tests` (`make setup`).
-fn libmodbus_test(name: &str) -> PathBuf {
-    built(workspace().join("target/libmodbus-tests").join(name), "make setup")
-}
-
-/// The checks of a `unit-test-client-all` run that failed: the source line of each, and the
-/// text libmodbus printed for it.
-fn failed_checks(out: &str) -> Vec<(u32, String)> {
-    out.lines()
-        .filter_map(|l| {
-            let rest = l.strip_prefix("Line ")?;
-            let (line, what) = rest.split_once(": assertion error for ")?;
-            Some((line.parse().ok()?, what.to_owned()))
-        })
-        .collect()
-}
-
 /// The checks of libmodbus 3.1.6's unit-test-client.c (by line) that only libmodbus's own
 /// unit-test-server passes, and why: it misbehaves on purpose there.
-const ONLY_LIBMODBUS_SERVER: [(u32, &str); 5] = [
+const ONLY_LIBMODBUS_SERVER: [Check; 5] = [
     (519, "3/3 read 0x171: its server answers with a wrong transaction id on purpose; ours answers right"),
     (590, "5/6 read 0x172 with a 0.2 s timeout: its server sleeps 0.5 s first; ours answers at once"),
     (623, "1/2 read 0x173 with a 3 ms byte timeout: its server sends a byte every 5 ms; ours sends the reply whole"),
@@ -830,63 +814,21 @@ const ONLY_LIBMODBUS_SERVER: [(u32, &str); 5] = [
 #[test]
 fn libmodbus_unit_test_client_against_libmodbus_map_w5100() {
     let _one = serialise();
-    let client = libmodbus_test("unit-test-client-all");
-    let server = libmodbus_test("unit-test-server");
+    let client = libmodbus::program("unit-test-client-all");
     let firmware = chip_firmware("atmega328p-w5100-libmodbus", "libmodbus_map");
+    let reference = libmodbus::reference(&client);
 
-    // The reference: libmodbus's own server on 127.0.0.1:1502, where the client talks (it
-    // serves one connection, then quits).
-    let mut against_libmodbus = String::new();
-    for _ in 0..10 {
-        let mut reference = Command::new(&server)
-            .arg("tcp")
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .spawn()
-            .expect("unit-test-server");
-        thread::sleep(Duration::from_millis(300));
-        against_libmodbus = run(Command::new(&client).arg("tcp"), Duration::from_secs(60)).1;
-        let _ = reference.kill();
-        let _ = reference.wait();
-        if !against_libmodbus.contains("Connection failed") {
-            break;
-        }
-    }
-    let reference_failed = failed_checks(&against_libmodbus);
-    assert!(
-        against_libmodbus.contains("CHECKS FAILED.") && against_libmodbus.matches("OK").count() > 90,
-        "unit-test-client did not run through against libmodbus's own server:\n{against_libmodbus}"
-    );
-
-    // The firmware, its port 502 on 127.0.0.1:1502.
+    // The firmware, its port 502 on 127.0.0.1:1502, where the client talks.
     let board = Board::on_port(&firmware, "w5100", 1502);
-    let started = Instant::now();
-    let (_, out) = run(Command::new(&client).arg("tcp"), Duration::from_secs(60));
-    let took = started.elapsed();
-    println!("{out}");
-    let failed = failed_checks(&out);
-    let passed = out.lines().filter(|l| l.ends_with("OK")).count();
-    let known = |line: u32| ONLY_LIBMODBUS_SERVER.iter().any(|&(l, _)| l == line);
-    let in_reference = |line: u32| reference_failed.iter().any(|&(l, _)| l == line);
-    println!("libmodbus 3.1.6 unit-test-client tcp against examples/libmodbus_map.rs: {passed} checks OK, {} failed, {:.1} s", failed.len(), took.as_secs_f64());
-    for (line, what) in &reference_failed {
-        println!("  line {line}: fails against libmodbus's own server too (no request sent): {what}");
-    }
-    for (line, why) in ONLY_LIBMODBUS_SERVER {
-        let seen = failed.iter().any(|&(l, _)| l == line);
-        println!("  line {line}: {} {why}", if seen { "fails as expected:" } else { "PASSES, not expected:" });
-    }
-    let unexpected: Vec<String> = failed
-        .iter()
-        .filter(|(line, _)| !known(*line) && !in_reference(*line))
-        .map(|(line, what)| format!("line {line}: {what}"))
-        .collect();
-    let missing: Vec<u32> =
-        ONLY_LIBMODBUS_SERVER.iter().map(|&(l, _)| l).filter(|&l| !failed.iter().any(|&(f, _)| f == l)).collect();
-    assert!(
-        out.contains("CHECKS FAILED.") && unexpected.is_empty() && missing.is_empty(),
-        "unit-test-client: failed checks not explained by libmodbus's server {unexpected:?}; expected deviations \
-         that did not fail {missing:?}\n{}",
-        transcript(&out, &board)
+    let run = Run::tcp(&client);
+    println!("{}", run.out);
+    println!(
+        "libmodbus 3.1.6 unit-test-client tcp against examples/libmodbus_map.rs: {} checks OK, {} failed, {:.1} s",
+        run.passed,
+        run.failed.len(),
+        run.took.as_secs_f64()
     );
+    if let Err(why) = libmodbus::judge(&run, &reference, &ONLY_LIBMODBUS_SERVER, &[]) {
+        panic!("unit-test-client against libmodbus_map: {why}\n{}", transcript(&run.out, &board));
+    }
 }

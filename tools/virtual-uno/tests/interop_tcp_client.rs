@@ -12,7 +12,8 @@
 
 mod common;
 
-use common::{collect, python, serialise, stop, workspace};
+use common::libmodbus;
+use common::{collect, python, serialise, stop};
 
 use std::net::TcpListener;
 use std::path::PathBuf;
@@ -217,23 +218,7 @@ fn libmodbus_unit_test_server_wrong_id_late_and_byte_by_byte_replies_w5500() {
 
 fn libmodbus_unit_test_server(chip: Wiznet) {
     let _one = serialise();
-    let program = built(workspace().join("target/libmodbus-tests/unit-test-server"), "make setup");
-    // It listens on 127.0.0.1:1502 and serves one connection: another program there (an
-    // interop run of the TCP server's) would answer in its place.
-    drop(TcpListener::bind("127.0.0.1:1502").expect("127.0.0.1:1502 is taken: another program listens there"));
-    let server = Command::new(program)
-        .arg("tcp")
-        .stdin(Stdio::null())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("unit-test-server");
-    let _server = Stopped(server);
-    let deadline = Instant::now() + Duration::from_secs(5);
-    while TcpListener::bind("127.0.0.1:1502").is_ok() {
-        assert!(Instant::now() < deadline, "unit-test-server did not listen on 1502");
-        thread::sleep(Duration::from_millis(20));
-    }
+    let _server = libmodbus::TcpServer::start();
     let mut rig = Rig::new(chip, 1502);
     rig.until_connected(1, 3000);
     // Transaction 1: the registers at 0x160 (UT_REGISTERS_ADDRESS), zeros.

@@ -1,7 +1,9 @@
 //! What the interop tests share: one virtual board at a time, the workspace, a child's
 //! output collected, a program kept running with its log, a command run with a time limit,
-//! a child stopped, the Python.
+//! a child stopped, the Python; libmodbus's own unit tests run and judged (`libmodbus`).
 #![allow(dead_code)]
+
+pub mod libmodbus;
 
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
