@@ -57,8 +57,8 @@ def counters(client):
 
 
 def health(client, slave):
-    """What the gateway knows of `slave`: answers, misses, misses in a row, down (registers 256 + 4n)."""
-    return answer(client.read_holding_registers(256 + 4 * slave, 4, slave=255), "registers")
+    """What the gateway knows of `slave`: answers, misses, misses in a row, down (registers 1000 + 4n)."""
+    return answer(client.read_holding_registers(1000 + 4 * slave, 4, slave=255), "registers")
 
 
 def check(host, port, unit):

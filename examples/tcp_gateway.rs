@@ -27,7 +27,7 @@
  * | 6                    | answers whose connection had closed                    |
  * | 7                    | malformed requests answered by the gateway             |
  * | 8                    | connections waiting for the line                       |
- * | 256 + 4n ... + 3     | slave n: answers, misses, misses in a row, down (1/0)  |
+ * | 1000 + 4n ... + 3    | slave n: answers, misses, misses in a row, down (1/0)  |
  *
  * The main loop is the application's: here it does nothing.
  */

@@ -879,7 +879,7 @@ fn split_and_pipelined_requests_are_answered_once_whole_and_in_order_on(build: B
 // (c) the units the gateway answers itself: 248-254, 0xFF, and 0
 
 /// The gateway's own registers at unit 0xFF (FC 4 and FC 3): `qty` from `first` (0–7 its
-/// counters, 8 the connections waiting; from 256 + 4n slave n's health).
+/// counters, 8 the connections waiting; from 1000 + 4n slave n's health).
 fn status(rig: &mut Rig, m: usize, function: u8, first: u16, qty: u16) -> Vec<u16> {
     let pdu = rig.ask(m, 0xFF, &read_pdu(function, first, qty));
     assert_eq!(pdu[..2], [function, 2 * qty as u8], "{pdu:02X?}");
@@ -948,8 +948,12 @@ fn units_248_to_254_get_0a_unit_0_is_a_broadcast_and_0xff_the_gateways_registers
     let expected = [forwarded, answers, 1, 3, DOWN_AFTER as u16 + 1, 1, 0, 0, 0];
     assert_eq!(status(&mut rig, m, 4, 0, 9), expected, "FC 4 of 0xFF");
     assert_eq!(status(&mut rig, m, 3, 0, 9), expected, "FC 3 of 0xFF");
-    assert_eq!(status(&mut rig, m, 4, 256 + 4 * 4, 4), [0, DOWN_AFTER as u16, DOWN_AFTER as u16, 1], "unit 4's health");
-    assert_eq!(status(&mut rig, m, 3, 256 + 4, 4), [2, 0, 0, 0], "slave 1's health");
+    assert_eq!(
+        status(&mut rig, m, 4, 1000 + 4 * 4, 4),
+        [0, DOWN_AFTER as u16, DOWN_AFTER as u16, 1],
+        "unit 4's health"
+    );
+    assert_eq!(status(&mut rig, m, 3, 1000 + 4, 4), [2, 0, 0, 0], "slave 1's health");
     assert_eq!(rig.ask(m, 0xFF, &read_pdu(4, 5, 5)), exception(4, ILLEGAL_ADDRESS), "past register 8");
     assert_eq!(rig.ask(m, 0xFF, &write_pdu(0, 1)), exception(6, ILLEGAL_FUNCTION), "a write of 0xFF");
     let line_requests = rig.requests().count() as u16;
@@ -1265,7 +1269,7 @@ fn a_line_that_loses_one_request_in_eight_takes_no_slave_down() {
     let m = masters[0];
     let mut misses = 0;
     for unit in 1..=3u16 {
-        let health = status(&mut rig, m, 4, 256 + 4 * unit, 4);
+        let health = status(&mut rig, m, 4, 1000 + 4 * unit, 4);
         assert_eq!(health[3], 0, "slave {unit} down: {health:?}");
         assert!(health[2] < DOWN_AFTER as u16, "slave {unit}: {health:?}");
         misses += health[1];
@@ -1305,6 +1309,6 @@ fn a_malformed_request_is_answered_by_the_gateway_and_never_reaches_the_line() {
     assert_eq!(rig.requests().count(), before, "a malformed request went on the line");
     assert_eq!(rig.ask(m, 1, &read_pdu(3, 0, 4)), registers_pdu(3, &initial_registers(1)[..4]));
     assert_eq!(status(&mut rig, m, 4, 7, 1), [5], "the malformed requests counted");
-    assert_eq!(status(&mut rig, m, 4, 256 + 4, 4), [1, 0, 0, 0], "slave 1: one answer, nothing against it");
+    assert_eq!(status(&mut rig, m, 4, 1000 + 4, 4), [1, 0, 0, 0], "slave 1: one answer, nothing against it");
     rig.check_line();
 }

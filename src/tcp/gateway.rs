@@ -398,10 +398,12 @@ pub struct Gate<'a, L, R> {
 pub const STATUS_REGISTERS: u16 = 9;
 
 /// Where the slaves' health starts among the gateway's own registers: four registers for
-/// address n from `HEALTH_REGISTERS + 4 × n` (256 + 4 × n): its answers, its misses, its
-/// misses in a row, 1 while it is down ([`SlaveHealth`]). 0–255, so that a read of one
-/// slave's four never spans two ranges.
-pub const HEALTH_REGISTERS: u16 = 256;
+/// address n from `HEALTH_REGISTERS + 4 × n` (1000 + 4 × n): its answers, its misses, its
+/// misses in a row, 1 while it is down ([`SlaveHealth`]); n is 0–255, so they end at 2023.
+/// A round number a SCADA's user can work out (slave 17's are 1068–1071), and clear of the
+/// addresses test clients ask a device at its own unit (libmodbus's unit tests use 0x100–0x1FF:
+/// there it reads 02, as a device without them answers).
+pub const HEALTH_REGISTERS: u16 = 1000;
 
 /// The last of the slaves' health registers.
 const HEALTH_END: u16 = HEALTH_REGISTERS + 4 * 256 - 1;

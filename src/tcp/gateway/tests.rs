@@ -713,7 +713,7 @@ fn the_gateways_own_registers_count_what_it_did() {
     expected.extend(values.iter().flat_map(|v| v.to_be_bytes()));
     assert_eq!(answers(&mut rig), expected);
     // Slave 1's and 3's health: answers, misses, misses in a row, down.
-    rig.chip.deliver(0, &[read(8, 0xFF, 256 + 4, 4), read(9, 0xFF, 256 + 12, 4)].concat());
+    rig.chip.deliver(0, &[read(8, 0xFF, 1000 + 4, 4), read(9, 0xFF, 1000 + 12, 4)].concat());
     rig.settle();
     let health = |t: u16, values: [u16; 4]| {
         let mut adu = vec![0, t as u8, 0, 0, 0, 11, 0xFF, 3, 8];
@@ -728,7 +728,7 @@ fn the_gateways_own_registers_count_what_it_did() {
         &[
             read(10, 0xFF, 5, 5),
             read(11, 0xFF, 200, 60),
-            read(12, 0xFF, 1270, 11),
+            read(12, 0xFF, 2020, 5),
             read(13, 0xFF, 0, 0),
             vec![0, 14, 0, 0, 0, 6, 0xFF, 6, 0, 0, 0, 1],
         ]
@@ -808,7 +808,7 @@ fn a_read_of_125_own_registers_comes_whole_through_the_small_buffer() {
     }
     answers(&mut rig);
     // Registers 256-380: the health of slaves 0 to 31 (1: 4 answers, 2: 3 misses, down).
-    rig.chip.deliver(0, &read(9, 0xFF, 256, 125));
+    rig.chip.deliver(0, &read(9, 0xFF, 1000, 125));
     rig.settle();
     let mut values = [0u16; 125];
     values[4..8].copy_from_slice(&[4, 0, 0, 0]);
