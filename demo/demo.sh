@@ -141,7 +141,7 @@ uno() {
 # leds EXPECTED: the LED pins the virtual Uno reported last.
 leds() {
   sleep 0.2
-  check "   [virtual Uno] LEDs: " "$1" "$(grep '^pins: ' "$log" | tail -1 | sed 's/^pins: //')"
+  check "   [virtual Uno] LEDs: " "$1" "$(grep '^pins: ' "$log" | tail -1 | sed 's/^pins: //; s/ (at [0-9.]* s)$//')"
 }
 
 echo

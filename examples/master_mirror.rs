@@ -46,6 +46,8 @@ const LINE: Line = Line::new(19_200, Parity::Even, StopBits::One);
 const POLLED: SlaveId = SlaveId::new(1);
 const TOLD: SlaveId = SlaveId::new(2);
 const STEPS: u16 = 15;
+/// A user-defined function code (65), which no slave here answers but with exception 01.
+const VENDOR: FunctionCode = FunctionCode::custom(0x41);
 
 avr_modbus::master!(MASTER: 64);
 
@@ -75,7 +77,7 @@ fn request(step: u16) -> (Option<SlaveId>, Request<'static>) {
         9 => Request::ReadHoldingRegisters { address: 0, quantity: 126 },
         10 => Request::ReadHoldingRegisters { address: 9999, quantity: 1 },
         11 => return (None, Request::WriteSingleRegister { address: 14, value: 0x0B0B }),
-        12 => Request::Raw { function: FunctionCode::custom(0x41), data: &[0x00] },
+        12 => Request::Raw { function: VENDOR, data: &[0x00] },
         // What the master refuses to build as FC 3 (a quantity of 0), sent raw.
         13 => Request::Raw { function: FunctionCode::ReadHoldingRegisters, data: &[0, 0, 0, 0] },
         _ => Request::ReadHoldingRegisters { address: 16, quantity: 4 },

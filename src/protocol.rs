@@ -20,6 +20,19 @@ macro_rules! named_codes {
                 const NAMES: &[($ty, &str)] = &[$(($ty::$name, stringify!($name)),)+];
                 NAMES.iter().find(|(known, _)| *known == self).map(|(_, name)| *name)
             }
+
+            /// For a code byte that has a name, the message that says which constant it is
+            /// (`"FunctionCode 0x03 is named: FunctionCode::ReadHoldingRegisters"`), worked
+            /// out in a constant; `None` for any other byte.
+            #[allow(dead_code)] // asked by `FunctionCode::custom` only
+            pub(crate) const fn named_message(code: u8) -> Option<&'static str> {
+                match code {
+                    $($code => Some(concat!(
+                        stringify!($ty), " ", stringify!($code), " is named: ", stringify!($ty), "::", stringify!($name)
+                    )),)+
+                    _ => None,
+                }
+            }
         }
 
         /// The code's name (`IllegalDataAddress`), or `Type(0x07)` for a code without one.

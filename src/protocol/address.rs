@@ -8,16 +8,21 @@ use crate::error::Error;
 /// (`Master::broadcast`); a slave answers its own.
 ///
 /// [`SlaveId::new`] is for constants, where a bad id stops the build; [`SlaveId::try_new`]
-/// for ids read at run time.
+/// (or `SlaveId::try_from(id)`, `id.try_into()`) for a `u8` read at run time, which gives
+/// [`Error::SlaveId`] for 0 and 248–255. There is no `From<u8>`: not every byte is a slave's
+/// id, so `5u8.into()` does not compile. [`SlaveId::get`] or `u8::from(id)` gives the byte back.
 ///
 /// ```
-/// use avr_modbus::SlaveId;
+/// use avr_modbus::{Error, SlaveId};
 /// const PUMP: SlaveId = SlaveId::new(17);
 /// assert_eq!(PUMP.get(), 17);
-/// assert!(SlaveId::try_new(0).is_err());
+/// assert_eq!(u8::from(PUMP), 17);
+/// assert_eq!(SlaveId::try_new(0), Err(Error::SlaveId));
+/// let from_a_dip_switch: Result<SlaveId, Error> = 5u8.try_into();
+/// assert_eq!(from_a_dip_switch, Ok(SlaveId::new(5)));
 /// ```
 ///
-/// ```compile_fail
+/// ```compile_fail,E0080
 /// use avr_modbus::SlaveId;
 /// const NOBODY: SlaveId = SlaveId::new(248);
 /// ```
@@ -61,6 +66,13 @@ impl TryFrom<u8> for SlaveId {
     }
 }
 
+/// The address as a byte ([`SlaveId::get`]).
+impl From<SlaveId> for u8 {
+    fn from(id: SlaveId) -> u8 {
+        id.get()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -73,6 +85,17 @@ mod tests {
         assert_eq!(SlaveId::try_new(248), Err(Error::SlaveId));
         assert_eq!(SlaveId::try_new(255), Err(Error::SlaveId));
         assert_eq!(SlaveId::try_from(17), Ok(SlaveId::new(17)));
+    }
+
+    #[test]
+    fn a_slave_id_converts_from_a_u8_only_if_it_is_one_and_back_always() {
+        for byte in 0..=255u8 {
+            let id: Result<SlaveId, Error> = byte.try_into();
+            assert_eq!(id.is_ok(), (1..=247).contains(&byte), "{byte}");
+            if let Ok(id) = id {
+                assert_eq!(u8::from(id), byte);
+            }
+        }
     }
 
     #[test]

@@ -10,8 +10,18 @@ use core::num::NonZeroU8;
 ///
 /// A code byte: the spec's names are its constants, so a `match` reads as on an enum
 /// (`Exception::IllegalDataAddress => …`), and any other code the master gets is kept as
-/// it came ([`Exception::code`], [`Exception::is_known`]). One byte, as on the wire, never
-/// 0 (no exception has code 0): a `Result<(), Exception>` is one byte too.
+/// it came ([`Exception::is_known`]). One byte, as on the wire, never 0 (no exception has
+/// code 0): a `Result<(), Exception>` is one byte too. Its number, named or not, is
+/// [`Exception::code`], a `u8`, or `u8::from(e)`, `u16::from(e)` (`e.into()`: a register's
+/// value, say):
+///
+/// ```
+/// use avr_modbus::Exception;
+/// let busy = Exception::ServerDeviceBusy;
+/// assert_eq!((busy.code(), u8::from(busy), u16::from(busy)), (6, 6, 6));
+/// let register: u16 = Exception::IllegalDataAddress.into();
+/// assert_eq!(register, 2);
+/// ```
 #[derive(Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Exception(NonZeroU8);
 
@@ -65,6 +75,20 @@ impl Exception {
     }
 }
 
+/// The code byte ([`Exception::code`]).
+impl From<Exception> for u8 {
+    fn from(exception: Exception) -> u8 {
+        exception.code()
+    }
+}
+
+/// The code byte as a register's value.
+impl From<Exception> for u16 {
+    fn from(exception: Exception) -> u16 {
+        u16::from(exception.code())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::Exception;
@@ -76,6 +100,17 @@ mod tests {
         }
         assert_eq!(Exception::from_code(0), None);
         assert_eq!(core::mem::size_of::<Result<(), Exception>>(), 1);
+    }
+
+    #[test]
+    fn an_exception_converts_to_its_code_as_u8_and_u16() {
+        for code in 1..=255u8 {
+            let exception = Exception::from_code(code).unwrap();
+            assert_eq!(u8::from(exception), code);
+            let wide: u16 = exception.into();
+            assert_eq!(wide, u16::from(code));
+        }
+        assert_eq!(u8::from(Exception::GatewayTargetDeviceFailedToRespond), 0x0B);
     }
 
     #[test]

@@ -72,7 +72,9 @@ impl Reference {
 }
 
 /// Anything that names an entry of the data model: a [`Reference`], or a classic
-/// reference number such as `40001` (any integer type a literal may take).
+/// reference number such as `40001` as a `u16`, `u32`, `i32` (a bare literal) or `usize`
+/// (`30001 + i` with `i` an array index). A number that is no classic reference (0,
+/// 20001, 50000, a negative one) is [`Error::BadReference`].
 pub trait IntoReference {
     /// The entry, or [`Error::BadReference`].
     fn into_reference(self) -> Result<Reference, Error>;
@@ -93,6 +95,15 @@ impl IntoReference for u16 {
 impl IntoReference for u32 {
     fn into_reference(self) -> Result<Reference, Error> {
         Reference::classic(self)
+    }
+}
+
+impl IntoReference for usize {
+    fn into_reference(self) -> Result<Reference, Error> {
+        match u32::try_from(self) {
+            Ok(n) => Reference::classic(n),
+            Err(_) => Err(Error::BadReference),
+        }
     }
 }
 
@@ -132,5 +143,8 @@ mod tests {
         assert_eq!(40001.into_reference(), Ok(Reference::holding_register(0)));
         assert_eq!(30002u16.into_reference(), Ok(Reference::input_register(1)));
         assert_eq!(10005u32.into_reference(), Ok(Reference::discrete_input(4)));
+        let index: usize = 4;
+        assert_eq!((30001 + index).into_reference(), Ok(Reference::input_register(4)));
+        assert_eq!(50_000usize.into_reference(), Err(Error::BadReference));
     }
 }

@@ -37,8 +37,9 @@ options:
   --adc A0=MV      put MV millivolts (0-5000) on an analog input from the start (repeatable)
   --control PATH   read commands from PATH, a FIFO (created if missing, then removed)
   --no-stdin       do not read commands from standard input
-  --watch LIST     output pins to print when they change (default 13,2,3,4,5 on the Uno's
-                   chips, none on the others; `none`)
+  --watch LIST     output pins to print when they change, with the simulated time
+                   (`pins: 13=on 2=off ... (at 12.345 s)`; default 13,2,3,4,5 on the
+                   Uno's chips, none on the others; `none`)
   --wiznet CHIP    an Ethernet shield on the SPI port: w5100 or w5500, its chip select on
                    the board's pin 10 (PB2 on the Uno, PB4 on the Megas)
   --cs PORTBIT     the shield's chip select on another pin, e.g. PB4

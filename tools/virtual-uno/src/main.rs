@@ -87,7 +87,7 @@ fn main() -> ExitCode {
 fn execute(uno: &mut Uno, line: &str, watch: &[u8]) {
     match Command::parse(line) {
         Ok(None) => {}
-        Ok(Some(Command::ShowPins)) => println!("{}", pins_line(uno, watch)),
+        Ok(Some(Command::ShowPins)) => println!("{}{}", pins_line(uno, watch), at(uno)),
         Ok(Some(cmd)) => match cmd.apply(uno) {
             Ok(()) => println!("set: {}", line.trim()),
             Err(e) => eprintln!("virtual-uno: {}: {e}", line.trim()),
@@ -106,6 +106,12 @@ fn pins_line(uno: &Uno, watch: &[u8]) -> String {
         })
         .collect();
     format!("pins: {}", states.join(" "))
+}
+
+/// ` (at 12.345 s)`: the board's simulated time, which falls behind the wall clock when the
+/// host cannot keep up (the lag lines on stderr say by how much).
+fn at(uno: &Uno) -> String {
+    format!(" (at {:.3} s)", cycles_to_duration(uno.now()).as_secs_f64())
 }
 
 /// Why the board reset, as `reset:` lines say it.
@@ -319,7 +325,7 @@ fn run(args: &args::Args) -> Result<(), String> {
         }
         let now_pins = pins_line(&uno, &watch);
         if now_pins != pins && !watch.is_empty() {
-            println!("{now_pins}");
+            println!("{now_pins}{}", at(&uno));
             pins = now_pins;
         }
 

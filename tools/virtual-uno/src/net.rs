@@ -2,7 +2,8 @@
 //! 127.0.0.1, `uno_sim::wiznet::Bridge`), polled from the simulation loop every
 //! [`BRIDGE_CYCLES`] (SIMAVR.md item 12: never block, the host's time is not the chip's).
 //! Optionally each Modbus TCP request and answer it carries is printed (`mbap`). The single
-//! board (`virtual-uno --tcp`) and a board on the line (`virtual-line --board … tcp=`) share it.
+//! board (`virtual-uno --tcp`, `--connect`) and a board on the line (`virtual-line --board …
+//! tcp=`, `connect=`) share it.
 
 use uno_sim::wiznet::{Bridge, BridgeEvent, Mapping};
 use uno_sim::Uno;
@@ -37,9 +38,8 @@ impl Net {
     }
 
     /// Also bridges the firmware's connections to each mapping's chip port, whatever the
-    /// address, to 127.0.0.1:`host_port` (`virtual-uno --connect`; a board on `virtual-line`
-    /// has no such option yet, hence the allowance).
-    #[allow(dead_code)]
+    /// address, to 127.0.0.1:`host_port` (`virtual-uno --connect`, `virtual-line --board …
+    /// connect=`).
     pub fn with_outgoing(self, mappings: &[Mapping]) -> Net {
         Net { bridge: self.bridge.with_outgoing(mappings), ..self }
     }

@@ -47,6 +47,10 @@ options:
                                      listens, then each connection and each Modbus
                                      TCP request and answer (`NAME conn 127.0.0.1:PORT
                                      (socket N) request tid 0x0001 unit 1 fc 0x02 …`)
+                     connect=CHIP:HOST  bridge the firmware's own connections to
+                                     port CHIP (any address) to 127.0.0.1:HOST, a
+                                     server on the host (repeatable; a TCP client:
+                                     `NAME dialed …`, then its requests and answers)
   --pty NAME[=PATH]  a pseudo-terminal on the line for an outside program (mbpoll,
                    pymodbus); PATH becomes a symlink to it (removed on exit)
   --baud N         the line's baud rate (default 19200), for ptys and the frame silence
@@ -130,6 +134,8 @@ pub struct BoardArgs {
     pub cs: Option<(char, u8)>,
     /// `tcp=`, in order.
     pub tcp: Vec<Mapping>,
+    /// `connect=`, in order.
+    pub connect: Vec<Mapping>,
 }
 
 /// One `--pty`.
@@ -202,9 +208,10 @@ pub fn parse(words: impl Iterator<Item = String>) -> Result<Args, Option<String>
                 while let Some(opt) = words.next_if(|w| !w.starts_with('-')) {
                     board_option(&mut board, &opt).map_err(Some)?;
                 }
-                if board.wiznet.is_none() && (!board.tcp.is_empty() || board.cs.is_some()) {
+                if board.wiznet.is_none() && (!board.tcp.is_empty() || !board.connect.is_empty() || board.cs.is_some())
+                {
                     return Err(Some(format!(
-                        "--board {}: tcp= and cs= need a shield: wiznet=w5100 or w5500",
+                        "--board {}: tcp=, connect= and cs= need a shield: wiznet=w5100 or w5500",
                         board.name
                     )));
                 }
@@ -272,6 +279,7 @@ fn parse_board(spec: &str) -> Result<BoardArgs, String> {
         wiznet: None,
         cs: None,
         tcp: Vec::new(),
+        connect: Vec::new(),
     })
 }
 
@@ -295,6 +303,7 @@ fn board_option(board: &mut BoardArgs, opt: &str) -> Result<(), String> {
             _ => return Err(bad("not a port pin such as PB2")),
         },
         "tcp" => board.tcp.push(value.parse::<Mapping>().map_err(|e| bad(&e))?),
+        "connect" => board.connect.push(value.parse::<Mapping>().map_err(|e| bad(&e))?),
         k if k.starts_with("pin") => {
             board.initial.push(Command::parse_pin_option(&format!("{}={value}", &k[3..])).map_err(|e| bad(&e))?);
         }
@@ -306,7 +315,7 @@ fn board_option(board: &mut BoardArgs, opt: &str) -> Result<(), String> {
             }
             board.side = Some(SideArgs { usart, link: Path::new(path).to_owned() });
         }
-        _ => return Err(bad("unknown (de, usart, usartN, chip, pinN, watch, wiznet, cs, tcp)")),
+        _ => return Err(bad("unknown (de, usart, usartN, chip, pinN, watch, wiznet, cs, tcp, connect)")),
     }
     Ok(())
 }
@@ -443,6 +452,11 @@ mod tests {
         assert!(err("--board gw=g.elf wiznet=w5300").contains("w5300"));
         assert!(err("--board gw=g.elf wiznet=w5100 cs=10").contains("port pin"));
         assert!(err("--board gw=g.elf wiznet=w5100 tcp=0:1").contains("502:1502"));
+        let a = parse(words("--board client=c.elf wiznet=w5100 connect=502:1502 --board gw=g.elf")).unwrap();
+        assert_eq!(a.boards[0].connect, [Mapping { chip_port: 502, host_port: 1502 }]);
+        assert!(a.boards[0].tcp.is_empty() && a.boards[1].connect.is_empty());
+        assert!(err("--board client=c.elf connect=502:1502").contains("need a shield"));
+        assert!(err("--board client=c.elf wiznet=w5100 connect=0:1").contains("502:1502"));
     }
 
     #[test]

@@ -18,6 +18,13 @@
 //!              --board box=lab_lights.elf de=10 --pty pymodbus=/tmp/ttyPLANT
 //! ```
 //!
+//! A TCP client (`tcp_client!`) on the line's board: its connections to port 502 go to a
+//! server on 127.0.0.1:1502 (`connect=`), their requests and answers printed:
+//!
+//! ```text
+//! virtual-line --board client=tcp_poll.elf wiznet=w5100 connect=502:1502 --pty slave=/tmp/ttyS
+//! ```
+//!
 //! A Mega gateway: its master's USART1 on the line (DE on PB7, the Mega's pin 13), its
 //! slave's USART0 on a pty of its own for an outside master, a field device on a pty:
 //!
@@ -174,8 +181,9 @@ fn run(args: args::Args) -> Result<(), String> {
             println!("{} board {}: shield {model} on the SPI port, chip select P{port}{bit}", stamp(0), b.name);
         }
         let mut board = Board::new(b.name.clone(), uno, b.de, side, watch);
-        if !b.tcp.is_empty() {
-            board.net = Some(Net::bind(&b.tcp, true).map_err(|e| format!("{}: tcp=: {e}", b.name))?);
+        if !b.tcp.is_empty() || !b.connect.is_empty() {
+            let net = Net::bind(&b.tcp, true).map_err(|e| format!("{}: tcp=: {e}", b.name))?;
+            board.net = Some(net.with_outgoing(&b.connect));
         }
         boards.push(board);
     }
