@@ -281,8 +281,8 @@ impl<
     }
 
     /// What the gateway knows of the slave at `address`: its answers, its misses, its
-    /// misses in a row, whether it is down (all zero for a slave not asked, or not among
-    /// the [`crate::tcp::TRACKED`] asked most recently).
+    /// misses in a row, whether it is down (all zero for a slave not asked, or whose record
+    /// another slave took: [`crate::tcp::TRACKED`]).
     pub fn health(&self, address: u8) -> SlaveHealth {
         self.tcp.locked(|r| r.service.gateway.health(address, &r.service.settings)).unwrap_or_default()
     }

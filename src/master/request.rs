@@ -98,7 +98,7 @@ pub enum Request<'a> {
 /// What a reply to a request must look like, beside the slave's address and the
 /// function code.
 ///
-/// `Any` first: [`Expect::NONE`] is then all zeros, and so is most of a new master, which
+/// `Any` first: `Expect::NONE` is then all zeros, and so is most of a new master, which
 /// its start writes in a few runs of zeros rather than from a copy in flash.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Shape {

@@ -32,8 +32,7 @@
 //! is taken to be down: its requests get 0B at once, without the line, but for one try
 //! every [`GatewaySettings::recheck_ms`], so that a dead slave costs the line at most one
 //! response timeout that often and never starves the live ones. Any answer, an exception
-//! too, ends the run of misses. The gateway keeps this health for the [`TRACKED`] slaves
-//! asked most recently.
+//! too, ends the run of misses. The gateway keeps this health for [`TRACKED`] slaves.
 
 use super::mbap::HEADER;
 use super::server::{Answered, Handler, Server, Sockets};
@@ -165,9 +164,9 @@ pub struct GatewayCounters {
     pub malformed: u16,
 }
 
-/// What the gateway knows of one slave's answers ([`crate::TcpGateway::health`], and at
-/// [`HEALTH_REGISTERS`]): all zero for a slave it has not asked since it started, or not
-/// among the [`TRACKED`] asked most recently.
+/// What the gateway knows of one slave's answers (`TcpGateway::health`, and at
+/// [`HEALTH_REGISTERS`]): all zero for a slave it has not asked since it started, or whose
+/// record another took ([`TRACKED`]).
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SlaveHealth {
@@ -182,9 +181,9 @@ pub struct SlaveHealth {
     pub down: bool,
 }
 
-/// How many slaves the gateway keeps the health of ([`SlaveHealth`]): the ones asked most
-/// recently. A slave asked after that many others loses its record (a dead one is then
-/// tried again as a live one).
+/// How many slaves the gateway keeps the health of ([`SlaveHealth`]). A slave asked when
+/// all the records are taken takes the place of the record given longest ago (whose slave,
+/// if it was down, is then tried again as a live one).
 pub const TRACKED: usize = 8;
 
 /// One slave's record: its address (0: none), its misses in a row, answers and misses.
@@ -228,8 +227,10 @@ struct Flight {
 #[derive(Clone, Debug)]
 pub struct Gateway {
     flight: Option<Flight>,
-    /// The slaves asked most recently, the last one first.
+    /// The slaves' records, in the order they were given.
     slots: [Slot; TRACKED],
+    /// Where the next new record goes (modulo [`TRACKED`]).
+    next: u8,
     /// When the next request to a slave that is down goes to the line.
     recheck_at: u32,
     counts: [u16; COUNTS],
@@ -245,7 +246,7 @@ impl Gateway {
     /// A gateway with nothing on the line and no slave asked yet.
     pub const fn new() -> Gateway {
         const NONE: Slot = Slot { address: 0, in_a_row: 0, answers: 0, misses: 0 };
-        Gateway { flight: None, slots: [NONE; TRACKED], recheck_at: 0, counts: [0; COUNTS] }
+        Gateway { flight: None, slots: [NONE; TRACKED], next: 0, recheck_at: 0, counts: [0; COUNTS] }
     }
 
     /// The counters.
@@ -279,22 +280,13 @@ impl Gateway {
         self.health(address, settings).down
     }
 
-    /// The slave at `address` is asked: its record first (a new one, in place of the
-    /// record of the slave asked least recently, when it has none).
+    /// The slave at `address` is asked: it gets a record if it has none, in the place of
+    /// the record given longest ago when all are taken.
     fn asked(&mut self, address: u8) {
-        let mut at = TRACKED - 1;
-        let mut slot = Slot { address, ..Slot::default() };
-        for (i, s) in self.slots.iter().enumerate() {
-            if s.address == address {
-                (at, slot) = (i, *s);
-                break;
-            }
+        if self.slot(address).is_none() {
+            self.slots[usize::from(self.next) % TRACKED] = Slot { address, ..Slot::default() };
+            self.next = self.next.wrapping_add(1);
         }
-        while at > 0 {
-            self.slots[at] = self.slots[at - 1];
-            at -= 1;
-        }
-        self.slots[0] = slot;
     }
 
     /// True while a request is on the line (its answer not yet passed back).
@@ -354,9 +346,7 @@ impl Gateway {
                 }
                 Err(_) => self.bump(Count::NoResponse),
             }
-            // The request's slave was asked last: its record is the first.
-            let slot = &mut self.slots[0];
-            if slot.address == flight.address {
+            if let Some(slot) = self.slots.iter_mut().find(|slot| slot.address == flight.address) {
                 if matches!(outcome, Err(Failure::Timeout | Failure::BadReply)) {
                     slot.misses = slot.misses.wrapping_add(1);
                     slot.in_a_row = slot.in_a_row.saturating_add(1);

@@ -819,20 +819,20 @@ fn a_read_of_125_own_registers_comes_whole_through_the_small_buffer() {
 }
 
 #[test]
-fn the_slaves_asked_most_recently_keep_their_health() {
+fn a_ninth_slave_takes_the_record_given_longest_ago() {
     // Unit 9 is routed nowhere: slaves 1-8 and 10.
     let addresses: Vec<u8> = (1..=TRACKED as u8).chain([10]).collect();
     let mut rig = Rig::new(addresses.iter().map(|&a| (a, Slave::Bank(regs(0x100)))));
     rig.chip.connect(0, [10, 0, 0, 7]);
-    // Slaves 1 to 8, 1 again, then 10: slave 2, asked least recently, loses its record.
-    let units = (1..=TRACKED as u8).chain([1, 10]);
+    // Slaves 1 to 8, 2 again (its record stays), then 10, in slave 1's place, then 2.
+    let units = (1..=TRACKED as u8).chain([2, 10, 2]);
     for (t, unit) in units.enumerate() {
         rig.chip.deliver(0, &read(t as u16, unit, 0, 1));
         rig.settle();
     }
-    assert_eq!(rig.line.sent.len(), TRACKED + 2);
-    assert_eq!(rig.gateway.health(1, &rig.settings).answers, 2);
-    assert_eq!(rig.gateway.health(2, &rig.settings), SlaveHealth::default(), "its record was the oldest");
+    assert_eq!(rig.line.sent.len(), TRACKED + 3);
+    assert_eq!(rig.gateway.health(1, &rig.settings), SlaveHealth::default(), "its record was the oldest");
+    assert_eq!(rig.gateway.health(2, &rig.settings).answers, 3);
     for a in (3..=TRACKED as u8).chain([10]) {
         assert_eq!(rig.gateway.health(a, &rig.settings).answers, 1, "slave {a}");
     }
