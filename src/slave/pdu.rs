@@ -148,17 +148,6 @@ pub(crate) fn range_check(start: u16, qty: u16) -> Result<(), Exception> {
     }
 }
 
-/// Checks a write of `qty` (1–`max`) values of `table` whose byte count is at `at - 1` in
-/// a PDU of `len` bytes: the byte count must be the one the quantity needs and equal to
-/// the bytes that follow (03). FC 23's write.
-#[cfg(any(feature = "extra-fc", all(feature = "tcp", feature = "master")))]
-fn written_values_check(pdu: &[u8], len: usize, at: usize, table: Table, qty: u16, max: u16) -> Result<(), Exception> {
-    quantity_check(qty, max)?;
-    let bytes = byte_count(table, qty);
-    let count = pdu.get(at - 1).copied().map(u16::from);
-    value_check(count == Some(bytes) && len == at + usize::from(bytes))
-}
-
 /// The checks of FC 23 (0x17, Read/Write Multiple Registers) that need no data model, in a
 /// PDU of `len` bytes of which `pdu` holds at least the first 10: read quantity 1–125, write
 /// quantity 1–121, the byte count twice the write quantity and equal to the bytes that
@@ -170,7 +159,10 @@ pub(crate) fn read_write_check(pdu: &[u8], len: usize) -> Result<(u16, u16), Exc
     let (write_start, write_qty) = (word(pdu, 5), word(pdu, 7));
     // Every 03 comes before any 02.
     quantity_check(qty, MAX_READ_REGISTERS)?;
-    written_values_check(pdu, len, 10, Table::HoldingRegisters, write_qty, MAX_READ_WRITE_REGISTERS)?;
+    quantity_check(write_qty, MAX_READ_WRITE_REGISTERS)?;
+    // The byte count (byte 9): twice the write quantity, and the bytes that follow it.
+    let bytes = 2 * write_qty;
+    value_check(pdu.get(9).map(|&count| u16::from(count)) == Some(bytes) && len == 10 + usize::from(bytes))?;
     range_check(start, qty)?;
     range_check(write_start, write_qty)?;
     Ok((start, qty))
