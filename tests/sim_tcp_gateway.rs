@@ -15,9 +15,10 @@
 //! The gateway's rules (Implementation Guide v1.0b §4.4.1.2, §4.4.2.5; `src/tcp/gateway.rs`):
 //! requests wait in the chip until the line is free, connections take turns, each answer
 //! goes back on its own connection with its own transaction id; 0A for units 248–254, 0B
-//! for a slave that does not answer after its retries (then 0B at once but for one try a
-//! second), unit 0 a broadcast of writes with no TCP answer, the gateway's own registers at
-//! unit 0xFF.
+//! for a slave that does not answer after its retries (after three such requests in a row,
+//! 0B at once but for one try a second), unit 0 a broadcast of writes with no TCP answer
+//! and a read there 0A, malformed requests answered without the line, the gateway's own
+//! registers and the slaves' health at unit 0xFF.
 //!
 //! Build: `make tcp-firmware` (or `.ci/chip-build atmega328p "" atmega328p-tcp-gateway
 //! examples,tcp,master tcp_gateway`, and `AVR_MODBUS_EXAMPLE_SHIELD=w5100-int` into

@@ -38,8 +38,8 @@ type LineMaster<DE, const U: u8> = Master<DE, NoPin, MAX_FRAME, U>;
 /// The Modbus TCP to RTU gateway (features `tcp` and `master`): declare it with
 /// [`crate::tcp_gateway!`], start it with the application's SPI, USART and `TC0`, and it
 /// passes every TCP master's requests to the serial line's slaves and their answers back;
-/// its own registers (its counters, the slaves down: [`crate::tcp::STATUS_REGISTERS`])
-/// answer at its own unit id (0xFF).
+/// its own registers (its counters: [`crate::tcp::STATUS_REGISTERS`]; each slave's health
+/// from [`crate::tcp::HEALTH_REGISTERS`]) answer at its own unit id (0xFF).
 ///
 /// ```ignore
 /// avr_modbus::tcp_gateway!(GATEWAY: W5100, DePin);
