@@ -259,7 +259,7 @@ fmt-check: setup
 # The optional function codes, checked and tested as a second build.
 OPTIONAL := diagnostics,extra-fc,write-protect
 # Every feature (all add) but examples, which builds this repository's firmware.
-ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id,tcp
+ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id,tcp,rtu-over-tcp
 
 # The host's lints, tests included, check builds only: the tools (clippy-tools) and the crate's
 # library and test targets as make unit and make sim-test build them (under

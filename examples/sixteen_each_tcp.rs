@@ -7,7 +7,8 @@
  * Wiring: the shield on an Uno (chip select pin 10, SPI on the ICSP header).
  *
  * Network: 192.168.1.177/24, MAC DE:AD:BE:EF:FE:01, port 502, every unit id answered; the
- * references as in `sixteen_each`.
+ * references as in `sixteen_each`. With feature `rtu-over-tcp`, socket 3 serves RTU over TCP
+ * on port 5020 (the feature's size, measured used).
  */
 #![no_std]
 #![no_main]
@@ -16,7 +17,11 @@ use avr_modbus::board;
 use avr_modbus::tcp::{Network, W5100};
 use panic_halt as _;
 
+#[cfg(not(feature = "rtu-over-tcp"))]
 const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]);
+#[cfg(feature = "rtu-over-tcp")]
+const NETWORK: Network =
+    Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).sockets(4).rtu_over_tcp(5020, 0b1000);
 
 avr_modbus::register_map! {
     /// The contract's map: 16 coils, 16 discrete inputs, 8 input and 16 holding registers.

@@ -18,6 +18,8 @@ pub(crate) mod mbap;
 mod network;
 #[cfg(feature = "eeprom-settings")]
 pub(crate) mod record;
+#[cfg(feature = "rtu-over-tcp")]
+pub(crate) mod rtu;
 pub(crate) mod server;
 pub(crate) mod wiznet;
 

@@ -25,6 +25,12 @@ pub struct Network {
     pub(crate) idle_timeout_s: u8,
     pub(crate) evict_after_s: u8,
     pub(crate) allow: &'static [[u8; 4]],
+    /// The port of the sockets that speak RTU over TCP ([`Network::rtu_over_tcp`]).
+    #[cfg(feature = "rtu-over-tcp")]
+    pub(crate) rtu_port: u16,
+    /// Bit n: socket n speaks RTU over TCP.
+    #[cfg(feature = "rtu-over-tcp")]
+    pub(crate) rtu_sockets: u8,
 }
 
 /// The bytes of the chip's addresses.
@@ -73,6 +79,10 @@ impl Network {
             idle_timeout_s: 60,
             evict_after_s: 10,
             allow: &[],
+            #[cfg(feature = "rtu-over-tcp")]
+            rtu_port: 0,
+            #[cfg(feature = "rtu-over-tcp")]
+            rtu_sockets: 0,
         }
     }
 
@@ -89,6 +99,7 @@ impl Network {
     /// Listens on `port` instead of 502 (a port of 0 stops the build).
     pub const fn with_port(self, port: u16) -> Network {
         assert!(port != 0, "port 0 is no TCP port");
+        let () = rtu::apart(&self, port);
         Network { port, ..self }
     }
 
@@ -104,6 +115,7 @@ impl Network {
     /// the W5500), leaving the others to the application. Default: every socket.
     pub const fn sockets(self, n: u8) -> Network {
         assert!(n >= 1 && n <= Network::MAX_SOCKETS, "1-8 sockets");
+        let () = rtu::serving(&self, n);
         Network { sockets: n, ..self }
     }
 
@@ -132,7 +144,7 @@ impl Network {
         Network { allow: clients, ..self }
     }
 
-    /// The port the server listens on.
+    /// The port the server listens on (MBAP's).
     pub const fn port(&self) -> u16 {
         self.port
     }
@@ -166,6 +178,103 @@ impl Network {
     /// True when a request for `unit` is this device's.
     pub(crate) fn answers(&self, unit: u8) -> bool {
         self.unit == 0 || unit == self.unit || unit == 0 || unit == super::mbap::DEVICE_UNIT
+    }
+}
+
+/// RTU over TCP's sockets (feature `rtu-over-tcp`): which sockets frame as RTU and the port
+/// they listen on. Without the feature every socket is MBAP's, on [`Network::port`].
+#[cfg(not(feature = "rtu-over-tcp"))]
+mod rtu {
+    use super::Network;
+
+    /// No socket speaks RTU: any port is apart from theirs.
+    pub(super) const fn apart(_net: &Network, _port: u16) {}
+
+    /// No socket speaks RTU: any count serves them all.
+    pub(super) const fn serving(_net: &Network, _n: u8) {}
+
+    impl Network {
+        /// Socket `s`'s port.
+        #[inline(always)]
+        pub(crate) const fn port_of(&self, _s: u8) -> u16 {
+            self.port
+        }
+
+        /// True when socket `s` frames as RTU over TCP.
+        #[inline(always)]
+        pub(crate) const fn is_rtu(&self, _s: u8) -> bool {
+            false
+        }
+    }
+}
+
+#[cfg(feature = "rtu-over-tcp")]
+mod rtu {
+    use super::Network;
+
+    /// Stops the build when `port` is the RTU sockets' port: a listening socket cannot tell
+    /// a connection's framing before its bytes come.
+    pub(super) const fn apart(net: &Network, port: u16) {
+        assert!(net.rtu_sockets == 0 || port != net.rtu_port, "MBAP and RTU over TCP need ports of their own");
+    }
+
+    /// Stops the build when an RTU socket is past the first `n`: it would never serve.
+    pub(super) const fn serving(net: &Network, n: u8) {
+        assert!(n >= 8 || net.rtu_sockets >> n == 0, "an RTU over TCP socket is past the serving sockets");
+    }
+
+    impl Network {
+        /// Serves Modbus RTU over TCP on the sockets whose bits are set in `sockets` (bit n:
+        /// socket n; `0b1000`: socket 3), listening on `port`; the others serve MBAP on
+        /// [`Network::port`]. RTU over TCP is the serial frame (address, PDU, CRC-16) on the
+        /// TCP stream with no MBAP header, as Home Assistant's `rtuovertcp` and
+        /// serial-to-Ethernet converters send it. The build stops for port 0, for MBAP's
+        /// port, for no socket, and for a socket past [`Network::sockets`]. A socket the
+        /// chip does not have (4–7 on the W5100) never serves.
+        ///
+        /// ```
+        /// use avr_modbus::tcp::Network;
+        ///
+        /// // MBAP on 502 on sockets 0-2, RTU over TCP on 5020 on socket 3.
+        /// const NETWORK: Network =
+        ///     Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).sockets(4).rtu_over_tcp(5020, 0b1000);
+        /// assert_eq!(NETWORK.rtu_port(), Some(5020));
+        /// ```
+        pub const fn rtu_over_tcp(self, port: u16, sockets: u8) -> Network {
+            assert!(port != 0, "port 0 is no TCP port");
+            assert!(port != self.port, "MBAP and RTU over TCP need ports of their own");
+            assert!(sockets != 0, "no socket for RTU over TCP");
+            assert!(
+                self.sockets >= 8 || sockets >> self.sockets == 0,
+                "an RTU over TCP socket is past the serving sockets"
+            );
+            Network { rtu_port: port, rtu_sockets: sockets, ..self }
+        }
+
+        /// The port of RTU over TCP's sockets, if any.
+        pub const fn rtu_port(&self) -> Option<u16> {
+            if self.rtu_sockets == 0 {
+                None
+            } else {
+                Some(self.rtu_port)
+            }
+        }
+
+        /// Socket `s`'s port.
+        #[inline(always)]
+        pub(crate) const fn port_of(&self, s: u8) -> u16 {
+            if self.is_rtu(s) {
+                self.rtu_port
+            } else {
+                self.port
+            }
+        }
+
+        /// True when socket `s` frames as RTU over TCP.
+        #[inline(always)]
+        pub(crate) const fn is_rtu(&self, s: u8) -> bool {
+            self.rtu_sockets & (1 << (s & 7)) != 0
+        }
     }
 }
 
@@ -203,5 +312,15 @@ mod tests {
         let net = NET.allow(&[[10, 0, 0, 9]]);
         assert!(net.allows([10, 0, 0, 9]));
         assert!(!net.allows([10, 0, 0, 8]));
+    }
+
+    #[cfg(feature = "rtu-over-tcp")]
+    #[test]
+    fn rtu_sockets_listen_on_their_own_port() {
+        let net = NET.sockets(4).rtu_over_tcp(5020, 0b1010);
+        let ports: Vec<u16> = (0..4).map(|s| net.port_of(s)).collect();
+        assert_eq!(ports, [502, 5020, 502, 5020]);
+        assert_eq!((net.is_rtu(1), net.is_rtu(2)), (true, false));
+        assert_eq!((NET.rtu_port(), net.rtu_port()), (None, Some(5020)));
     }
 }

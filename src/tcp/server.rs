@@ -75,6 +75,10 @@ pub struct TcpCounters {
     pub idle_closed: u16,
     /// Connections closed, idle, to make room for a newcomer.
     pub evicted: u16,
+    /// RTU over TCP (feature `rtu-over-tcp`): frames dropped for a bad CRC, or bytes that
+    /// make no frame (a length past 256 bytes); what the socket held was discarded.
+    #[cfg(feature = "rtu-over-tcp")]
+    pub bad_frame: u16,
 }
 
 /// A counter's place in [`Server::counts`]: the order of [`TcpCounters`]'s fields.
@@ -89,10 +93,12 @@ enum Count {
     Refused,
     IdleClosed,
     Evicted,
+    #[cfg(feature = "rtu-over-tcp")]
+    BadFrame,
 }
 
-/// How many counters there are.
-const COUNTS: usize = Count::Evicted as usize + 1;
+/// How many counters there are: [`TcpCounters`]' fields.
+const COUNTS: usize = core::mem::size_of::<TcpCounters>() / 2;
 
 /// Where a socket is, as the server last saw it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -243,7 +249,7 @@ impl<const B: usize> Server<B> {
 
     /// The counters.
     pub fn counters(&self) -> TcpCounters {
-        let [requests, exceptions, bad_protocol, bad_length, other_unit, connections, refused, idle_closed, evicted] =
+        let [requests, exceptions, bad_protocol, bad_length, other_unit, connections, refused, idle_closed, evicted, ..] =
             self.counts;
         TcpCounters {
             requests,
@@ -255,6 +261,8 @@ impl<const B: usize> Server<B> {
             refused,
             idle_closed,
             evicted,
+            #[cfg(feature = "rtu-over-tcp")]
+            bad_frame: self.counts[Count::BadFrame as usize],
         }
     }
 
@@ -415,7 +423,7 @@ impl<const B: usize> Server<B> {
 
     /// Opens socket `s` and listens on the port.
     fn open<S: Sockets>(&mut self, chip: &mut S, net: &Network, s: u8) {
-        chip.listen(s, net.port);
+        chip.listen(s, net.port_of(s));
         self.enter(s, Phase::Listening);
     }
 
@@ -432,6 +440,9 @@ impl<const B: usize> Server<B> {
             // Looked at again until its SEND_OK (which need not reach the INT line).
             self.again |= 1 << s;
             return true;
+        }
+        if net.is_rtu(s) {
+            return self.serve_rtu(chip, handler, net, s);
         }
         let mut received = chip.received(s);
         if received < HEADER as u16 {
@@ -578,6 +589,20 @@ impl<const B: usize> Server<B> {
                 self.close(chip, net, s);
             }
         }
+    }
+}
+
+/// RTU over TCP's sockets served (feature `rtu-over-tcp`).
+#[cfg(feature = "rtu-over-tcp")]
+mod rtu;
+
+/// Without feature `rtu-over-tcp` no socket frames as RTU ([`Network::is_rtu`]).
+#[cfg(not(feature = "rtu-over-tcp"))]
+impl<const B: usize> Server<B> {
+    /// Never called: no socket frames as RTU.
+    #[inline(always)]
+    fn serve_rtu<S: Sockets, H: Handler>(&mut self, _chip: &mut S, _handler: &mut H, _net: &Network, _s: u8) -> bool {
+        false
     }
 }
 
