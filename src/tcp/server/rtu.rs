@@ -162,3 +162,6 @@ impl<const B: usize> Server<B> {
         0
     }
 }
+
+#[cfg(test)]
+mod tests;

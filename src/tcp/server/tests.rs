@@ -8,7 +8,7 @@ use crate::tcp::Serving;
 const NET: Network = Network::new([2, 0, 0, 0, 0, 1], [10, 0, 0, 2]).sockets(4).evict_after(2);
 
 /// A bank with holding registers 40001-40010 = 0x0100 + i.
-fn bank() -> Bank<4, 16, 4, 0, 0> {
+pub(super) fn bank() -> Bank<4, 16, 4, 0, 0> {
     let mut bank = Bank::new();
     bank.add_range(40001, 10).unwrap();
     for i in 0..10u16 {
@@ -25,7 +25,7 @@ fn started(chip: &mut Fake, bank: &mut Bank<4, 16, 4, 0, 0>) -> Server {
     server
 }
 
-fn read_holding(transaction: u16, unit: u8, start: u16, qty: u16) -> Vec<u8> {
+pub(super) fn read_holding(transaction: u16, unit: u8, start: u16, qty: u16) -> Vec<u8> {
     let [t0, t1] = transaction.to_be_bytes();
     let [s0, s1] = start.to_be_bytes();
     let [q0, q1] = qty.to_be_bytes();
@@ -33,7 +33,7 @@ fn read_holding(transaction: u16, unit: u8, start: u16, qty: u16) -> Vec<u8> {
 }
 
 /// The reply to `read_holding(transaction, unit, start, qty)` from [`bank`].
-fn holding_reply(transaction: u16, unit: u8, start: u16, qty: u16) -> Vec<u8> {
+pub(super) fn holding_reply(transaction: u16, unit: u8, start: u16, qty: u16) -> Vec<u8> {
     let [t0, t1] = transaction.to_be_bytes();
     let len = 3 + 2 * qty;
     let mut adu = vec![t0, t1, 0, 0, (len >> 8) as u8, len as u8, unit, 0x03, (2 * qty) as u8];
