@@ -150,7 +150,7 @@ impl<R: Routes, DE: OutputPin + 'static, const U: u8> Service for Forwarding<R, 
         // a socket that has no connection (the chip ignores the SEND); a new connection on
         // that socket would have had to be seen first (its socket listens again only then).
         let mut line = Locked(&self.line.running);
-        if self.gateway.deliver(server, chip, &mut line, &self.settings) {
+        if self.gateway.deliver(server, chip, &mut line, &self.settings, net) {
             server.resume();
         }
         self.serve(server, chip, net, second);

@@ -35,6 +35,7 @@
 //! too, ends the run of misses. The gateway keeps this health for [`TRACKED`] slaves.
 
 use super::mbap::HEADER;
+use super::network::Network;
 use super::server::{Answered, Handler, Server, Sockets};
 use crate::master::request::Shape;
 use crate::master::Failure;
@@ -294,15 +295,16 @@ impl Gateway {
         self.flight.is_some()
     }
 
-    /// Passes the line's outcome back to the connection that asked, once it is there:
-    /// true when the line is free for the next request (the caller then resumes the
-    /// server's waiting connections).
+    /// Passes the line's outcome back to the connection that asked, once it is there (in
+    /// its socket's framing, `net`'s): true when the line is free for the next request (the
+    /// caller then resumes the server's waiting connections).
     pub fn deliver<S: Sockets, L: RtuSide, const B: usize>(
         &mut self,
         server: &mut Server<B>,
         chip: &mut S,
         line: &mut L,
         settings: &GatewaySettings,
+        net: &Network,
     ) -> bool {
         let Some(flight) = self.flight else { return false };
         let Some(outcome) = line.outcome() else { return false };
@@ -316,21 +318,25 @@ impl Gateway {
             };
             let [t0, t1] = flight.transaction.to_be_bytes();
             let head = [t0, t1, 0, 0, 0, pdu as u8 + 1, flight.unit, flight.function | 0x80, code];
-            let answered = server.answer(chip, flight.socket, (HEADER + pdu) as u16, code != 0, |chip, at, buf| {
-                let Some(first) = buf.get_mut(..head.len()) else { return };
-                first.copy_from_slice(&head);
-                let lead = if code != 0 { HEADER + 2 } else { HEADER };
-                chip.write(flight.socket, at, &mut first[..lead]);
-                // The answer's bytes, a buffer at a time.
-                let mut done = 0;
-                while lead + done < HEADER + pdu {
-                    let n = (HEADER + pdu - lead - done).min(buf.len());
-                    let chunk = &mut buf[..n];
-                    line.reply(done, chunk);
-                    chip.write(flight.socket, at.wrapping_add((lead + done) as u16), chunk);
-                    done += n;
-                }
-            });
+            let answered = if net.is_rtu(flight.socket) {
+                rtu::answer(server, chip, line, flight.socket, [flight.unit, flight.function | 0x80, code], pdu)
+            } else {
+                server.answer(chip, flight.socket, (HEADER + pdu) as u16, code != 0, |chip, at, buf| {
+                    let Some(first) = buf.get_mut(..head.len()) else { return };
+                    first.copy_from_slice(&head);
+                    let lead = if code != 0 { HEADER + 2 } else { HEADER };
+                    chip.write(flight.socket, at, &mut first[..lead]);
+                    // The answer's bytes, a buffer at a time.
+                    let mut done = 0;
+                    while lead + done < HEADER + pdu {
+                        let n = (HEADER + pdu - lead - done).min(buf.len());
+                        let chunk = &mut buf[..n];
+                        line.reply(done, chunk);
+                        chip.write(flight.socket, at.wrapping_add((lead + done) as u16), chunk);
+                        done += n;
+                    }
+                })
+            };
             match answered {
                 // Cannot last: a request is handed over only while its socket has no SEND on
                 // its way, and nothing else is sent on it until its answer.
@@ -600,6 +606,29 @@ impl<L: RtuSide, R: Routes> Handler for Gate<'_, L, R> {
         }
         self.gateway.bump(Count::Unavailable);
         Some((encode_exception(&mut adu[HEADER..], Exception::GatewayPathUnavailable), true))
+    }
+}
+
+/// The answers to RTU over TCP's sockets (feature `rtu-over-tcp`).
+#[cfg(feature = "rtu-over-tcp")]
+mod rtu;
+
+/// Without feature `rtu-over-tcp` no socket frames as RTU ([`Network::is_rtu`]).
+#[cfg(not(feature = "rtu-over-tcp"))]
+mod rtu {
+    use super::{Answered, RtuSide, Server, Sockets};
+
+    /// Never called: no socket frames as RTU.
+    #[inline(always)]
+    pub(super) fn answer<S: Sockets, L: RtuSide, const B: usize>(
+        _server: &mut Server<B>,
+        _chip: &mut S,
+        _line: &mut L,
+        _s: u8,
+        _head: [u8; 3],
+        _pdu: usize,
+    ) -> Answered {
+        Answered::Gone
     }
 }
 

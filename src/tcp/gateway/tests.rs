@@ -232,16 +232,23 @@ struct Rig {
     gateway: Gateway,
     line: Played,
     settings: GatewaySettings,
+    net: Network,
 }
 
 impl Rig {
     fn new(slaves: impl IntoIterator<Item = (u8, Slave)>) -> Self {
+        Rig::on(NET, slaves)
+    }
+
+    /// [`Rig::new`] with the settings `net`.
+    fn on(net: Network, slaves: impl IntoIterator<Item = (u8, Slave)>) -> Self {
         let mut rig = Rig {
             chip: Fake::default(),
             server: Server::new(),
             gateway: Gateway::new(),
             line: Played::new(slaves),
             settings: GatewaySettings::new(),
+            net,
         };
         rig.step();
         rig
@@ -250,7 +257,7 @@ impl Rig {
     /// One poll as the AVR layer makes it: the line's outcome passed back (and, the line
     /// free, the waiting connections resumed), then the chip served.
     fn step(&mut self) {
-        if self.gateway.deliver(&mut self.server, &mut self.chip, &mut self.line, &self.settings) {
+        if self.gateway.deliver(&mut self.server, &mut self.chip, &mut self.line, &self.settings, &self.net) {
             self.server.resume();
         }
         self.serve();
@@ -265,7 +272,7 @@ impl Rig {
             waiting: self.server.waiting(),
             first: 0,
         };
-        self.server.poll(&mut self.chip, &NET, &mut gate, false);
+        self.server.poll(&mut self.chip, &self.net, &mut gate, false);
     }
 
     /// Polls until nothing moves.
@@ -863,4 +870,109 @@ fn a_master_that_does_not_read_its_answers_holds_up_only_itself() {
     rig.settle();
     rig.chip.ack(0);
     assert_eq!(rig.chip.socks[0].sent, [read_reply(1, 1, 0x100, 0, 10), read_reply(2, 1, 0x100, 0, 10)].concat());
+}
+
+/// The gateway on RTU over TCP: socket 1 speaks RTU on port 5020.
+#[cfg(feature = "rtu-over-tcp")]
+mod rtu_over_tcp {
+    use super::*;
+    use crate::link::crc::crc16;
+
+    /// `body` (address and PDU) with its CRC.
+    fn frame(body: &[u8]) -> Vec<u8> {
+        let mut frame = body.to_vec();
+        frame.extend_from_slice(&crc16(body).to_le_bytes());
+        frame
+    }
+
+    /// A gateway whose socket 1 speaks RTU over TCP, a master connected to it.
+    fn rig(slaves: impl IntoIterator<Item = (u8, Slave)>) -> Rig {
+        let mut rig = Rig::on(NET.rtu_over_tcp(5020, 0b0010), slaves);
+        assert_eq!(rig.chip.socks[1].port, 5020);
+        rig.chip.connect(1, [10, 0, 0, 7]);
+        rig
+    }
+
+    /// The frames the line carried, without their CRCs.
+    fn on_the_line(rig: &Rig) -> Vec<Vec<u8>> {
+        rig.line.sent.iter().map(|(_, f)| f[..f.len() - 2].to_vec()).collect()
+    }
+
+    #[test]
+    fn a_frame_goes_to_the_line_as_it_is_and_the_answer_comes_back_framed() {
+        let mut rig = rig([(1, Slave::Bank(regs(0x100))), (2, Slave::Bank(regs(0x200)))]);
+        // Two frames in one segment, each to its slave; then a write.
+        rig.chip.deliver(1, &[frame(&[1, 3, 0, 2, 0, 3]), frame(&[2, 3, 0, 0, 0, 1])].concat());
+        rig.chip.deliver(1, &frame(&[1, 6, 0, 4, 0xAB, 0xCD]));
+        rig.settle();
+        assert_eq!(on_the_line(&rig), [vec![1, 3, 0, 2, 0, 3], vec![2, 3, 0, 0, 0, 1], vec![1, 6, 0, 4, 0xAB, 0xCD]]);
+        let expected = [
+            frame(&[1, 3, 6, 0x01, 0x02, 0x01, 0x03, 0x01, 0x04]),
+            frame(&[2, 3, 2, 0x02, 0x00]),
+            frame(&[1, 6, 0, 4, 0xAB, 0xCD]),
+        ]
+        .concat();
+        assert_eq!(rig.chip.socks[1].sent, expected);
+    }
+
+    #[test]
+    fn the_gateways_own_exceptions_and_registers_are_framed() {
+        let mut rig = rig([(1, Slave::Bank(regs(0x100))), (3, Slave::Dead)]);
+        // A slave's exception (40011 missing), a dead slave (0B), a unit not routed (0A),
+        // a malformed request (03, never on the line), the gateway's own registers.
+        for request in [
+            frame(&[1, 3, 0, 10, 0, 1]),
+            frame(&[3, 3, 0, 0, 0, 1]),
+            frame(&[9, 3, 0, 0, 0, 1]),
+            frame(&[1, 3, 0, 0, 0, 0]),
+            frame(&[0xFF, 4, 0, 0, 0, 1]),
+        ] {
+            rig.chip.deliver(1, &request);
+            rig.settle();
+        }
+        let expected = [
+            frame(&[1, 0x83, 0x02]),
+            frame(&[3, 0x83, 0x0B]),
+            frame(&[9, 0x83, 0x0A]),
+            frame(&[1, 0x83, 0x03]),
+            // forwarded: 2 (slave 1 and slave 3 once, its retry not counted)
+            frame(&[0xFF, 4, 2, 0, 2]),
+        ]
+        .concat();
+        assert_eq!(rig.chip.socks[1].sent, expected);
+        assert_eq!(on_the_line(&rig).len(), 3, "slave 1 once, slave 3 twice (a retry)");
+    }
+
+    #[test]
+    fn a_broadcast_goes_to_the_line_and_nothing_comes_back() {
+        let mut rig = rig([(1, Slave::Bank(regs(0x100)))]);
+        rig.chip.deliver(1, &frame(&[0, 6, 0, 1, 0x12, 0x34]));
+        rig.chip.deliver(1, &frame(&[0, 3, 0, 0, 0, 1]));
+        rig.chip.deliver(1, &frame(&[1, 3, 0, 1, 0, 1]));
+        rig.settle();
+        assert_eq!(on_the_line(&rig), [vec![0, 6, 0, 1, 0x12, 0x34], vec![1, 3, 0, 1, 0, 1]]);
+        assert_eq!(rig.chip.socks[1].sent, frame(&[1, 3, 2, 0x01, 0x01]));
+    }
+
+    #[test]
+    fn a_bad_crc_never_reaches_the_line() {
+        let mut rig = rig([(1, Slave::Bank(regs(0x100)))]);
+        let mut bad = frame(&[1, 6, 0, 1, 0x12, 0x34]);
+        bad[5] ^= 1;
+        rig.chip.deliver(1, &bad);
+        rig.settle();
+        assert!(rig.line.sent.is_empty() && rig.chip.socks[1].sent.is_empty());
+        assert_eq!(rig.server.counters().bad_frame, 1);
+    }
+
+    #[test]
+    fn mbap_and_rtu_connections_share_the_line() {
+        let mut rig = rig([(1, Slave::Bank(regs(0x100)))]);
+        rig.chip.connect(0, [10, 0, 0, 8]);
+        rig.chip.deliver(0, &read(0x4242, 1, 0, 2));
+        rig.chip.deliver(1, &frame(&[1, 3, 0, 2, 0, 1]));
+        rig.settle();
+        assert_eq!(rig.chip.socks[0].sent, read_reply(0x4242, 1, 0x100, 0, 2));
+        assert_eq!(rig.chip.socks[1].sent, frame(&[1, 3, 2, 0x01, 0x02]));
+    }
 }
