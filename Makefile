@@ -146,7 +146,9 @@ sizes: firmware
 # The TCP server (examples/tcp_server.rs) as make chips builds it, CHIP:SHIELD, into
 # target/chips/CHIP-SHIELD/: the Uno with either chip, polled or with the INT line on pin 2,
 # the Mega 2560 and the Leonardo with a W5500. Then the TCP contract (sixteen_each_tcp) and
-# the firmware with both TCP and RTU (tcp_rtu) into target/chips/atmega328p-tcp/, and
+# the firmware with both TCP and RTU (tcp_rtu) into target/chips/atmega328p-tcp/, the contract
+# with RTU over TCP on socket 3, port 5020 (feature rtu-over-tcp: tests/sim_rtu_over_tcp.rs,
+# interop_tcp's pymodbus RTU framer) into target/chips/atmega328p-tcp-rtu/, and
 # examples/libmodbus_map.rs (libmodbus's unit-test map on a W5100, with the FC 17, 22 and 23
 # its unit-test-client uses) into target/chips/atmega328p-w5100-libmodbus/: make interop runs
 # tcp_server and libmodbus_map on the virtual shields (tools/virtual-uno/tests/interop_tcp.rs).
@@ -160,6 +162,7 @@ TCP_BUILDS := atmega328p:w5100 atmega328p:w5500 atmega328p:w5100-int atmega328p:
 TCP_FIRMWARE := $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-none/release/examples/tcp_server.elf) \
 	target/chips/atmega328p-tcp/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu.elf \
+	target/chips/atmega328p-tcp-rtu/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-w5100-libmodbus/avr-none/release/examples/libmodbus_map.elf \
 	target/chips/atmega328p-tcp-gateway/avr-none/release/examples/tcp_gateway.elf \
 	target/chips/atmega328p-tcp-gateway-int/avr-none/release/examples/tcp_gateway.elf \
@@ -172,6 +175,7 @@ tcp-firmware: setup
 		AVR_MODBUS_EXAMPLE_SHIELD=$$shield .ci/chip-build $$chip "" $$chip-$$shield examples,tcp,millis tcp_server || exit 1; \
 	done
 	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu
+	@.ci/chip-build atmega328p "" atmega328p-tcp-rtu examples,tcp,rtu-over-tcp sixteen_each_tcp
 	@.ci/chip-build atmega328p "" atmega328p-w5100-libmodbus examples,tcp,extra-fc,diagnostics libmodbus_map
 	@.ci/chip-build atmega328p "" atmega328p-tcp-gateway examples,tcp,master tcp_gateway
 	@AVR_MODBUS_EXAMPLE_SHIELD=w5100-int .ci/chip-build atmega328p "" atmega328p-tcp-gateway-int examples,tcp,master tcp_gateway
