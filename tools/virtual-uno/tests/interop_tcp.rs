@@ -13,6 +13,10 @@
 //! target/libmodbus-tests). `make interop` runs it; `TCP_CONNECTIONS` sets the one-shot
 //! connections (100 there, 10000 under `make soak-tcp`).
 //!
+//! With feature `rtu-over-tcp`, pymodbus's RTU framer over TCP against
+//! `examples/sixteen_each_tcp.rs` (`demo/pymodbus_rtu_over_tcp_check.py`, on pymodbus 3.0 or
+//! 3.13 as `INTEROP_PYTHON` has it).
+//!
 //! mbpoll cannot send a request that gets exception 03: libmodbus refuses a quantity over the
 //! spec's limits before sending (`Too many data`), so 03 is checked through pymodbus, the raw
 //! socket and libmodbus's crafted requests (`modbus_send_raw_request`).
@@ -531,6 +535,55 @@ fn pymodbus_tcp_client_runs_every_function_code_and_exceptions_w5500() {
     let _one = serialise();
     let board = Board::start(&tcp_server("w5500"), "w5500");
     pymodbus_check(&board);
+}
+
+/// examples/sixteen_each_tcp.rs built with feature `rtu-over-tcp` on a W5100 (MBAP on 502,
+/// RTU over TCP on socket 3, port 5020), with both ports bridged: the board, and where the
+/// chip's port 5020 is on 127.0.0.1.
+fn rtu_over_tcp_board() -> (Board, u16) {
+    let firmware = chip_firmware("atmega328p-tcp-rtu", "sixteen_each_tcp");
+    let process = Spawned::start(
+        Command::new(env!("CARGO_BIN_EXE_virtual-uno"))
+            .args(["--no-stdin", "--wiznet", "w5100", "--tcp", "502:0", "--tcp", "5020:0"])
+            .arg(&firmware),
+    );
+    let port = process.port_after("tcp: 127.0.0.1:", "the firmware");
+    let deadline = Instant::now() + Duration::from_secs(10);
+    let rtu_port = loop {
+        let log = process.log();
+        let line = log.lines().find(|line| line.ends_with("(the chip's port 5020)"));
+        if let Some(port) =
+            line.and_then(|l| l.split(['.', ':', ' ']).find_map(|w| w.parse::<u16>().ok().filter(|&p| p > 1024)))
+        {
+            break port;
+        }
+        assert!(Instant::now() < deadline, "port 5020 never listened:\n{log}");
+        thread::sleep(Duration::from_millis(20));
+    };
+    (Board { process, port }, rtu_port)
+}
+
+/// pymodbus's TCP client with its RTU framer (Home Assistant's `type: rtuovertcp`):
+/// `demo/pymodbus_rtu_over_tcp_check.py` against the RTU over TCP port (reads and writes of
+/// every table at two addresses, exceptions 02 and 01), then an MBAP read on port 502 of
+/// what it wrote.
+#[test]
+fn pymodbus_rtu_framer_over_tcp_reads_writes_and_exceptions() {
+    let _one = serialise();
+    let (board, rtu_port) = rtu_over_tcp_board();
+    let mut cmd = Command::new(python());
+    cmd.arg(workspace().join("demo/pymodbus_rtu_over_tcp_check.py")).args([
+        "check",
+        "127.0.0.1",
+        &rtu_port.to_string(),
+    ]);
+    let (ok, out) = run(&mut cmd, Duration::from_secs(60));
+    println!("{out}");
+    assert!(ok, "pymodbus_rtu_over_tcp_check.py failed (python: {})\n{}", python(), transcript(&out, &board));
+    let mut mbap = board.connect();
+    mbap.write_all(&adu(1, 1, &[0x03, 0, 0, 0, 4])).unwrap();
+    let reply = read_adu(&mut mbap).expect("an MBAP reply on port 502");
+    assert_eq!(reply, adu(1, 1, &[0x03, 8, 0, 17, 0x12, 0x34, 0xBE, 0xEF, 0, 7]), "{}", transcript(&out, &board));
 }
 
 /// A master: `pymodbus_tcp_check.py poll` in a process of its own.
