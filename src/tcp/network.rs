@@ -240,6 +240,34 @@ mod rtu {
         ///     Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).sockets(4).rtu_over_tcp(5020, 0b1000);
         /// assert_eq!(NETWORK.rtu_port(), Some(5020));
         /// ```
+        ///
+        /// MBAP's port, no socket, a socket past the serving ones, or a port given to MBAP
+        /// after: each stops the build.
+        ///
+        /// ```compile_fail,E0080
+        /// # use avr_modbus::tcp::Network;
+        /// const SAME_PORT: Network = Network::new([2, 0, 0, 0, 0, 1], [10, 0, 0, 2]).rtu_over_tcp(502, 0b1000);
+        /// ```
+        ///
+        /// ```compile_fail,E0080
+        /// # use avr_modbus::tcp::Network;
+        /// const NO_SOCKET: Network = Network::new([2, 0, 0, 0, 0, 1], [10, 0, 0, 2]).rtu_over_tcp(5020, 0);
+        /// ```
+        ///
+        /// ```compile_fail,E0080
+        /// # use avr_modbus::tcp::Network;
+        /// const PAST: Network = Network::new([2, 0, 0, 0, 0, 1], [10, 0, 0, 2]).sockets(2).rtu_over_tcp(5020, 0b0100);
+        /// ```
+        ///
+        /// ```compile_fail,E0080
+        /// # use avr_modbus::tcp::Network;
+        /// const FEWER: Network = Network::new([2, 0, 0, 0, 0, 1], [10, 0, 0, 2]).rtu_over_tcp(5020, 0b1000).sockets(3);
+        /// ```
+        ///
+        /// ```compile_fail,E0080
+        /// # use avr_modbus::tcp::Network;
+        /// const CLASH: Network = Network::new([2, 0, 0, 0, 0, 1], [10, 0, 0, 2]).rtu_over_tcp(5020, 0b1000).with_port(5020);
+        /// ```
         pub const fn rtu_over_tcp(self, port: u16, sockets: u8) -> Network {
             assert!(port != 0, "port 0 is no TCP port");
             assert!(port != self.port, "MBAP and RTU over TCP need ports of their own");
