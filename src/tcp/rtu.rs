@@ -32,10 +32,8 @@ pub(crate) const MIN_FRAME: u16 = 4;
 /// The most bytes a frame has (Serial Line §2.5.1.1).
 pub(crate) const MAX_FRAME: u16 = 256;
 
-/// The bytes of a frame's start that [`frame_len`] may need: FC 23's byte count is the 11th.
-pub(crate) const HEAD: usize = 11;
-
-/// The length of the frame starting with `head` (its first bytes received, up to [`HEAD`]),
+/// The length of the frame starting with `head` (its first bytes received; FC 23's byte
+/// count, the 11th byte, is the furthest it looks),
 /// from its function code and, for codes with data, its byte count; `received` bytes are
 /// there in all. `None` while `head` is too short to tell; a length outside 4–256 is no
 /// frame.

@@ -13,7 +13,7 @@
 use super::{mbap, Count, Handler, Server, Sockets, HEADER, SOCKETS};
 use crate::link::crc::Crc16;
 use crate::tcp::network::Network;
-use crate::tcp::rtu::{frame_len, HEAD, MAX_FRAME, MIN_FRAME};
+use crate::tcp::rtu::{frame_len, MAX_FRAME, MIN_FRAME};
 
 /// Where a frame's address goes in the buffer: the MBAP unit id's place.
 const ADDRESS: usize = HEADER - 1;
@@ -123,13 +123,13 @@ impl<const B: usize> Server<B> {
     /// and dropped (counted), and the stream starts again with the next bytes. A frame
     /// longer than the buffer is read through it for its CRC, then its start again.
     fn frame_rtu<S: Sockets>(&mut self, chip: &mut S, s: u8, rx: &mut u16, received: &mut u16) -> u16 {
-        let room = B - ADDRESS;
-        let head = usize::from(*received).min(HEAD).min(room);
+        // What is there, as much as fits: the frame's start, and usually all of it.
         let buf = &mut self.buf[ADDRESS..];
-        chip.read(s, *rx, &mut buf[..head]);
-        let len = match frame_len(&buf[..head], *received) {
+        let n = usize::from(*received).min(buf.len());
+        chip.read(s, *rx, &mut buf[..n]);
+        let len = match frame_len(&buf[..n], *received) {
             // Its byte count is on its way.
-            None if head == usize::from(*received) => return 0,
+            None if n == usize::from(*received) => return 0,
             Some(len) if (MIN_FRAME..=MAX_FRAME).contains(&len) => len,
             _ => return self.discard(rx, received),
         };
@@ -137,16 +137,18 @@ impl<const B: usize> Server<B> {
             // The rest is on its way.
             return 0;
         }
-        let mut crc = Crc16::new();
-        let mut done = 0;
+        // The CRC over the frame; one longer than the buffer read through it, a buffer at a
+        // time, then its start again.
+        let mut crc = Crc16::new().update_slice(&buf[..usize::from(len).min(n)]);
+        let mut done = n as u16;
         while done < len {
-            let n = usize::from(len - done).min(room);
-            chip.read(s, rx.wrapping_add(done), &mut buf[..n]);
-            crc = crc.update_slice(&buf[..n]);
-            done += n as u16;
+            let k = usize::from(len - done).min(n);
+            chip.read(s, rx.wrapping_add(done), &mut buf[..k]);
+            crc = crc.update_slice(&buf[..k]);
+            done += k as u16;
         }
-        if usize::from(len) > room {
-            chip.read(s, *rx, buf);
+        if usize::from(len) > n {
+            chip.read(s, *rx, &mut buf[..n]);
         }
         if !crc.is_residue_ok() {
             return self.discard(rx, received);
