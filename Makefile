@@ -153,7 +153,8 @@ sizes: firmware
 # its unit-test-client uses) into target/chips/atmega328p-w5100-libmodbus/: make interop runs
 # tcp_server and libmodbus_map on the virtual shields (tools/virtual-uno/tests/interop_tcp.rs).
 # The TCP to RTU gateway (tcp_gateway, W5100, USART0) into target/chips/atmega328p-tcp-gateway/,
-# and with the INT line on pin 2 into target/chips/atmega328p-tcp-gateway-int/.
+# and with the INT line on pin 2 into target/chips/atmega328p-tcp-gateway-int/, and with RTU
+# over TCP on socket 3, port 5020, into target/chips/atmega328p-tcp-gateway-rtu/.
 # The TCP client (features tcp and master): examples/tcp_poll.rs (the TCP masters' size
 # figure) and examples/tcp_client_check.rs (what tests/sim_tcp_client.rs and
 # tools/virtual-uno/tests/interop_tcp_client.rs run) into target/chips/atmega328p-tcp-client/,
@@ -166,6 +167,7 @@ TCP_FIRMWARE := $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-non
 	target/chips/atmega328p-w5100-libmodbus/avr-none/release/examples/libmodbus_map.elf \
 	target/chips/atmega328p-tcp-gateway/avr-none/release/examples/tcp_gateway.elf \
 	target/chips/atmega328p-tcp-gateway-int/avr-none/release/examples/tcp_gateway.elf \
+	target/chips/atmega328p-tcp-gateway-rtu/avr-none/release/examples/tcp_gateway.elf \
 	target/chips/atmega328p-tcp-client/avr-none/release/examples/tcp_poll.elf \
 	target/chips/atmega328p-tcp-client/avr-none/release/examples/tcp_client_check.elf \
 	target/chips/atmega328p-tcp-client-w5500/avr-none/release/examples/tcp_client_check.elf
@@ -179,6 +181,7 @@ tcp-firmware: setup
 	@.ci/chip-build atmega328p "" atmega328p-w5100-libmodbus examples,tcp,extra-fc,diagnostics libmodbus_map
 	@.ci/chip-build atmega328p "" atmega328p-tcp-gateway examples,tcp,master tcp_gateway
 	@AVR_MODBUS_EXAMPLE_SHIELD=w5100-int .ci/chip-build atmega328p "" atmega328p-tcp-gateway-int examples,tcp,master tcp_gateway
+	@.ci/chip-build atmega328p "" atmega328p-tcp-gateway-rtu examples,tcp,master,rtu-over-tcp tcp_gateway
 	@.ci/chip-build atmega328p "" atmega328p-tcp-client examples,tcp,master tcp_poll tcp_client_check
 	@AVR_MODBUS_EXAMPLE_SHIELD=w5500 .ci/chip-build atmega328p "" atmega328p-tcp-client-w5500 examples,tcp,master \
 		tcp_client_check

@@ -13,8 +13,8 @@
  * header, so pin 13 cannot be the transceiver's driver enable); pins 0 (RX) and 1 (TX) to
  * an RS-485 transceiver's RO and DI, its DE and /RE joined on pin 3, A/B to the line.
  *
- * Network: 192.168.1.177/24, port 502. Line: 19200 8E1, a response timeout of 200 ms, one
- * retry.
+ * Network: 192.168.1.177/24, port 502 (with feature `rtu-over-tcp`, socket 3 serves RTU over
+ * TCP on port 5020 instead). Line: 19200 8E1, a response timeout of 200 ms, one retry.
  *
  * | unit 255 (FC 3 or 4) | meaning                                                |
  * |----------------------|--------------------------------------------------------|
@@ -43,7 +43,13 @@ use avr_modbus::tcp::W5100;
 use avr_modbus::{Line, Parity, StopBits};
 use panic_halt as _;
 
+#[cfg(not(feature = "rtu-over-tcp"))]
 const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).evict_after(2);
+#[cfg(feature = "rtu-over-tcp")]
+const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177])
+    .evict_after(2)
+    .sockets(4)
+    .rtu_over_tcp(5020, 0b1000);
 const LINE: Line = Line::new(19_200, Parity::Even, StopBits::One);
 
 // This repository builds it for each shield (`AVR_MODBUS_EXAMPLE_SHIELD`): the W5100 by

@@ -1,8 +1,11 @@
 //! Modbus RTU over TCP (feature `rtu-over-tcp`) on the simulated Uno with its simulated
-//! W5100 (`examples/sixteen_each_tcp.rs` as `make tcp-firmware` builds it with the feature:
-//! socket 3 speaks RTU over TCP on port 5020, sockets 0-2 MBAP on 502): the serial frame
-//! (address, PDU, CRC) on the TCP stream, framed by its function code; a frame split over
-//! segments, frames in one segment, a bad CRC, and MBAP beside on the same chip.
+//! W5100, as `make tcp-firmware` builds it with the feature (socket 3 speaks RTU over TCP on
+//! port 5020, sockets 0-2 MBAP on 502): the serial frame (address, PDU, CRC) on the TCP
+//! stream, framed by its function code. The server (`examples/sixteen_each_tcp.rs`): reads,
+//! writes, exceptions, a frame split over segments, frames in one segment, a bad CRC, and
+//! MBAP beside on the same chip. The gateway (`examples/tcp_gateway.rs`): a frame to the
+//! line as it came, the slave's answer back as it came off the line, 0B framed for a slave
+//! that does not answer, a bad CRC never on the line.
 
 mod sim;
 
@@ -101,4 +104,70 @@ fn split_pipelined_and_damaged_frames_beside_an_mbap_master() {
     assert_eq!(ask(&mut uno, n, &segment, expected.len()), expected);
     let mbap_read = [0, 7, 0, 0, 0, 6, 1, 3, 0, 0, 0, 1];
     assert_eq!(ask(&mut uno, mbap, &mbap_read, 11), [0, 7, 0, 0, 0, 5, 1, 3, 2, 0xBE, 0xEF]);
+}
+
+/// The gateway (`examples/tcp_gateway.rs` with the feature: RS-485 at 19200 8E1, a response
+/// timeout of 200 ms and one retry; socket 3 speaks RTU over TCP on port 5020), running until
+/// its sockets listen.
+fn boot_gateway() -> Uno {
+    let elf = chip_variant_firmware(Chip::Atmega328p, 0, "-tcp-gateway-rtu", "tcp_gateway");
+    let mut uno = Uno::load_with(elf, Options::new().wiznet(Wiznet::W5100)).unwrap();
+    while !(0..4).all(|n| uno.wiznet().unwrap().status(n) == state::LISTEN) {
+        assert!(uno.now() < us_to_cycles(100_000), "the sockets never listened");
+        uno.run_for(us_to_cycles(100)).unwrap();
+    }
+    uno.run_for(us_to_cycles(5000)).unwrap();
+    uno
+}
+
+/// The gateway's next frame on the line, once two characters of idle line end it (within
+/// `ms`): its bytes and the cycle its last character ended; what came back on socket `n`
+/// meanwhile is added to `answers`.
+fn line_frame(uno: &mut Uno, n: usize, ms: u64, answers: &mut Vec<u8>) -> Option<(Vec<u8>, u64)> {
+    let char_cycles = uno.wire_char_cycles().unwrap();
+    let deadline = uno.now() + us_to_cycles(1000 * ms);
+    let mut chars = Vec::new();
+    while uno.now() < deadline {
+        uno.run_for(char_cycles / 2).unwrap();
+        answers.extend(uno.wiznet_mut().unwrap().take_sent(n));
+        chars.extend(uno.take_tx());
+        if let Some(last) = chars.last() {
+            if uno.now() >= last.end_cycle + 2 * char_cycles {
+                return Some((chars.iter().map(|c| c.byte).collect(), last.end_cycle));
+            }
+        }
+    }
+    None
+}
+
+#[test]
+fn the_gateway_passes_a_frame_to_the_line_as_it_is_and_the_answer_back() {
+    let mut uno = boot_gateway();
+    let n = connect(&mut uno, RTU_PORT, 0);
+    assert_eq!(n, RTU_SOCKET);
+    let mut answers = Vec::new();
+    let request = frame(&[0x02, 0x03, 0x00, 0x05, 0x00, 0x02]);
+    uno.wiznet_mut().unwrap().deliver(n, &request);
+    let (sent, end) = line_frame(&mut uno, n, 50, &mut answers).expect("the request on the line");
+    assert_eq!(sent, request);
+    // Slave 2 answers 3 ms after the request's end.
+    let reply = frame(&[0x02, 0x03, 0x04, 0x12, 0x34, 0x56, 0x78]);
+    uno.send_frame(&reply, end + us_to_cycles(3000), 0).unwrap();
+    assert_eq!(line_frame(&mut uno, n, 20, &mut answers), None, "the gateway sent again");
+    assert_eq!(answers, reply, "the answer as it came off the line");
+    // A slave that does not answer: the request and its retry, then 0B in an RTU frame.
+    answers.clear();
+    let request = frame(&[0x07, 0x06, 0x00, 0x01, 0xAB, 0xCD]);
+    uno.wiznet_mut().unwrap().deliver(n, &request);
+    for _ in 0..2 {
+        let (sent, _) = line_frame(&mut uno, n, 250, &mut answers).expect("a try on the line");
+        assert_eq!(sent, request);
+    }
+    assert_eq!(line_frame(&mut uno, n, 250, &mut answers), None);
+    assert_eq!(answers, frame(&[0x07, 0x86, 0x0B]));
+    // A bad CRC never reaches the line.
+    let mut bad = frame(&[0x02, 0x03, 0x00, 0x05, 0x00, 0x02]);
+    bad[7] ^= 1;
+    uno.wiznet_mut().unwrap().deliver(n, &bad);
+    assert_eq!(line_frame(&mut uno, n, 20, &mut answers), None);
 }
