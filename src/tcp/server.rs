@@ -17,6 +17,7 @@
 use super::mbap::{self, Header, Refused, HEADER};
 use super::network::Network;
 use super::wiznet::{command, state, RECV, SEND_OK};
+use crate::link::crc::Crc16;
 
 /// What the server needs of a chip's TCP sockets (the W5100's and W5500's meanings).
 pub trait Sockets {
@@ -148,6 +149,9 @@ pub struct Server<const B: usize = { mbap::MAX_ADU }> {
 /// The bytes of the usual request, a read or a single write (FC 1-6): header and 5 bytes
 /// of PDU. The buffer holds at least these.
 const USUAL: usize = HEADER + 5;
+
+/// Feature `rtu-over-tcp`: a socket may frame as RTU ([`Network::is_rtu`]).
+const RTU_OVER_TCP: bool = cfg!(feature = "rtu-over-tcp");
 
 /// The sockets the server keeps a state for: the most a chip has.
 const SOCKETS: usize = Network::MAX_SOCKETS as usize;
@@ -434,18 +438,23 @@ impl<const B: usize> Server<B> {
     }
 
     /// Answers the whole requests socket `s` holds, in order, their replies sent with one
-    /// SEND. True when requests are left (no room to answer, or a SEND on its way).
+    /// SEND. True when requests are left (no room to answer, or a SEND on its way). A socket
+    /// of RTU over TCP ([`Network::is_rtu`], feature `rtu-over-tcp`) differs in three places
+    /// only: how a frame is found (`Server::frame_rtu`, server/rtu.rs: its address at the unit id's
+    /// place, its PDU where an MBAP request's is), no answer to address 0, and the reply
+    /// sent from the address on with a CRC after it.
     fn serve<S: Sockets, H: Handler>(&mut self, chip: &mut S, handler: &mut H, net: &Network, s: u8) -> bool {
         if self.sending & (1 << s) != 0 {
             // Looked at again until its SEND_OK (which need not reach the INT line).
             self.again |= 1 << s;
             return true;
         }
-        if net.is_rtu(s) {
-            return self.serve_rtu(chip, handler, net, s);
-        }
+        let rtu = RTU_OVER_TCP && net.is_rtu(s);
+        // Where the bytes sent start in the buffer: the header, or an RTU frame's address.
+        let start = if rtu { HEADER - 1 } else { 0 };
+        let least = if rtu { rtu::MIN_FRAME } else { HEADER as u16 };
         let mut received = chip.received(s);
-        if received < HEADER as u16 {
+        if received < least {
             return false;
         }
         let at = usize::from(s) % SOCKETS;
@@ -455,39 +464,49 @@ impl<const B: usize> Server<B> {
         let tx_start = self.tx[at];
         let mut tx = tx_start;
         let mut left = false;
-        while received >= HEADER as u16 {
+        while received >= least {
             if H::DEFERS && !handler.ready() {
                 // Taken when the handler is ready (`resume`).
                 self.waiting |= 1 << s;
                 left = true;
                 break;
             }
-            // The header and, in the same transfer, the body of the usual request (FC 1-6:
-            // 12 bytes in all); a longer one's rest below.
-            let first = usize::from(received).min(USUAL);
-            chip.read(s, rx, &mut self.buf[..first]);
-            let (head, body) = self.buf.split_at_mut(HEADER);
-            let head: &mut [u8; HEADER] = head.try_into().unwrap_or_else(|_| unreachable!());
-            let header = match Header::parse(head) {
-                Ok(header) => header,
-                Err(Refused::Protocol) => {
-                    let skip = Header::skip(head).unwrap_or(0);
-                    if received < skip {
-                        left = true;
-                        break;
+            let (header, adu, first) = if rtu {
+                // Whole and its CRC good, or left (a bad one discarded).
+                let len = self.frame_rtu(chip, s, &mut rx, &mut received);
+                if len == 0 {
+                    break;
+                }
+                let header = Header { transaction: 0, length: len - 2, unit: self.buf[start] };
+                (header, len, (start + usize::from(len)).min(B))
+            } else {
+                // The header and, in the same transfer, the body of the usual request (FC
+                // 1-6: 12 bytes in all); a longer one's rest below.
+                let first = usize::from(received).min(USUAL);
+                chip.read(s, rx, &mut self.buf[..first]);
+                let (head, _) = self.buf.split_at_mut(HEADER);
+                let head: &mut [u8; HEADER] = head.try_into().unwrap_or_else(|_| unreachable!());
+                let header = match Header::parse(head) {
+                    Ok(header) => header,
+                    Err(Refused::Protocol) => {
+                        let skip = Header::skip(head).unwrap_or(0);
+                        if received < skip {
+                            left = true;
+                            break;
+                        }
+                        self.bump(Count::BadProtocol);
+                        rx = rx.wrapping_add(skip);
+                        received -= skip;
+                        continue;
                     }
-                    self.bump(Count::BadProtocol);
-                    rx = rx.wrapping_add(skip);
-                    received -= skip;
-                    continue;
-                }
-                Err(Refused::Length) => {
-                    self.bump(Count::BadLength);
-                    self.close(chip, net, s);
-                    return false;
-                }
+                    Err(Refused::Length) => {
+                        self.bump(Count::BadLength);
+                        self.close(chip, net, s);
+                        return false;
+                    }
+                };
+                (header, header.adu_len(), first)
             };
-            let adu = header.adu_len();
             if received < adu {
                 // The rest is on its way.
                 break;
@@ -505,11 +524,13 @@ impl<const B: usize> Server<B> {
                 break;
             }
             let pdu_len = usize::from(header.length - 1);
+            let body = &mut self.buf[HEADER..];
             let kept = pdu_len.min(body.len());
             if kept > first - HEADER {
                 chip.read(s, rx.wrapping_add(first as u16), &mut body[first - HEADER..kept]);
             }
-            let from = rx;
+            // Where the ADU starts in the chip (an RTU frame's PDU where an ADU's would be).
+            let from = rx.wrapping_sub(start as u16);
             rx = rx.wrapping_add(adu);
             received -= adu;
             if H::DEFERS {
@@ -519,20 +540,37 @@ impl<const B: usize> Server<B> {
             let Some((reply, exception)) = handler.handle_from(&mut self.buf, pdu_len, chip, s, from) else {
                 continue;
             };
+            if rtu && header.unit == 0 {
+                // A broadcast (Serial Line §2.1): done, unanswered.
+                continue;
+            }
             self.bump(Count::Requests);
             if exception {
                 self.bump(Count::Exceptions);
             }
             let len = if H::LONG { HEADER + reply } else { (HEADER + reply).min(B) };
             mbap::seal(&mut self.buf, len - HEADER);
-            chip.write(s, tx, &mut self.buf[..len.min(B)]);
+            let mut crc = Crc16::new();
+            if rtu {
+                crc = crc.update_slice(&self.buf[start..len.min(B)]);
+            }
+            chip.write(s, tx, &mut self.buf[start..len.min(B)]);
             // A long reply's rest, a buffer at a time.
             let mut done = B;
             while H::LONG && done < len {
                 let chunk = &mut self.buf[..(len - done).min(B)];
                 handler.more(done, chunk);
-                chip.write(s, tx.wrapping_add(done as u16), chunk);
+                if rtu {
+                    crc = crc.update_slice(chunk);
+                }
+                chip.write(s, tx.wrapping_add((done - start) as u16), chunk);
                 done += chunk.len();
+            }
+            let mut len = len - start;
+            if rtu {
+                let mut tail = crc.to_wire();
+                chip.write(s, tx.wrapping_add(len as u16), &mut tail);
+                len += 2;
             }
             tx = tx.wrapping_add(len as u16);
             free -= len as u16;
@@ -598,13 +636,25 @@ mod rtu;
 
 /// Without feature `rtu-over-tcp` no socket frames as RTU ([`Network::is_rtu`]).
 #[cfg(not(feature = "rtu-over-tcp"))]
-impl<const B: usize> Server<B> {
-    /// Never called: no socket frames as RTU.
-    #[inline(always)]
-    fn serve_rtu<S: Sockets, H: Handler>(&mut self, _chip: &mut S, _handler: &mut H, _net: &Network, _s: u8) -> bool {
-        false
+mod rtu {
+    use super::{Server, Sockets};
+
+    /// The fewest bytes a frame has.
+    pub(super) const MIN_FRAME: u16 = 4;
+
+    impl<const B: usize> Server<B> {
+        /// Never called: no socket frames as RTU.
+        #[inline(always)]
+        pub(super) fn frame_rtu<S: Sockets>(
+            &mut self,
+            _chip: &mut S,
+            _s: u8,
+            _rx: &mut u16,
+            _received: &mut u16,
+        ) -> u16 {
+            0
+        }
     }
 }
-
 #[cfg(test)]
 mod tests;

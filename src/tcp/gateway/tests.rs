@@ -944,6 +944,18 @@ mod rtu_over_tcp {
     }
 
     #[test]
+    fn a_frame_longer_than_the_gateways_buffer_reaches_the_line_whole() {
+        let mut rig = rig([(1, Slave::Bank(regs(0x100)))]);
+        // FC 16 of 10 registers: a PDU of 26 bytes, past the 32-byte buffer's room.
+        let mut body = vec![1, 0x10, 0, 0, 0, 10, 20];
+        body.extend((0..20).map(|i| 0xA0 + i as u8));
+        rig.chip.deliver(1, &frame(&body));
+        rig.settle();
+        assert_eq!(on_the_line(&rig), [body]);
+        assert_eq!(rig.chip.socks[1].sent, frame(&[1, 0x10, 0, 0, 0, 10]));
+    }
+
+    #[test]
     fn a_broadcast_goes_to_the_line_and_nothing_comes_back() {
         let mut rig = rig([(1, Slave::Bank(regs(0x100)))]);
         rig.chip.deliver(1, &frame(&[0, 6, 0, 1, 0x12, 0x34]));

@@ -2,10 +2,11 @@
 //! port 5020, the others MBAP on 502.
 
 use super::super::tests::{bank, holding_reply, read_holding};
-use super::*;
+use super::super::Server;
 use crate::link::crc::crc16;
 use crate::slave::bank::Bank;
 use crate::tcp::fake::Fake;
+use crate::tcp::network::Network;
 use crate::tcp::wiznet::state;
 use crate::tcp::Serving;
 
