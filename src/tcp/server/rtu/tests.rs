@@ -219,10 +219,10 @@ fn an_unknown_code_with_a_good_crc_gets_01_and_with_a_bad_one_silence() {
 fn exceptions_are_the_mbap_paths() {
     let (mut chip, mut bank) = (Fake::default(), bank());
     let mut server: Server = connected(&mut chip, &mut bank);
-    // 126 registers: 03; address 10 missing: 02; FC 8 (serial line only): 01.
-    chip.deliver(RTU, &[read(1, 0, 126), read(1, 10, 1), frame(&[0x01, 0x08, 0x00, 0x00, 0x12, 0x34])].concat());
+    // 126 registers: 03; address 10 missing: 02; FC 0x41, last in the segment: 01.
+    chip.deliver(RTU, &[read(1, 0, 126), read(1, 10, 1), frame(&[0x01, 0x41])].concat());
     poll(&mut server, &mut chip, &mut bank);
-    let expected = [frame(&[0x01, 0x83, 0x03]), frame(&[0x01, 0x83, 0x02]), frame(&[0x01, 0x88, 0x01])].concat();
+    let expected = [frame(&[0x01, 0x83, 0x03]), frame(&[0x01, 0x83, 0x02]), frame(&[0x01, 0xC1, 0x01])].concat();
     assert_eq!(chip.socks[RTU].sent, expected);
     assert_eq!(server.counters().exceptions, 3);
 }
