@@ -7,7 +7,8 @@
  * Wiring: the shield on an Uno (chip select pin 10, SPI on the ICSP header).
  *
  * Network: 192.168.1.177/24, MAC DE:AD:BE:EF:FE:01, port 502, every unit id answered; the
- * references as in `sixteen_each`.
+ * references as in `sixteen_each`. Built with feature `udp`: Modbus UDP on port 502 as well,
+ * on the chip's socket 3 (TCP then on sockets 0-2).
  */
 #![no_std]
 #![no_main]
@@ -16,7 +17,11 @@ use avr_modbus::board;
 use avr_modbus::tcp::{Network, W5100};
 use panic_halt as _;
 
+#[cfg(not(feature = "udp"))]
 const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]);
+// With feature `udp`, Modbus UDP on port 502 too, on socket 3 (TCP on sockets 0-2).
+#[cfg(feature = "udp")]
+const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).sockets(3).udp(3);
 
 avr_modbus::register_map! {
     /// The contract's map: 16 coils, 16 discrete inputs, 8 input and 16 holding registers.

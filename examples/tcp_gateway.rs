@@ -14,7 +14,8 @@
  * an RS-485 transceiver's RO and DI, its DE and /RE joined on pin 3, A/B to the line.
  *
  * Network: 192.168.1.177/24, port 502. Line: 19200 8E1, a response timeout of 200 ms, one
- * retry.
+ * retry. Built with feature `udp`: Modbus UDP on port 502 as well, on the chip's socket 3
+ * (TCP on sockets 0-2), each datagram's answer sent back to its sender.
  *
  * | unit 255 (FC 3 or 4) | meaning                                                |
  * |----------------------|--------------------------------------------------------|
@@ -43,7 +44,12 @@ use avr_modbus::tcp::W5100;
 use avr_modbus::{Line, Parity, StopBits};
 use panic_halt as _;
 
+#[cfg(not(feature = "udp"))]
 const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).evict_after(2);
+// With feature `udp`, Modbus UDP on port 502 too, on socket 3 (TCP on sockets 0-2).
+#[cfg(feature = "udp")]
+const NETWORK: Network =
+    Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).evict_after(2).sockets(3).udp(3);
 const LINE: Line = Line::new(19_200, Parity::Even, StopBits::One);
 
 // This repository builds it for each shield (`AVR_MODBUS_EXAMPLE_SHIELD`): the W5100 by

@@ -13,10 +13,24 @@
 //! Once a second the server looks at every socket: connections idle longer than the
 //! timeout are closed, and when all sockets hold a connection the one idle longest is
 //! closed for a newcomer once it has been idle a while (§4.2.1).
+//!
+//! With feature `udp`, one more socket ([`Network::udp`]) serves Modbus UDP: each datagram
+//! in its receive buffer, behind the chip's 8-byte header (sender's address, port, length),
+//! is one ADU, checked as over TCP and answered with a datagram of its own to its sender.
+//! A datagram the allow-list refuses costs the read of that header and nothing more.
 
 use super::mbap::{self, Header, Refused, HEADER};
 use super::network::Network;
 use super::wiznet::{command, state, RECV, SEND_OK};
+#[cfg(feature = "udp")]
+use super::wiznet::{TIMEOUT, UDP_HEADER};
+
+/// The events that end a SEND: its SEND_OK (and, on a UDP socket, its TIMEOUT: the ARP of
+/// the destination went unanswered and nothing was sent).
+#[cfg(not(feature = "udp"))]
+const SENT: u8 = SEND_OK;
+#[cfg(feature = "udp")]
+const SENT: u8 = SEND_OK | TIMEOUT;
 
 /// What the server needs of a chip's TCP sockets (the W5100's and W5500's meanings).
 pub trait Sockets {
@@ -48,6 +62,12 @@ pub trait Sockets {
     fn write(&mut self, s: u8, pointer: u16, data: &mut [u8]);
     /// Sends the bytes up to `pointer`.
     fn send(&mut self, s: u8, pointer: u16);
+    /// Opens socket `s` for UDP on `port`.
+    #[cfg(feature = "udp")]
+    fn open_udp(&mut self, s: u8, port: u16);
+    /// Where UDP socket `s`'s next SEND goes: address and port (Sn_DIPR, Sn_DPORT).
+    #[cfg(feature = "udp")]
+    fn set_peer(&mut self, s: u8, peer: [u8; 6]);
 }
 
 /// The TCP server's counters: what its connections and requests came to. Each wraps
@@ -69,12 +89,20 @@ pub struct TcpCounters {
     pub other_unit: u16,
     /// Connections accepted.
     pub connections: u16,
-    /// Connections refused by the allow-list.
+    /// Connections refused by the allow-list (with feature `udp`, datagrams too: dropped
+    /// unanswered).
     pub refused: u16,
     /// Connections closed after the idle timeout.
     pub idle_closed: u16,
     /// Connections closed, idle, to make room for a newcomer.
     pub evicted: u16,
+    /// UDP datagrams dropped for their length (feature `udp`): shorter than an MBAP
+    /// header, or not the length its header's length field says (one outside 2–254
+    /// included). Those of an address the allow-list refuses count in
+    /// [`TcpCounters::refused`], those of another protocol id in
+    /// [`TcpCounters::bad_protocol`], those for another unit in [`TcpCounters::other_unit`].
+    #[cfg(feature = "udp")]
+    pub bad_datagrams: u16,
 }
 
 /// A counter's place in [`Server::counts`]: the order of [`TcpCounters`]'s fields.
@@ -89,10 +117,15 @@ enum Count {
     Refused,
     IdleClosed,
     Evicted,
+    #[cfg(feature = "udp")]
+    BadDatagram,
 }
 
 /// How many counters there are.
+#[cfg(not(feature = "udp"))]
 const COUNTS: usize = Count::Evicted as usize + 1;
+#[cfg(feature = "udp")]
+const COUNTS: usize = Count::BadDatagram as usize + 1;
 
 /// Where a socket is, as the server last saw it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -106,6 +139,9 @@ enum Phase {
     Connected,
     /// Closing (a FIN sent, or on its way to closed).
     Closing,
+    /// Open in UDP mode and served.
+    #[cfg(feature = "udp")]
+    Udp,
 }
 
 /// The server: its sockets' states, its counters and the one buffer of `B` bytes where each
@@ -243,7 +279,11 @@ impl<const B: usize> Server<B> {
 
     /// The counters.
     pub fn counters(&self) -> TcpCounters {
+        #[cfg(not(feature = "udp"))]
         let [requests, exceptions, bad_protocol, bad_length, other_unit, connections, refused, idle_closed, evicted] =
+            self.counts;
+        #[cfg(feature = "udp")]
+        let [requests, exceptions, bad_protocol, bad_length, other_unit, connections, refused, idle_closed, evicted, bad_datagrams] =
             self.counts;
         TcpCounters {
             requests,
@@ -255,6 +295,8 @@ impl<const B: usize> Server<B> {
             refused,
             idle_closed,
             evicted,
+            #[cfg(feature = "udp")]
+            bad_datagrams,
         }
     }
 
@@ -279,13 +321,22 @@ impl<const B: usize> Server<B> {
         }
         // A plain server looks at its sockets in order; one whose handler defers takes
         // turns, from the socket after the one served last.
+        #[cfg(not(feature = "udp"))]
+        let slots = serving;
+        // The UDP socket takes its turn after the TCP ones.
+        #[cfg(feature = "udp")]
+        let slots = serving + u8::from(net.udp != super::network::NO_UDP);
         let mut s = if H::DEFERS { self.first } else { 0 };
-        for _ in 0..serving {
-            if H::DEFERS && s >= serving {
+        for _ in 0..slots {
+            if H::DEFERS && s >= slots {
                 s = 0;
             }
-            if look & (1 << s) != 0 {
-                self.service(chip, net, handler, s, second);
+            #[cfg(not(feature = "udp"))]
+            let socket = s;
+            #[cfg(feature = "udp")]
+            let socket = if s == serving { net.udp } else { s };
+            if look & (1 << socket) != 0 {
+                self.service(chip, net, handler, socket, second);
             }
             s += 1;
         }
@@ -301,18 +352,33 @@ impl<const B: usize> Server<B> {
     fn service<S: Sockets, H: Handler>(&mut self, chip: &mut S, net: &Network, handler: &mut H, s: u8, sweep: bool) {
         let at = usize::from(s) % SOCKETS;
         let events = chip.take_events(s);
-        if events & SEND_OK != 0 {
+        if events & SENT != 0 {
             self.sending &= !(1 << s);
         }
         let phase = self.phase[at];
         let data_only = events & RECV != 0 && events & !(RECV | SEND_OK) == 0;
+        #[cfg(not(feature = "udp"))]
         let status = if data_only && phase == Phase::Connected && !sweep { state::ESTABLISHED } else { chip.status(s) };
+        // The UDP socket is served as a connection is (but for what a connection's
+        // beginning and end ask).
+        #[cfg(feature = "udp")]
+        let served = matches!(phase, Phase::Connected | Phase::Udp);
+        #[cfg(feature = "udp")]
+        let status = if data_only && served && !sweep { state::ESTABLISHED } else { chip.status(s) };
+        // The UDP socket's state, as a connection's, is served.
+        #[cfg(not(feature = "udp"))]
+        const UDP: u8 = state::ESTABLISHED;
+        #[cfg(feature = "udp")]
+        const UDP: u8 = state::UDP;
         match status {
             // Closed (reset, timed out, or never opened), or opened and not listening.
             state::CLOSED | state::INIT => self.open(chip, net, s),
             state::LISTEN => {}
-            status @ (state::ESTABLISHED | state::CLOSE_WAIT) => {
-                if phase != Phase::Connected {
+            #[allow(unreachable_patterns)]
+            status @ (state::ESTABLISHED | state::CLOSE_WAIT | UDP) => {
+                #[cfg(not(feature = "udp"))]
+                let served = phase == Phase::Connected;
+                if !served {
                     if !net.allows(chip.peer(s)) {
                         self.bump(Count::Refused);
                         self.close(chip, net, s);
@@ -387,7 +453,13 @@ impl<const B: usize> Server<B> {
         fill: impl FnOnce(&mut S, u16, &mut [u8]),
     ) -> Answered {
         let at = usize::from(s) % SOCKETS;
+        #[cfg(not(feature = "udp"))]
         if self.changed & (1 << s) != 0 || self.phase[at] != Phase::Connected {
+            return Answered::Gone;
+        }
+        // A datagram's answer goes to its sender, still in Sn_DIPR and Sn_DPORT (`serve`).
+        #[cfg(feature = "udp")]
+        if self.changed & (1 << s) != 0 || !matches!(self.phase[at], Phase::Connected | Phase::Udp) {
             return Answered::Gone;
         }
         if self.sending & (1 << s) != 0 {
@@ -415,6 +487,16 @@ impl<const B: usize> Server<B> {
 
     /// Opens socket `s` and listens on the port.
     fn open<S: Sockets>(&mut self, chip: &mut S, net: &Network, s: u8) {
+        // The UDP socket: open, and served from its pointers as they are.
+        #[cfg(feature = "udp")]
+        if s == net.udp {
+            chip.open_udp(s, net.port);
+            self.enter(s, Phase::Udp);
+            let at = usize::from(s) % SOCKETS;
+            self.rx[at] = chip.rx_pointer(s);
+            self.tx[at] = chip.tx_pointer(s);
+            return;
+        }
         chip.listen(s, net.port);
         self.enter(s, Phase::Listening);
     }
@@ -437,6 +519,8 @@ impl<const B: usize> Server<B> {
         if received < HEADER as u16 {
             return false;
         }
+        #[cfg(feature = "udp")]
+        let udp = s == net.udp;
         let at = usize::from(s) % SOCKETS;
         let rx_start = self.rx[at];
         let mut rx = rx_start;
@@ -451,13 +535,53 @@ impl<const B: usize> Server<B> {
                 left = true;
                 break;
             }
+            // A datagram: the chip's header (sender, length), then one ADU of that length.
+            #[cfg(feature = "udp")]
+            let mut datagram = 0;
+            #[cfg(feature = "udp")]
+            if udp {
+                if received < UDP_HEADER as u16 {
+                    break;
+                }
+                let mut chip_header = [0; UDP_HEADER];
+                chip.read(s, rx, &mut chip_header);
+                let [a, b, c, d, _, _, high, low] = chip_header;
+                datagram = u16::from_be_bytes([high, low]);
+                if received - (UDP_HEADER as u16) < datagram {
+                    // Not all there (the count read as a datagram landed): the next poll.
+                    break;
+                }
+                rx = rx.wrapping_add(UDP_HEADER as u16);
+                received -= UDP_HEADER as u16;
+                // An address not allowed costs this header's read and nothing more.
+                let refused = !net.allows([a, b, c, d]);
+                if refused || datagram < HEADER as u16 {
+                    self.bump(if refused { Count::Refused } else { Count::BadDatagram });
+                    rx = rx.wrapping_add(datagram);
+                    received -= datagram;
+                    continue;
+                }
+                // Its answer's destination. Sn_DIPR and Sn_DPORT keep it while the request
+                // is under way: no other datagram is read before it is answered.
+                let [.., port_high, port_low, _, _] = chip_header;
+                chip.set_peer(s, [a, b, c, d, port_high, port_low]);
+            }
             // The header and, in the same transfer, the body of the usual request (FC 1-6:
             // 12 bytes in all); a longer one's rest below.
             let first = usize::from(received).min(USUAL);
             chip.read(s, rx, &mut self.buf[..first]);
             let (head, body) = self.buf.split_at_mut(HEADER);
             let head: &mut [u8; HEADER] = head.try_into().unwrap_or_else(|_| unreachable!());
-            let header = match Header::parse(head) {
+            let parsed = Header::parse(head);
+            // A datagram is one ADU, its length the header's: else it is dropped whole.
+            #[cfg(feature = "udp")]
+            if udp && !matches!(parsed, Ok(header) if header.adu_len() == datagram) {
+                self.bump(if parsed == Err(Refused::Protocol) { Count::BadProtocol } else { Count::BadDatagram });
+                rx = rx.wrapping_add(datagram);
+                received -= datagram;
+                continue;
+            }
+            let header = match parsed {
                 Ok(header) => header,
                 Err(Refused::Protocol) => {
                     let skip = Header::skip(head).unwrap_or(0);
@@ -490,6 +614,11 @@ impl<const B: usize> Server<B> {
             if usize::from(free) < if H::LONG { mbap::MAX_ADU } else { B } {
                 // No room for the longest reply: the master is not reading. Its requests
                 // wait; the other sockets go on.
+                #[cfg(feature = "udp")]
+                if udp {
+                    // The datagram's chip header too.
+                    rx = rx.wrapping_sub(UDP_HEADER as u16);
+                }
                 left = true;
                 break;
             }
@@ -526,6 +655,12 @@ impl<const B: usize> Server<B> {
             tx = tx.wrapping_add(len as u16);
             free -= len as u16;
             self.idle[usize::from(s) % SOCKETS] = 0;
+            // One datagram, one SEND: the next after its SEND_OK.
+            #[cfg(feature = "udp")]
+            if udp {
+                left = received != 0;
+                break;
+            }
         }
         // The replies' SEND first: the request's bytes are taken after it.
         if tx != tx_start {
@@ -570,6 +705,9 @@ impl<const B: usize> Server<B> {
                 }
                 Phase::Listening | Phase::Closed => listening = true,
                 Phase::Closing => {}
+                // Never among the TCP sockets.
+                #[cfg(feature = "udp")]
+                Phase::Udp => {}
             }
         }
         if let (false, Some((s, idle))) = (listening, oldest) {
@@ -583,3 +721,5 @@ impl<const B: usize> Server<B> {
 
 #[cfg(test)]
 mod tests;
+#[cfg(all(test, feature = "udp"))]
+mod udp_tests;
