@@ -251,3 +251,24 @@ fn without_udp_the_socket_stays_the_applications() {
     server.poll(&mut chip, &net, &mut Serving(&mut bank), true);
     assert_eq!(chip.socks[U].status, state::CLOSED);
 }
+
+#[test]
+fn a_datagram_not_all_there_waits_for_the_rest() {
+    // Sn_RX_RSR read as the chip wrote a datagram: its header says more than the count
+    // holds. Nothing is taken until the rest is there.
+    let (mut chip, mut bank) = (Fake::default(), bank());
+    let mut server = started(&mut chip, &mut bank, &NET);
+    assert!(chip.datagram(U, sender(9, 1000), &read_holding(1, 1, 0, 1)));
+    for missing in [1u16, 5, 12, 13, 19] {
+        chip.socks[U].rx_wr = chip.socks[U].rx_wr.wrapping_sub(missing);
+        let rx_rd = chip.socks[U].rx_rd;
+        server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+        assert_eq!(chip.socks[U].rx_rd, rx_rd, "{missing} bytes missing: nothing taken");
+        assert!(chip.socks[U].datagrams.is_empty());
+        chip.socks[U].rx_wr = chip.socks[U].rx_wr.wrapping_add(missing);
+    }
+    chip.socks[U].ir |= 0x04;
+    settle(&mut server, &mut chip, &mut bank, &NET);
+    assert_eq!(chip.socks[U].datagrams, [(sender(9, 1000), holding_reply(1, 1, 0, 1))]);
+    assert_eq!(server.counters().bad_datagrams, 0);
+}

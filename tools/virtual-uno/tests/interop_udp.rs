@@ -7,7 +7,11 @@
 //! starts its own board (one at a time) and fails with the client's transcript and the
 //! board's log.
 //!
-//! Needs `make tcp-firmware` and `make setup`'s Python (`INTEROP_PYTHON`, pymodbus 3.0).
+//! And the gateway (`examples/tcp_gateway.rs` with the feature) on the virtual line
+//! (`virtual-line --board gateway=… udp=502:PORT`), pymodbus's serial server behind it.
+//!
+//! Needs `make tcp-firmware` and `make setup`'s Python (`INTEROP_PYTHON`, pymodbus 3.0, and
+//! python3-serial-asyncio for the serial server).
 
 mod common;
 
@@ -107,4 +111,31 @@ fn datagrams_that_are_no_adu_get_no_answer_and_the_next_one_does() {
     let n = socket.recv(&mut buf).unwrap_or_else(|e| panic!("no answer: {e}\n{}", transcript("", &board)));
     assert_eq!(buf[..n], [0x02, 0x00, 0, 0, 0, 5, 1, 0x03, 2, 0, 0], "{}", transcript("", &board));
     assert!(socket.recv(&mut buf).is_err(), "one answer only\n{}", transcript("", &board));
+}
+
+/// examples/tcp_gateway.rs with Modbus UDP (W5100).
+fn udp_gateway() -> PathBuf {
+    built(
+        target_dir().join("chips/atmega328p-tcp-gateway-udp/avr-none/release/examples/tcp_gateway.elf"),
+        "make tcp-firmware",
+    )
+}
+
+#[test]
+fn pymodbus_udp_client_through_the_gateway_to_pymodbus_serial_server() {
+    let _one = serialise();
+    let tty = format!("/tmp/ttyGW-udp-{}", std::process::id());
+    let process = Spawned::start(
+        Command::new(env!("CARGO_BIN_EXE_virtual-line"))
+            .arg("--no-stdin")
+            .arg("--board")
+            .arg(format!("gateway={}", udp_gateway().display()))
+            .args(["de=3", "wiznet=w5100", "udp=502:0", "watch=none", "--pty", &format!("plant={tty}")]),
+    );
+    let port = process.port_after("gateway udp: 127.0.0.1:", "the gateway's UDP socket");
+    let slave =
+        Spawned::start(Command::new(python()).arg(workspace().join("demo/plant_slave.py")).args([&tty, "--unit", "3"]));
+    assert!(slave.wait_for("plant_slave: unit 3 on", Duration::from_secs(10)), "{}", slave.log());
+    let board = Board { process, port };
+    pymodbus(&board, &["gateway"]);
 }
