@@ -225,7 +225,10 @@ impl Sockets for Fake {
     }
 
     #[cfg(feature = "udp")]
-    fn open_udp(&mut self, s: u8, port: u16) {
+    fn open(&mut self, s: u8, port: u16, udp: bool) {
+        if !udp {
+            return self.listen(s, port);
+        }
         let sock = &mut self.socks[usize::from(s)];
         assert_eq!(sock.status, state::CLOSED, "OPEN on a socket not closed");
         let (datagrams, reading) = (core::mem::take(&mut sock.datagrams), sock.reading);
@@ -233,7 +236,7 @@ impl Sockets for Fake {
     }
 
     #[cfg(feature = "udp")]
-    fn set_peer(&mut self, s: u8, peer: [u8; 6]) {
-        self.socks[usize::from(s)].dest = peer;
+    fn set_peer(&mut self, s: u8, peer: &mut [u8]) {
+        self.socks[usize::from(s)].dest.copy_from_slice(peer);
     }
 }

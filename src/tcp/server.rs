@@ -62,12 +62,13 @@ pub trait Sockets {
     fn write(&mut self, s: u8, pointer: u16, data: &mut [u8]);
     /// Sends the bytes up to `pointer`.
     fn send(&mut self, s: u8, pointer: u16);
-    /// Opens socket `s` for UDP on `port`.
+    /// Opens socket `s` on `port`: for UDP, or for TCP and listens ([`Sockets::listen`]).
     #[cfg(feature = "udp")]
-    fn open_udp(&mut self, s: u8, port: u16);
-    /// Where UDP socket `s`'s next SEND goes: address and port (Sn_DIPR, Sn_DPORT).
+    fn open(&mut self, s: u8, port: u16, udp: bool);
+    /// Where UDP socket `s`'s next SEND goes: address and port (Sn_DIPR, Sn_DPORT), 6
+    /// bytes (the bytes may be used as scratch).
     #[cfg(feature = "udp")]
-    fn set_peer(&mut self, s: u8, peer: [u8; 6]);
+    fn set_peer(&mut self, s: u8, peer: &mut [u8]);
 }
 
 /// The TCP server's counters: what its connections and requests came to. Each wraps
@@ -139,9 +140,6 @@ enum Phase {
     Connected,
     /// Closing (a FIN sent, or on its way to closed).
     Closing,
-    /// Open in UDP mode and served.
-    #[cfg(feature = "udp")]
-    Udp,
 }
 
 /// The server: its sockets' states, its counters and the one buffer of `B` bytes where each
@@ -357,15 +355,9 @@ impl<const B: usize> Server<B> {
         }
         let phase = self.phase[at];
         let data_only = events & RECV != 0 && events & !(RECV | SEND_OK) == 0;
-        #[cfg(not(feature = "udp"))]
         let status = if data_only && phase == Phase::Connected && !sweep { state::ESTABLISHED } else { chip.status(s) };
-        // The UDP socket is served as a connection is (but for what a connection's
-        // beginning and end ask).
-        #[cfg(feature = "udp")]
-        let served = matches!(phase, Phase::Connected | Phase::Udp);
-        #[cfg(feature = "udp")]
-        let status = if data_only && served && !sweep { state::ESTABLISHED } else { chip.status(s) };
-        // The UDP socket's state, as a connection's, is served.
+        // The UDP socket is served as a connection is, but for what a connection's beginning
+        // and end ask.
         #[cfg(not(feature = "udp"))]
         const UDP: u8 = state::ESTABLISHED;
         #[cfg(feature = "udp")]
@@ -377,8 +369,7 @@ impl<const B: usize> Server<B> {
             #[allow(unreachable_patterns)]
             status @ (state::ESTABLISHED | state::CLOSE_WAIT | UDP) => {
                 #[cfg(not(feature = "udp"))]
-                let served = phase == Phase::Connected;
-                if !served {
+                if phase != Phase::Connected {
                     if !net.allows(chip.peer(s)) {
                         self.bump(Count::Refused);
                         self.close(chip, net, s);
@@ -388,6 +379,22 @@ impl<const B: usize> Server<B> {
                     self.rx[at] = chip.rx_pointer(s);
                     self.tx[at] = chip.tx_pointer(s);
                     self.bump(Count::Connections);
+                }
+                // The UDP socket just opened: no peer to check, no connection to count.
+                #[cfg(feature = "udp")]
+                if phase != Phase::Connected {
+                    let tcp = s != net.udp;
+                    if tcp && !net.allows(chip.peer(s)) {
+                        self.bump(Count::Refused);
+                        self.close(chip, net, s);
+                        return;
+                    }
+                    self.enter(s, Phase::Connected);
+                    self.rx[at] = chip.rx_pointer(s);
+                    self.tx[at] = chip.tx_pointer(s);
+                    if tcp {
+                        self.bump(Count::Connections);
+                    }
                 }
                 let left = self.serve(chip, handler, net, s);
                 if status == state::CLOSE_WAIT && !left {
@@ -453,13 +460,8 @@ impl<const B: usize> Server<B> {
         fill: impl FnOnce(&mut S, u16, &mut [u8]),
     ) -> Answered {
         let at = usize::from(s) % SOCKETS;
-        #[cfg(not(feature = "udp"))]
-        if self.changed & (1 << s) != 0 || self.phase[at] != Phase::Connected {
-            return Answered::Gone;
-        }
         // A datagram's answer goes to its sender, still in Sn_DIPR and Sn_DPORT (`serve`).
-        #[cfg(feature = "udp")]
-        if self.changed & (1 << s) != 0 || !matches!(self.phase[at], Phase::Connected | Phase::Udp) {
+        if self.changed & (1 << s) != 0 || self.phase[at] != Phase::Connected {
             return Answered::Gone;
         }
         if self.sending & (1 << s) != 0 {
@@ -487,17 +489,11 @@ impl<const B: usize> Server<B> {
 
     /// Opens socket `s` and listens on the port.
     fn open<S: Sockets>(&mut self, chip: &mut S, net: &Network, s: u8) {
-        // The UDP socket: open, and served from its pointers as they are.
-        #[cfg(feature = "udp")]
-        if s == net.udp {
-            chip.open_udp(s, net.port);
-            self.enter(s, Phase::Udp);
-            let at = usize::from(s) % SOCKETS;
-            self.rx[at] = chip.rx_pointer(s);
-            self.tx[at] = chip.tx_pointer(s);
-            return;
-        }
+        #[cfg(not(feature = "udp"))]
         chip.listen(s, net.port);
+        // The UDP socket: opened, then taken up as a connection is (`service`).
+        #[cfg(feature = "udp")]
+        chip.open(s, net.port, s == net.udp);
         self.enter(s, Phase::Listening);
     }
 
@@ -563,8 +559,7 @@ impl<const B: usize> Server<B> {
                 }
                 // Its answer's destination. Sn_DIPR and Sn_DPORT keep it while the request
                 // is under way: no other datagram is read before it is answered.
-                let [.., port_high, port_low, _, _] = chip_header;
-                chip.set_peer(s, [a, b, c, d, port_high, port_low]);
+                chip.set_peer(s, &mut chip_header[..6]);
             }
             // The header and, in the same transfer, the body of the usual request (FC 1-6:
             // 12 bytes in all); a longer one's rest below.
@@ -705,9 +700,6 @@ impl<const B: usize> Server<B> {
                 }
                 Phase::Listening | Phase::Closed => listening = true,
                 Phase::Closing => {}
-                // Never among the TCP sockets.
-                #[cfg(feature = "udp")]
-                Phase::Udp => {}
             }
         }
         if let (false, Some((s, idle))) = (listening, oldest) {

@@ -422,16 +422,19 @@ impl<C: Chip, B: Bus> Sockets for Wiznet<C, B> {
     }
 
     #[cfg(feature = "udp")]
-    fn open_udp(&mut self, s: u8, port: u16) {
-        self.set(Block::socket(s), sn::MR.into(), MODE_UDP);
+    fn open(&mut self, s: u8, port: u16, udp: bool) {
+        self.set(Block::socket(s), sn::MR.into(), if udp { MODE_UDP } else { MODE_TCP });
         self.set16(s, sn::PORT, port);
         self.command(s, command::OPEN);
+        if !udp {
+            self.command(s, command::LISTEN);
+        }
     }
 
     /// Sn_DIPR and Sn_DPORT, next to each other on both chips: one transfer.
     #[cfg(feature = "udp")]
-    fn set_peer(&mut self, s: u8, mut peer: [u8; 6]) {
-        C::transfer(&mut self.bus, Block::socket(s), sn::DIPR.into(), &mut peer, true);
+    fn set_peer(&mut self, s: u8, peer: &mut [u8]) {
+        C::transfer(&mut self.bus, Block::socket(s), sn::DIPR.into(), peer, true);
     }
 }
 

@@ -101,11 +101,11 @@ impl Sockets for Fake {
         panic!("a client does not listen");
     }
     #[cfg(feature = "udp")]
-    fn open_udp(&mut self, _: u8, _: u16) {
+    fn open(&mut self, _: u8, _: u16, _: bool) {
         panic!("a client has no UDP socket");
     }
     #[cfg(feature = "udp")]
-    fn set_peer(&mut self, _: u8, _: [u8; 6]) {
+    fn set_peer(&mut self, _: u8, _: &mut [u8]) {
         panic!("a client has no UDP socket");
     }
     fn peer(&mut self, _: u8) -> [u8; 4] {
