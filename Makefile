@@ -268,7 +268,7 @@ fmt-check: setup
 # The optional function codes, checked and tested as a second build.
 OPTIONAL := diagnostics,extra-fc,write-protect
 # Every feature (all add) but examples, which builds this repository's firmware.
-ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id,tcp
+ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id,tcp,udp
 
 # The host's lints, tests included, check builds only: the tools (clippy-tools) and the crate's
 # library and test targets as make unit and make sim-test build them (under
@@ -289,8 +289,10 @@ clippy-tools: setup
 # simulator test once, under the first set that has its features). A test with a new
 # combination of features needs its set here; no test is named. A set may start with the
 # build's environment, NAME=VALUE: (the 8 MHz clock's: the tests that name the clock run
-# under it again).
-TEST_FEATURE_SETS := all default $(EIGHT_MHZ):ascii master $(OPTIONAL),eeprom-settings eeprom-settings,ascii eeprom-settings,reply-delay
+# under it again). tcp,master: the TCP server and gateway as a firmware without feature udp
+# builds them (all has udp).
+TEST_FEATURE_SETS := all default $(EIGHT_MHZ):ascii master $(OPTIONAL),eeprom-settings eeprom-settings,ascii eeprom-settings,reply-delay \
+	tcp,master
 
 # The host tests (no firmware needed): the library, its doctests and every tests/*.rs but the
 # simulator's, under TEST_FEATURE_SETS, built with clippy as the compiler (warnings denied).
@@ -310,7 +312,7 @@ check: fmt-check clippy-tools unit
 # a combination that starts with EIGHT_MHZ:), then the Uno's examples with every feature and
 # the Mega's gateway.
 FEATURE_COMBOS := $(ALL_FEATURES) $(EIGHT_MHZ):$(ALL_FEATURES) master,ascii master,ufmt eeprom-settings,ascii \
-	eeprom-settings,reply-delay,ascii $(EIGHT_MHZ):master $(EIGHT_MHZ):ascii,millis tcp,master
+	eeprom-settings,reply-delay,ascii $(EIGHT_MHZ):master $(EIGHT_MHZ):ascii,millis tcp,master tcp,udp
 matrix: matrix-host matrix-avr
 matrix-host: setup
 	.ci/feature-matrix host $(FEATURE_COMBOS)
