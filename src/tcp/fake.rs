@@ -98,6 +98,7 @@ impl Fake {
     /// A datagram from `from` (address, port) arrives on UDP socket `s`, behind the chip's
     /// 8-byte header; false, nothing written, when it does not fit whole (the chip drops
     /// it) or the socket is not open in UDP mode.
+    #[cfg(feature = "udp")]
     pub(crate) fn datagram(&mut self, s: usize, from: [u8; 6], payload: &[u8]) -> bool {
         let sock = &mut self.socks[s];
         if sock.status != UDP || sock.rx_wr.wrapping_sub(sock.rx_rd) as usize + 8 + payload.len() > SIZE as usize {
