@@ -36,7 +36,7 @@ help:
 	@echo "  make firmware    - make firmware-uno, then make chips"
 	@echo "  make firmware-uno - every example for the Uno ($(FIRMWARE_DIR)), with sizes and the firmware check"
 	@echo "  make chips       - the examples for the other chips and USARTs, and the Uno's that make bench sizes, as the avr-hal template builds them (target/chips)"
-	@echo "  make tcp-firmware - the TCP servers as make chips builds them: tcp_server (TCP_BUILDS), libmodbus_map (libmodbus's unit-test map, W5100)"
+	@echo "  make tcp-firmware - the TCP servers as make chips builds them: tcp_server (TCP_BUILDS; and with Modbus UDP, W5100 and W5500), libmodbus_map (libmodbus's unit-test map, W5100)"
 	@echo "  make sizes       - flash and RAM of every firmware (make firmware prints them)"
 	@echo "  make fixtures    - a user's firmware in the template's form for three boards, make package and make readme"
 	@echo "  make package     - the crate as it would be published, built into the Uno fixture"
@@ -170,7 +170,10 @@ TCP_FIRMWARE := $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-non
 	target/chips/atmega328p-tcp-gateway-rtu/avr-none/release/examples/tcp_gateway.elf \
 	target/chips/atmega328p-tcp-client/avr-none/release/examples/tcp_poll.elf \
 	target/chips/atmega328p-tcp-client/avr-none/release/examples/tcp_client_check.elf \
-	target/chips/atmega328p-tcp-client-w5500/avr-none/release/examples/tcp_client_check.elf
+	target/chips/atmega328p-tcp-client-w5500/avr-none/release/examples/tcp_client_check.elf \
+	$(foreach s,w5100 w5500,target/chips/atmega328p-$(s)-udp/avr-none/release/examples/tcp_server.elf) \
+	target/chips/atmega328p-tcp-udp/avr-none/release/examples/sixteen_each_tcp.elf \
+	target/chips/atmega328p-tcp-gateway-udp/avr-none/release/examples/tcp_gateway.elf
 tcp-firmware: setup
 	@for build in $(TCP_BUILDS); do \
 		chip=$${build%%:*}; shield=$${build##*:}; \
@@ -185,6 +188,12 @@ tcp-firmware: setup
 	@.ci/chip-build atmega328p "" atmega328p-tcp-client examples,tcp,master tcp_poll tcp_client_check
 	@AVR_MODBUS_EXAMPLE_SHIELD=w5500 .ci/chip-build atmega328p "" atmega328p-tcp-client-w5500 examples,tcp,master \
 		tcp_client_check
+	@for shield in w5100 w5500; do \
+		AVR_MODBUS_EXAMPLE_SHIELD=$$shield .ci/chip-build atmega328p "" atmega328p-$$shield-udp examples,tcp,millis,udp \
+			tcp_server || exit 1; \
+	done
+	@.ci/chip-build atmega328p "" atmega328p-tcp-udp examples,tcp,udp sixteen_each_tcp
+	@.ci/chip-build atmega328p "" atmega328p-tcp-gateway-udp examples,tcp,master,udp tcp_gateway
 	@.ci/sizes $(TCP_FIRMWARE)
 	@.ci/firmware-check $(TCP_FIRMWARE)
 
@@ -266,7 +275,7 @@ fmt-check: setup
 # The optional function codes, checked and tested as a second build.
 OPTIONAL := diagnostics,extra-fc,write-protect
 # Every feature (all add) but examples, which builds this repository's firmware.
-ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id,tcp,rtu-over-tcp
+ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id,tcp,rtu-over-tcp,udp
 
 # The host's lints, tests included, check builds only: the tools (clippy-tools) and the crate's
 # library and test targets as make unit and make sim-test build them (under
@@ -279,7 +288,7 @@ clippy: clippy-tools
 # The tools (the simulator, the virtual Uno, the bench), their tests included.
 clippy-tools: setup
 	$(CARGO) clippy --workspace --exclude avr-modbus --all-targets -- -D warnings
-	$(CARGO) clippy -p virtual-uno --test interop --test interop_tcp --test interop_gateway --test interop_tcp_client -- -D warnings # test = false: not in --all-targets
+	$(CARGO) clippy -p virtual-uno --test interop --test interop_tcp --test interop_gateway --test interop_tcp_client --test interop_udp -- -D warnings # test = false: not in --all-targets
 
 # The feature sets the crate's host tests run under (.ci/host-test: a test target runs under
 # each set that has the features it declares in Cargo.toml and gives the features its source
@@ -287,8 +296,10 @@ clippy-tools: setup
 # simulator test once, under the first set that has its features). A test with a new
 # combination of features needs its set here; no test is named. A set may start with the
 # build's environment, NAME=VALUE: (the 8 MHz clock's: the tests that name the clock run
-# under it again).
-TEST_FEATURE_SETS := all default $(EIGHT_MHZ):ascii master $(OPTIONAL),eeprom-settings eeprom-settings,ascii eeprom-settings,reply-delay
+# under it again). tcp,master: the TCP server and gateway as a firmware without feature udp
+# builds them (all has udp).
+TEST_FEATURE_SETS := all default $(EIGHT_MHZ):ascii master $(OPTIONAL),eeprom-settings eeprom-settings,ascii eeprom-settings,reply-delay \
+	tcp,master
 
 # The host tests (no firmware needed): the library, its doctests and every tests/*.rs but the
 # simulator's, under TEST_FEATURE_SETS, built with clippy as the compiler (warnings denied).
@@ -308,7 +319,7 @@ check: fmt-check clippy-tools unit
 # a combination that starts with EIGHT_MHZ:), then the Uno's examples with every feature and
 # the Mega's gateway.
 FEATURE_COMBOS := $(ALL_FEATURES) $(EIGHT_MHZ):$(ALL_FEATURES) master,ascii master,ufmt eeprom-settings,ascii \
-	eeprom-settings,reply-delay,ascii $(EIGHT_MHZ):master $(EIGHT_MHZ):ascii,millis tcp,master
+	eeprom-settings,reply-delay,ascii $(EIGHT_MHZ):master $(EIGHT_MHZ):ascii,millis tcp,master tcp,udp
 matrix: matrix-host matrix-avr
 matrix-host: setup
 	.ci/feature-matrix host $(FEATURE_COMBOS)
@@ -455,13 +466,15 @@ serve: $(if $(and $(filter atmega328p,$(SERVE_CHIP)),$(if $(SERVE_TCP_SERVER),,y
 # then through the TCP to RTU gateway on the virtual line (interop_gateway: libmodbus's unit-test-client to
 # libmodbus_map_rtu and to libmodbus's own unit-test-server in RTU mode on a pty, mbpoll and pymodbus to
 # pymodbus's serial server, a slave switched off, 0A, 0B, clients gone mid-request).
-# then the firmware's TCP client against pymodbus's TCP server and libmodbus's unit-test-server (interop_tcp_client).
+# then the firmware's TCP client against pymodbus's TCP server and libmodbus's unit-test-server (interop_tcp_client);
+# then Modbus UDP (feature udp) on the virtual shields (interop_udp: pymodbus's UDP client, clients at once, a raw socket).
 TCP_CONNECTIONS ?= 100
 interop: firmware-uno bootloaders tcp-firmware
 	$(CARGO) test -p virtual-uno --test interop -- --nocapture --test-threads=1
 	TCP_CONNECTIONS=$(TCP_CONNECTIONS) $(CARGO) test -p virtual-uno --test interop_tcp -- --nocapture --test-threads=1
 	$(CARGO) test -p virtual-uno --test interop_gateway -- --nocapture --test-threads=1
 	$(CARGO) test -p virtual-uno --test interop_tcp_client -- --nocapture --test-threads=1
+	$(CARGO) test -p virtual-uno --test interop_udp -- --nocapture --test-threads=1
 
 # SOAK_TCP_CONNECTIONS one-shot `mbpoll -m tcp -1` connections to tcp_server (W5100) on the virtual
 # Uno, each answered, none refused (~10 min for 10000); the firmware's counters read at the end.

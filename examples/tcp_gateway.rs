@@ -14,7 +14,9 @@
  * an RS-485 transceiver's RO and DI, its DE and /RE joined on pin 3, A/B to the line.
  *
  * Network: 192.168.1.177/24, port 502 (with feature `rtu-over-tcp`, socket 3 serves RTU over
- * TCP on port 5020 instead). Line: 19200 8E1, a response timeout of 200 ms, one retry.
+ * TCP on port 5020 instead; with feature `udp`, socket 3 serves Modbus UDP on port 502, each
+ * datagram's answer sent back to its sender, and TCP sockets 0-2; with both, socket 2 RTU
+ * over TCP and socket 3 UDP). Line: 19200 8E1, a response timeout of 200 ms, one retry.
  *
  * | unit 255 (FC 3 or 4) | meaning                                                |
  * |----------------------|--------------------------------------------------------|
@@ -43,13 +45,14 @@ use avr_modbus::tcp::W5100;
 use avr_modbus::{Line, Parity, StopBits};
 use panic_halt as _;
 
-#[cfg(not(feature = "rtu-over-tcp"))]
+#[cfg(not(any(feature = "rtu-over-tcp", feature = "udp")))]
 const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).evict_after(2);
-#[cfg(feature = "rtu-over-tcp")]
-const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177])
-    .evict_after(2)
-    .sockets(4)
-    .rtu_over_tcp(5020, 0b1000);
+#[cfg(all(feature = "rtu-over-tcp", not(feature = "udp")))]
+const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).evict_after(2).sockets(4).rtu_over_tcp(5020, 0b1000);
+#[cfg(all(feature = "udp", not(feature = "rtu-over-tcp")))]
+const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).evict_after(2).sockets(3).udp(3);
+#[cfg(all(feature = "udp", feature = "rtu-over-tcp"))]
+const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).evict_after(2).sockets(3).rtu_over_tcp(5020, 0b0100).udp(3);
 const LINE: Line = Line::new(19_200, Parity::Even, StopBits::One);
 
 // This repository builds it for each shield (`AVR_MODBUS_EXAMPLE_SHIELD`): the W5100 by

@@ -14,7 +14,8 @@
  * pin 10, 3.3 V and GND, and `W5500` below.
  *
  * Network: 192.168.1.177/24, MAC DE:AD:BE:EF:FE:01, port 502, every unit id answered; with
- * every socket taken, a connection idle 2 s is closed for a newcomer.
+ * every socket taken, a connection idle 2 s is closed for a newcomer. Built with feature
+ * `udp`: Modbus UDP on port 502 as well, on the chip's socket 3 (TCP on sockets 0-2).
  *
  * | reference   | address | meaning                                          |
  * |-------------|---------|--------------------------------------------------|
@@ -49,9 +50,14 @@ use avr_device::atmega328p as pac;
 #[cfg(avr_chip = "atmega32u4")]
 use avr_device::atmega32u4 as pac;
 
+#[cfg(not(feature = "udp"))]
 const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177])
     // With every socket taken, the connection idle 2 s makes room for a newcomer (default 10 s).
     .evict_after(2);
+// With feature `udp`, Modbus UDP on port 502 too, on socket 3 (TCP on sockets 0-2).
+#[cfg(feature = "udp")]
+const NETWORK: Network =
+    Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).evict_after(2).sockets(3).udp(3);
 
 avr_modbus::register_map! {
     /// The contract's map: 16 coils, 16 discrete inputs, 8 input and 16 holding registers.

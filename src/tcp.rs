@@ -31,6 +31,8 @@ pub use gateway::{
     Direct, GatewayCounters, GatewaySettings, Routes, SlaveHealth, HEALTH_REGISTERS, STATUS_REGISTERS, TRACKED,
 };
 pub use network::Network;
+#[cfg(all(feature = "udp", target_arch = "avr"))]
+pub(crate) use network::NO_UDP;
 #[cfg(feature = "eeprom-settings")]
 pub use record::NETWORK_SLOTS_LEN;
 pub use server::TcpCounters;

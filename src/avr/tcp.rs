@@ -330,6 +330,9 @@ where
         wait_10ms();
     }
     let network = Network { sockets: network.sockets.min(C::SOCKETS), ..network };
+    // A UDP socket the chip lacks serves nothing.
+    #[cfg(feature = "udp")]
+    let network = Network { udp: if network.udp < C::SOCKETS { network.udp } else { crate::tcp::NO_UDP }, ..network };
     Ok((chip, network))
 }
 

@@ -6,6 +6,8 @@ use super::server::Sockets;
 use super::wiznet::{command, state, SEND_OK};
 
 pub(crate) const SIZE: u16 = 0x800;
+/// Sn_SR open in UDP mode.
+pub(crate) const UDP: u8 = 0x22;
 
 /// One socket of the imitation chip.
 #[derive(Clone)]
@@ -30,6 +32,10 @@ pub(crate) struct Sock {
     pub(crate) reset: bool,
     /// A FIN sent by the server.
     pub(crate) fin: bool,
+    /// UDP: where the next SEND goes (address, port).
+    pub(crate) dest: [u8; 6],
+    /// UDP: the datagrams sent, each with where it went.
+    pub(crate) datagrams: Vec<([u8; 6], Vec<u8>)>,
 }
 
 impl Default for Sock {
@@ -50,6 +56,8 @@ impl Default for Sock {
             sends: 0,
             reset: false,
             fin: false,
+            dest: [0; 6],
+            datagrams: Vec::new(),
         }
     }
 }
@@ -87,6 +95,26 @@ impl Fake {
         sock.ir |= 0x04;
     }
 
+    /// A datagram from `from` (address, port) arrives on UDP socket `s`, behind the chip's
+    /// 8-byte header; false, nothing written, when it does not fit whole (the chip drops
+    /// it) or the socket is not open in UDP mode.
+    #[cfg(feature = "udp")]
+    pub(crate) fn datagram(&mut self, s: usize, from: [u8; 6], payload: &[u8]) -> bool {
+        let sock = &mut self.socks[s];
+        if sock.status != UDP || sock.rx_wr.wrapping_sub(sock.rx_rd) as usize + 8 + payload.len() > SIZE as usize {
+            return false;
+        }
+        let mut bytes = from.to_vec();
+        bytes.extend_from_slice(&(payload.len() as u16).to_be_bytes());
+        bytes.extend_from_slice(payload);
+        for b in bytes {
+            sock.rx[usize::from(sock.rx_wr % SIZE)] = b;
+            sock.rx_wr = sock.rx_wr.wrapping_add(1);
+        }
+        sock.ir |= 0x04;
+        true
+    }
+
     /// The peer takes what was sent and acknowledges it.
     pub(crate) fn ack(&mut self, s: usize) {
         let sock = &mut self.socks[s];
@@ -112,7 +140,7 @@ impl Sockets for Fake {
         match command {
             command::LISTEN => sock.status = state::LISTEN,
             command::CLOSE => {
-                sock.reset |= sock.status != state::LISTEN && sock.status != state::CLOSED;
+                sock.reset |= sock.status != state::LISTEN && sock.status != state::CLOSED && sock.status != UDP;
                 sock.status = state::CLOSED;
             }
             command::DISCON => {
@@ -175,6 +203,19 @@ impl Sockets for Fake {
         let sock = &mut self.socks[usize::from(s)];
         sock.tx_wr = pointer;
         sock.sends += 1;
+        if sock.status == UDP {
+            // One datagram, sent at once unless the chip is held (an ARP under way).
+            if sock.reading {
+                let mut datagram = Vec::new();
+                while sock.tx_rd != sock.tx_wr {
+                    datagram.push(sock.tx[usize::from(sock.tx_rd % SIZE)]);
+                    sock.tx_rd = sock.tx_rd.wrapping_add(1);
+                }
+                sock.datagrams.push((sock.dest, datagram));
+                sock.ir |= SEND_OK;
+            }
+            return;
+        }
         if sock.reading {
             while sock.tx_rd != sock.tx_wr {
                 sock.sent.push(sock.tx[usize::from(sock.tx_rd % SIZE)]);
@@ -182,5 +223,21 @@ impl Sockets for Fake {
             }
             sock.ir |= SEND_OK;
         }
+    }
+
+    #[cfg(feature = "udp")]
+    fn open(&mut self, s: u8, port: u16, udp: bool) {
+        if !udp {
+            return self.listen(s, port);
+        }
+        let sock = &mut self.socks[usize::from(s)];
+        assert_eq!(sock.status, state::CLOSED, "OPEN on a socket not closed");
+        let (datagrams, reading) = (core::mem::take(&mut sock.datagrams), sock.reading);
+        *sock = Sock { port, status: UDP, datagrams, reading, ..Sock::default() };
+    }
+
+    #[cfg(feature = "udp")]
+    fn set_peer(&mut self, s: u8, peer: &mut [u8]) {
+        self.socks[usize::from(s)].dest.copy_from_slice(peer);
     }
 }

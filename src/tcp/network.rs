@@ -31,7 +31,14 @@ pub struct Network {
     /// Bit n: socket n speaks RTU over TCP.
     #[cfg(feature = "rtu-over-tcp")]
     pub(crate) rtu_sockets: u8,
+    /// The socket serving Modbus UDP, or [`NO_UDP`].
+    #[cfg(feature = "udp")]
+    pub(crate) udp: u8,
 }
+
+/// [`Network::udp`]'s socket when no socket serves UDP.
+#[cfg(feature = "udp")]
+pub(crate) const NO_UDP: u8 = 0xFF;
 
 /// The bytes of the chip's addresses.
 pub(crate) const ADDRESSES: usize = 18;
@@ -83,6 +90,8 @@ impl Network {
             rtu_port: 0,
             #[cfg(feature = "rtu-over-tcp")]
             rtu_sockets: 0,
+            #[cfg(feature = "udp")]
+            udp: NO_UDP,
         }
     }
 
@@ -116,6 +125,8 @@ impl Network {
     pub const fn sockets(self, n: u8) -> Network {
         assert!(n >= 1 && n <= Network::MAX_SOCKETS, "1-8 sockets");
         let () = rtu::serving(&self, n);
+        #[cfg(feature = "udp")]
+        assert!(self.udp == NO_UDP || n <= self.udp, "the UDP socket is one TCP does not serve");
         Network { sockets: n, ..self }
     }
 
@@ -142,6 +153,29 @@ impl Network {
     /// Empty, the default: any client.
     pub const fn allow(self, clients: &'static [[u8; 4]]) -> Network {
         Network { allow: clients, ..self }
+    }
+
+    /// Serves Modbus UDP too (feature `udp`): the same ADUs, one per datagram, on the same
+    /// port, each answered to the address and port it came from, on socket `socket`, one
+    /// that TCP does not serve (give TCP fewer with [`Network::sockets`] first: `.sockets(3)
+    /// .udp(3)`). The allow-list, the unit ids and the counters are TCP's; a datagram from
+    /// an address not allowed is dropped unanswered. A socket the chip lacks (4–7 on the
+    /// W5100) serves nothing.
+    #[cfg(feature = "udp")]
+    pub const fn udp(self, socket: u8) -> Network {
+        assert!(socket < Network::MAX_SOCKETS, "a socket is 0-7");
+        assert!(socket >= self.sockets, "a socket TCP does not serve: .sockets(n) with n <= the UDP socket first");
+        Network { udp: socket, ..self }
+    }
+
+    /// The socket serving Modbus UDP ([`Network::udp`]), if any.
+    #[cfg(feature = "udp")]
+    pub const fn udp_socket(&self) -> Option<u8> {
+        if self.udp == NO_UDP {
+            None
+        } else {
+            Some(self.udp)
+        }
     }
 
     /// The port the server listens on (MBAP's).
@@ -332,6 +366,19 @@ mod tests {
         let net = NET.only_unit(17);
         let answered: Vec<u8> = (0..=255).filter(|&u| net.answers(u)).collect();
         assert_eq!(answered, [0, 17, 0xFF]);
+    }
+
+    #[cfg(feature = "udp")]
+    #[test]
+    fn udp_takes_a_socket_tcp_does_not_serve() {
+        assert_eq!(NET.udp_socket(), None);
+        assert_eq!(NET.sockets(3).udp(3).udp_socket(), Some(3));
+        assert_eq!(NET.sockets(2).udp(7).sockets(1).udp_socket(), Some(7));
+        let refused = |f: fn() -> Network| std::panic::catch_unwind(f).is_err();
+        assert!(refused(|| NET.udp(7)), "every socket serves TCP by default");
+        assert!(refused(|| NET.sockets(3).udp(2)));
+        assert!(refused(|| NET.sockets(3).udp(8)));
+        assert!(refused(|| NET.sockets(3).udp(3).sockets(4)), "TCP given the UDP socket later");
     }
 
     #[test]

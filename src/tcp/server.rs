@@ -13,11 +13,25 @@
 //! Once a second the server looks at every socket: connections idle longer than the
 //! timeout are closed, and when all sockets hold a connection the one idle longest is
 //! closed for a newcomer once it has been idle a while (§4.2.1).
+//!
+//! With feature `udp`, one more socket ([`Network::udp`]) serves Modbus UDP: each datagram
+//! in its receive buffer, behind the chip's 8-byte header (sender's address, port, length),
+//! is one ADU, checked as over TCP and answered with a datagram of its own to its sender.
+//! A datagram the allow-list refuses costs the read of that header and nothing more.
 
 use super::mbap::{self, Header, Refused, HEADER};
 use super::network::Network;
 use super::wiznet::{command, state, RECV, SEND_OK};
 use crate::link::crc::Crc16;
+#[cfg(feature = "udp")]
+use super::wiznet::{TIMEOUT, UDP_HEADER};
+
+/// The events that end a SEND: its SEND_OK (and, on a UDP socket, its TIMEOUT: the ARP of
+/// the destination went unanswered and nothing was sent).
+#[cfg(not(feature = "udp"))]
+const SENT: u8 = SEND_OK;
+#[cfg(feature = "udp")]
+const SENT: u8 = SEND_OK | TIMEOUT;
 
 /// What the server needs of a chip's TCP sockets (the W5100's and W5500's meanings).
 pub trait Sockets {
@@ -49,6 +63,13 @@ pub trait Sockets {
     fn write(&mut self, s: u8, pointer: u16, data: &mut [u8]);
     /// Sends the bytes up to `pointer`.
     fn send(&mut self, s: u8, pointer: u16);
+    /// Opens socket `s` on `port`: for UDP, or for TCP and listens ([`Sockets::listen`]).
+    #[cfg(feature = "udp")]
+    fn open(&mut self, s: u8, port: u16, udp: bool);
+    /// Where UDP socket `s`'s next SEND goes: address and port (Sn_DIPR, Sn_DPORT), 6
+    /// bytes (the bytes may be used as scratch).
+    #[cfg(feature = "udp")]
+    fn set_peer(&mut self, s: u8, peer: &mut [u8]);
 }
 
 /// The TCP server's counters: what its connections and requests came to. Each wraps
@@ -70,7 +91,8 @@ pub struct TcpCounters {
     pub other_unit: u16,
     /// Connections accepted.
     pub connections: u16,
-    /// Connections refused by the allow-list.
+    /// Connections refused by the allow-list (with feature `udp`, datagrams too: dropped
+    /// unanswered).
     pub refused: u16,
     /// Connections closed after the idle timeout.
     pub idle_closed: u16,
@@ -80,6 +102,13 @@ pub struct TcpCounters {
     /// make no frame (a length past 256 bytes); what the socket held was discarded.
     #[cfg(feature = "rtu-over-tcp")]
     pub bad_frame: u16,
+    /// UDP datagrams dropped for their length (feature `udp`): shorter than an MBAP
+    /// header, or not the length its header's length field says (one outside 2–254
+    /// included). Those of an address the allow-list refuses count in
+    /// [`TcpCounters::refused`], those of another protocol id in
+    /// [`TcpCounters::bad_protocol`], those for another unit in [`TcpCounters::other_unit`].
+    #[cfg(feature = "udp")]
+    pub bad_datagrams: u16,
 }
 
 /// A counter's place in [`Server::counts`]: the order of [`TcpCounters`]'s fields.
@@ -96,6 +125,8 @@ enum Count {
     Evicted,
     #[cfg(feature = "rtu-over-tcp")]
     BadFrame,
+    #[cfg(feature = "udp")]
+    BadDatagram,
 }
 
 /// How many counters there are: [`TcpCounters`]' fields.
@@ -267,6 +298,8 @@ impl<const B: usize> Server<B> {
             evicted,
             #[cfg(feature = "rtu-over-tcp")]
             bad_frame: self.counts[Count::BadFrame as usize],
+            #[cfg(feature = "udp")]
+            bad_datagrams: self.counts[Count::BadDatagram as usize],
         }
     }
 
@@ -291,13 +324,22 @@ impl<const B: usize> Server<B> {
         }
         // A plain server looks at its sockets in order; one whose handler defers takes
         // turns, from the socket after the one served last.
+        #[cfg(not(feature = "udp"))]
+        let slots = serving;
+        // The UDP socket takes its turn after the TCP ones.
+        #[cfg(feature = "udp")]
+        let slots = serving + u8::from(net.udp != super::network::NO_UDP);
         let mut s = if H::DEFERS { self.first } else { 0 };
-        for _ in 0..serving {
-            if H::DEFERS && s >= serving {
+        for _ in 0..slots {
+            if H::DEFERS && s >= slots {
                 s = 0;
             }
-            if look & (1 << s) != 0 {
-                self.service(chip, net, handler, s, second);
+            #[cfg(not(feature = "udp"))]
+            let socket = s;
+            #[cfg(feature = "udp")]
+            let socket = if s == serving { net.udp } else { s };
+            if look & (1 << socket) != 0 {
+                self.service(chip, net, handler, socket, second);
             }
             s += 1;
         }
@@ -313,17 +355,25 @@ impl<const B: usize> Server<B> {
     fn service<S: Sockets, H: Handler>(&mut self, chip: &mut S, net: &Network, handler: &mut H, s: u8, sweep: bool) {
         let at = usize::from(s) % SOCKETS;
         let events = chip.take_events(s);
-        if events & SEND_OK != 0 {
+        if events & SENT != 0 {
             self.sending &= !(1 << s);
         }
         let phase = self.phase[at];
         let data_only = events & RECV != 0 && events & !(RECV | SEND_OK) == 0;
         let status = if data_only && phase == Phase::Connected && !sweep { state::ESTABLISHED } else { chip.status(s) };
+        // The UDP socket is served as a connection is, but for what a connection's beginning
+        // and end ask.
+        #[cfg(not(feature = "udp"))]
+        const UDP: u8 = state::ESTABLISHED;
+        #[cfg(feature = "udp")]
+        const UDP: u8 = state::UDP;
         match status {
             // Closed (reset, timed out, or never opened), or opened and not listening.
             state::CLOSED | state::INIT => self.open(chip, net, s),
             state::LISTEN => {}
-            status @ (state::ESTABLISHED | state::CLOSE_WAIT) => {
+            #[allow(unreachable_patterns)]
+            status @ (state::ESTABLISHED | state::CLOSE_WAIT | UDP) => {
+                #[cfg(not(feature = "udp"))]
                 if phase != Phase::Connected {
                     if !net.allows(chip.peer(s)) {
                         self.bump(Count::Refused);
@@ -334,6 +384,22 @@ impl<const B: usize> Server<B> {
                     self.rx[at] = chip.rx_pointer(s);
                     self.tx[at] = chip.tx_pointer(s);
                     self.bump(Count::Connections);
+                }
+                // The UDP socket just opened: no peer to check, no connection to count.
+                #[cfg(feature = "udp")]
+                if phase != Phase::Connected {
+                    let tcp = s != net.udp;
+                    if tcp && !net.allows(chip.peer(s)) {
+                        self.bump(Count::Refused);
+                        self.close(chip, net, s);
+                        return;
+                    }
+                    self.enter(s, Phase::Connected);
+                    self.rx[at] = chip.rx_pointer(s);
+                    self.tx[at] = chip.tx_pointer(s);
+                    if tcp {
+                        self.bump(Count::Connections);
+                    }
                 }
                 let left = self.serve(chip, handler, net, s);
                 if status == state::CLOSE_WAIT && !left {
@@ -399,6 +465,7 @@ impl<const B: usize> Server<B> {
         fill: impl FnOnce(&mut S, u16, &mut [u8]),
     ) -> Answered {
         let at = usize::from(s) % SOCKETS;
+        // A datagram's answer goes to its sender, still in Sn_DIPR and Sn_DPORT (`serve`).
         if self.changed & (1 << s) != 0 || self.phase[at] != Phase::Connected {
             return Answered::Gone;
         }
@@ -427,7 +494,11 @@ impl<const B: usize> Server<B> {
 
     /// Opens socket `s` and listens on the port.
     fn open<S: Sockets>(&mut self, chip: &mut S, net: &Network, s: u8) {
+        #[cfg(not(feature = "udp"))]
         chip.listen(s, net.port_of(s));
+        // The UDP socket: opened, then taken up as a connection is (`service`).
+        #[cfg(feature = "udp")]
+        chip.open(s, net.port_of(s), s == net.udp);
         self.enter(s, Phase::Listening);
     }
 
@@ -457,6 +528,8 @@ impl<const B: usize> Server<B> {
         if received < least {
             return false;
         }
+        #[cfg(feature = "udp")]
+        let udp = s == net.udp;
         let at = usize::from(s) % SOCKETS;
         let rx_start = self.rx[at];
         let mut rx = rx_start;
@@ -480,13 +553,52 @@ impl<const B: usize> Server<B> {
                 let header = Header { transaction: 0, length: len - 2, unit: self.buf[start] };
                 (header, len, (start + usize::from(len)).min(B))
             } else {
+                // A datagram: the chip's header (sender, length), then one ADU of that length.
+                #[cfg(feature = "udp")]
+                let mut datagram = 0;
+                #[cfg(feature = "udp")]
+                if udp {
+                    if received < UDP_HEADER as u16 {
+                        break;
+                    }
+                    let mut chip_header = [0; UDP_HEADER];
+                    chip.read(s, rx, &mut chip_header);
+                    let [a, b, c, d, _, _, high, low] = chip_header;
+                    datagram = u16::from_be_bytes([high, low]);
+                    if received - (UDP_HEADER as u16) < datagram {
+                        // Not all there (the count read as a datagram landed): the next poll.
+                        break;
+                    }
+                    rx = rx.wrapping_add(UDP_HEADER as u16);
+                    received -= UDP_HEADER as u16;
+                    // An address not allowed costs this header's read and nothing more.
+                    let refused = !net.allows([a, b, c, d]);
+                    if refused || datagram < HEADER as u16 {
+                        self.bump(if refused { Count::Refused } else { Count::BadDatagram });
+                        rx = rx.wrapping_add(datagram);
+                        received -= datagram;
+                        continue;
+                    }
+                    // Its answer's destination. Sn_DIPR and Sn_DPORT keep it while the
+                    // request is under way: no other datagram is read before it is answered.
+                    chip.set_peer(s, &mut chip_header[..6]);
+                }
                 // The header and, in the same transfer, the body of the usual request (FC
                 // 1-6: 12 bytes in all); a longer one's rest below.
                 let first = usize::from(received).min(USUAL);
                 chip.read(s, rx, &mut self.buf[..first]);
                 let (head, _) = self.buf.split_at_mut(HEADER);
                 let head: &mut [u8; HEADER] = head.try_into().unwrap_or_else(|_| unreachable!());
-                let header = match Header::parse(head) {
+                let parsed = Header::parse(head);
+                // A datagram is one ADU, its length the header's: else it is dropped whole.
+                #[cfg(feature = "udp")]
+                if udp && !matches!(parsed, Ok(header) if header.adu_len() == datagram) {
+                    self.bump(if parsed == Err(Refused::Protocol) { Count::BadProtocol } else { Count::BadDatagram });
+                    rx = rx.wrapping_add(datagram);
+                    received -= datagram;
+                    continue;
+                }
+                let header = match parsed {
                     Ok(header) => header,
                     Err(Refused::Protocol) => {
                         let skip = Header::skip(head).unwrap_or(0);
@@ -520,6 +632,11 @@ impl<const B: usize> Server<B> {
             if usize::from(free) < if H::LONG { mbap::MAX_ADU } else { B } {
                 // No room for the longest reply: the master is not reading. Its requests
                 // wait; the other sockets go on.
+                #[cfg(feature = "udp")]
+                if udp {
+                    // The datagram's chip header too.
+                    rx = rx.wrapping_sub(UDP_HEADER as u16);
+                }
                 left = true;
                 break;
             }
@@ -575,6 +692,12 @@ impl<const B: usize> Server<B> {
             tx = tx.wrapping_add(len as u16);
             free -= len as u16;
             self.idle[usize::from(s) % SOCKETS] = 0;
+            // One datagram, one SEND: the next after its SEND_OK.
+            #[cfg(feature = "udp")]
+            if udp {
+                left = received != 0;
+                break;
+            }
         }
         // The replies' SEND first: the request's bytes are taken after it.
         if tx != tx_start {
@@ -658,3 +781,5 @@ mod rtu {
 }
 #[cfg(test)]
 mod tests;
+#[cfg(all(test, feature = "udp"))]
+mod udp_tests;

@@ -76,6 +76,13 @@ pub mod sn {
 
 /// Sn_MR: TCP.
 pub const MODE_TCP: u8 = 0x01;
+/// Sn_MR: UDP.
+#[cfg(feature = "udp")]
+pub const MODE_UDP: u8 = 0x02;
+/// The header the chip puts before each datagram in a UDP socket's receive buffer: the
+/// sender's address (4 bytes), port (2), the data's length (2), big-endian.
+#[cfg(feature = "udp")]
+pub const UDP_HEADER: usize = 8;
 
 /// Sn_CR's commands.
 pub mod command {
@@ -110,12 +117,18 @@ pub mod state {
     pub const ESTABLISHED: u8 = 0x17;
     /// The peer closed its side; this side may still send.
     pub const CLOSE_WAIT: u8 = 0x1C;
+    /// Opened in UDP mode.
+    #[cfg(feature = "udp")]
+    pub const UDP: u8 = 0x22;
 }
 
 /// Sn_IR's send-done event.
 pub const SEND_OK: u8 = 0x10;
 /// Sn_IR's data-received event.
 pub const RECV: u8 = 0x04;
+/// Sn_IR's timeout event (UDP: the destination's ARP went unanswered, nothing sent).
+#[cfg(feature = "udp")]
+pub const TIMEOUT: u8 = 0x08;
 
 /// Where a transfer goes, as the W5500's block select numbers it (the W5100 maps it to its
 /// one address space): the common registers, or socket n's registers, transmit buffer or
@@ -406,6 +419,22 @@ impl<C: Chip, B: Bus> Sockets for Wiznet<C, B> {
     fn send(&mut self, s: u8, pointer: u16) {
         self.set16(s, sn::TX_WR, pointer);
         self.order(s, command::SEND);
+    }
+
+    #[cfg(feature = "udp")]
+    fn open(&mut self, s: u8, port: u16, udp: bool) {
+        self.set(Block::socket(s), sn::MR.into(), if udp { MODE_UDP } else { MODE_TCP });
+        self.set16(s, sn::PORT, port);
+        self.command(s, command::OPEN);
+        if !udp {
+            self.command(s, command::LISTEN);
+        }
+    }
+
+    /// Sn_DIPR and Sn_DPORT, next to each other on both chips: one transfer.
+    #[cfg(feature = "udp")]
+    fn set_peer(&mut self, s: u8, peer: &mut [u8]) {
+        C::transfer(&mut self.bus, Block::socket(s), sn::DIPR.into(), peer, true);
     }
 }
 

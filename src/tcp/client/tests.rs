@@ -100,6 +100,14 @@ impl Sockets for Fake {
     fn listen(&mut self, _: u8, _: u16) {
         panic!("a client does not listen");
     }
+    #[cfg(feature = "udp")]
+    fn open(&mut self, _: u8, _: u16, _: bool) {
+        panic!("a client has no UDP socket");
+    }
+    #[cfg(feature = "udp")]
+    fn set_peer(&mut self, _: u8, _: &mut [u8]) {
+        panic!("a client has no UDP socket");
+    }
     fn peer(&mut self, _: u8) -> [u8; 4] {
         SERVER
     }

@@ -988,3 +988,96 @@ mod rtu_over_tcp {
         assert_eq!(rig.chip.socks[1].sent, frame(&[1, 3, 2, 0x01, 0x02]));
     }
 }
+
+#[cfg(feature = "udp")]
+mod udp {
+    //! Modbus UDP through the gateway: TCP on sockets 0-2, UDP on socket 3.
+
+    use super::*;
+    use crate::tcp::fake::UDP;
+
+    const U: usize = 3;
+
+    fn sender(host: u8, port: u16) -> [u8; 6] {
+        let [p0, p1] = port.to_be_bytes();
+        [10, 0, 0, host, p0, p1]
+    }
+
+    /// The rig with TCP on three sockets and UDP on the fourth.
+    fn rig(slaves: impl IntoIterator<Item = (u8, Slave)>) -> Rig {
+        let mut rig = Rig::new(slaves);
+        rig.net = NET.sockets(3).udp(3);
+        rig.chip = Fake::default();
+        rig.server = Server::new();
+        rig.step();
+        assert_eq!(rig.chip.socks[U].status, UDP);
+        rig
+    }
+
+    #[test]
+    fn each_datagrams_answer_from_the_line_goes_back_to_its_sender() {
+        let mut rig = rig([(1, Slave::Bank(regs(0x100))), (2, Slave::Bank(regs(0x200)))]);
+        rig.line.hold = true;
+        assert!(rig.chip.datagram(U, sender(7, 1000), &read(0x1111, 1, 0, 3)));
+        assert!(rig.chip.datagram(U, sender(8, 2000), &read(0x2222, 2, 4, 2)));
+        assert!(rig.chip.datagram(U, sender(7, 1001), &read(0x3333, 2, 0, 1)));
+        rig.settle();
+        assert!(rig.line.held.is_some(), "one on the line");
+        assert!(rig.chip.socks[U].datagrams.is_empty());
+        assert_ne!(rig.chip.socks[U].rx_rd, rig.chip.socks[U].rx_wr, "the others wait in the chip");
+        rig.line.release();
+        rig.line.hold = false;
+        rig.settle();
+        assert_eq!(
+            rig.chip.socks[U].datagrams,
+            [
+                (sender(7, 1000), read_reply(0x1111, 1, 0x100, 0, 3)),
+                (sender(8, 2000), read_reply(0x2222, 2, 0x200, 4, 2)),
+                (sender(7, 1001), read_reply(0x3333, 2, 0x200, 0, 1)),
+            ]
+        );
+        let counts = rig.gateway.counters();
+        assert_eq!((counts.forwarded, counts.answers, counts.orphaned), (3, 3, 0));
+    }
+
+    #[test]
+    fn own_registers_unavailable_units_malformed_requests_and_dead_slaves_as_over_tcp() {
+        let mut rig = rig([(1, Slave::Bank(regs(0x100))), (3, Slave::Dead)]);
+        let mut zero_quantity = read(4, 1, 0, 0);
+        zero_quantity[11] = 0;
+        for (i, adu) in [read(1, 0xFF, 0, 2), read(2, 9, 0, 1), read(3, 3, 0, 1), zero_quantity].iter().enumerate() {
+            assert!(rig.chip.datagram(U, sender(7, 1000 + i as u16), adu));
+        }
+        rig.settle();
+        assert_eq!(
+            rig.chip.socks[U].datagrams,
+            [
+                (sender(7, 1000), vec![0, 1, 0, 0, 0, 7, 0xFF, 3, 4, 0, 0, 0, 0]),
+                (sender(7, 1001), exception(2, 9, 3, 0x0A)),
+                (sender(7, 1002), exception(3, 3, 3, 0x0B)),
+                (sender(7, 1003), exception(4, 1, 3, 0x03)),
+            ]
+        );
+        let counts = rig.gateway.counters();
+        assert_eq!((counts.unavailable, counts.no_response, counts.malformed), (1, 1, 1));
+        assert!(rig.line.sent.iter().all(|(_, f)| f[0] == 3), "only the dead slave's tries on the line");
+    }
+
+    #[test]
+    fn tcp_and_udp_share_the_line_each_answered_its_own_way() {
+        let mut rig = rig([(1, Slave::Bank(regs(0x100)))]);
+        rig.chip.connect(0, [10, 0, 0, 7]);
+        rig.chip.deliver(0, &[read(1, 1, 0, 1), read(2, 1, 1, 1)].concat());
+        assert!(rig.chip.datagram(U, sender(8, 5000), &read(3, 1, 2, 1)));
+        assert!(rig.chip.datagram(U, sender(8, 5000), &read(4, 1, 3, 1)));
+        rig.settle();
+        assert_eq!(rig.chip.socks[0].sent, [read_reply(1, 1, 0x100, 0, 1), read_reply(2, 1, 0x100, 1, 1)].concat());
+        assert_eq!(
+            rig.chip.socks[U].datagrams,
+            [(sender(8, 5000), read_reply(3, 1, 0x100, 2, 1)), (sender(8, 5000), read_reply(4, 1, 0x100, 3, 1))]
+        );
+        // They took turns on the line.
+        let order: Vec<u8> = rig.line.sent.iter().map(|(_, f)| f[3]).collect();
+        assert_eq!(order, [0, 2, 1, 3]);
+    }
+}

@@ -47,7 +47,10 @@ options:
                    502:1502); printed as `tcp: 127.0.0.1:HOST` once the firmware listens
   --connect CHIP:HOST  bridge the firmware's connections to port CHIP (any address) to
                    127.0.0.1:HOST, a server on the host (repeatable; e.g. 502:1502)
-  --messages       print each Modbus TCP request and answer through the bridge (connection,
+  --udp CHIP:HOST  bridge the chip's UDP port CHIP to 127.0.0.1:HOST (repeatable): each
+                   datagram to HOST goes to the firmware's UDP socket on CHIP, its answers
+                   back to the sender; printed as `udp: 127.0.0.1:HOST` once the socket opens
+  --messages       print each Modbus TCP (and UDP) request and answer through the bridge (connection,
                    transaction id, unit id, function code, the bytes)
   -h, --help       this text
 
@@ -94,6 +97,8 @@ pub struct Args {
     pub tcp: Vec<Mapping>,
     /// `--connect`, in order.
     pub connect: Vec<Mapping>,
+    /// `--udp`, in order.
+    pub udp: Vec<Mapping>,
     /// `--messages`.
     pub messages: bool,
 }
@@ -126,6 +131,7 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
         cs: None,
         tcp: Vec::new(),
         connect: Vec::new(),
+        udp: Vec::new(),
         messages: false,
     };
     let mut elf = None;
@@ -149,6 +155,7 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
             "--messages" => args.messages = true,
             "--tcp" => args.tcp.push(value()?.parse::<Mapping>().map_err(|e| Some(format!("--tcp: {e}")))?),
             "--connect" => args.connect.push(value()?.parse::<Mapping>().map_err(|e| Some(format!("--connect: {e}")))?),
+            "--udp" => args.udp.push(value()?.parse::<Mapping>().map_err(|e| Some(format!("--udp: {e}")))?),
             w if w.starts_with('-') => return Err(Some(format!("unknown option {w}"))),
             _ if elf.is_some() => return Err(Some(format!("one firmware file only (got {word} too)"))),
             _ => elf = Some(PathBuf::from(word)),
@@ -157,11 +164,12 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
     if elf.is_none() && args.bootloader.is_none() && args.state.is_none() {
         return Err(Some("no firmware file given".to_owned()));
     }
-    if args.wiznet.is_none() && (!args.tcp.is_empty() || !args.connect.is_empty() || args.cs.is_some()) {
-        return Err(Some("--tcp, --connect and --cs need a shield: --wiznet w5100 or w5500".to_owned()));
+    let bridged = !args.tcp.is_empty() || !args.connect.is_empty() || !args.udp.is_empty();
+    if args.wiznet.is_none() && (bridged || args.cs.is_some()) {
+        return Err(Some("--tcp, --connect, --udp and --cs need a shield: --wiznet w5100 or w5500".to_owned()));
     }
-    if args.messages && args.tcp.is_empty() && args.connect.is_empty() {
-        return Err(Some("--messages needs a bridge: --tcp 502:1502 or --connect 502:1502".to_owned()));
+    if args.messages && !bridged {
+        return Err(Some("--messages needs a bridge: --tcp 502:1502, --connect 502:1502 or --udp 502:1502".to_owned()));
     }
     args.elf = elf;
     args.auto_reset &= args.bootloader.is_some();
@@ -248,6 +256,9 @@ mod tests {
         assert_eq!(parse(words("fw.elf")).unwrap().wiznet, None);
         assert!(parse(words("--wiznet w5100 --tcp 502:1502 --messages fw.elf")).unwrap().messages);
         assert!(parse(words("--wiznet w5100 --messages fw.elf")).unwrap_err().unwrap().contains("needs a bridge"));
+        let a = parse(words("--wiznet w5100 --udp 502:1502 --messages fw.elf")).unwrap();
+        assert_eq!((a.udp[0], a.messages), (Mapping { chip_port: 502, host_port: 1502 }, true));
+        assert!(parse(words("--udp 502:1502 fw.elf")).unwrap_err().unwrap().contains("need a shield"));
     }
 
     #[test]

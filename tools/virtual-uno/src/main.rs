@@ -178,11 +178,15 @@ fn run(args: &args::Args) -> Result<(), String> {
     if let (Some(model), Some((port, bit))) = (args.wiznet, uno.wiznet_cs()) {
         println!("shield: {model} on the SPI port, chip select P{port}{bit}");
     }
-    let mut net = match args.tcp.is_empty() && args.connect.is_empty() {
+    let mut net = match args.tcp.is_empty() && args.connect.is_empty() && args.udp.is_empty() {
         true => None,
-        false => {
-            Some(Net::bind(&args.tcp, args.messages).map_err(|e| format!("--tcp: {e}"))?.with_outgoing(&args.connect))
-        }
+        false => Some(
+            Net::bind(&args.tcp, args.messages)
+                .map_err(|e| format!("--tcp: {e}"))?
+                .with_outgoing(&args.connect)
+                .with_udp(&args.udp)
+                .map_err(|e| format!("--udp: {e}"))?,
+        ),
     };
     for cmd in &args.initial {
         cmd.apply(&mut uno).map_err(|e| e.to_string())?;

@@ -86,6 +86,23 @@ impl Streams {
     }
 }
 
+/// A line for one datagram of Modbus UDP: one ADU, whole, per datagram (else it is none).
+pub fn datagram(peer: SocketAddr, socket: usize, to_chip: bool, bytes: &[u8]) -> String {
+    let who = format!("udp {peer} (socket {socket})");
+    let whole = bytes.len() >= 8
+        && bytes[2..4] == [0, 0]
+        && usize::from(u16::from_be_bytes([bytes[4], bytes[5]])) + 6 == bytes.len();
+    if whole {
+        return format!("{who} {}", describe(bytes, to_chip));
+    }
+    format!(
+        "{who} {}: a datagram of {} bytes that is no Modbus ADU: {}",
+        if to_chip { "request" } else { "answer" },
+        bytes.len(),
+        hex(&bytes[..bytes.len().min(MAX_ADU)])
+    )
+}
+
 /// `conn 127.0.0.1:40022 (socket 0)`.
 fn connection(peer: SocketAddr, socket: usize) -> String {
     format!("conn {peer} (socket {socket})")

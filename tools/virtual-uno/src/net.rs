@@ -1,9 +1,9 @@
 //! A simulated board's Ethernet shield on the host's network: its TCP bridge (chip ports on
 //! 127.0.0.1, `uno_sim::wiznet::Bridge`), polled from the simulation loop every
-//! [`BRIDGE_CYCLES`] (SIMAVR.md item 12: never block, the host's time is not the chip's).
+//! [`BRIDGE_CYCLES`], and its UDP ports (SIMAVR.md item 12: never block, the host's time is not the chip's).
 //! Optionally each Modbus TCP request and answer it carries is printed (`mbap`). The single
-//! board (`virtual-uno --tcp`, `--connect`) and a board on the line (`virtual-line --board …
-//! tcp=`, `connect=`) share it.
+//! board (`virtual-uno --tcp`, `--connect`, `--udp`) and a board on the line (`virtual-line
+//! --board … tcp=`, `connect=`, `udp=`) share it.
 
 use uno_sim::wiznet::{Bridge, BridgeEvent, Mapping};
 use uno_sim::Uno;
@@ -44,6 +44,14 @@ impl Net {
         Net { bridge: self.bridge.with_outgoing(mappings), ..self }
     }
 
+    /// Also bridges UDP: datagrams to each mapping's host port go to the chip's UDP socket on
+    /// its chip port, and its answers back (`virtual-uno --udp`, `virtual-line --board …
+    /// udp=`).
+    pub fn with_udp(self, mappings: &[Mapping]) -> Result<Net, String> {
+        let bridge = self.bridge.with_udp(mappings).map_err(|e| format!("cannot bind on 127.0.0.1: {e}"))?;
+        Ok(Net { bridge, ..self })
+    }
+
     /// The cycle the next poll is due.
     pub fn next_poll(&self) -> u64 {
         self.polled + BRIDGE_CYCLES
@@ -65,6 +73,9 @@ impl Net {
                     // Requests go to the chip, but on the firmware's own connections.
                     let requests = *to_chip != self.dialed.contains(&(*peer, *socket));
                     lines.extend(streams.feed(*peer, *socket, requests, bytes));
+                }
+                (BridgeEvent::Datagram { peer, socket, to_chip, bytes }, Some(_)) => {
+                    lines.push(crate::mbap::datagram(*peer, *socket, *to_chip, bytes));
                 }
                 (BridgeEvent::Closed { peer, socket, .. }, Some(streams)) => {
                     self.dialed.retain(|d| *d != (*peer, *socket));

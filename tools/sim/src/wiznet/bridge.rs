@@ -3,7 +3,11 @@
 //! and each port the firmware connects to ([`Bridge::with_outgoing`]), whatever the address,
 //! to a port on 127.0.0.1, so that a client firmware reaches a server there (pymodbus's,
 //! libmodbus's): the bridge connects when the firmware's SYN goes out, and the socket is
-//! established, or closed at once when nothing listens there (as after an RST).
+//! established, or closed at once when nothing listens there (as after an RST). And each UDP
+//! port ([`Bridge::with_udp`]): a datagram to a host port goes to the chip's socket open in
+//! UDP mode on its chip port (from the sender's address, 127.0.0.1 and its port), and each
+//! datagram that socket sends to 127.0.0.1 goes from the host port to that address, so a
+//! client's question is answered to it.
 //!
 //! Never blocks: [`Bridge::poll`], called from the simulation loop every few thousand cycles,
 //! accepts new host connections, hands each to a socket in SOCK_LISTEN on its chip port (none
@@ -14,10 +18,11 @@
 
 use std::fmt;
 use std::io::{self, Read, Write};
-use std::net::{Ipv4Addr, Shutdown, SocketAddr, SocketAddrV4, TcpListener, TcpStream};
+use std::net::{Ipv4Addr, Shutdown, SocketAddr, SocketAddrV4, TcpListener, TcpStream, UdpSocket};
 use std::os::fd::AsRawFd;
 use std::str::FromStr;
 
+use super::regs::{sn, state};
 use super::W5x00;
 use crate::CYCLES_PER_US;
 
@@ -97,6 +102,35 @@ pub enum BridgeEvent {
         /// The bytes, as read from one side (a TCP stream: not cut at messages).
         bytes: Vec<u8>,
     },
+    /// The firmware opened a UDP socket on `chip_port` for the first time: clients can send
+    /// to `host`.
+    UdpOpen {
+        /// The chip's port.
+        chip_port: u16,
+        /// Where host clients send.
+        host: SocketAddr,
+    },
+    /// A datagram that went through a UDP port (only with [`Bridge::with_traffic`]).
+    Datagram {
+        /// The host client (the sender, or the destination).
+        peer: SocketAddr,
+        /// The chip's socket.
+        socket: usize,
+        /// True from the client to the chip, false from the chip to the client.
+        to_chip: bool,
+        /// The datagram's payload.
+        bytes: Vec<u8>,
+    },
+    /// A datagram the chip dropped or could not be given: no socket open in UDP mode on the
+    /// port, no room in its RX buffer, or one the firmware sent somewhere else than 127.0.0.1.
+    UdpDropped {
+        /// The host client, or where the firmware sent it.
+        peer: SocketAddr,
+        /// The chip's port.
+        chip_port: u16,
+        /// Why.
+        why: &'static str,
+    },
     /// A bridged connection ended.
     Closed {
         /// The client.
@@ -127,6 +161,14 @@ impl fmt::Display for BridgeEvent {
                 write!(f, "tcp: {peer} on socket {socket}: {} bytes {way}", bytes.len())
             }
             BridgeEvent::Closed { peer, socket, how } => write!(f, "tcp: {peer} on socket {socket}: {how}"),
+            BridgeEvent::UdpOpen { chip_port, host } => write!(f, "udp: {host} (the chip's port {chip_port})"),
+            BridgeEvent::Datagram { peer, socket, to_chip, bytes } => {
+                let way = if *to_chip { "from" } else { "to" };
+                write!(f, "udp: socket {socket}: a datagram of {} bytes {way} {peer}", bytes.len())
+            }
+            BridgeEvent::UdpDropped { peer, chip_port, why } => {
+                write!(f, "udp: a datagram of {peer} on the chip's port {chip_port} dropped: {why}")
+            }
         }
     }
 }
@@ -139,6 +181,17 @@ const READ_CHUNK: usize = 4096;
 struct Listener {
     mapping: Mapping,
     socket: TcpListener,
+    announced: bool,
+}
+
+/// The largest datagram the bridge takes from a host client (a W5500 socket's RX buffer is at
+/// most 16 KB).
+const MAX_DATAGRAM: usize = 16 * 1024;
+
+/// A host UDP port bridged to a chip port.
+struct UdpPort {
+    mapping: Mapping,
+    socket: UdpSocket,
     announced: bool,
 }
 
@@ -166,6 +219,7 @@ pub struct Bridge {
     /// Ports the firmware connects to (`chip_port`), bridged to 127.0.0.1:`host_port`.
     outgoing: Vec<Mapping>,
     conns: Vec<HostConn>,
+    udp: Vec<UdpPort>,
     patience: u64,
     traffic: bool,
 }
@@ -191,6 +245,7 @@ impl Bridge {
             listeners,
             outgoing: Vec::new(),
             conns: Vec::new(),
+            udp: Vec::new(),
             patience: 3_000_000 * CYCLES_PER_US,
             traffic: false,
         })
@@ -201,6 +256,24 @@ impl Bridge {
     /// connects to port 502 reaches the server on the host's port 1502).
     pub fn with_outgoing(self, mappings: &[Mapping]) -> Bridge {
         Bridge { outgoing: mappings.to_vec(), ..self }
+    }
+
+    /// Also bridges UDP: a datagram to 127.0.0.1:`host_port` goes to the chip's socket open in
+    /// UDP mode on `chip_port`, and what that socket sends to 127.0.0.1 goes back from
+    /// `host_port` (see the module docs).
+    pub fn with_udp(self, mappings: &[Mapping]) -> io::Result<Bridge> {
+        let mut udp = self.udp;
+        for &mapping in mappings {
+            let socket = UdpSocket::bind((Ipv4Addr::LOCALHOST, mapping.host_port))?;
+            socket.set_nonblocking(true)?;
+            udp.push(UdpPort { mapping, socket, announced: false });
+        }
+        Ok(Bridge { udp, ..self })
+    }
+
+    /// Each chip UDP port and the host address bridged to it.
+    pub fn udp_ports(&self) -> Vec<(u16, SocketAddr)> {
+        self.udp.iter().filter_map(|u| Some((u.mapping.chip_port, u.socket.local_addr().ok()?))).collect()
     }
 
     /// Reports the bytes each connection carries, both ways, as [`BridgeEvent::Bytes`]
@@ -283,6 +356,9 @@ impl Bridge {
             });
             events.push(BridgeEvent::Dialed { socket: n, to, host });
         }
+        for u in &mut self.udp {
+            udp_step(u, chip, self.traffic, &mut events);
+        }
         let (patience, traffic) = (self.patience, self.traffic);
         self.conns.retain_mut(|c| match step(c, chip, now, patience, traffic.then_some(&mut events)) {
             Step::Keep(None) => true,
@@ -296,6 +372,58 @@ impl Bridge {
             }
         });
         events
+    }
+}
+
+/// One UDP port's round: the host's datagrams to the chip's socket, its datagrams to the host.
+fn udp_step(u: &mut UdpPort, chip: &mut W5x00, traffic: bool, events: &mut Vec<BridgeEvent>) {
+    let chip_port = u.mapping.chip_port;
+    let target = chip.udp_socket(chip_port);
+    if !u.announced && target.is_some() {
+        u.announced = true;
+        if let Ok(host) = u.socket.local_addr() {
+            events.push(BridgeEvent::UdpOpen { chip_port, host });
+        }
+    }
+    let mut buf = vec![0u8; MAX_DATAGRAM];
+    loop {
+        let (k, peer) = match u.socket.recv_from(&mut buf) {
+            Ok(got) => got,
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
+            // WouldBlock, or an ICMP error of an earlier send: nothing more this round
+            Err(_) => break,
+        };
+        let from = match peer {
+            SocketAddr::V4(v4) => v4,
+            SocketAddr::V6(v6) => SocketAddrV4::new(Ipv4Addr::LOCALHOST, v6.port()),
+        };
+        let bytes = &buf[..k];
+        match target {
+            Some(n) if chip.udp_deliver(n, from, bytes) => {
+                if traffic {
+                    events.push(BridgeEvent::Datagram { peer, socket: n, to_chip: true, bytes: bytes.to_vec() });
+                }
+            }
+            Some(_) => events.push(BridgeEvent::UdpDropped { peer, chip_port, why: "no room in the socket" }),
+            None => events.push(BridgeEvent::UdpDropped { peer, chip_port, why: "no UDP socket on the port" }),
+        }
+    }
+    for n in 0..chip.socket_count() {
+        if chip.status(n) != state::UDP || chip.socket_register16(n, sn::PORT) != chip_port {
+            continue;
+        }
+        for (to, bytes) in chip.udp_sent(n) {
+            let peer = SocketAddr::V4(to);
+            if !to.ip().is_loopback() {
+                events.push(BridgeEvent::UdpDropped { peer, chip_port, why: "sent beyond 127.0.0.1" });
+                continue;
+            }
+            // A loopback datagram is taken whole or not at all; a lost one is UDP's way.
+            let _ = u.socket.send_to(&bytes, to);
+            if traffic {
+                events.push(BridgeEvent::Datagram { peer, socket: n, to_chip: false, bytes });
+            }
+        }
     }
 }
 

@@ -292,3 +292,106 @@ fn with_traffic_the_bytes_of_each_way_are_reported_as_they_pass() {
     quiet.until(|r| !r.receive().is_empty());
     assert!(!quiet.events.iter().any(|e| matches!(e, BridgeEvent::Bytes { .. })), "{:?}", quiet.events);
 }
+
+/// A chip with socket 0 open in UDP mode on 502, its UDP port bridged to an ephemeral host
+/// port, with the traffic reported.
+fn udp_rig() -> (Rig, std::net::UdpSocket) {
+    let mut chip = W5x00::new(Wiznet::W5500);
+    chip.sockets[0].write(sn::MR, mode::UDP);
+    chip.sockets[0].write(sn::PORT, 0x01);
+    chip.sockets[0].write(sn::PORT + 1, 0xF6);
+    chip.command(0, cmd::OPEN);
+    let bridge = Bridge::bind(&[]).unwrap().with_udp(&[Mapping { chip_port: 502, host_port: 0 }]).unwrap();
+    let rig = Rig { chip, bridge: bridge.with_traffic(), events: Vec::new() };
+    let client = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    client.connect(rig.bridge.udp_ports()[0].1).unwrap();
+    client.set_read_timeout(Some(Duration::from_millis(20))).unwrap();
+    (rig, client)
+}
+
+impl Rig {
+    /// The firmware's side of UDP: `data` sent on socket 0 to `to`.
+    fn send_to(&mut self, to: std::net::SocketAddrV4, data: &[u8]) {
+        for (i, b) in to.ip().octets().into_iter().enumerate() {
+            self.chip.sockets[0].write(sn::DIPR + i as u16, b);
+        }
+        self.chip.sockets[0].write(sn::DPORT, (to.port() >> 8) as u8);
+        self.chip.sockets[0].write(sn::DPORT + 1, to.port() as u8);
+        self.send(data);
+    }
+}
+
+#[test]
+fn datagrams_go_to_the_udp_socket_and_its_answers_to_their_sender() {
+    let (mut rig, client) = udp_rig();
+    let other = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    other.set_read_timeout(Some(Duration::from_millis(20))).unwrap();
+    let me = match client.local_addr().unwrap() {
+        std::net::SocketAddr::V4(a) => a,
+        a => panic!("{a}"),
+    };
+    let them = match other.local_addr().unwrap() {
+        std::net::SocketAddr::V4(a) => a,
+        a => panic!("{a}"),
+    };
+    client.send(b"one").unwrap();
+    other.send_to(b"", rig.bridge.udp_ports()[0].1).unwrap();
+    let mut got = Vec::new();
+    rig.until(|r| {
+        got.extend(r.receive());
+        got.len() >= 11 + 8
+    });
+    let header = |from: std::net::SocketAddrV4, len: u16| {
+        let mut h = from.ip().octets().to_vec();
+        h.extend(from.port().to_be_bytes());
+        h.extend(len.to_be_bytes());
+        h
+    };
+    let mut want = header(me, 3);
+    want.extend(b"one");
+    want.extend(header(them, 0));
+    assert_eq!(got, want, "each behind its header with its sender");
+    let host = rig.bridge.udp_ports()[0].1;
+    assert_eq!(rig.events[0], BridgeEvent::UdpOpen { chip_port: 502, host });
+    rig.send_to(them, b"to them");
+    rig.send_to(me, b"to me");
+    let mut back = [Vec::new(), Vec::new()];
+    rig.until(|_| {
+        let mut buf = [0; 64];
+        if let Ok(k) = client.recv(&mut buf) {
+            back[0] = buf[..k].to_vec();
+        }
+        if let Ok((k, from)) = other.recv_from(&mut buf) {
+            assert_eq!(from, host, "from the bridged port");
+            back[1] = buf[..k].to_vec();
+        }
+        !back[0].is_empty() && !back[1].is_empty()
+    });
+    assert_eq!(back, [b"to me".to_vec(), b"to them".to_vec()]);
+    let moved: Vec<_> = rig
+        .events
+        .iter()
+        .filter_map(|e| match e {
+            BridgeEvent::Datagram { to_chip, bytes, .. } => Some((*to_chip, bytes.len())),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(moved, [(true, 3), (true, 0), (false, 7), (false, 5)]);
+}
+
+#[test]
+fn a_datagram_with_no_socket_or_no_room_is_dropped_and_reported() {
+    let (mut rig, client) = udp_rig();
+    client.send(&[1; 2100]).unwrap();
+    rig.until(|r| r.events.iter().any(|e| matches!(e, BridgeEvent::UdpDropped { why: "no room in the socket", .. })));
+    assert_eq!(rig.receive(), b"", "nothing of it landed");
+    rig.chip.command(0, cmd::CLOSE);
+    client.send(b"x").unwrap();
+    rig.until(|r| {
+        r.events.iter().any(|e| matches!(e, BridgeEvent::UdpDropped { why: "no UDP socket on the port", .. }))
+    });
+    let far = std::net::SocketAddrV4::new(std::net::Ipv4Addr::new(192, 0, 2, 1), 502);
+    rig.chip.command(0, cmd::OPEN);
+    rig.send_to(far, b"far");
+    rig.until(|r| r.events.iter().any(|e| matches!(e, BridgeEvent::UdpDropped { why: "sent beyond 127.0.0.1", .. })));
+}

@@ -14,8 +14,11 @@
 //!
 //! What is modelled: the registers the Arduino and WIZnet drivers use, TCP server sockets
 //! (OPEN, LISTEN, DISCON, CLOSE, SEND, RECV) and client sockets (CONNECT to SOCK_SYNSENT,
-//! then [`W5x00::accept_connect`] or [`W5x00::refuse_connect`] as the peer answers), buffer sizes (TMSR/RMSR, Sn_TXBUF_SIZE/Sn_RXBUF_SIZE). Not:
-//! UDP, IP raw and MAC raw data (the sockets open, nothing moves), PPPoE, the INT pin,
+//! then [`W5x00::accept_connect`] or [`W5x00::refuse_connect`] as the peer answers), UDP
+//! sockets (OPEN to SOCK_UDP on Sn_PORT; each datagram behind its 8-byte header, one that
+//! finds no room dropped; SEND as one datagram to Sn_DIPR:Sn_DPORT: [`W5x00::udp_deliver`],
+//! [`W5x00::udp_sent`]), buffer sizes (TMSR/RMSR, Sn_TXBUF_SIZE/Sn_RXBUF_SIZE). Not:
+//! IP raw and MAC raw data (the sockets open, nothing moves), PPPoE, the INT pin,
 //! keep-alives, the W5500's PHY beyond PHYCFGR saying the link is up. Commands take effect
 //! at once; a SEND completes as soon as the peer has taken its data.
 

@@ -231,4 +231,26 @@ impl W5x00 {
             s.set_pointers(p);
         }
     }
+
+    // ----------------------------------------------------------------------------------------
+    // UDP
+
+    /// A datagram from `from` to socket `n` (open in UDP mode): lands behind its 8-byte header,
+    /// RECV set. False if the socket is not in UDP mode or has no room (dropped, as the chip
+    /// drops it).
+    pub fn udp_deliver(&mut self, n: usize, from: SocketAddrV4, payload: &[u8]) -> bool {
+        let now = self.clock;
+        let Some(s) = self.sockets.get_mut(n) else { return false };
+        s.land_datagram(&mut self.rx_mem[self.rx_layout[n].clone()], from, payload, now)
+    }
+
+    /// The datagrams socket `n` sent since the last call: (destination, payload), in order.
+    pub fn udp_sent(&mut self, n: usize) -> Vec<(SocketAddrV4, Vec<u8>)> {
+        self.sockets.get_mut(n).map(|s| std::mem::take(&mut s.datagrams_out)).unwrap_or_default()
+    }
+
+    /// The lowest socket open in UDP mode on local `port`, if any.
+    pub fn udp_socket(&self, port: u16) -> Option<usize> {
+        self.sockets.iter().position(|s| s.sr == state::UDP && s.reg16(sn::PORT) == port)
+    }
 }

@@ -99,7 +99,7 @@ pub mod state {
     pub const CLOSE_WAIT: u8 = 0x1C;
     /// The peer's FIN came, then the firmware's: waiting for the last ACK.
     pub const LAST_ACK: u8 = 0x1D;
-    /// Opened in UDP mode (no network side here).
+    /// Opened in UDP mode.
     pub const UDP: u8 = 0x22;
     /// Opened in IP raw mode (no network side here).
     pub const IPRAW: u8 = 0x32;

@@ -6,6 +6,7 @@
 //! RX_RD of the last RECV, both in wrapping 16-bit arithmetic.
 
 use std::collections::VecDeque;
+use std::net::{Ipv4Addr, SocketAddrV4};
 
 use super::connection::Connection;
 use super::regs::{cmd, int, mode, sn, state};
@@ -68,6 +69,8 @@ pub(crate) struct Socket {
     pub(crate) sends: Vec<Send>,
     pub(crate) last_delivery: Option<u64>,
     inbound: VecDeque<Inbound>,
+    /// UDP mode: the datagrams sent and not taken yet (destination, payload).
+    pub(crate) datagrams_out: Vec<(SocketAddrV4, Vec<u8>)>,
 }
 
 fn get16(regs: &[u8], off: u16) -> u16 {
@@ -107,6 +110,7 @@ impl Socket {
             sends: Vec::new(),
             last_delivery: None,
             inbound: VecDeque::new(),
+            datagrams_out: Vec::new(),
         }
     }
 
@@ -182,6 +186,7 @@ impl Socket {
             cmd::DISCON => self.discon(cx),
             cmd::CLOSE => self.close_by_chip(),
             cmd::SEND if matches!(self.sr, state::ESTABLISHED | state::CLOSE_WAIT) => self.send(cx),
+            cmd::SEND if self.sr == state::UDP => self.send_datagram(cx),
             cmd::RECV => {
                 self.rx_taken = self.rx_rd();
                 self.pump_inbound(cx.rx, cx.now);
@@ -230,6 +235,46 @@ impl Socket {
         self.send_end = to;
         self.sending = true;
         self.pump_tx(cx.tx, cx.now, cx.rto);
+    }
+
+    /// UDP mode: the bytes from the end of the last SEND to Sn_TX_WR go as one datagram to
+    /// Sn_DIPR:Sn_DPORT, at once (SEND_OK).
+    fn send_datagram(&mut self, cx: &Context) {
+        let to = self.tx_wr();
+        let data = ring_read(cx.tx, self.tx_rd, to.wrapping_sub(self.tx_rd));
+        self.datagrams_out.push((self.destination(), data));
+        self.tx_rd = to;
+        self.send_end = to;
+        self.ir |= int::SEND_OK;
+    }
+
+    /// Sn_DIPR:Sn_DPORT.
+    fn destination(&self) -> SocketAddrV4 {
+        let ip = [self.reg(sn::DIPR), self.reg(sn::DIPR + 1), self.reg(sn::DIPR + 2), self.reg(sn::DIPR + 3)];
+        SocketAddrV4::new(Ipv4Addr::from(ip), self.reg16(sn::DPORT))
+    }
+
+    /// UDP mode: a datagram from `from` lands in the RX buffer behind its 8-byte header
+    /// (source IP, source port, data length, big endian), RECV. `false`, nothing written, if
+    /// the socket is not in UDP mode or the whole of it finds no room (the chip drops it).
+    pub(crate) fn land_datagram(&mut self, rx: &mut [u8], from: SocketAddrV4, payload: &[u8], at: u64) -> bool {
+        let room = usize::from(self.rx_size.wrapping_sub(self.rx_received())).min(rx.len());
+        let Ok(len) = u16::try_from(payload.len()) else { return false };
+        if self.sr != state::UDP || payload.len() + 8 > room {
+            return false;
+        }
+        let mut bytes = Vec::with_capacity(payload.len() + 8);
+        bytes.extend_from_slice(&from.ip().octets());
+        bytes.extend_from_slice(&from.port().to_be_bytes());
+        bytes.extend_from_slice(&len.to_be_bytes());
+        bytes.extend_from_slice(payload);
+        for (i, &b) in bytes.iter().enumerate() {
+            rx[ring_offset(rx.len(), self.rx_wr.wrapping_add(i as u16))] = b;
+        }
+        self.rx_wr = self.rx_wr.wrapping_add(bytes.len() as u16);
+        self.ir |= int::RECV;
+        self.last_delivery = Some(at);
+        true
     }
 
     /// Hands the peer what it takes of the data sent, then the FIN if one is queued; arms the

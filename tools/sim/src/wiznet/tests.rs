@@ -642,3 +642,139 @@ fn the_spi_record_names_each_w5100_frame_and_each_w5500_data_byte() {
     d.w5500(0x0D, 0x0024, false, &[0, 0]);
     assert!(d.chip.take_spi_log().is_empty(), "recorded while off");
 }
+
+// ---- UDP ------------------------------------------------------------------------------------
+
+impl Driver {
+    /// Socket `n` open in UDP mode on `port`.
+    fn udp(&mut self, n: u8, port: u16) {
+        self.sock_write(n, sn::MR, &[mode::UDP]);
+        self.write16(n, sn::PORT, port);
+        self.command(n, cmd::OPEN);
+        assert_eq!(self.sr(n), state::UDP);
+    }
+
+    /// What a firmware's UDP send does: the destination in Sn_DIPR/Sn_DPORT, then the data.
+    fn send_to(&mut self, n: u8, to: SocketAddrV4, data: &[u8]) {
+        self.sock_write(n, sn::DIPR, &to.ip().octets());
+        self.write16(n, sn::DPORT, to.port());
+        self.send(n, data);
+    }
+}
+
+/// `payload` behind the chip's 8-byte UDP header from `from`.
+fn with_header(from: SocketAddrV4, payload: &[u8]) -> Vec<u8> {
+    let mut v = from.ip().octets().to_vec();
+    v.extend_from_slice(&from.port().to_be_bytes());
+    v.extend_from_slice(&(payload.len() as u16).to_be_bytes());
+    v.extend_from_slice(payload);
+    v
+}
+
+#[test]
+fn a_datagram_lands_behind_its_header_and_recv_frees_it() {
+    for model in BOTH {
+        let mut d = Driver::new(model);
+        d.udp(2, 502);
+        assert_eq!(d.chip.udp_socket(502), Some(2), "{model}");
+        assert_eq!(d.chip.udp_socket(503), None);
+        assert!(d.chip.udp_deliver(2, peer(), b"\x00\x01\x00\x00\x00\x06\x01\x03\x00\x00\x00\x01"));
+        assert_eq!(d.read16(2, sn::RX_RSR), 20, "{model}: header and data");
+        assert_eq!(d.sock_read(2, sn::IR, 1), [int::RECV]);
+        assert_eq!(d.receive(2), with_header(peer(), b"\x00\x01\x00\x00\x00\x06\x01\x03\x00\x00\x00\x01"));
+        assert_eq!(d.read16(2, sn::RX_RSR), 0, "{model}");
+        assert_eq!(d.chip.rx_room(2), 2048);
+    }
+}
+
+#[test]
+fn datagrams_queue_in_order_and_an_empty_one_is_a_bare_header() {
+    let mut d = Driver::new(Wiznet::W5500);
+    d.udp(0, 502);
+    let other = SocketAddrV4::new(Ipv4Addr::new(10, 0, 0, 7), 5020);
+    assert!(d.chip.udp_deliver(0, peer(), b"one"));
+    assert!(d.chip.udp_deliver(0, other, b""));
+    assert!(d.chip.udp_deliver(0, peer(), b"three"));
+    let mut want = with_header(peer(), b"one");
+    want.extend(with_header(other, b""));
+    want.extend(with_header(peer(), b"three"));
+    assert_eq!(d.receive(0), want);
+}
+
+#[test]
+fn a_datagram_that_finds_no_room_is_dropped_whole() {
+    for model in BOTH {
+        let mut d = Driver::new(model);
+        d.udp(1, 502);
+        assert!(!d.chip.udp_deliver(1, peer(), &[7; 2041]), "{model}: 2049 bytes with its header");
+        assert_eq!(d.read16(1, sn::RX_RSR), 0, "{model}: nothing of it written");
+        assert_eq!(d.sock_read(1, sn::IR, 1), [0]);
+        assert!(d.chip.udp_deliver(1, peer(), &[7; 2030]));
+        assert!(!d.chip.udp_deliver(1, peer(), &[8; 3]), "{model}: 11 bytes, 10 free");
+        assert!(d.chip.udp_deliver(1, peer(), &[9; 2]), "{model}: 10 bytes fill it");
+        assert_eq!(d.chip.rx_room(1), 0);
+        assert!(!d.chip.udp_deliver(1, peer(), b""), "{model}: not even a header fits");
+        let got = d.receive(1);
+        assert_eq!(got.len(), 2048);
+        assert_eq!(got[2038..], with_header(peer(), &[9; 2])[..], "{model}");
+        assert!(d.chip.udp_deliver(1, peer(), &[7; 2040]), "{model}: room again after RECV");
+    }
+}
+
+#[test]
+fn send_is_one_datagram_to_dipr_and_dport() {
+    for model in BOTH {
+        let mut d = Driver::new(model);
+        d.udp(3, 502);
+        d.send_to(3, peer(), b"reply");
+        assert_eq!(d.sock_read(3, sn::IR, 1)[0] & int::SEND_OK, int::SEND_OK, "{model}");
+        assert_eq!(d.read16(3, sn::TX_FSR), 2048, "{model}: sent at once");
+        let broadcast = SocketAddrV4::new(Ipv4Addr::BROADCAST, 67);
+        d.send_to(3, broadcast, b"discover");
+        d.send_to(3, broadcast, b"");
+        assert_eq!(
+            d.chip.udp_sent(3),
+            [(peer(), b"reply".to_vec()), (broadcast, b"discover".to_vec()), (broadcast, Vec::new())],
+            "{model}"
+        );
+        assert_eq!(d.chip.udp_sent(3), [], "taken");
+        assert_eq!(d.chip.take_sent(3), b"", "no TCP peer saw it");
+    }
+}
+
+#[test]
+fn only_a_socket_open_in_udp_mode_takes_datagrams() {
+    let mut d = Driver::new(Wiznet::W5100);
+    assert!(!d.chip.udp_deliver(0, peer(), b"closed"));
+    assert!(!d.chip.udp_deliver(9, peer(), b"no such socket"));
+    d.listen(0, 502);
+    assert!(!d.chip.udp_deliver(0, peer(), b"listening"));
+    assert_eq!(d.chip.udp_socket(502), None, "a TCP socket on the port is no UDP socket");
+    d.udp(1, 502);
+    d.udp(2, 502);
+    assert_eq!(d.chip.udp_socket(502), Some(1), "the lowest");
+    assert_eq!(d.read16(0, sn::RX_RSR), 0);
+    d.command(1, cmd::CLOSE);
+    assert_eq!(d.sr(1), state::CLOSED);
+    assert!(!d.chip.udp_deliver(1, peer(), b"closed"));
+    assert_eq!(d.chip.udp_socket(502), Some(2));
+    d.send(1, b"closed");
+    assert_eq!(d.chip.udp_sent(1), [], "a closed socket sends nothing");
+}
+
+#[test]
+fn udp_pointers_wrap_past_0xffff_and_past_the_buffer_end() {
+    for model in BOTH {
+        let mut d = Driver::new(model);
+        d.chip.set_open_pointers(0xFFFC);
+        d.udp(0, 502);
+        assert!(d.chip.udp_deliver(0, peer(), b"abcdefgh"));
+        assert_eq!(d.read16(0, sn::RX_RSR), 16, "{model}: 0x000C - 0xFFFC");
+        assert_eq!(d.receive(0), with_header(peer(), b"abcdefgh"), "{model}");
+        assert_eq!(d.rx_read(0, 0x07FC, 4), [192, 168, 1, 10], "{model}: the address before the end");
+        assert_eq!(d.rx_read(0, 0x0000, 6), b"\x9c\x40\x00\x08ab", "{model}: port, length, data after it");
+        d.send_to(0, peer(), b"12345678");
+        assert_eq!(d.chip.udp_sent(0), [(peer(), b"12345678".to_vec())], "{model}");
+        assert_eq!(d.read16(0, sn::TX_RD), 0x0004);
+    }
+}

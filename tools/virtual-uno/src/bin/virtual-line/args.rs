@@ -51,6 +51,11 @@ options:
                                      port CHIP (any address) to 127.0.0.1:HOST, a
                                      server on the host (repeatable; a TCP client:
                                      `NAME dialed …`, then its requests and answers)
+                     udp=CHIP:HOST   bridge the shield's UDP port CHIP to
+                                     127.0.0.1:HOST (repeatable): each datagram to
+                                     the firmware's UDP socket on CHIP, its answers
+                                     back to the sender (`NAME udp: 127.0.0.1:HOST`
+                                     once the socket opens)
   --pty NAME[=PATH]  a pseudo-terminal on the line for an outside program (mbpoll,
                    pymodbus); PATH becomes a symlink to it (removed on exit)
   --baud N         the line's baud rate (default 19200), for ptys and the frame silence
@@ -136,6 +141,8 @@ pub struct BoardArgs {
     pub tcp: Vec<Mapping>,
     /// `connect=`, in order.
     pub connect: Vec<Mapping>,
+    /// `udp=`, in order.
+    pub udp: Vec<Mapping>,
 }
 
 /// One `--pty`.
@@ -208,10 +215,10 @@ pub fn parse(words: impl Iterator<Item = String>) -> Result<Args, Option<String>
                 while let Some(opt) = words.next_if(|w| !w.starts_with('-')) {
                     board_option(&mut board, &opt).map_err(Some)?;
                 }
-                if board.wiznet.is_none() && (!board.tcp.is_empty() || !board.connect.is_empty() || board.cs.is_some())
-                {
+                let bridged = !board.tcp.is_empty() || !board.connect.is_empty() || !board.udp.is_empty();
+                if board.wiznet.is_none() && (bridged || board.cs.is_some()) {
                     return Err(Some(format!(
-                        "--board {}: tcp=, connect= and cs= need a shield: wiznet=w5100 or w5500",
+                        "--board {}: tcp=, connect=, udp= and cs= need a shield: wiznet=w5100 or w5500",
                         board.name
                     )));
                 }
@@ -280,6 +287,7 @@ fn parse_board(spec: &str) -> Result<BoardArgs, String> {
         cs: None,
         tcp: Vec::new(),
         connect: Vec::new(),
+        udp: Vec::new(),
     })
 }
 
@@ -304,6 +312,7 @@ fn board_option(board: &mut BoardArgs, opt: &str) -> Result<(), String> {
         },
         "tcp" => board.tcp.push(value.parse::<Mapping>().map_err(|e| bad(&e))?),
         "connect" => board.connect.push(value.parse::<Mapping>().map_err(|e| bad(&e))?),
+        "udp" => board.udp.push(value.parse::<Mapping>().map_err(|e| bad(&e))?),
         k if k.starts_with("pin") => {
             board.initial.push(Command::parse_pin_option(&format!("{}={value}", &k[3..])).map_err(|e| bad(&e))?);
         }
@@ -315,7 +324,7 @@ fn board_option(board: &mut BoardArgs, opt: &str) -> Result<(), String> {
             }
             board.side = Some(SideArgs { usart, link: Path::new(path).to_owned() });
         }
-        _ => return Err(bad("unknown (de, usart, usartN, chip, pinN, watch, wiznet, cs, tcp, connect)")),
+        _ => return Err(bad("unknown (de, usart, usartN, chip, pinN, watch, wiznet, cs, tcp, connect, udp)")),
     }
     Ok(())
 }
@@ -455,6 +464,9 @@ mod tests {
         let a = parse(words("--board client=c.elf wiznet=w5100 connect=502:1502 --board gw=g.elf")).unwrap();
         assert_eq!(a.boards[0].connect, [Mapping { chip_port: 502, host_port: 1502 }]);
         assert!(a.boards[0].tcp.is_empty() && a.boards[1].connect.is_empty());
+        let a = parse(words("--board gw=g.elf wiznet=w5500 udp=502:0")).unwrap();
+        assert_eq!(a.boards[0].udp, [Mapping { chip_port: 502, host_port: 0 }]);
+        assert!(err("--board gw=g.elf udp=502:1502").contains("need a shield"));
         assert!(err("--board client=c.elf connect=502:1502").contains("need a shield"));
         assert!(err("--board client=c.elf wiznet=w5100 connect=0:1").contains("502:1502"));
     }

@@ -181,9 +181,10 @@ fn run(args: args::Args) -> Result<(), String> {
             println!("{} board {}: shield {model} on the SPI port, chip select P{port}{bit}", stamp(0), b.name);
         }
         let mut board = Board::new(b.name.clone(), uno, b.de, side, watch);
-        if !b.tcp.is_empty() || !b.connect.is_empty() {
+        if !b.tcp.is_empty() || !b.connect.is_empty() || !b.udp.is_empty() {
             let net = Net::bind(&b.tcp, true).map_err(|e| format!("{}: tcp=: {e}", b.name))?;
-            board.net = Some(net.with_outgoing(&b.connect));
+            let net = net.with_outgoing(&b.connect).with_udp(&b.udp).map_err(|e| format!("{}: udp=: {e}", b.name))?;
+            board.net = Some(net);
         }
         boards.push(board);
     }
