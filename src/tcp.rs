@@ -10,6 +10,8 @@
 
 #[cfg(feature = "master")]
 pub(crate) mod client;
+#[cfg(feature = "dhcp")]
+pub(crate) mod dhcp;
 #[cfg(test)]
 pub(crate) mod fake;
 #[cfg(feature = "master")]
@@ -28,6 +30,8 @@ pub use gateway::BUFFER as GATEWAY_BUFFER;
 pub use gateway::{
     Direct, GatewayCounters, GatewaySettings, Routes, SlaveHealth, HEALTH_REGISTERS, STATUS_REGISTERS, TRACKED,
 };
+#[cfg(feature = "dhcp")]
+pub use dhcp::{DhcpCounters, DhcpState, DhcpStatus, INFINITE};
 pub use network::Network;
 #[cfg(feature = "eeprom-settings")]
 pub use record::NETWORK_SLOTS_LEN;

@@ -25,15 +25,18 @@ pub struct Network {
     pub(crate) idle_timeout_s: u8,
     pub(crate) evict_after_s: u8,
     pub(crate) allow: &'static [[u8; 4]],
+    /// The DHCP client's settings ([`Network::dhcp`]).
+    #[cfg(feature = "dhcp")]
+    pub(crate) dhcp: Option<super::dhcp::Settings>,
 }
 
 /// The bytes of the chip's addresses.
 pub(crate) const ADDRESSES: usize = 18;
 /// Where each address starts in [`Network::addresses`].
-const GATEWAY: usize = 0;
-const SUBNET: usize = 4;
-const MAC: usize = 8;
-const IP: usize = 14;
+pub(crate) const GATEWAY: usize = 0;
+pub(crate) const SUBNET: usize = 4;
+pub(crate) const MAC: usize = 8;
+pub(crate) const IP: usize = 14;
 
 /// `bytes` copied into `addresses` from `at` on.
 const fn put<const N: usize>(mut addresses: [u8; ADDRESSES], at: usize, bytes: [u8; N]) -> [u8; ADDRESSES] {
@@ -73,6 +76,8 @@ impl Network {
             idle_timeout_s: 60,
             evict_after_s: 10,
             allow: &[],
+            #[cfg(feature = "dhcp")]
+            dhcp: None,
         }
     }
 
@@ -101,9 +106,14 @@ impl Network {
     }
 
     /// Serves on the chip's first `n` sockets (1 to the chip's count: 4 on the W5100, 8 on
-    /// the W5500), leaving the others to the application. Default: every socket.
+    /// the W5500), leaving the others to the application. Default: every socket (with
+    /// feature `dhcp`'s [`Network::dhcp`], every socket below the client's).
     pub const fn sockets(self, n: u8) -> Network {
         assert!(n >= 1 && n <= Network::MAX_SOCKETS, "1-8 sockets");
+        #[cfg(feature = "dhcp")]
+        if let Some(settings) = self.dhcp {
+            assert!(n <= settings.socket, "the server's sockets are those below the DHCP socket");
+        }
         Network { sockets: n, ..self }
     }
 
