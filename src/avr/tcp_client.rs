@@ -109,7 +109,7 @@ impl<C: Chip, CS: OutputPin, const N: usize> TcpClient<C, CS, N> {
         S::Target: Sized,
         T::Target: Sized,
     {
-        let (chip, _) = open_chip::<C, _, _, _>(network, spi, tc0, cs)?;
+        let (chip, _, _) = open_chip::<C, _, _, _>(network, spi, tc0, cs)?;
         self.running.start(|| Running { client: Client::new(server, port), chip, overflows: 0, lent: false })?;
         start_interrupts::<false>();
         Ok(())

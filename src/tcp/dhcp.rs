@@ -1,4 +1,5 @@
 //! The DHCP client (feature `dhcp`), RFC 2131 §3.1 (the exchange), §4.3.1 and §4.4 (the
+#![cfg_attr(not(any(target_arch = "avr", test)), allow(dead_code))]
 //! client's states and timers) and RFC 2132 (the options): DISCOVER, OFFER, REQUEST, ACK or
 //! NAK over UDP 68 → 67, the lease renewed at T1 by unicast and rebound at T2 by broadcast.
 //!
@@ -103,13 +104,6 @@ impl Network {
         Network { dhcp: Some(Settings { fallback_s: seconds, ..settings }), ..self }
     }
 
-    /// The DHCP socket, if any.
-    pub(crate) const fn dhcp_socket(&self) -> Option<u8> {
-        match self.dhcp {
-            Some(settings) => Some(settings.socket),
-            None => None,
-        }
-    }
 }
 
 /// Where the client is (RFC 2131 §4.4, Figure 5).
@@ -209,17 +203,38 @@ pub(crate) trait Datagram {
     fn read(&mut self, at: u16, buf: &mut [u8]);
 }
 
+/// The options an answer's checks and the lease need, 4 bytes each, in [`Answer::values`]'
+/// order (a router list gives its first).
+const KEPT: [u8; 6] = [option::SERVER, option::LEASE, option::T1, option::T2, option::SUBNET, option::ROUTER];
+const SERVER_ID: usize = 0;
+const LEASE: usize = 1;
+const T1: usize = 2;
+const T2: usize = 3;
+const SUBNET_MASK: usize = 4;
+const ROUTER: usize = 5;
+
 /// What an answer holds that the client keeps.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct Answer {
+    /// Option 53 (0: none).
     kind: u8,
+    /// yiaddr.
     address: [u8; 4],
-    server: Option<[u8; 4]>,
-    lease: Option<u32>,
-    t1: Option<u32>,
-    t2: Option<u32>,
-    subnet: Option<[u8; 4]>,
-    router: Option<[u8; 4]>,
+    /// Bit n: `values[n]` (option `KEPT[n]`) was there.
+    seen: u8,
+    values: [[u8; 4]; KEPT.len()],
+}
+
+impl Answer {
+    /// Option `KEPT[n]`, if it was there.
+    fn get(&self, n: usize) -> Option<[u8; 4]> {
+        (self.seen & 1 << n != 0).then_some(self.values[n])
+    }
+
+    /// Option `KEPT[n]` as a number of seconds, if it was there.
+    fn seconds(&self, n: usize) -> Option<u32> {
+        self.get(n).map(u32::from_be_bytes)
+    }
 }
 
 /// The DHCP client.
@@ -248,10 +263,6 @@ pub struct Dhcp {
     fixed: [u8; ADDRESSES],
     settings: Settings,
     counts: [u16; COUNTS],
-}
-
-fn ip_of(addresses: &[u8; ADDRESSES]) -> [u8; 4] {
-    [addresses[IP], addresses[IP + 1], addresses[IP + 2], addresses[IP + 3]]
 }
 
 fn put(addresses: &mut [u8; ADDRESSES], at: usize, bytes: [u8; 4]) {
@@ -418,67 +429,61 @@ impl Dhcp {
         }
     }
 
-    /// The message due in this state, in pieces to `out` in order (with `buf` as their room); returns its length.
-    pub(crate) fn message(&self, buf: &mut [u8; MESSAGE_BUF], mut out: impl FnMut(&mut [u8])) -> u16 {
+    /// The message due in this state, written to `out` in pieces (each at its place from
+    /// the message's start; the places between them zeros), with `buf` as their room;
+    /// returns its length.
+    pub(crate) fn message(&self, buf: &mut [u8; MESSAGE_BUF], out: &mut dyn FnMut(u16, &mut [u8])) -> u16 {
+        // Zeros over the whole message first (chaddr's padding, sname, file, past the end
+        // option to 300 bytes).
+        buf.fill(0);
+        let mut at = 0;
+        while at < FIXED + MESSAGE_BUF as u16 {
+            out(at, buf);
+            at += MESSAGE_BUF as u16;
+        }
         // The fixed part: op 1 (request), htype 1 (Ethernet), hlen 6, hops 0, xid, secs 0,
         // flags with the broadcast bit (the chip takes no unicast for an address it does
         // not have yet), ciaddr while renewing and rebinding, chaddr.
-        buf.fill(0);
         buf[..4].copy_from_slice(&[1, 1, 6, 0]);
         buf[4..8].copy_from_slice(&self.xid.to_be_bytes());
         buf[10] = 0x80;
-        let renewal = self.holds();
-        if renewal {
-            buf[12..16].copy_from_slice(&ip_of(&self.leased));
+        if self.holds() {
+            buf[12..16].copy_from_slice(&self.leased[IP..]);
         }
         buf[28..34].copy_from_slice(&self.fixed[MAC..MAC + 6]);
-        out(&mut buf[..34]);
-        buf.fill(0);
-        // The rest of chaddr, sname and file: zeros.
-        let mut len = 34;
-        while len < FIXED {
-            let n = (FIXED - len).min(MESSAGE_BUF as u16);
-            out(&mut buf[..usize::from(n)]);
-            len += n;
-        }
+        out(0, &mut buf[..34]);
+        // The options: the type, the client id (61: hardware type 1, the MAC), while
+        // requesting the address asked (50) and its server (54), the host name (12), the
+        // parameters asked (55: subnet, router, lease), the end.
         let kind = if self.state == DhcpState::Selecting { DISCOVER } else { REQUEST };
-        let mut at = 0;
+        let host = self.settings.host.as_bytes();
+        let host = &host[..host.len().min(MAX_HOST)];
+        let mut n = 0;
         let mut add = |bytes: &[u8]| {
-            buf[at..at + bytes.len()].copy_from_slice(bytes);
-            at += bytes.len();
+            buf[n..n + bytes.len()].copy_from_slice(bytes);
+            n += bytes.len();
         };
-        add(&COOKIE);
-        add(&[option::TYPE, 1, kind]);
-        // Option 61: the MAC, hardware type 1.
-        add(&[option::CLIENT_ID, 7, 1]);
+        add(&[99, 130, 83, 99, option::TYPE, 1, kind, option::CLIENT_ID, 7, 1]);
         add(&self.fixed[MAC..MAC + 6]);
         if self.state == DhcpState::Requesting {
             add(&[option::REQUESTED, 4]);
-            add(&ip_of(&self.leased));
+            add(&self.leased[IP..]);
             add(&[option::SERVER, 4]);
             add(&self.server);
         }
-        let host = self.settings.host.as_bytes();
-        let host = &host[..host.len().min(MAX_HOST)];
         add(&[option::HOST_NAME, host.len() as u8]);
         add(host);
         add(&[option::PARAMETERS, 3, option::SUBNET, option::ROUTER, option::LEASE, option::END]);
-        out(&mut buf[..at]);
-        let mut len = FIXED + at as u16;
-        buf.fill(0);
-        while len < SENT_LEN {
-            let n = (SENT_LEN - len).min(MESSAGE_BUF as u16);
-            out(&mut buf[..usize::from(n)]);
-            len += n;
-        }
-        len
+        out(FIXED, &mut buf[..n]);
+        SENT_LEN.max(FIXED + n as u16)
     }
 
     /// A datagram from a server's port 67: taken, or refused and counted. True when a
     /// message is due now (the REQUEST for an offer taken).
     pub(crate) fn receive(&mut self, datagram: &mut impl Datagram) -> bool {
-        match self.check(datagram) {
-            Ok(answer) => self.take(answer),
+        let mut answer = Answer::default();
+        match self.check(datagram, &mut answer).and_then(|()| self.fits(&answer)) {
+            Ok(()) => self.take(&answer),
             Err(count) => {
                 self.bump(count);
                 false
@@ -486,8 +491,9 @@ impl Dhcp {
         }
     }
 
-    /// What a datagram says, if it is a reply to this client's exchange, whole and sound.
-    fn check(&self, datagram: &mut impl Datagram) -> Result<Answer, Count> {
+    /// Reads a datagram into `answer`, if it is a reply to this client's exchange, whole
+    /// and sound.
+    fn check(&self, datagram: &mut impl Datagram, answer: &mut Answer) -> Result<(), Count> {
         let len = datagram.len();
         if len < OPTIONS {
             return Err(Count::Short);
@@ -497,159 +503,132 @@ impl Dhcp {
         if head[0] != 2 {
             return Err(Count::NotReply);
         }
-        if head[1] != 1 || head[2] != 6 || head[28..34] != self.fixed[MAC..MAC + 6] {
+        if head[1..3] != [1, 6] || head[28..34] != self.fixed[MAC..MAC + 6] {
             return Err(Count::OtherClient);
         }
         if head[4..8] != self.xid.to_be_bytes() {
             return Err(Count::OtherXid);
         }
-        let mut answer = Answer { address: [head[16], head[17], head[18], head[19]], ..Answer::default() };
-        let mut cookie = [0; 4];
-        datagram.read(FIXED, &mut cookie);
-        if cookie != COOKIE {
+        answer.address.copy_from_slice(&head[16..20]);
+        let mut word = [0; 4];
+        datagram.read(FIXED, &mut word);
+        if word != COOKIE {
             return Err(Count::Malformed);
         }
         let mut at = OPTIONS;
         while at < len {
-            let mut code = [0];
-            datagram.read(at, &mut code);
-            let code = code[0];
-            if code == option::END {
-                break;
-            }
-            if code == option::PAD {
-                at += 1;
-                continue;
+            let mut code = [0; 2];
+            datagram.read(at, &mut code[..1]);
+            match code[0] {
+                option::END => break,
+                option::PAD => {
+                    at += 1;
+                    continue;
+                }
+                _ => {}
             }
             if at + 1 >= len {
                 return Err(Count::Malformed);
             }
-            let mut n = [0];
-            datagram.read(at + 1, &mut n);
-            let n = u16::from(n[0]);
+            datagram.read(at + 1, &mut code[1..]);
+            let [code, n] = code;
+            let n = u16::from(n);
             at += 2;
             if at + n > len {
                 return Err(Count::Malformed);
             }
-            // The options kept: the type (1 byte), the others 4 (a router list's first).
-            let (want, sound) = match code {
-                option::TYPE => (1, n == 1),
-                option::SERVER | option::LEASE | option::T1 | option::T2 | option::SUBNET => (4, n == 4),
-                option::ROUTER => (4, n != 0 && n % 4 == 0),
-                _ => (0, true),
-            };
-            if !sound {
-                return Err(Count::Malformed);
-            }
-            if want != 0 {
-                let mut value = [0; 4];
-                datagram.read(at, &mut value[..want]);
-                let word = u32::from_be_bytes(value);
-                match code {
-                    option::TYPE => answer.kind = value[0],
-                    option::SERVER => answer.server = Some(value),
-                    option::LEASE => answer.lease = Some(word),
-                    option::T1 => answer.t1 = Some(word),
-                    option::T2 => answer.t2 = Some(word),
-                    option::SUBNET => answer.subnet = Some(value),
-                    _ => answer.router = Some(value),
+            if code == option::TYPE {
+                if n != 1 {
+                    return Err(Count::Malformed);
                 }
+                let mut kind = [0];
+                datagram.read(at, &mut kind);
+                answer.kind = kind[0];
+            } else if let Some(i) = KEPT.iter().position(|&kept| kept == code) {
+                // Four bytes, or a list of them for the routers.
+                if n != 4 && (i != ROUTER || n == 0 || n % 4 != 0) {
+                    return Err(Count::Malformed);
+                }
+                datagram.read(at, &mut answer.values[i]);
+                answer.seen |= 1 << i;
             }
             at += n;
         }
-        self.fits(answer)
+        Ok(())
     }
 
     /// An answer whole and sound checked against the state: the kind awaited, from the
     /// server asked, with what a lease needs.
-    fn fits(&self, answer: Answer) -> Result<Answer, Count> {
+    fn fits(&self, answer: &Answer) -> Result<(), Count> {
+        let asking = matches!(self.state, DhcpState::Requesting | DhcpState::Renewing);
         let awaited = match answer.kind {
             0 => return Err(Count::Missing),
             OFFER => self.state == DhcpState::Selecting,
-            ACK | NAK => matches!(self.state, DhcpState::Requesting | DhcpState::Renewing | DhcpState::Rebinding),
+            ACK | NAK => asking || self.state == DhcpState::Rebinding,
             _ => false,
         };
         // While rebinding any server may answer; otherwise the one asked.
-        let other_server = match answer.server {
-            Some(server) => {
-                server != self.server && matches!(self.state, DhcpState::Requesting | DhcpState::Renewing)
-            }
-            None => false,
-        };
+        let other_server = asking && answer.get(SERVER_ID).is_some_and(|server| server != self.server);
         if !awaited || other_server {
             return Err(Count::Unexpected);
         }
         if answer.kind == NAK {
-            return Ok(answer);
+            return Ok(());
         }
-        if answer.lease.is_none() || (answer.kind == OFFER && answer.server.is_none()) {
+        let Some(lease) = answer.seconds(LEASE) else { return Err(Count::Missing) };
+        if answer.kind == OFFER && answer.get(SERVER_ID).is_none() {
             return Err(Count::Missing);
         }
-        if answer.lease == Some(0) {
+        if lease == 0 {
             return Err(Count::BadLease);
         }
-        if !usable(answer.address) || (answer.kind == ACK && answer.address != ip_of(&self.leased)) {
+        if !usable(answer.address) || (answer.kind == ACK && answer.address[..] != self.leased[IP..]) {
             return Err(Count::BadAddress);
         }
-        Ok(answer)
+        Ok(())
     }
 
     /// Takes an answer that fits. True when a message is due now.
-    fn take(&mut self, answer: Answer) -> bool {
-        match answer.kind {
-            OFFER => {
-                // The offer's addresses kept for its ACK; the server asked from now on.
-                if let Some(server) = answer.server {
-                    self.server = server;
-                }
-                let mut leased = self.fixed;
-                put(&mut leased, IP, answer.address);
-                put(&mut leased, SUBNET, answer.subnet.unwrap_or(self.fixed_part(SUBNET)));
-                put(&mut leased, GATEWAY, answer.router.unwrap_or(self.fixed_part(GATEWAY)));
-                self.leased = leased;
-                self.enter(DhcpState::Requesting);
-                self.tries = 1;
-                self.wait = 3;
-                true
-            }
-            NAK => {
-                self.bump(Count::Naks);
-                self.restart();
-                false
-            }
-            _ => {
-                self.bump(Count::Leases);
-                if let Some(server) = answer.server {
-                    self.server = server;
-                }
-                if let Some(subnet) = answer.subnet {
-                    put(&mut self.leased, SUBNET, subnet);
-                }
-                if let Some(router) = answer.router {
-                    put(&mut self.leased, GATEWAY, router);
-                }
-                let lease = answer.lease.unwrap_or(INFINITE);
-                self.lease = lease;
-                // T1 and T2 as given when they are in order (T1 ≤ T2 ≤ lease), else 0.5 and
-                // 0.875 of the lease (RFC 2131 §4.4.5).
-                let (t1, t2) = match (answer.t1, answer.t2) {
-                    (Some(t1), Some(t2)) if t1 <= t2 && t2 <= lease => (t1, t2),
-                    _ => (lease / 2, lease - lease / 8),
-                };
-                self.t1 = t1;
-                self.t2 = t2;
-                self.age = 0;
-                self.enter(DhcpState::Bound);
-                false
+    fn take(&mut self, answer: &Answer) -> bool {
+        if answer.kind == NAK {
+            self.bump(Count::Naks);
+            self.restart();
+            return false;
+        }
+        // An offer's or an ACK's addresses: the server asked from now on, the address, and
+        // the subnet and router when given (else the Network's).
+        if let Some(server) = answer.get(SERVER_ID) {
+            self.server = server;
+        }
+        if answer.kind == OFFER {
+            self.leased = self.fixed;
+        }
+        put(&mut self.leased, IP, answer.address);
+        for (n, at) in [(SUBNET_MASK, SUBNET), (ROUTER, GATEWAY)] {
+            if let Some(value) = answer.get(n) {
+                put(&mut self.leased, at, value);
             }
         }
-    }
-
-    fn fixed_part(&self, at: usize) -> [u8; 4] {
-        [self.fixed[at], self.fixed[at + 1], self.fixed[at + 2], self.fixed[at + 3]]
+        if answer.kind == OFFER {
+            self.enter(DhcpState::Requesting);
+            self.tries = 1;
+            self.wait = 3;
+            return true;
+        }
+        self.bump(Count::Leases);
+        let lease = answer.seconds(LEASE).unwrap_or(INFINITE);
+        self.lease = lease;
+        // T1 and T2 as given when they are in order (T1 ≤ T2 ≤ lease), else 0.5 and 0.875 of
+        // the lease (RFC 2131 §4.4.5).
+        (self.t1, self.t2) = match (answer.seconds(T1), answer.seconds(T2)) {
+            (Some(t1), Some(t2)) if t1 <= t2 && t2 <= lease => (t1, t2),
+            _ => (lease / 2, lease - lease / 8),
+        };
+        self.age = 0;
+        self.enter(DhcpState::Bound);
+        false
     }
 }
-
 /// What the client needs of a chip beyond its TCP sockets: a UDP socket, and its
 /// addresses set while it runs.
 pub(crate) trait Udp: Sockets {
@@ -692,7 +671,7 @@ const PER_POLL: u8 = 4;
 /// Runs the client on `chip`: its socket kept open, the datagrams that came taken, with
 /// `second` the timers, the message due sent, and the addresses the chip should have
 /// written to it and to `network`. When the IP changes, the connections of the sockets
-/// below the client's are closed (they were the old address's). Returns true when the
+/// below the client's are closed (they were the old address's; the role opens them again). Returns true when the
 /// addresses changed.
 pub(crate) fn poll<U: Udp>(dhcp: &mut Dhcp, chip: &mut U, network: &mut Network, second: bool) -> bool {
     let s = dhcp.settings.socket;
@@ -727,14 +706,11 @@ pub(crate) fn poll<U: Udp>(dhcp: &mut Dhcp, chip: &mut U, network: &mut Network,
     if second {
         due |= dhcp.second();
     }
-    if due && chip.tx_free(s) >= SENT_LEN + 64 {
-        let mut at = chip.tx_pointer(s);
+    if due && chip.tx_free(s) >= SENT_LEN + 2 * MESSAGE_BUF as u16 {
+        let start = chip.tx_pointer(s);
         let mut buf = [0; MESSAGE_BUF];
-        dhcp.message(&mut buf, |piece| {
-            chip.write(s, at, piece);
-            at = at.wrapping_add(piece.len() as u16);
-        });
-        chip.send_to(s, dhcp.destination(), SERVER_PORT, at);
+        let len = dhcp.message(&mut buf, &mut |at, piece| chip.write(s, start.wrapping_add(at), piece));
+        chip.send_to(s, dhcp.destination(), SERVER_PORT, start.wrapping_add(len));
     }
     let addresses = dhcp.addresses();
     if addresses == network.addresses {
@@ -742,8 +718,11 @@ pub(crate) fn poll<U: Udp>(dhcp: &mut Dhcp, chip: &mut U, network: &mut Network,
     }
     chip.set_addresses(&addresses);
     if addresses[IP..] != network.addresses[IP..] {
+        // The connections were the old address's; the listening sockets go on.
         for t in 0..s {
-            chip.command(t, super::wiznet::command::CLOSE);
+            if chip.status(t) != super::wiznet::state::LISTEN {
+                chip.command(t, super::wiznet::command::CLOSE);
+            }
         }
     }
     network.addresses = addresses;

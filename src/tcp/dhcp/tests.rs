@@ -18,16 +18,23 @@ impl Datagram for &[u8] {
     }
 }
 
+fn ip_of(addresses: &[u8; ADDRESSES]) -> [u8; 4] {
+    addresses[IP..].try_into().unwrap()
+}
+
 fn client(net: Network) -> Dhcp {
     Dhcp::new(&net, net.dhcp.unwrap())
 }
 
 /// The message due, whole.
 fn sent(dhcp: &Dhcp) -> Vec<u8> {
-    let mut out = Vec::new();
+    // Stale bytes where the message goes: every one must be written.
+    let mut out = vec![0xEE; 600];
     let mut buf = [0; MESSAGE_BUF];
-    let len = dhcp.message(&mut buf, |piece| out.extend_from_slice(piece));
-    assert_eq!(usize::from(len), out.len());
+    let len = dhcp.message(&mut buf, &mut |at, piece| {
+        out[usize::from(at)..usize::from(at) + piece.len()].copy_from_slice(piece)
+    });
+    out.truncate(usize::from(len));
     out
 }
 

@@ -1,0 +1,23 @@
+//! No DHCP client (feature `dhcp` off): a running role's place for one holds nothing and
+//! does nothing.
+
+use embedded_hal::digital::OutputPin;
+
+use super::super::spi::Spi;
+use crate::tcp::wiznet::{Chip, Wiznet};
+use crate::tcp::Network;
+
+/// No DHCP client.
+pub(crate) struct Lease;
+
+impl Lease {
+    /// The network as given.
+    #[inline(always)]
+    pub(crate) fn new<C: Chip>(network: Network) -> (Network, Lease) {
+        (network, Lease)
+    }
+
+    /// Nothing to do.
+    #[inline(always)]
+    pub(crate) fn poll<C: Chip, CS: OutputPin>(&mut self, _: &mut Wiznet<C, Spi<CS>>, _: &mut Network, _: bool) {}
+}
