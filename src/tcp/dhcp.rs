@@ -19,6 +19,12 @@ pub(crate) const CLIENT_PORT: u16 = 68;
 pub(crate) const SERVER_PORT: u16 = 67;
 /// A lease that never ends (RFC 2132 §9.2).
 pub const INFINITE: u32 = u32::MAX;
+/// The longest lease kept, in seconds (18 h 12 min): a longer one is taken as this long,
+/// so that it is renewed within it (its T1 and T2 then 0.5 and 0.875 of this). The
+/// client's clock is 16 bits: the AVR's arithmetic is half that of 32.
+pub(crate) const LONGEST: u16 = u16::MAX - 1;
+/// The client's mark of an infinite lease.
+const FOREVER: u16 = u16::MAX;
 
 /// The fixed part of a message: op to file (RFC 2131 §2), then the magic cookie.
 const FIXED: u16 = 236;
@@ -203,7 +209,7 @@ pub(crate) trait Datagram {
     fn read(&mut self, at: u16, buf: &mut [u8]);
 }
 
-/// The options an answer's checks and the lease need, 4 bytes each, in [`Answer::values`]'
+/// The options an answer's checks and the lease need, 4 bytes each, in [`Answer::values`]'s
 /// order (a router list gives its first).
 const KEPT: [u8; 6] = [option::SERVER, option::LEASE, option::T1, option::T2, option::SUBNET, option::ROUTER];
 const SERVER_ID: usize = 0;
@@ -244,14 +250,15 @@ pub struct Dhcp {
     /// The exchange's id.
     xid: u32,
     /// Seconds until the next message (0: at the next second).
-    wait: u32,
+    wait: u16,
     /// Messages sent in this state without an answer.
     tries: u8,
     /// Seconds since the lease began.
-    age: u32,
-    lease: u32,
-    t1: u32,
-    t2: u32,
+    age: u16,
+    /// The lease, T1 and T2 in seconds (at most [`LONGEST`]; [`FOREVER`]: infinite).
+    lease: u16,
+    t1: u16,
+    t2: u16,
     /// Seconds without a lease (for the fallback), up to 65535.
     without: u16,
     /// The server the lease is asked of.
@@ -324,8 +331,8 @@ impl Dhcp {
     pub fn status(&self) -> DhcpStatus {
         let remaining = match self.holds() {
             false => 0,
-            true if self.lease == INFINITE => INFINITE,
-            true => self.lease - self.age,
+            true if self.lease == FOREVER => INFINITE,
+            true => u32::from(self.lease - self.age),
         };
         DhcpStatus { state: self.state, fallback: self.fallback(), remaining, counters: self.counters() }
     }
@@ -364,7 +371,7 @@ impl Dhcp {
             self.without = 0;
         }
         self.state = DhcpState::Selecting;
-        self.xid = self.xid.wrapping_mul(1_103_515_245).wrapping_add(12_345);
+        self.xid = self.xid.wrapping_add(0x9E37_79B9);
         self.wait = 0;
         self.tries = 0;
     }
@@ -374,7 +381,7 @@ impl Dhcp {
     pub(crate) fn second(&mut self) -> bool {
         if !self.holds() {
             self.without = self.without.saturating_add(1);
-        } else if self.lease != INFINITE {
+        } else if self.lease != FOREVER {
             self.age += 1;
             if self.age >= self.lease {
                 // RFC 2131 §4.4.5: the address is no longer used.
@@ -616,12 +623,13 @@ impl Dhcp {
             return true;
         }
         self.bump(Count::Leases);
-        let lease = answer.seconds(LEASE).unwrap_or(INFINITE);
+        let given = answer.seconds(LEASE).unwrap_or(INFINITE);
+        let lease = if given == INFINITE { FOREVER } else { given.min(u32::from(LONGEST)) as u16 };
         self.lease = lease;
-        // T1 and T2 as given when they are in order (T1 ≤ T2 ≤ lease), else 0.5 and 0.875 of
-        // the lease (RFC 2131 §4.4.5).
+        // T1 and T2 as given when they are in order (T1 ≤ T2 ≤ lease) and the lease is kept
+        // whole, else 0.5 and 0.875 of the lease (RFC 2131 §4.4.5).
         (self.t1, self.t2) = match (answer.seconds(T1), answer.seconds(T2)) {
-            (Some(t1), Some(t2)) if t1 <= t2 && t2 <= lease => (t1, t2),
+            (Some(t1), Some(t2)) if t1 <= t2 && t2 <= given && given < u32::from(LONGEST) => (t1 as u16, t2 as u16),
             _ => (lease / 2, lease - lease / 8),
         };
         self.age = 0;

@@ -639,3 +639,23 @@ fn random_datagrams_never_crash_nor_bind() {
         assert!(!d.holds());
     }
 }
+
+#[test]
+fn a_lease_longer_than_the_longest_kept_is_renewed_within_that() {
+    let mut dhcp = client(NET);
+    dhcp.second();
+    let offer = offer(&dhcp, 7 * 86_400);
+    give(&mut dhcp, &offer);
+    // A week, with T1 and T2 of three and six days: taken as 65534 s, renewed at half.
+    let ack = reply(
+        xid_of(&dhcp),
+        OFFERED,
+        &[(53, &[5]), (54, &SERVER), (51, &(7 * 86_400u32).to_be_bytes()), (58, &259_200u32.to_be_bytes()), (59, &518_400u32.to_be_bytes())],
+    );
+    give(&mut dhcp, &ack);
+    assert_eq!(dhcp.status().remaining, u32::from(LONGEST));
+    assert_eq!((dhcp.t1, dhcp.t2), (LONGEST / 2, LONGEST - LONGEST / 8));
+    let first = (1..=u32::from(LONGEST)).find(|_| dhcp.second());
+    assert_eq!(first, Some(u32::from(LONGEST / 2)));
+    assert_eq!(dhcp.state, DhcpState::Renewing);
+}
