@@ -23,6 +23,8 @@ pub(crate) mod record;
 pub(crate) mod server;
 pub(crate) mod wiznet;
 
+#[cfg(feature = "dhcp")]
+pub use dhcp::{DhcpCounters, DhcpState, DhcpStatus, INFINITE};
 #[cfg(feature = "master")]
 #[doc(hidden)]
 pub use gateway::BUFFER as GATEWAY_BUFFER;
@@ -30,8 +32,6 @@ pub use gateway::BUFFER as GATEWAY_BUFFER;
 pub use gateway::{
     Direct, GatewayCounters, GatewaySettings, Routes, SlaveHealth, HEALTH_REGISTERS, STATUS_REGISTERS, TRACKED,
 };
-#[cfg(feature = "dhcp")]
-pub use dhcp::{DhcpCounters, DhcpState, DhcpStatus, INFINITE};
 pub use network::Network;
 #[cfg(feature = "eeprom-settings")]
 pub use record::NETWORK_SLOTS_LEN;

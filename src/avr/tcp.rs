@@ -316,6 +316,10 @@ impl<V: Service, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Runnin
     }
 }
 
+/// What `open_chip` gives a role: the chip, the settings as the chip has them, and the
+/// DHCP client (feature `dhcp`).
+pub(crate) type Opened<C, CS> = (Wiznet<C, Spi<CS>>, Network, Lease);
+
 /// Resets the chip on `cs` and checks it is a `C`, gives it `network`'s addresses (none
 /// yet with DHCP), after claiming the SPI and `TC0`: what a TCP role's start does before
 /// anything runs. [`Error::NoChip`] when the chip does not answer as a `C`.
@@ -324,7 +328,7 @@ pub(crate) fn open_chip<C: Chip, CS: OutputPin, S: Deref, T: Deref>(
     spi: S,
     tc0: T,
     cs: CS,
-) -> Result<(Wiznet<C, Spi<CS>>, Network, Lease), Error>
+) -> Result<Opened<C, CS>, Error>
 where
     S::Target: Sized,
     T::Target: Sized,

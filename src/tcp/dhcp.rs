@@ -109,7 +109,6 @@ impl Network {
         assert!(seconds >= 1, "at least 1 s");
         Network { dhcp: Some(Settings { fallback_s: seconds, ..settings }), ..self }
     }
-
 }
 
 /// Where the client is (RFC 2131 §4.4, Figure 5).

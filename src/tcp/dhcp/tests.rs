@@ -31,9 +31,8 @@ fn sent(dhcp: &Dhcp) -> Vec<u8> {
     // Stale bytes where the message goes: every one must be written.
     let mut out = vec![0xEE; 600];
     let mut buf = [0; MESSAGE_BUF];
-    let len = dhcp.message(&mut buf, &mut |at, piece| {
-        out[usize::from(at)..usize::from(at) + piece.len()].copy_from_slice(piece)
-    });
+    let len = dhcp
+        .message(&mut buf, &mut |at, piece| out[usize::from(at)..usize::from(at) + piece.len()].copy_from_slice(piece));
     out.truncate(usize::from(len));
     out
 }
@@ -243,7 +242,13 @@ fn t1_and_t2_are_taken_from_options_58_and_59() {
     let ack = reply(
         xid_of(&dhcp),
         OFFERED,
-        &[(53, &[5]), (54, &SERVER), (51, &1000u32.to_be_bytes()), (58, &100u32.to_be_bytes()), (59, &200u32.to_be_bytes())],
+        &[
+            (53, &[5]),
+            (54, &SERVER),
+            (51, &1000u32.to_be_bytes()),
+            (58, &100u32.to_be_bytes()),
+            (59, &200u32.to_be_bytes()),
+        ],
     );
     give(&mut dhcp, &ack);
     assert_eq!((dhcp.t1, dhcp.t2), (100, 200));
@@ -259,7 +264,13 @@ fn t1_and_t2_out_of_order_fall_back_to_half_and_seven_eighths() {
         let ack = reply(
             xid_of(&dhcp),
             OFFERED,
-            &[(53, &[5]), (54, &SERVER), (51, &1000u32.to_be_bytes()), (58, &t1.to_be_bytes()), (59, &t2.to_be_bytes())],
+            &[
+                (53, &[5]),
+                (54, &SERVER),
+                (51, &1000u32.to_be_bytes()),
+                (58, &t1.to_be_bytes()),
+                (59, &t2.to_be_bytes()),
+            ],
         );
         give(&mut dhcp, &ack);
         assert_eq!((dhcp.t1, dhcp.t2), (500, 875), "T1 {t1}, T2 {t2}");
@@ -374,7 +385,8 @@ fn answers_for_another_client_or_exchange_or_not_replies_are_refused_each_by_its
     let mut dhcp = client(NET);
     dhcp.second();
     let good = offer(&dhcp, 60);
-    let mut cases: Vec<(Vec<u8>, fn(&DhcpCounters) -> u16)> = Vec::new();
+    type Case = (Vec<u8>, fn(&DhcpCounters) -> u16);
+    let mut cases: Vec<Case> = Vec::new();
     let mut m = good.clone();
     m[33] ^= 1;
     cases.push((m, |c| c.other_client));
@@ -531,7 +543,7 @@ fn the_fallback_comes_after_its_seconds_and_gives_way_to_a_lease() {
     assert_eq!(dhcp.addresses(), NET.addresses, "the Network's own addresses");
     assert!(dhcp.status().fallback);
     // Discovery goes on.
-    assert!(silence(&mut dhcp, 64).len() >= 1);
+    assert!(!silence(&mut dhcp, 64).is_empty());
     let offer = offer(&dhcp, 30);
     give(&mut dhcp, &offer);
     assert_eq!(dhcp.addresses(), NET.addresses, "an offer is not a lease");
@@ -650,7 +662,13 @@ fn a_lease_longer_than_the_longest_kept_is_renewed_within_that() {
     let ack = reply(
         xid_of(&dhcp),
         OFFERED,
-        &[(53, &[5]), (54, &SERVER), (51, &(7 * 86_400u32).to_be_bytes()), (58, &259_200u32.to_be_bytes()), (59, &518_400u32.to_be_bytes())],
+        &[
+            (53, &[5]),
+            (54, &SERVER),
+            (51, &(7 * 86_400u32).to_be_bytes()),
+            (58, &259_200u32.to_be_bytes()),
+            (59, &518_400u32.to_be_bytes()),
+        ],
     );
     give(&mut dhcp, &ack);
     assert_eq!(dhcp.status().remaining, u32::from(LONGEST));
@@ -658,4 +676,159 @@ fn a_lease_longer_than_the_longest_kept_is_renewed_within_that() {
     let first = (1..=u32::from(LONGEST)).find(|_| dhcp.second());
     assert_eq!(first, Some(u32::from(LONGEST / 2)));
     assert_eq!(dhcp.state, DhcpState::Renewing);
+}
+
+/// A chip with socket 3 for UDP: datagrams land behind the chips' 8-byte header; what the
+/// client sends, the addresses it sets and the sockets it closes are recorded.
+struct UdpChip {
+    status: [u8; 4],
+    rx: Vec<u8>,
+    rx_rd: u16,
+    tx: Vec<u8>,
+    sent: Vec<([u8; 4], u16, Vec<u8>)>,
+    addresses: Option<[u8; ADDRESSES]>,
+    closed: Vec<u8>,
+    opened: usize,
+}
+
+impl UdpChip {
+    fn new() -> UdpChip {
+        UdpChip {
+            status: [super::super::wiznet::state::LISTEN; 4],
+            rx: Vec::new(),
+            rx_rd: 0,
+            tx: vec![0; 0x10000],
+            sent: Vec::new(),
+            addresses: None,
+            closed: Vec::new(),
+            opened: 0,
+        }
+    }
+
+    /// A datagram from `ip`:`port`, its header saying `len` bytes.
+    fn land(&mut self, port: u16, len: u16, payload: &[u8]) {
+        self.rx.extend_from_slice(&SERVER);
+        self.rx.extend_from_slice(&port.to_be_bytes());
+        self.rx.extend_from_slice(&len.to_be_bytes());
+        self.rx.extend_from_slice(payload);
+    }
+}
+
+impl Sockets for UdpChip {
+    fn events(&mut self) -> u8 {
+        0
+    }
+    fn take_events(&mut self, _: u8) -> u8 {
+        0
+    }
+    fn status(&mut self, s: u8) -> u8 {
+        self.status[usize::from(s)]
+    }
+    fn command(&mut self, s: u8, command: u8) {
+        assert_eq!(command, super::super::wiznet::command::CLOSE);
+        self.status[usize::from(s)] = 0;
+        self.closed.push(s);
+    }
+    fn listen(&mut self, _: u8, _: u16) {
+        unreachable!()
+    }
+    fn peer(&mut self, _: u8) -> [u8; 4] {
+        unreachable!()
+    }
+    fn received(&mut self, _: u8) -> u16 {
+        (self.rx.len() - usize::from(self.rx_rd)) as u16
+    }
+    fn rx_pointer(&mut self, _: u8) -> u16 {
+        self.rx_rd
+    }
+    fn read(&mut self, _: u8, pointer: u16, buf: &mut [u8]) {
+        let at = usize::from(pointer);
+        assert!(at + buf.len() <= self.rx.len(), "read past the received bytes");
+        buf.copy_from_slice(&self.rx[at..at + buf.len()]);
+    }
+    fn take(&mut self, _: u8, _: u16) {
+        unreachable!("UDP takes with take_now")
+    }
+    fn tx_free(&mut self, _: u8) -> u16 {
+        2048
+    }
+    fn tx_pointer(&mut self, _: u8) -> u16 {
+        0x100
+    }
+    fn write(&mut self, _: u8, pointer: u16, data: &mut [u8]) {
+        let at = usize::from(pointer);
+        self.tx[at..at + data.len()].copy_from_slice(data);
+    }
+    fn send(&mut self, _: u8, _: u16) {
+        unreachable!("UDP sends with send_to")
+    }
+}
+
+impl Udp for UdpChip {
+    fn open_udp(&mut self, s: u8, port: u16) {
+        assert_eq!((s, port), (3, CLIENT_PORT));
+        self.status[3] = SOCK_UDP;
+        self.opened += 1;
+    }
+    fn send_to(&mut self, s: u8, ip: [u8; 4], port: u16, pointer: u16) {
+        assert_eq!(s, 3);
+        self.sent.push((ip, port, self.tx[0x100..usize::from(pointer)].to_vec()));
+    }
+    fn take_now(&mut self, _: u8, pointer: u16) {
+        assert!(usize::from(pointer) <= self.rx.len());
+        self.rx_rd = pointer;
+    }
+    fn set_addresses(&mut self, addresses: &[u8; ADDRESSES]) {
+        self.addresses = Some(*addresses);
+    }
+}
+
+#[test]
+fn poll_opens_the_socket_sends_takes_datagrams_and_applies_the_lease() {
+    let mut net = NET;
+    let mut dhcp = client(net);
+    let mut chip = UdpChip::new();
+    chip.status[3] = 0;
+    // Not yet open: opened, nothing read.
+    assert!(poll(&mut dhcp, &mut chip, &mut net, false), "the Network's IP replaced by none");
+    assert_eq!(chip.addresses.map(|a| ip_of(&a)), Some([0; 4]));
+    assert_eq!(chip.opened, 1);
+    assert!(!poll(&mut dhcp, &mut chip, &mut net, true));
+    let (to, port, discover) = chip.sent.pop().unwrap();
+    assert_eq!((to, port, discover.len()), ([255; 4], SERVER_PORT, 300));
+    assert_eq!(discover, sent(&dhcp));
+    // From another port; a header whose length runs past what came: both refused, every
+    // byte taken.
+    let offer = offer(&dhcp, 100);
+    chip.land(68, offer.len() as u16, &offer);
+    assert!(!poll(&mut dhcp, &mut chip, &mut net, false));
+    assert_eq!((dhcp.counters().not_reply, usize::from(chip.rx_rd)), (1, chip.rx.len()));
+    chip.land(SERVER_PORT, offer.len() as u16 + 1, &offer);
+    poll(&mut dhcp, &mut chip, &mut net, false);
+    assert_eq!((dhcp.counters().short, usize::from(chip.rx_rd)), (1, chip.rx.len()));
+    assert!(chip.sent.is_empty());
+    // The offer, then its ACK: the REQUEST goes out at once, the lease applied, the server's
+    // connections closed (socket 1 is connected; 0 and 2 listen and stay).
+    chip.land(SERVER_PORT, offer.len() as u16, &offer);
+    chip.status[1] = super::super::wiznet::state::ESTABLISHED;
+    assert!(!poll(&mut dhcp, &mut chip, &mut net, false));
+    assert_eq!(option_of(&chip.sent.pop().unwrap().2, 53), Some(vec![3]));
+    let first = ack(&dhcp, 100);
+    chip.land(SERVER_PORT, first.len() as u16, &first);
+    assert!(poll(&mut dhcp, &mut chip, &mut net, false));
+    assert_eq!(ip_of(&chip.addresses.unwrap()), OFFERED);
+    assert_eq!(ip_of(&net.addresses), OFFERED, "the role's network holds the lease");
+    assert_eq!(chip.closed, [3, 1], "socket 3 closed before it was opened for UDP, then 1");
+    // A renewal keeps the address: nothing written, nothing closed.
+    chip.addresses = None;
+    for _ in 0..50 {
+        poll(&mut dhcp, &mut chip, &mut net, true);
+    }
+    let (to, _, _) = chip.sent.pop().unwrap();
+    assert_eq!(to, SERVER);
+    let renewal = ack(&dhcp, 100);
+    chip.land(SERVER_PORT, renewal.len() as u16, &renewal);
+    assert!(!poll(&mut dhcp, &mut chip, &mut net, false));
+    assert_eq!((chip.addresses, chip.closed.len()), (None, 2));
+    assert_eq!(dhcp.counters().leases, 2);
 }
