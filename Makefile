@@ -65,7 +65,7 @@ help:
 	@echo "  make fuzz        - coverage-guided fuzz targets (FUZZ_SECONDS each), then a long property run"
 	@echo "  make mutants     - cargo-mutants over the protocol core, a quarter of its mutants (~1 h on 2 cores; MUTANTS_SHARD) -> bench/results.md"
 	@echo "  make soak        - 100000 mixed transactions against uno_slave in simavr (~15 min; SOAK_TRANSACTIONS)"
-	@echo "  make soak-tcp    - 10000 one-shot mbpoll -m tcp connections to tcp_server on a virtual Uno with a W5100 (SOAK_TCP_CONNECTIONS)"
+	@echo "  make soak-tcp    - 10000 one-shot mbpoll -m tcp connections to tcp_server on a virtual Uno with a W5100 (SOAK_TCP_CONNECTIONS), then 2 h of DHCP renewals and rebindings in the simulator (SOAK_DHCP_SECONDS)"
 	@echo "  make help        - this list"
 
 setup:
@@ -461,9 +461,14 @@ interop: firmware-uno bootloaders tcp-firmware
 # SOAK_TCP_CONNECTIONS one-shot `mbpoll -m tcp -1` connections to tcp_server (W5100) on the virtual
 # Uno, each answered, none refused (~10 min for 10000); the firmware's counters read at the end.
 SOAK_TCP_CONNECTIONS ?= 10000
+# Then SOAK_DHCP_SECONDS of simulated time of tests/sim_dhcp.rs's soak (20 s leases renewed and
+# rebound; the simulator runs about 2.5 times slower than real time: ~5 h for 7200).
+SOAK_DHCP_SECONDS ?= 7200
 soak-tcp: setup tcp-firmware virtual-boards
 	TCP_CONNECTIONS=$(SOAK_TCP_CONNECTIONS) $(CARGO) test -p virtual-uno --test interop_tcp \
 		-- --nocapture --exact mbpoll_one_shot_connections_are_all_answered_w5100
+	DHCP_SOAK_SECONDS=$(SOAK_DHCP_SECONDS) AVR_MODBUS_REQUIRE_FIRMWARE=1 $(CARGO) test --release --test sim_dhcp \
+		-- --ignored --nocapture soak_
 
 bench: setup firmware bench-features
 	$(CARGO) run --release -p bench

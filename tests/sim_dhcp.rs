@@ -175,3 +175,40 @@ fn a_silent_server_is_asked_by_unicast_then_broadcast_and_the_address_dropped_at
     run_until(&mut uno, &mut server, 5_000, "the lease again", |uno, s| ip(uno) == s.address);
     assert_eq!(server.heard(ACK).len(), 0, "the server hears no ACKs");
 }
+
+/// `make soak-tcp`: `DHCP_SOAK_SECONDS` of simulated time (default 600) on 20 s leases
+/// (renewed every 10 s), the server deaf to renewals for 15 s every 100 s so that the lease
+/// is rebound by broadcast at T2: the address never changes nor goes, the master's
+/// connection stays and is answered every 5 s. One line of summary.
+#[test]
+#[ignore = "long: make soak-tcp runs it"]
+fn soak_renewals_and_rebindings_keep_the_address_and_the_connection() {
+    let seconds: u64 = std::env::var("DHCP_SOAK_SECONDS").ok().and_then(|s| s.parse().ok()).unwrap_or(600);
+    let mut server = DhcpServer::new(20);
+    let mut uno = leased(&mut server);
+    run(&mut uno, &mut server, 1_000);
+    let n = connect(&mut uno, &mut server);
+    let start = uno.now();
+    let mut answered = 0u32;
+    for tick in 0..seconds * 10 {
+        // Deaf to renewals from second 85 to 100 of each 100: the renewal at T1 (10 s)
+        // unanswered, the rebinding at T2 (17 s) answered.
+        server.mode = if tick % 1000 >= 850 { Mode::IgnoreRenewals } else { Mode::Serve };
+        run(&mut uno, &mut server, 100);
+        assert_eq!(ip(&uno), server.address, "the address at {} s", tick / 10);
+        if tick % 50 == 49 {
+            let transaction = (tick / 50) as u16;
+            assert_eq!(read_40001(&mut uno, &mut server, n, transaction), adu(transaction, &[0x03, 0x02, 0, 0]));
+            answered += 1;
+        }
+    }
+    assert!(!uno.wiznet().unwrap().connection(n).unwrap().closed());
+    let renewals = server.heard.iter().filter(|h| h.kind == REQUEST && h.to != BROADCAST).count();
+    let rebindings = server.heard.iter().filter(|h| h.kind == REQUEST && h.to == BROADCAST).count() - 1;
+    assert_eq!(server.heard(DISCOVER).len(), 1);
+    assert!(rebindings as u64 >= seconds / 100 - 1, "{rebindings} rebindings");
+    println!(
+        "dhcp soak: {} s simulated, {renewals} renewals, {rebindings} rebindings, {answered} reads answered, one address",
+        (uno.now() - start) / 16_000_000
+    );
+}

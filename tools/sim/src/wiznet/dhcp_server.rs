@@ -28,6 +28,9 @@ pub enum Mode {
     Nak,
     /// Answers nothing.
     Silent,
+    /// Serves, but ignores the REQUESTs sent to it alone (renewals): only a client that
+    /// broadcasts (rebinding) is answered.
+    IgnoreRenewals,
 }
 
 /// A client's message as the server heard it.
@@ -114,11 +117,13 @@ impl DhcpServer {
 
     /// The reply to a client's message, if any.
     pub fn answer(&self, heard: &Heard, request: &[u8]) -> Option<Vec<u8>> {
+        let renewal = heard.to.ip() == &self.id;
         let kind = match (self.mode, heard.kind) {
             (Mode::Silent, _) => return None,
+            (Mode::IgnoreRenewals, REQUEST) if renewal => return None,
             (_, DISCOVER) => OFFER,
             (Mode::Nak, REQUEST) => NAK,
-            (Mode::Serve, REQUEST) => {
+            (Mode::Serve | Mode::IgnoreRenewals, REQUEST) => {
                 let asked = heard.requested.unwrap_or(heard.ciaddr);
                 if asked != self.address {
                     NAK
