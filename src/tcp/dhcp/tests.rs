@@ -469,9 +469,11 @@ fn a_router_list_gives_its_first_and_pads_and_unknown_options_are_skipped() {
     let mut dhcp = client(NET);
     dhcp.second();
     let xid = xid_of(&dhcp);
-    let mut offer = reply(xid, OFFERED, &[(0, &[]), (43, &[1, 2, 3]), (53, &[2]), (54, &SERVER), (51, &[0, 0, 0, 60])]);
-    // Option "0" given a length by `reply` is a pad and the next byte (its "length" 0) one
-    // more pad.
+    let mut offer = reply(xid, OFFERED, &[(43, &[1, 2, 3]), (53, &[2]), (54, &SERVER), (51, &[0, 0, 0, 60])]);
+    // One pad before the first option and one between two (read as options, each would
+    // take the next code for its length).
+    offer.insert(240, 0);
+    offer.insert(240 + 1 + 5, 0);
     offer.truncate(offer.len() - 1);
     offer.extend_from_slice(&[3, 8, 10, 0, 0, 5, 10, 0, 0, 6, 255]);
     assert!(give(&mut dhcp, &offer));
