@@ -610,10 +610,11 @@ impl Dhcp {
             self.leased = self.fixed;
         }
         put(&mut self.leased, IP, answer.address);
-        for (n, at) in [(SUBNET_MASK, SUBNET), (ROUTER, GATEWAY)] {
-            if let Some(value) = answer.get(n) {
-                put(&mut self.leased, at, value);
-            }
+        if let Some(subnet) = answer.get(SUBNET_MASK) {
+            put(&mut self.leased, SUBNET, subnet);
+        }
+        if let Some(router) = answer.get(ROUTER) {
+            put(&mut self.leased, GATEWAY, router);
         }
         if answer.kind == OFFER {
             self.enter(DhcpState::Requesting);
