@@ -19,6 +19,18 @@ pub const ACK: u8 = 5;
 /// NAK.
 pub const NAK: u8 = 6;
 
+/// A message type's name.
+pub fn name(kind: u8) -> &'static str {
+    match kind {
+        DISCOVER => "DISCOVER",
+        OFFER => "OFFER",
+        REQUEST => "REQUEST",
+        ACK => "ACK",
+        NAK => "NAK",
+        _ => "another message",
+    }
+}
+
 /// What the server does with what it hears.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
@@ -56,6 +68,8 @@ pub struct Heard {
     pub len: usize,
     /// The simulated time it was heard at, in CPU cycles.
     pub cycle: u64,
+    /// The type of the server's answer (OFFER, ACK, NAK), if it answered.
+    pub answered: Option<u8>,
 }
 
 /// The test's DHCP server.
@@ -105,8 +119,9 @@ impl DhcpServer {
             if to.port() != 67 {
                 continue;
             }
-            let Some(heard) = read(*to, payload, cycle) else { continue };
+            let Some(mut heard) = read(*to, payload, cycle) else { continue };
             let reply = self.answer(&heard, payload);
+            heard.answered = reply.as_ref().map(|r| r[242]);
             self.heard.push(heard);
             if let Some(reply) = reply {
                 chip.udp_deliver(n, SocketAddrV4::new(self.id, 67), &reply);
@@ -192,6 +207,7 @@ fn read(to: SocketAddrV4, m: &[u8], cycle: u64) -> Option<Heard> {
         client_id: None,
         len: m.len(),
         cycle,
+        answered: None,
     };
     let mut at = 240;
     while at < m.len() && m[at] != 255 {
