@@ -65,7 +65,7 @@ help:
 	@echo "  make fuzz        - coverage-guided fuzz targets (FUZZ_SECONDS each), then a long property run"
 	@echo "  make mutants     - cargo-mutants over the protocol core, a quarter of its mutants (~1 h on 2 cores; MUTANTS_SHARD) -> bench/results.md"
 	@echo "  make soak        - 100000 mixed transactions against uno_slave in simavr (~15 min; SOAK_TRANSACTIONS)"
-	@echo "  make soak-tcp    - 10000 one-shot mbpoll -m tcp connections to tcp_server on a virtual Uno with a W5100 (SOAK_TCP_CONNECTIONS)"
+	@echo "  make soak-tcp    - 10000 one-shot mbpoll -m tcp connections to tcp_server on a virtual Uno with a W5100 (SOAK_TCP_CONNECTIONS), then 2 h of DHCP renewals and rebindings in the simulator (SOAK_DHCP_SECONDS)"
 	@echo "  make help        - this list"
 
 setup:
@@ -164,6 +164,7 @@ TCP_FIRMWARE := $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-non
 	target/chips/atmega328p-tcp/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu.elf \
 	target/chips/atmega328p-tcp-rtu/avr-none/release/examples/sixteen_each_tcp.elf \
+	target/chips/atmega328p-tcp-dhcp/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-w5100-libmodbus/avr-none/release/examples/libmodbus_map.elf \
 	target/chips/atmega328p-tcp-gateway/avr-none/release/examples/tcp_gateway.elf \
 	target/chips/atmega328p-tcp-gateway-int/avr-none/release/examples/tcp_gateway.elf \
@@ -181,6 +182,7 @@ tcp-firmware: setup
 	done
 	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu
 	@.ci/chip-build atmega328p "" atmega328p-tcp-rtu examples,tcp,rtu-over-tcp sixteen_each_tcp
+	@.ci/chip-build atmega328p "" atmega328p-tcp-dhcp examples,tcp,dhcp sixteen_each_tcp
 	@.ci/chip-build atmega328p "" atmega328p-w5100-libmodbus examples,tcp,extra-fc,diagnostics libmodbus_map
 	@.ci/chip-build atmega328p "" atmega328p-tcp-gateway examples,tcp,master tcp_gateway
 	@AVR_MODBUS_EXAMPLE_SHIELD=w5100-int .ci/chip-build atmega328p "" atmega328p-tcp-gateway-int examples,tcp,master tcp_gateway
@@ -275,7 +277,7 @@ fmt-check: setup
 # The optional function codes, checked and tested as a second build.
 OPTIONAL := diagnostics,extra-fc,write-protect
 # Every feature (all add) but examples, which builds this repository's firmware.
-ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id,tcp,rtu-over-tcp,udp
+ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id,tcp,rtu-over-tcp,udp,dhcp
 
 # The host's lints, tests included, check builds only: the tools (clippy-tools) and the crate's
 # library and test targets as make unit and make sim-test build them (under
@@ -319,7 +321,7 @@ check: fmt-check clippy-tools unit
 # a combination that starts with EIGHT_MHZ:), then the Uno's examples with every feature and
 # the Mega's gateway.
 FEATURE_COMBOS := $(ALL_FEATURES) $(EIGHT_MHZ):$(ALL_FEATURES) master,ascii master,ufmt eeprom-settings,ascii \
-	eeprom-settings,reply-delay,ascii $(EIGHT_MHZ):master $(EIGHT_MHZ):ascii,millis tcp,master tcp,udp
+	eeprom-settings,reply-delay,ascii $(EIGHT_MHZ):master $(EIGHT_MHZ):ascii,millis tcp,master tcp,udp dhcp
 matrix: matrix-host matrix-avr
 matrix-host: setup
 	.ci/feature-matrix host $(FEATURE_COMBOS)
@@ -350,7 +352,7 @@ sim-test: sim-test-uno sim-test-chips
 # The simulator tests that run what make chips or make fixtures build; every other needs only
 # the Uno's firmware and the bootloaders. (One missing here fails under make test: its ELF is
 # not built yet when sim-test-uno runs it.)
-SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_gateway,sim_rtu_over_tcp,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_template
+SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_dhcp,sim_gateway,sim_rtu_over_tcp,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_template
 
 # Every simulator test built, those that need only the Uno's firmware run; the tools' tests
 # built (make sim-test-chips runs them).
@@ -479,9 +481,14 @@ interop: firmware-uno bootloaders tcp-firmware
 # SOAK_TCP_CONNECTIONS one-shot `mbpoll -m tcp -1` connections to tcp_server (W5100) on the virtual
 # Uno, each answered, none refused (~10 min for 10000); the firmware's counters read at the end.
 SOAK_TCP_CONNECTIONS ?= 10000
+# Then SOAK_DHCP_SECONDS of simulated time of tests/sim_dhcp.rs's soak (20 s leases renewed and
+# rebound; the simulator runs it about 2.7 times faster than real time: ~45 min for 7200).
+SOAK_DHCP_SECONDS ?= 7200
 soak-tcp: setup tcp-firmware virtual-boards
 	TCP_CONNECTIONS=$(SOAK_TCP_CONNECTIONS) $(CARGO) test -p virtual-uno --test interop_tcp \
 		-- --nocapture --exact mbpoll_one_shot_connections_are_all_answered_w5100
+	DHCP_SOAK_SECONDS=$(SOAK_DHCP_SECONDS) AVR_MODBUS_REQUIRE_FIRMWARE=1 $(CARGO) test --release --test sim_dhcp \
+		-- --ignored --nocapture soak_
 
 bench: setup firmware bench-features
 	$(CARGO) run --release -p bench

@@ -7,10 +7,11 @@
  * Wiring: the shield on an Uno (chip select pin 10, SPI on the ICSP header).
  *
  * Network: 192.168.1.177/24, MAC DE:AD:BE:EF:FE:01, port 502, every unit id answered; the
- * references as in `sixteen_each`. With feature `rtu-over-tcp`, socket 3 serves RTU over TCP
- * on port 5020; with feature `udp`, socket 3 serves Modbus UDP on port 502 (TCP then on
- * sockets 0-2); with both, socket 2 RTU over TCP and socket 3 UDP (each feature's size,
- * measured used).
+ * references as in `sixteen_each`. With an optional feature, the sockets are shared: each
+ * takes one from the top, so that built with one alone (`make tcp-firmware`, the measure of
+ * its cost) it has socket 3 and MBAP the others: `udp` Modbus UDP on port 502, `dhcp` the
+ * DHCP client (host name `sixteen-each`; 192.168.1.177 the fallback after 30 s without a
+ * lease), `rtu-over-tcp` RTU over TCP on port 5020.
  */
 #![no_std]
 #![no_main]
@@ -19,14 +20,20 @@ use avr_modbus::board;
 use avr_modbus::tcp::{Network, W5100};
 use panic_halt as _;
 
-#[cfg(not(any(feature = "rtu-over-tcp", feature = "udp")))]
-const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]);
-#[cfg(all(feature = "rtu-over-tcp", not(feature = "udp")))]
-const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).sockets(4).rtu_over_tcp(5020, 0b1000);
-#[cfg(all(feature = "udp", not(feature = "rtu-over-tcp")))]
-const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).sockets(3).udp(3);
-#[cfg(all(feature = "udp", feature = "rtu-over-tcp"))]
-const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).sockets(3).rtu_over_tcp(5020, 0b0100).udp(3);
+const NETWORK: Network = {
+    let net = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]);
+    #[cfg(any(feature = "udp", feature = "dhcp", feature = "rtu-over-tcp"))]
+    let top: u8 = 4;
+    #[cfg(feature = "udp")]
+    let (net, top) = (net.sockets(top - 1).udp(top - 1), top - 1);
+    #[cfg(feature = "dhcp")]
+    let (net, top) = (net.sockets(top - 1).dhcp(top - 1, "sixteen-each").fallback_after(30), top - 1);
+    #[cfg(feature = "rtu-over-tcp")]
+    let net = net.sockets(top).rtu_over_tcp(5020, 1 << (top - 1));
+    #[cfg(any(feature = "udp", feature = "dhcp", feature = "rtu-over-tcp"))]
+    let _ = top;
+    net
+};
 
 avr_modbus::register_map! {
     /// The contract's map: 16 coils, 16 discrete inputs, 8 input and 16 holding registers.

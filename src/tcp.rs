@@ -10,6 +10,8 @@
 
 #[cfg(feature = "master")]
 pub(crate) mod client;
+#[cfg(feature = "dhcp")]
+pub(crate) mod dhcp;
 #[cfg(test)]
 pub(crate) mod fake;
 #[cfg(feature = "master")]
@@ -23,6 +25,8 @@ pub(crate) mod rtu;
 pub(crate) mod server;
 pub(crate) mod wiznet;
 
+#[cfg(feature = "dhcp")]
+pub use dhcp::{DhcpCounters, DhcpState, DhcpStatus, INFINITE};
 #[cfg(feature = "master")]
 #[doc(hidden)]
 pub use gateway::BUFFER as GATEWAY_BUFFER;

@@ -226,7 +226,7 @@ impl<
     {
         // The gateway routes the unit ids itself: `only_unit` would drop the line's.
         let network = Network { unit: 0, ..network };
-        let (chip, network) = open_chip::<C, CS, S, &T::Target>(network, spi, &*tc0, cs)?;
+        let (chip, network, lease) = open_chip::<C, CS, S, &T::Target>(network, spi, &*tc0, cs)?;
         self.line.running.start_on::<_, _, U>(usart, tc0, || LineRunning::new(line, driver_enable, NoPin))?;
         let forwarding = Forwarding {
             routes: R::default(),
@@ -234,7 +234,7 @@ impl<
             gateway: Gateway::new(),
             line: &self.line,
         };
-        self.tcp.start(|| Running::new(chip, network, forwarding))?;
+        self.tcp.start(|| Running::new(chip, network, forwarding, lease))?;
         start_interrupts::<INT>();
         Ok(())
     }

@@ -35,6 +35,15 @@ use crate::tcp::{Network, Serving, TcpCounters};
 
 pub use super::spi::Pin10;
 
+/// The DHCP client's place in a running role (feature `dhcp`), nothing without it.
+#[cfg(feature = "dhcp")]
+#[path = "lease.rs"]
+pub(crate) mod lease;
+#[cfg(not(feature = "dhcp"))]
+#[path = "no_lease.rs"]
+pub(crate) mod lease;
+use lease::Lease;
+
 /// Timer0 overflows in a second: 976 at 16 MHz (1.024 ms each), 488 at 8 MHz.
 const OVERFLOWS_PER_SECOND: u16 = (CLOCK_HZ / TIMER0_DIVISOR / 256) as u16;
 /// TIMSK0's overflow interrupt enable.
@@ -89,8 +98,11 @@ impl<M: DataModel> Service for Served<M> {
 pub(crate) struct Running<V, C, CS, const B: usize, const INT: bool> {
     pub(crate) server: Server<B>,
     chip: Wiznet<C, Spi<CS>>,
+    /// The addresses the chip has (the lease's with feature `dhcp`).
     network: Network,
     pub(crate) service: V,
+    /// The DHCP client, with feature `dhcp`.
+    lease: Lease,
     /// Overflows since the last whole second.
     overflows: u16,
     /// The application has the SPI ([`TcpServer::with_spi`]): the poll waits.
@@ -137,8 +149,8 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> TcpS
         S::Target: Sized,
         T::Target: Sized,
     {
-        let (chip, network) = open_chip::<C, CS, S, T>(network, spi, tc0, cs)?;
-        self.running.start(|| Running::new(chip, network, Served(model)))?;
+        let (chip, network, lease) = open_chip::<C, CS, S, T>(network, spi, tc0, cs)?;
+        self.running.start(|| Running::new(chip, network, Served(model), lease))?;
         start_interrupts::<INT>();
         Ok(())
     }
@@ -237,8 +249,8 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Valu
 
 impl<V: Service, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Running<V, C, CS, B, INT> {
     /// A role about to run on `chip`.
-    pub(crate) fn new(chip: Wiznet<C, Spi<CS>>, network: Network, service: V) -> Self {
-        Running { server: Server::new(), chip, network, service, overflows: 0, lent: false }
+    pub(crate) fn new(chip: Wiznet<C, Spi<CS>>, network: Network, service: V, lease: Lease) -> Self {
+        Running { server: Server::new(), chip, network, service, lease, overflows: 0, lent: false }
     }
 
     /// One poll, from the overflow interrupt (interrupts disabled on entry and on return):
@@ -282,6 +294,7 @@ impl<V: Service, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Runnin
         // meanwhile; other interrupts may run, which is the point.
         unsafe { reg::enable_interrupts() };
         self.chip.bus.configure();
+        self.lease.poll(&mut self.chip, &mut self.network, second);
         let mut second = second;
         loop {
             self.service.run(&mut self.server, &mut self.chip, &self.network, second);
@@ -303,19 +316,24 @@ impl<V: Service, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Runnin
     }
 }
 
-/// Resets the chip on `cs` and checks it is a `C`, gives it `network`'s addresses, after
-/// claiming the SPI and `TC0`: what a TCP role's start does before anything runs.
-/// [`Error::NoChip`] when the chip does not answer as a `C`.
+/// What `open_chip` gives a role: the chip, the settings as the chip has them, and the
+/// DHCP client (feature `dhcp`).
+pub(crate) type Opened<C, CS> = (Wiznet<C, Spi<CS>>, Network, Lease);
+
+/// Resets the chip on `cs` and checks it is a `C`, gives it `network`'s addresses (none
+/// yet with DHCP), after claiming the SPI and `TC0`: what a TCP role's start does before
+/// anything runs. [`Error::NoChip`] when the chip does not answer as a `C`.
 pub(crate) fn open_chip<C: Chip, CS: OutputPin, S: Deref, T: Deref>(
     network: Network,
     spi: S,
     tc0: T,
     cs: CS,
-) -> Result<(Wiznet<C, Spi<CS>>, Network), Error>
+) -> Result<Opened<C, CS>, Error>
 where
     S::Target: Sized,
     T::Target: Sized,
 {
+    let (network, lease) = Lease::new::<C>(network);
     claim::<_, { SPI_BLOCK.1 }>(spi, SPI_BLOCK.0)?;
     claim::<_, { reg::TC0.1 }>(tc0, reg::TC0.0)?;
     let mut chip = Wiznet::<C, _>::new(Spi::new(cs));
@@ -333,7 +351,7 @@ where
     // A UDP socket the chip lacks serves nothing.
     #[cfg(feature = "udp")]
     let network = Network { udp: if network.udp < C::SOCKETS { network.udp } else { crate::tcp::NO_UDP }, ..network };
-    Ok((chip, network))
+    Ok((chip, network, lease))
 }
 
 /// Timer0's overflow (and with `INT` pin 2's interrupt) started, and interrupts enabled:

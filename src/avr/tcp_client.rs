@@ -19,6 +19,7 @@ use super::clock;
 use super::reg;
 use super::spi::Spi;
 use super::started::Started;
+use super::tcp::lease::ClientLease;
 use super::tcp::{open_chip, start_interrupts, Pin10};
 use crate::error::Error;
 use crate::link::timing::{CLOCK_HZ, TIMER0_DIVISOR};
@@ -46,13 +47,15 @@ use crate::tcp::Network;
 /// request and the reply, counted as for the RTU [`crate::Master`] (a read of `q` registers
 /// is answered in 5 + 2`q`; 256 fits every one).
 pub struct TcpClient<C, CS = Pin10, const N: usize = 256> {
-    running: Started<Running<C, CS, N>>,
+    pub(crate) running: Started<Running<C, CS, N>>,
 }
 
 /// The running client: the pure client and the chip.
-struct Running<C, CS, const N: usize> {
+pub(crate) struct Running<C, CS, const N: usize> {
     client: Client<N>,
     chip: Wiznet<C, Spi<CS>>,
+    /// The DHCP client and the addresses, with feature `dhcp`.
+    pub(crate) lease: ClientLease,
     /// Overflows since the last whole poll.
     overflows: u16,
     /// The application has the SPI ([`TcpClient::with_spi`]): the poll waits.
@@ -109,8 +112,9 @@ impl<C: Chip, CS: OutputPin, const N: usize> TcpClient<C, CS, N> {
         S::Target: Sized,
         T::Target: Sized,
     {
-        let (chip, _) = open_chip::<C, _, _, _>(network, spi, tc0, cs)?;
-        self.running.start(|| Running { client: Client::new(server, port), chip, overflows: 0, lent: false })?;
+        let (chip, network, lease) = open_chip::<C, _, _, _>(network, spi, tc0, cs)?;
+        let lease = ClientLease::new(network, lease);
+        self.running.start(|| Running { client: Client::new(server, port), chip, lease, overflows: 0, lent: false })?;
         start_interrupts::<false>();
         Ok(())
     }
@@ -204,7 +208,10 @@ impl<C: Chip, CS: OutputPin, const N: usize> Running<C, CS, N> {
     #[inline(never)]
     fn poll(&mut self) {
         self.overflows += 1;
-        if self.lent || self.overflows < OVERFLOWS_PER_SECOND && self.client.is_quiet() && self.chip.events() == 0 {
+        let second = self.lease.tick();
+        if self.lent
+            || self.overflows < OVERFLOWS_PER_SECOND && !second && self.client.is_quiet() && self.chip.events() == 0
+        {
             return;
         }
         self.overflows = 0;
@@ -213,6 +220,7 @@ impl<C: Chip, CS: OutputPin, const N: usize> Running<C, CS, N> {
         // meanwhile; other interrupts may run.
         unsafe { reg::enable_interrupts() };
         self.chip.bus.configure();
+        self.lease.poll(&mut self.chip, second);
         self.client.poll(&mut self.chip, now);
         // SAFETY: interrupts off again before the mark goes (`access_marked`'s promise).
         unsafe { reg::disable_interrupts() };

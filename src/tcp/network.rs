@@ -34,6 +34,9 @@ pub struct Network {
     /// The socket serving Modbus UDP, or [`NO_UDP`].
     #[cfg(feature = "udp")]
     pub(crate) udp: u8,
+    /// The DHCP client's settings ([`Network::dhcp`]).
+    #[cfg(feature = "dhcp")]
+    pub(crate) dhcp: Option<super::dhcp::Settings>,
 }
 
 /// [`Network::udp`]'s socket when no socket serves UDP.
@@ -43,10 +46,10 @@ pub(crate) const NO_UDP: u8 = 0xFF;
 /// The bytes of the chip's addresses.
 pub(crate) const ADDRESSES: usize = 18;
 /// Where each address starts in [`Network::addresses`].
-const GATEWAY: usize = 0;
-const SUBNET: usize = 4;
-const MAC: usize = 8;
-const IP: usize = 14;
+pub(crate) const GATEWAY: usize = 0;
+pub(crate) const SUBNET: usize = 4;
+pub(crate) const MAC: usize = 8;
+pub(crate) const IP: usize = 14;
 
 /// `bytes` copied into `addresses` from `at` on.
 const fn put<const N: usize>(mut addresses: [u8; ADDRESSES], at: usize, bytes: [u8; N]) -> [u8; ADDRESSES] {
@@ -92,6 +95,8 @@ impl Network {
             rtu_sockets: 0,
             #[cfg(feature = "udp")]
             udp: NO_UDP,
+            #[cfg(feature = "dhcp")]
+            dhcp: None,
         }
     }
 
@@ -121,12 +126,17 @@ impl Network {
     }
 
     /// Serves on the chip's first `n` sockets (1 to the chip's count: 4 on the W5100, 8 on
-    /// the W5500), leaving the others to the application. Default: every socket.
+    /// the W5500), leaving the others to the application. Default: every socket (with
+    /// feature `dhcp`'s [`Network::dhcp`], every socket below the client's).
     pub const fn sockets(self, n: u8) -> Network {
         assert!(n >= 1 && n <= Network::MAX_SOCKETS, "1-8 sockets");
         let () = rtu::serving(&self, n);
         #[cfg(feature = "udp")]
         assert!(self.udp == NO_UDP || n <= self.udp, "the UDP socket is one TCP does not serve");
+        #[cfg(feature = "dhcp")]
+        if let Some(settings) = self.dhcp {
+            assert!(n <= settings.socket, "the server's sockets are those below the DHCP socket");
+        }
         Network { sockets: n, ..self }
     }
 

@@ -451,6 +451,33 @@ impl<C: Chip, B: Bus> super::client::Connect for Wiznet<C, B> {
     }
 }
 
+#[cfg(feature = "dhcp")]
+impl<C: Chip, B: Bus> super::dhcp::Udp for Wiznet<C, B> {
+    fn open_udp(&mut self, s: u8, port: u16) {
+        self.set(Block::socket(s), sn::MR.into(), super::dhcp::MODE_UDP);
+        self.set16(s, sn::PORT, port);
+        self.command(s, command::OPEN);
+    }
+
+    fn send_to(&mut self, s: u8, ip: [u8; 4], port: u16, pointer: u16) {
+        let mut ip = ip;
+        C::transfer(&mut self.bus, Block::socket(s), sn::DIPR.into(), &mut ip, true);
+        self.set16(s, sn::DPORT, port);
+        self.set16(s, sn::TX_WR, pointer);
+        self.command(s, command::SEND);
+    }
+
+    fn take_now(&mut self, s: u8, pointer: u16) {
+        self.set16(s, sn::RX_RD, pointer);
+        self.command(s, command::RECV);
+    }
+
+    fn set_addresses(&mut self, addresses: &[u8; super::network::ADDRESSES]) {
+        let mut addresses = *addresses;
+        C::transfer(&mut self.bus, Block::COMMON, GAR, &mut addresses, true);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

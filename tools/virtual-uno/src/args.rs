@@ -50,6 +50,9 @@ options:
   --udp CHIP:HOST  bridge the chip's UDP port CHIP to 127.0.0.1:HOST (repeatable): each
                    datagram to HOST goes to the firmware's UDP socket on CHIP, its answers
                    back to the sender; printed as `udp: 127.0.0.1:HOST` once the socket opens
+  --dhcp LEASE     play the network's DHCP server: a DHCP firmware (feature `dhcp`) gets
+                   192.168.50.23/24 for LEASE seconds, renewed as it asks; printed as
+                   `dhcp: DISCOVER to 255.255.255.255:67, answered OFFER 192.168.50.23`
   --messages       print each Modbus TCP (and UDP) request and answer through the bridge (connection,
                    transaction id, unit id, function code, the bytes)
   -h, --help       this text
@@ -101,6 +104,8 @@ pub struct Args {
     pub udp: Vec<Mapping>,
     /// `--messages`.
     pub messages: bool,
+    /// `--dhcp`: the lease, seconds.
+    pub dhcp: Option<u32>,
 }
 
 /// The pins watched when `--watch` is not given: the Uno's LED and pins 2-5, on the chips
@@ -133,6 +138,7 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
         connect: Vec::new(),
         udp: Vec::new(),
         messages: false,
+        dhcp: None,
     };
     let mut elf = None;
     while let Some(word) = words.next() {
@@ -155,6 +161,7 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
             "--messages" => args.messages = true,
             "--tcp" => args.tcp.push(value()?.parse::<Mapping>().map_err(|e| Some(format!("--tcp: {e}")))?),
             "--connect" => args.connect.push(value()?.parse::<Mapping>().map_err(|e| Some(format!("--connect: {e}")))?),
+            "--dhcp" => args.dhcp = Some(value()?.parse::<u32>().map_err(|e| Some(format!("--dhcp: {e}")))?),
             "--udp" => args.udp.push(value()?.parse::<Mapping>().map_err(|e| Some(format!("--udp: {e}")))?),
             w if w.starts_with('-') => return Err(Some(format!("unknown option {w}"))),
             _ if elf.is_some() => return Err(Some(format!("one firmware file only (got {word} too)"))),
@@ -165,8 +172,8 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
         return Err(Some("no firmware file given".to_owned()));
     }
     let bridged = !args.tcp.is_empty() || !args.connect.is_empty() || !args.udp.is_empty();
-    if args.wiznet.is_none() && (bridged || args.cs.is_some()) {
-        return Err(Some("--tcp, --connect, --udp and --cs need a shield: --wiznet w5100 or w5500".to_owned()));
+    if args.wiznet.is_none() && (bridged || args.cs.is_some() || args.dhcp.is_some()) {
+        return Err(Some("--tcp, --connect, --udp, --dhcp and --cs need a shield: --wiznet w5100 or w5500".to_owned()));
     }
     if args.messages && !bridged {
         return Err(Some("--messages needs a bridge: --tcp 502:1502, --connect 502:1502 or --udp 502:1502".to_owned()));

@@ -178,15 +178,19 @@ fn run(args: &args::Args) -> Result<(), String> {
     if let (Some(model), Some((port, bit))) = (args.wiznet, uno.wiznet_cs()) {
         println!("shield: {model} on the SPI port, chip select P{port}{bit}");
     }
-    let mut net = match args.tcp.is_empty() && args.connect.is_empty() && args.udp.is_empty() {
+    let mut net = match args.tcp.is_empty() && args.connect.is_empty() && args.udp.is_empty() && args.dhcp.is_none() {
         true => None,
-        false => Some(
-            Net::bind(&args.tcp, args.messages)
+        false => {
+            let net = Net::bind(&args.tcp, args.messages)
                 .map_err(|e| format!("--tcp: {e}"))?
                 .with_outgoing(&args.connect)
                 .with_udp(&args.udp)
-                .map_err(|e| format!("--udp: {e}"))?,
-        ),
+                .map_err(|e| format!("--udp: {e}"))?;
+            Some(match args.dhcp {
+                Some(lease) => net.with_dhcp(lease),
+                None => net,
+            })
+        }
     };
     for cmd in &args.initial {
         cmd.apply(&mut uno).map_err(|e| e.to_string())?;

@@ -52,6 +52,13 @@ impl Net {
         Ok(Net { bridge, ..self })
     }
 
+    /// Also plays the network's DHCP server, leases of `lease` seconds (`virtual-uno --dhcp`).
+    // virtual-line, which shares this file, has no DHCP server for its boards.
+    #[allow(dead_code)]
+    pub fn with_dhcp(self, lease: u32) -> Net {
+        Net { bridge: self.bridge.with_dhcp(lease), ..self }
+    }
+
     /// The cycle the next poll is due.
     pub fn next_poll(&self) -> u64 {
         self.polled + BRIDGE_CYCLES

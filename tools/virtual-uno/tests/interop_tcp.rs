@@ -446,6 +446,39 @@ fn mbpoll_reads_and_writes_every_table_w5500() {
 /// `TCP_CONNECTIONS` (default 100; `make soak-tcp`: 10000) one-shot `mbpoll -m tcp -1` runs, a
 /// connection each, reading 30002 (requests answered): each answered, none refused; then
 /// 30002 equals the count.
+/// examples/sixteen_each_tcp.rs built with feature `dhcp` (W5100, the client on socket 3)
+/// with the virtual Uno playing the network's DHCP server (`--dhcp 6`: 6 s leases, renewed
+/// every 3 s): the lease taken, renewed, and mbpoll served meanwhile on one connection after
+/// another.
+#[test]
+fn mbpoll_reads_the_dhcp_firmware_through_its_lease_and_renewals_w5100() {
+    let _one = serialise();
+    let firmware = chip_firmware("atmega328p-tcp-dhcp", "sixteen_each_tcp");
+    let process = Spawned::start(
+        Command::new(env!("CARGO_BIN_EXE_virtual-uno"))
+            .args(["--no-stdin", "--wiznet", "w5100", "--dhcp", "6", "--tcp", "502:0"])
+            .arg(firmware),
+    );
+    let port = process.port_after("tcp: 127.0.0.1:", "the firmware");
+    let board = Board { process, port };
+    let acked = "answered ACK 192.168.50.23";
+    assert!(board.process.wait_for(acked, Duration::from_secs(10)), "no lease:\n{}", board.log());
+    let deadline = Instant::now() + Duration::from_secs(15);
+    let mut log = String::new();
+    while board.count(acked) < 4 {
+        assert!(Instant::now() < deadline, "no renewals:\n{}", transcript(&log, &board));
+        let out = mbpoll(&board, "-t 4 -r 1 -c 16", "");
+        assert_eq!(mbpoll_values(&out), vec![0; 16], "{}", transcript(&out, &board));
+        log.push_str(&out);
+    }
+    assert_eq!(board.count("dhcp: DISCOVER to 255.255.255.255:67, answered OFFER"), 1, "{}", board.log());
+    assert!(
+        board.count("dhcp: REQUEST to 192.168.50.1:67, answered ACK") >= 2,
+        "renewals by unicast:\n{}",
+        board.log()
+    );
+}
+
 #[test]
 fn mbpoll_one_shot_connections_are_all_answered_w5100() {
     let _one = serialise();

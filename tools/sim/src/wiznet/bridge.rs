@@ -22,6 +22,7 @@ use std::net::{Ipv4Addr, Shutdown, SocketAddr, SocketAddrV4, TcpListener, TcpStr
 use std::os::fd::AsRawFd;
 use std::str::FromStr;
 
+use super::dhcp_server::{self, DhcpServer};
 use super::regs::{sn, state};
 use super::W5x00;
 use crate::CYCLES_PER_US;
@@ -131,6 +132,16 @@ pub enum BridgeEvent {
         /// Why.
         why: &'static str,
     },
+    /// The bridge's DHCP server ([`Bridge::with_dhcp`]) heard a client's message and
+    /// answered it (or not).
+    Dhcp {
+        /// The message heard (DISCOVER, REQUEST) and where it was sent.
+        heard: &'static str,
+        /// Its destination.
+        to: SocketAddrV4,
+        /// The answer (OFFER, ACK, NAK) and the address it gives, if any.
+        answer: Option<(&'static str, Ipv4Addr)>,
+    },
     /// A bridged connection ended.
     Closed {
         /// The client.
@@ -169,6 +180,10 @@ impl fmt::Display for BridgeEvent {
             BridgeEvent::UdpDropped { peer, chip_port, why } => {
                 write!(f, "udp: a datagram of {peer} on the chip's port {chip_port} dropped: {why}")
             }
+            BridgeEvent::Dhcp { heard, to, answer: Some((kind, address)) } => {
+                write!(f, "dhcp: {heard} to {to}, answered {kind} {address}")
+            }
+            BridgeEvent::Dhcp { heard, to, answer: None } => write!(f, "dhcp: {heard} to {to}, not answered"),
         }
     }
 }
@@ -220,6 +235,8 @@ pub struct Bridge {
     outgoing: Vec<Mapping>,
     conns: Vec<HostConn>,
     udp: Vec<UdpPort>,
+    /// The network's DHCP server, if the bridge plays it.
+    dhcp: Option<DhcpServer>,
     patience: u64,
     traffic: bool,
 }
@@ -246,6 +263,7 @@ impl Bridge {
             outgoing: Vec::new(),
             conns: Vec::new(),
             udp: Vec::new(),
+            dhcp: None,
             patience: 3_000_000 * CYCLES_PER_US,
             traffic: false,
         })
@@ -256,6 +274,13 @@ impl Bridge {
     /// connects to port 502 reaches the server on the host's port 1502).
     pub fn with_outgoing(self, mappings: &[Mapping]) -> Bridge {
         Bridge { outgoing: mappings.to_vec(), ..self }
+    }
+
+    /// Also plays the network's DHCP server (RFC 2131), [`DhcpServer::new`]`(lease)`: it
+    /// answers what the chip's UDP socket on port 68 broadcasts or sends to it with an
+    /// OFFER and an ACK of 192.168.50.23/24 for `lease` seconds (`virtual-uno --dhcp`).
+    pub fn with_dhcp(self, lease: u32) -> Bridge {
+        Bridge { dhcp: Some(DhcpServer::new(lease)), ..self }
     }
 
     /// Also bridges UDP: a datagram to 127.0.0.1:`host_port` goes to the chip's socket open in
@@ -358,6 +383,14 @@ impl Bridge {
         }
         for u in &mut self.udp {
             udp_step(u, chip, self.traffic, &mut events);
+        }
+        if let Some(server) = &mut self.dhcp {
+            let before = server.heard.len();
+            server.serve(chip);
+            for heard in &server.heard[before..] {
+                let answer = heard.answered.map(|kind| (dhcp_server::name(kind), server.address));
+                events.push(BridgeEvent::Dhcp { heard: dhcp_server::name(heard.kind), to: heard.to, answer });
+            }
         }
         let (patience, traffic) = (self.patience, self.traffic);
         self.conns.retain_mut(|c| match step(c, chip, now, patience, traffic.then_some(&mut events)) {

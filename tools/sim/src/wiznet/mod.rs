@@ -24,6 +24,7 @@
 
 mod bridge;
 mod connection;
+pub mod dhcp_server;
 mod network;
 pub mod regs;
 mod socket;

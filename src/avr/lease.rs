@@ -1,0 +1,110 @@
+//! The DHCP client in a running TCP role (feature `dhcp`): the pure client
+//! (`crate::tcp::dhcp`) on its socket of the chip, run in the same interrupt as the role,
+//! when the chip has news and once a second; the addresses it obtains written to the chip
+//! and kept in the role's `network` (so that whatever sets the chip up again restores them).
+//! The application reads them, and the lease's state, with [`TcpServer::network`] and
+//! [`TcpServer::dhcp`] (the TCP client's: `TcpClient::network`, `TcpClient::dhcp`).
+
+use embedded_hal::digital::OutputPin;
+
+use super::super::spi::Spi;
+use super::TcpServer;
+use crate::slave::model::DataModel;
+use crate::tcp::dhcp::{self, Dhcp, DhcpStatus};
+use crate::tcp::wiznet::{Chip, Wiznet};
+use crate::tcp::Network;
+
+/// The DHCP client, when the network asks for one.
+pub(crate) struct Lease(Option<Dhcp>);
+
+impl Lease {
+    /// The client for `network` and the network to start with: with [`Network::dhcp`], no
+    /// IP address yet, the client's socket one the chip `C` has (its last when asked for one
+    /// beyond) and the role's sockets below it.
+    pub(crate) fn new<C: Chip>(network: Network) -> (Network, Lease) {
+        let Some(settings) = network.dhcp else { return (network, Lease(None)) };
+        let socket = settings.socket.min(C::SOCKETS - 1);
+        let network = Network { sockets: network.sockets.min(socket), ..network };
+        let dhcp = Dhcp::new(&network, dhcp::Settings { socket, ..settings });
+        (Network { addresses: dhcp.addresses(), ..network }, Lease(Some(dhcp)))
+    }
+
+    /// Runs the client (interrupts enabled, the role in use): its socket's datagrams
+    /// taken, with `second` its timers, and the addresses it wants given to the chip and
+    /// kept in `network`.
+    #[inline(never)]
+    pub(crate) fn poll<C: Chip, CS: OutputPin>(
+        &mut self,
+        chip: &mut Wiznet<C, Spi<CS>>,
+        network: &mut Network,
+        second: bool,
+    ) {
+        if let Some(dhcp) = &mut self.0 {
+            dhcp::poll(dhcp, chip, network, second);
+        }
+    }
+}
+
+impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> TcpServer<M, C, CS, B, INT> {
+    /// The addresses the shield has now (feature `dhcp`): the lease's, the fallback, or
+    /// none (IP 0.0.0.0) while there is neither; `ip()`, `subnet_mask()`,
+    /// `gateway_address()` read them. `None` before the start.
+    pub fn network(&self) -> Option<Network> {
+        self.running.locked(|r| r.network)
+    }
+
+    /// The DHCP client's state, the lease's time left and the counters (feature `dhcp`):
+    /// `None` before the start, or without [`Network::dhcp`].
+    pub fn dhcp(&self) -> Option<DhcpStatus> {
+        self.running.locked(|r| r.lease.0.as_ref().map(Dhcp::status)).flatten()
+    }
+}
+
+/// The TCP client's DHCP client: the lease, the addresses the chip has, and the seconds
+/// counted on every overflow (the client's own poll runs at its own pace).
+#[cfg(feature = "master")]
+pub(crate) struct ClientLease {
+    lease: Lease,
+    network: Network,
+    overflows: u16,
+}
+
+#[cfg(feature = "master")]
+impl ClientLease {
+    /// The lease and the addresses `open_chip` gave the chip.
+    pub(crate) fn new(network: Network, lease: Lease) -> ClientLease {
+        ClientLease { lease, network, overflows: 0 }
+    }
+
+    /// One overflow: true once a second.
+    #[inline(always)]
+    pub(crate) fn tick(&mut self) -> bool {
+        self.overflows += 1;
+        let second = self.overflows >= super::OVERFLOWS_PER_SECOND;
+        if second {
+            self.overflows = 0;
+        }
+        second && self.lease.0.is_some()
+    }
+
+    /// Runs the client (see [`Lease::poll`]).
+    #[inline(always)]
+    pub(crate) fn poll<C: Chip, CS: OutputPin>(&mut self, chip: &mut Wiznet<C, Spi<CS>>, second: bool) {
+        self.lease.poll(chip, &mut self.network, second);
+    }
+}
+
+#[cfg(feature = "master")]
+impl<C: Chip, CS: OutputPin, const N: usize> crate::TcpClient<C, CS, N> {
+    /// The addresses the shield has now (feature `dhcp`): the lease's, the fallback, or
+    /// none (IP 0.0.0.0); `None` before the start.
+    pub fn network(&self) -> Option<Network> {
+        self.running.locked(|r| r.lease.network)
+    }
+
+    /// The DHCP client's state, the lease's time left and the counters (feature `dhcp`):
+    /// `None` before the start, or without [`Network::dhcp`].
+    pub fn dhcp(&self) -> Option<DhcpStatus> {
+        self.running.locked(|r| r.lease.lease.0.as_ref().map(Dhcp::status)).flatten()
+    }
+}
