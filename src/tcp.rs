@@ -14,6 +14,7 @@ pub(crate) mod client;
 pub(crate) mod fake;
 #[cfg(feature = "master")]
 pub(crate) mod gateway;
+pub(crate) mod health;
 pub(crate) mod mbap;
 mod network;
 #[cfg(feature = "eeprom-settings")]

@@ -136,6 +136,7 @@ impl<R: Routes, DE: OutputPin + 'static, const U: u8> Forwarding<R, DE, U> {
             routes: &self.routes,
             settings: &self.settings,
             waiting,
+            health: server.health,
             first: 0,
         };
         server.poll(chip, net, &mut gate, second);

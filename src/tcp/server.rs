@@ -14,6 +14,7 @@
 //! timeout are closed, and when all sockets hold a connection the one idle longest is
 //! closed for a newcomer once it has been idle a while (§4.2.1).
 
+use super::health::Health;
 use super::mbap::{self, Header, Refused, HEADER};
 use super::network::Network;
 use super::wiznet::{command, state, RECV, SEND_OK};
@@ -75,6 +76,12 @@ pub struct TcpCounters {
     pub idle_closed: u16,
     /// Connections closed, idle, to make room for a newcomer.
     pub evicted: u16,
+    /// Times the chip was set up again (reset, addresses, every socket opened again) after
+    /// it lost its settings (a brown-out, its reset line) or stopped answering.
+    pub chip_resets: u16,
+    /// Times the link went down (W5500; always 0 on the W5100, which cannot tell): the
+    /// connections were closed then.
+    pub link_losses: u16,
 }
 
 /// A counter's place in [`Server::counts`]: the order of [`TcpCounters`]'s fields.
@@ -136,6 +143,8 @@ pub struct Server<const B: usize = { mbap::MAX_ADU }> {
     first: u8,
     /// The counters, in the order of [`TcpCounters`]'s fields.
     counts: [u16; COUNTS],
+    /// The chip's and the link's health (`super::health`).
+    pub(crate) health: Health,
     buf: [u8; B],
 }
 
@@ -237,6 +246,7 @@ impl<const B: usize> Server<B> {
             changed: 0,
             first: 0,
             counts: [0; COUNTS],
+            health: Health::new(),
             buf: [0; B],
         }
     }
@@ -255,6 +265,8 @@ impl<const B: usize> Server<B> {
             refused,
             idle_closed,
             evicted,
+            chip_resets: self.health.restarts(),
+            link_losses: self.health.losses(),
         }
     }
 
@@ -359,6 +371,16 @@ impl<const B: usize> Server<B> {
         self.idle[at] = 0;
         self.sending &= !(1 << s);
         self.changed |= 1 << s;
+    }
+
+    /// Every serving socket closed (an RST to a connected peer): the next poll with
+    /// `second`, which looks at every socket, finds each closed and opens it again (and an
+    /// answer still to come for its connection finds it gone). For a chip set up again, or a
+    /// link that went.
+    pub(crate) fn forget<S: Sockets>(&mut self, chip: &mut S, net: &Network) {
+        for s in 0..net.sockets {
+            chip.command(s, command::CLOSE);
+        }
     }
 
     /// The sockets left waiting for the handler ([`Handler::ready`]) are looked at in the

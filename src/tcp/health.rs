@@ -1,0 +1,141 @@
+//! The chip's and the link's health, from the WIZnet datasheets (W5500 v1.0.x §3.1: VERSIONR
+//! 0x04, PHYCFGR bit 0 the link; W5100 v1.2.x §3.1: TMSR 0x55 after a reset, IMR cleared by
+//! it): once a second a TCP role asks whether the chip still answers as itself and still
+//! holds what the firmware set, and whether the link is up.
+//!
+//! A chip that browned out or was reset by the shield's reset line comes back with its
+//! defaults (IP 0.0.0.0, sockets closed, the mask of socket events 0); a hung chip answers
+//! nothing (MISO reads 0x00 or 0xFF, so its identity is wrong). Either way it is set up again
+//! (reset, addresses) and every socket opened again, without a reset of the board; a chip
+//! that does not answer is tried again each second, and not served meanwhile. When the
+//! link goes, the connections are closed (their masters are gone) and the sockets listen
+//! again, ready for the link's return.
+
+use super::network::Network;
+use super::server::{Server, Sockets};
+use super::wiznet::{Block, Bus, Chip, Wiznet};
+
+/// What the health check asks of a chip.
+pub trait Watch {
+    /// True when the chip answers as itself and still holds the settings the firmware gave
+    /// it.
+    fn configured(&mut self) -> bool;
+    /// True while the link is up (always on a chip that cannot tell, the W5100).
+    fn link(&mut self) -> bool;
+    /// Resets the chip and sets it up with `network`'s addresses (only read); false when it
+    /// does not answer as itself.
+    fn restart(&mut self, network: &mut Network) -> bool;
+}
+
+impl<C: Chip, B: Bus> Watch for Wiznet<C, B> {
+    /// One read: the register `init` set ([`Chip::SETTING`]), which neither a reset chip nor
+    /// a hung one reads as set.
+    fn configured(&mut self) -> bool {
+        let (block, register, value) = C::SETTING;
+        self.get(block, register) == value
+    }
+
+    fn link(&mut self) -> bool {
+        C::LINK.map_or(true, |register| self.get(Block::COMMON, register) & 1 != 0)
+    }
+
+    fn restart(&mut self, network: &mut Network) -> bool {
+        let network: &Network = network;
+        // Bounded waits only (`Wiznet::init`): this runs in the poll's interrupt.
+        self.init(network)
+    }
+}
+
+/// What the check found, and what the role does next.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// All well: serve.
+    Serve,
+    /// The chip was set up again, or the link went: every socket closed and opened again.
+    Reopen,
+    /// The chip does not answer: not served until the next check.
+    Wait,
+}
+
+/// The chip's and the link's state as the last check saw them, and what happened so far.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Health {
+    /// The chip lost its settings and could not be set up again yet.
+    lost: bool,
+    /// The link was down at the last check.
+    down: bool,
+    /// The chip set up again after it lost its settings or stopped answering, and the times
+    /// the link went down (each wrapping).
+    counts: [u16; 2],
+}
+
+/// Where each count is in [`Health::counts`].
+const RESTARTS: usize = 0;
+const LOSSES: usize = 1;
+
+impl Health {
+    /// Before the first check: the chip set up, the link taken to be up.
+    pub const fn new() -> Self {
+        Health { lost: false, down: false, counts: [0; 2] }
+    }
+
+    /// The check, once a second: the chip set up again when it lost its settings (counted),
+    /// the link's loss counted.
+    pub fn check<W: Watch>(&mut self, chip: &mut W, network: &mut Network) -> Verdict {
+        if self.lost || !chip.configured() {
+            self.lost = !chip.restart(network);
+            if self.lost {
+                return Verdict::Wait;
+            }
+            self.counts[RESTARTS] = self.counts[RESTARTS].wrapping_add(1);
+            // Every socket opens again anyway: the link is only noted.
+            self.down = !chip.link();
+            return Verdict::Reopen;
+        }
+        let was_down = self.down;
+        self.down = !chip.link();
+        if self.down && !was_down {
+            self.counts[LOSSES] = self.counts[LOSSES].wrapping_add(1);
+            return Verdict::Reopen;
+        }
+        Verdict::Serve
+    }
+
+    /// True while the chip answers and (W5500) its link is up, as of the last check.
+    pub fn link_up(&self) -> bool {
+        !self.lost && !self.down
+    }
+
+    /// True while the chip is not served: it lost its settings and does not answer yet.
+    pub fn is_lost(&self) -> bool {
+        self.lost
+    }
+
+    /// Times the chip was set up again (wrapping).
+    pub fn restarts(&self) -> u16 {
+        self.counts[RESTARTS]
+    }
+
+    /// Times the link went down (wrapping).
+    pub fn losses(&self) -> u16 {
+        self.counts[LOSSES]
+    }
+}
+
+impl<const B: usize> Server<B> {
+    /// The once-a-second health check ([`Health::check`]), before the poll with `second`:
+    /// when the chip was set up again or the link went, every serving socket closed, and
+    /// opened again by that poll (an answer still to come for one of their connections
+    /// finds it gone). False while the chip does not answer: it is not served then.
+    pub fn check<S: Sockets + Watch>(&mut self, chip: &mut S, net: &mut Network) -> bool {
+        match self.health.check(chip, net) {
+            Verdict::Wait => return false,
+            Verdict::Reopen => self.forget(chip, net),
+            Verdict::Serve => {}
+        }
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests;
