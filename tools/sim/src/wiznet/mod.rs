@@ -16,11 +16,14 @@
 //! (OPEN, LISTEN, DISCON, CLOSE, SEND, RECV) and client sockets (CONNECT to SOCK_SYNSENT,
 //! then [`W5x00::accept_connect`] or [`W5x00::refuse_connect`] as the peer answers), buffer sizes (TMSR/RMSR, Sn_TXBUF_SIZE/Sn_RXBUF_SIZE). Not:
 //! UDP, IP raw and MAC raw data (the sockets open, nothing moves), PPPoE, the INT pin,
-//! keep-alives, the W5500's PHY beyond PHYCFGR saying the link is up. Commands take effect
-//! at once; a SEND completes as soon as the peer has taken its data.
+//! keep-alives, the W5500's PHY beyond PHYCFGR's link bit. Commands take effect at once; a
+//! SEND completes as soon as the peer has taken its data. Faults a test plays
+//! ([`W5x00::set_link`], [`W5x00::reset`], [`W5x00::hang`]): the link down and up, a reset
+//! while the board runs, a chip that answers nothing.
 
 mod bridge;
 mod connection;
+mod faults;
 mod network;
 pub mod regs;
 mod socket;
@@ -140,6 +143,10 @@ pub struct W5x00 {
     spi_bytes: u64,
     /// The accesses recorded since [`W5x00::record_spi`] turned the record on.
     spi_log: Option<Vec<SpiAccess>>,
+    /// The link is up (`faults`).
+    link: bool,
+    /// The chip hangs, MISO stuck at this value (`faults`).
+    hung: Option<u8>,
 }
 
 impl W5x00 {
@@ -160,6 +167,8 @@ impl W5x00 {
             open_pointers: 0,
             spi_bytes: 0,
             spi_log: None,
+            link: true,
+            hung: None,
         };
         chip.reset();
         chip
@@ -247,6 +256,10 @@ impl W5x00 {
             return None;
         }
         self.spi_bytes += 1;
+        if let Some(miso) = self.hung {
+            // Nothing decoded, nothing written: MISO stuck.
+            return Some(miso);
+        }
         let frame_start = match self.model {
             Wiznet::W5100 => self.frame.index.is_multiple_of(4),
             Wiznet::W5500 => self.frame.index == 0,
