@@ -236,3 +236,54 @@ fn a_hung_chip_blocks_nothing_and_is_set_up_again_once_it_answers() {
         assert!(counted >= 2, "{chip}: the main loop counted {counted} s over {} s", cycles_to_us(hung_for) / 1e6);
     }
 }
+
+// ---- the client (`examples/tcp_client_check.rs`): its one connection made again ------------
+
+/// The client firmware for `chip`, its connection to the server accepted.
+fn client(chip: Wiznet) -> Uno {
+    let variant = if chip == Wiznet::W5500 { "-tcp-client-w5500" } else { "-tcp-client" };
+    let elf = chip_variant_firmware(Chip::Atmega328p, 0, variant, "tcp_client_check");
+    let mut uno = Uno::load_with(elf, Options::new().wiznet(chip)).unwrap();
+    dialled(&mut uno, 0, 50_000, "the first SYN");
+    uno
+}
+
+/// Runs until the client's SYN is out (at most `limit_us`), accepts it and runs until the
+/// firmware says it is connected; returns the time to the SYN, in ms.
+fn dialled(uno: &mut Uno, since: u64, limit_us: u64, what: &str) -> f64 {
+    let until = uno.now() + us_to_cycles(limit_us);
+    while uno.wiznet().unwrap().connecting().is_empty() {
+        assert!(uno.now() < until, "{what}: no SYN within {limit_us} µs");
+        uno.run_for(us_to_cycles(1000)).unwrap();
+    }
+    let syn = uno.now();
+    let n = uno.wiznet().unwrap().connecting()[0].0;
+    assert!(uno.wiznet_mut().unwrap().accept_connect(n));
+    while uno.read_symbol("TCP_OUTCOME").unwrap()[3] != 1 {
+        assert!(uno.now() < until + us_to_cycles(10_000), "{what}: not connected");
+        uno.run_for(us_to_cycles(1000)).unwrap();
+    }
+    cycles_to_us(syn - since) / 1000.0
+}
+
+#[test]
+fn the_client_connects_again_after_a_chip_reset_and_after_the_link_comes_back() {
+    for chip in [Wiznet::W5100, Wiznet::W5500] {
+        let mut uno = client(chip);
+        uno.run_for(us_to_cycles(100_000)).unwrap();
+        let reset = uno.now();
+        uno.wiznet_mut().unwrap().reset();
+        let ms = dialled(&mut uno, reset, 1_200_000, &format!("{chip}, chip reset"));
+        assert_eq!(ip(&mut uno), IP, "{chip}: its address given again");
+        eprintln!("tcp client ({chip}), chip reset: connecting again after {ms:.0} ms");
+    }
+    let mut uno = client(Wiznet::W5500);
+    uno.wiznet_mut().unwrap().set_link(false);
+    // The check closes the connection; the client's SYNs go nowhere meanwhile.
+    uno.run_for(us_to_cycles(1_500_000)).unwrap();
+    assert_eq!(uno.read_symbol("TCP_OUTCOME").unwrap()[3], 0, "the connection closed with the link");
+    let back = uno.now();
+    uno.wiznet_mut().unwrap().set_link(true);
+    let ms = dialled(&mut uno, back, 3_500_000, "w5500, link back");
+    eprintln!("tcp client (w5500), link back: connecting again after {ms:.0} ms");
+}

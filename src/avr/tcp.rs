@@ -270,6 +270,22 @@ impl<V: Service, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Runnin
         {
             return;
         }
+        if second {
+            // Once a second, the chip's and the link's health (`crate::tcp::health`), with
+            // interrupts enabled (setting a chip up again takes a few milliseconds): a chip
+            // that lost its settings, or whose link went, set up again, and its sockets
+            // opened again by the serve that follows; none served while the chip does not
+            // answer (pin 2's interrupt stays masked then).
+            // SAFETY: as in `serve`: the role is marked in use.
+            unsafe { reg::enable_interrupts() };
+            self.chip.bus.configure();
+            let answers = self.server.check(&mut self.chip, &mut self.network);
+            // SAFETY: interrupts off again before the mark goes.
+            unsafe { reg::disable_interrupts() };
+            if !answers {
+                return;
+            }
+        }
         self.serve(second);
     }
 
@@ -293,14 +309,6 @@ impl<V: Service, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Runnin
         // meanwhile; other interrupts may run, which is the point.
         unsafe { reg::enable_interrupts() };
         self.chip.bus.configure();
-        // Once a second, the chip's and the link's health (`crate::tcp::health`): a chip
-        // that lost its settings set up again, the sockets opened again; none served while
-        // the chip does not answer (pin 2's interrupt stays masked then).
-        if second && !self.server.check(&mut self.chip, &mut self.network) {
-            // SAFETY: as below: interrupts off before the mark goes.
-            unsafe { reg::disable_interrupts() };
-            return;
-        }
         let mut second = second;
         loop {
             self.service.run(&mut self.server, &mut self.chip, &self.network, second);

@@ -51,7 +51,8 @@ impl<C: Chip, B: Bus> Watch for Wiznet<C, B> {
 pub enum Verdict {
     /// All well: serve.
     Serve,
-    /// The chip was set up again, or the link went: every socket closed and opened again.
+    /// The chip was set up again (it lost its settings, or the link went): every socket is
+    /// closed, to be opened again.
     Reopen,
     /// The chip does not answer: not served until the next check.
     Wait,
@@ -79,26 +80,28 @@ impl Health {
         Health { lost: false, down: false, counts: [0; 2] }
     }
 
-    /// The check, once a second: the chip set up again when it lost its settings (counted),
-    /// the link's loss counted.
+    /// The check, once a second: the chip set up again when it lost its settings (counted
+    /// as a reset) or when the link went (counted as a loss): the reset closes every socket,
+    /// and with them the connections of masters that are gone.
     pub fn check<W: Watch>(&mut self, chip: &mut W, network: &mut Network) -> Verdict {
-        if self.lost || !chip.configured() {
-            self.lost = !chip.restart(network);
-            if self.lost {
-                return Verdict::Wait;
-            }
-            self.counts[RESTARTS] = self.counts[RESTARTS].wrapping_add(1);
-            // Every socket opens again anyway: the link is only noted.
+        let why = if self.lost || !chip.configured() {
+            RESTARTS
+        } else {
+            // The link is read only from a chip that answers (a hung one reads 0x00 or 0xFF).
+            let was_down = self.down;
             self.down = !chip.link();
-            return Verdict::Reopen;
+            if !self.down || was_down {
+                return Verdict::Serve;
+            }
+            LOSSES
+        };
+        self.lost = !chip.restart(network);
+        if self.lost {
+            // Counted once it answers again.
+            return Verdict::Wait;
         }
-        let was_down = self.down;
-        self.down = !chip.link();
-        if self.down && !was_down {
-            self.counts[LOSSES] = self.counts[LOSSES].wrapping_add(1);
-            return Verdict::Reopen;
-        }
-        Verdict::Serve
+        self.counts[why] = self.counts[why].wrapping_add(1);
+        Verdict::Reopen
     }
 
     /// True while the chip answers and (W5500) its link is up, as of the last check.
@@ -124,16 +127,12 @@ impl Health {
 
 impl<const B: usize> Server<B> {
     /// The once-a-second health check ([`Health::check`]), before the poll with `second`:
-    /// when the chip was set up again or the link went, every serving socket closed, and
-    /// opened again by that poll (an answer still to come for one of their connections
-    /// finds it gone). False while the chip does not answer: it is not served then.
+    /// when the chip was set up again (it lost its settings, or the link went), its sockets
+    /// are closed, and that poll, which looks at every socket, opens each again (an answer
+    /// still to come for one of their connections finds it gone). False while the chip does
+    /// not answer: it is not served then.
     pub fn check<S: Sockets + Watch>(&mut self, chip: &mut S, net: &mut Network) -> bool {
-        match self.health.check(chip, net) {
-            Verdict::Wait => return false,
-            Verdict::Reopen => self.forget(chip, net),
-            Verdict::Serve => {}
-        }
-        true
+        self.health.check(chip, net) != Verdict::Wait
     }
 }
 

@@ -373,16 +373,6 @@ impl<const B: usize> Server<B> {
         self.changed |= 1 << s;
     }
 
-    /// Every serving socket closed (an RST to a connected peer): the next poll with
-    /// `second`, which looks at every socket, finds each closed and opens it again (and an
-    /// answer still to come for its connection finds it gone). For a chip set up again, or a
-    /// link that went.
-    pub(crate) fn forget<S: Sockets>(&mut self, chip: &mut S, net: &Network) {
-        for s in 0..net.sockets {
-            chip.command(s, command::CLOSE);
-        }
-    }
-
     /// The sockets left waiting for the handler ([`Handler::ready`]) are looked at in the
     /// next poll.
     pub fn resume(&mut self) {

@@ -769,7 +769,9 @@ fn the_gateways_own_registers_9_to_11_are_the_chips_resets_link_losses_and_link(
     rig.chip.link_down = false;
     rig.chip.chip_reset();
     assert!(rig.server.check(&mut rig.chip, &mut NET.clone()));
-    assert_eq!(ask(&mut rig, 3), [1, 1, 1], "a reset, the link up again");
+    assert_eq!(ask(&mut rig, 3), [1, 1, 0], "a reset; the link is read at the next check");
+    assert!(rig.server.check(&mut rig.chip, &mut NET.clone()));
+    assert_eq!(ask(&mut rig, 4), [1, 1, 1], "the link up again");
 }
 
 /// An ADU for `unit` with the PDU `pdu`, its length field from it.
