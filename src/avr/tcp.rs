@@ -279,7 +279,7 @@ impl<V: Service, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Runnin
             // SAFETY: as in `serve`: the role is marked in use.
             unsafe { reg::enable_interrupts() };
             self.chip.bus.configure();
-            let answers = self.server.check(&mut self.chip, &mut self.network);
+            let answers = self.server.check(&mut self.chip, &self.network);
             // SAFETY: interrupts off again before the mark goes.
             unsafe { reg::disable_interrupts() };
             if !answers {

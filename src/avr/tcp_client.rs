@@ -245,7 +245,7 @@ impl<C: Chip, CS: OutputPin, const N: usize> Running<C, CS, N> {
         // that lost its settings set up again and the connection made again, as after a
         // link loss. While the chip does not answer, the client goes on (its connection
         // attempts fail, a request times out as usual).
-        if second && self.health.check(&mut self.chip, &mut self.network) == Verdict::Reopen {
+        if second && self.health.check(&mut self.chip, &self.network) == Verdict::Reopen {
             self.client.reconnect(&mut self.chip, now);
         }
         self.client.poll(&mut self.chip, now);

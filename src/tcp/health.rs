@@ -22,9 +22,9 @@ pub trait Watch {
     fn configured(&mut self) -> bool;
     /// True while the link is up (always on a chip that cannot tell, the W5100).
     fn link(&mut self) -> bool;
-    /// Resets the chip and sets it up with `network`'s addresses (only read); false when it
-    /// does not answer as itself.
-    fn restart(&mut self, network: &mut Network) -> bool;
+    /// Resets the chip and sets it up with `network`'s addresses; false when it does not
+    /// answer as itself.
+    fn restart(&mut self, network: &Network) -> bool;
 }
 
 impl<C: Chip, B: Bus> Watch for Wiznet<C, B> {
@@ -39,8 +39,7 @@ impl<C: Chip, B: Bus> Watch for Wiznet<C, B> {
         C::LINK.map_or(true, |register| self.get(Block::COMMON, register) & 1 != 0)
     }
 
-    fn restart(&mut self, network: &mut Network) -> bool {
-        let network: &Network = network;
+    fn restart(&mut self, network: &Network) -> bool {
         // Bounded waits only (`Wiznet::init`): this runs in the poll's interrupt.
         self.init(network)
     }
@@ -83,7 +82,7 @@ impl Health {
     /// The check, once a second: the chip set up again when it lost its settings (counted
     /// as a reset) or when the link went (counted as a loss): the reset closes every socket,
     /// and with them the connections of masters that are gone.
-    pub fn check<W: Watch>(&mut self, chip: &mut W, network: &mut Network) -> Verdict {
+    pub fn check<W: Watch>(&mut self, chip: &mut W, network: &Network) -> Verdict {
         let why = if self.lost || !chip.configured() {
             RESTARTS
         } else {
@@ -131,7 +130,7 @@ impl<const B: usize> Server<B> {
     /// are closed, and that poll, which looks at every socket, opens each again (an answer
     /// still to come for one of their connections finds it gone). False while the chip does
     /// not answer: it is not served then.
-    pub fn check<S: Sockets + Watch>(&mut self, chip: &mut S, net: &mut Network) -> bool {
+    pub fn check<S: Sockets + Watch>(&mut self, chip: &mut S, net: &Network) -> bool {
         self.health.check(chip, net) != Verdict::Wait
     }
 }

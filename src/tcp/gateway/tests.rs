@@ -764,13 +764,13 @@ fn the_gateways_own_registers_9_to_11_are_the_chips_resets_link_losses_and_link(
     };
     assert_eq!(ask(&mut rig, 1), [0, 0, 1], "no reset, no loss, the link up");
     rig.chip.link_down = true;
-    assert!(rig.server.check(&mut rig.chip, &mut NET.clone()));
+    assert!(rig.server.check(&mut rig.chip, &NET));
     assert_eq!(ask(&mut rig, 2), [0, 1, 0], "a loss, the link down");
     rig.chip.link_down = false;
     rig.chip.chip_reset();
-    assert!(rig.server.check(&mut rig.chip, &mut NET.clone()));
+    assert!(rig.server.check(&mut rig.chip, &NET));
     assert_eq!(ask(&mut rig, 3), [1, 1, 0], "a reset; the link is read at the next check");
-    assert!(rig.server.check(&mut rig.chip, &mut NET.clone()));
+    assert!(rig.server.check(&mut rig.chip, &NET));
     assert_eq!(ask(&mut rig, 4), [1, 1, 1], "the link up again");
 }
 
