@@ -10,7 +10,8 @@
 //! The W5500's PHYCFGR bit 0 reads the link; the W5100 has no such bit.
 //!
 //! A hung chip answers every SPI byte with the same value (0x00 or 0xFF, as a chip that
-//! drives MISO no more or holds it) and takes no write; the network side goes on as it was.
+//! drives MISO no more or holds it) and takes no write; nothing reaches it from the network
+//! either (as with the link down), but its connections are kept as they were.
 
 use super::W5x00;
 
@@ -41,6 +42,11 @@ impl W5x00 {
     pub fn unhang(&mut self) {
         self.hung = None;
         self.frame = Default::default();
+    }
+
+    /// Whether what a peer sends reaches the chip: the link up and the chip not hung.
+    pub(crate) fn reachable(&self) -> bool {
+        self.link && self.hung.is_none()
     }
 
     /// The value MISO is stuck at while the chip hangs.

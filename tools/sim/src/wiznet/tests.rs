@@ -695,7 +695,10 @@ fn a_hung_chip_reads_its_stuck_value_takes_no_write_and_comes_back_as_it_was() {
         for stuck in [0x00, 0xFF] {
             let mut d = Driver::connected(model, 0);
             d.common_write(0x0F, &[192, 168, 1, 177]);
+            d.listen(1, 502);
             d.chip.hang(stuck);
+            assert_eq!(d.chip.connect(502, peer()), None, "{model}: no SYN taken while hung");
+            assert_eq!(d.chip.deliver(0, b"lost"), 0, "{model}: nor data");
             assert_eq!(d.common_read(0x0F, 4), [stuck; 4], "{model}");
             assert_eq!(d.frame(&[0x0F, 0x00, 0x0F, 0x00]), [stuck; 4], "{model}: every byte, address bytes too");
             // A write of SIPR[0] = 10, in the chip's own frame.
