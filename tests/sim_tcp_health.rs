@@ -74,7 +74,7 @@ impl Master {
         let chip = uno.wiznet_mut().unwrap();
         if let Some((n, id)) = self.conn {
             let conn = chip.connection(n).filter(|c| c.id() == id);
-            if conn.is_none_or(|c| c.closed()) {
+            if !conn.is_some_and(|c| !c.closed()) {
                 self.conn = None;
                 self.asked = None;
             } else if let Some((t, at)) = self.asked {

@@ -104,11 +104,13 @@ impl Health {
     }
 
     /// True while the chip answers and (W5500) its link is up, as of the last check.
+    #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
     pub fn link_up(&self) -> bool {
         !self.lost && !self.down
     }
 
     /// True while the chip is not served: it lost its settings and does not answer yet.
+    #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
     pub fn is_lost(&self) -> bool {
         self.lost
     }
