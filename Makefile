@@ -455,6 +455,7 @@ interop: firmware-uno bootloaders tcp-firmware
 	TCP_CONNECTIONS=$(TCP_CONNECTIONS) $(CARGO) test -p virtual-uno --test interop_tcp -- --nocapture --test-threads=1
 	$(CARGO) test -p virtual-uno --test interop_gateway -- --nocapture --test-threads=1
 	$(CARGO) test -p virtual-uno --test interop_tcp_client -- --nocapture --test-threads=1
+	$(CARGO) test -p virtual-uno --test interop_tcp_health -- --nocapture --test-threads=1
 
 # SOAK_TCP_CONNECTIONS one-shot `mbpoll -m tcp -1` connections to tcp_server (W5100) on the virtual
 # Uno, each answered, none refused (~10 min for 10000); the firmware's counters read at the end.
