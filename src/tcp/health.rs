@@ -1,15 +1,16 @@
-//! The chip's and the link's health, from the WIZnet datasheets (W5500 v1.0.x §3.1: VERSIONR
-//! 0x04, PHYCFGR bit 0 the link; W5100 v1.2.x §3.1: TMSR 0x55 after a reset, IMR cleared by
-//! it): once a second a TCP role asks whether the chip still answers as itself and still
-//! holds what the firmware set, and whether the link is up.
+//! The chip's and the link's health, from the WIZnet datasheets (W5500 v1.0.x §3.1: PHYCFGR
+//! bit 0 the link, Sn_IMR 0xFF after a reset; W5100 v1.2.x §3.1: IMR 0 after a reset): once a
+//! second a TCP role reads back one register its set-up wrote ([`Chip::SETTING`]), and on the
+//! W5500 the link.
 //!
 //! A chip that browned out or was reset by the shield's reset line comes back with its
-//! defaults (IP 0.0.0.0, sockets closed, the mask of socket events 0); a hung chip answers
-//! nothing (MISO reads 0x00 or 0xFF, so its identity is wrong). Either way it is set up again
-//! (reset, addresses) and every socket opened again, without a reset of the board; a chip
-//! that does not answer is tried again each second, and not served meanwhile. When the
-//! link goes, the connections are closed (their masters are gone) and the sockets listen
-//! again, ready for the link's return.
+//! defaults (IP 0.0.0.0, sockets closed, that register at its reset value); a hung chip
+//! answers nothing (MISO reads 0x00 or 0xFF, neither of which is the value set). Either way
+//! it is set up again (`Wiznet::init`: reset, identity, addresses) and its sockets opened
+//! again, without a reset of the board; a chip that does not answer is tried again each
+//! second, and not served meanwhile. When the link goes, the chip is set up again too: its
+//! reset closes every connection (their masters are gone with the link), and the sockets
+//! listen again, ready for the link's return.
 
 use super::network::Network;
 use super::server::{Server, Sockets};
