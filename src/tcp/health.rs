@@ -1,5 +1,5 @@
-//! The chip's and the link's health, from the WIZnet datasheets (W5500 v1.0.x §3.1: PHYCFGR
-//! bit 0 the link, Sn_IMR 0xFF after a reset; W5100 v1.2.x §3.1: IMR 0 after a reset): once a
+//! The chip's and the link's health, from the WIZnet datasheets' register maps (W5500:
+//! PHYCFGR bit 0 the link, Sn_IMR 0xFF after a reset; W5100: IMR 0 after a reset): once a
 //! second a TCP role reads back one register its set-up wrote ([`Chip::SETTING`]), and on the
 //! W5500 the link.
 //!
