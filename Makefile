@@ -352,7 +352,7 @@ sim-test: sim-test-uno sim-test-chips
 # The simulator tests that run what make chips or make fixtures build; every other needs only
 # the Uno's firmware and the bootloaders. (One missing here fails under make test: its ELF is
 # not built yet when sim-test-uno runs it.)
-SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_dhcp,sim_gateway,sim_rtu_over_tcp,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_template
+SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_dhcp,sim_gateway,sim_rtu_over_tcp,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_tcp_health,sim_template
 
 # Every simulator test built, those that need only the Uno's firmware run; the tools' tests
 # built (make sim-test-chips runs them).
@@ -477,6 +477,7 @@ interop: firmware-uno bootloaders tcp-firmware
 	$(CARGO) test -p virtual-uno --test interop_gateway -- --nocapture --test-threads=1
 	$(CARGO) test -p virtual-uno --test interop_tcp_client -- --nocapture --test-threads=1
 	$(CARGO) test -p virtual-uno --test interop_udp -- --nocapture --test-threads=1
+	$(CARGO) test -p virtual-uno --test interop_tcp_health -- --nocapture --test-threads=1
 
 # SOAK_TCP_CONNECTIONS one-shot `mbpoll -m tcp -1` connections to tcp_server (W5100) on the virtual
 # Uno, each answered, none refused (~10 min for 10000); the firmware's counters read at the end.

@@ -16,6 +16,7 @@ pub(crate) mod dhcp;
 pub(crate) mod fake;
 #[cfg(feature = "master")]
 pub(crate) mod gateway;
+pub(crate) mod health;
 pub(crate) mod mbap;
 mod network;
 #[cfg(feature = "eeprom-settings")]

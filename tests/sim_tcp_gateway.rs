@@ -955,7 +955,7 @@ fn units_248_to_254_get_0a_unit_0_is_a_broadcast_and_0xff_the_gateways_registers
         "unit 4's health"
     );
     assert_eq!(status(&mut rig, m, 3, 1000 + 4, 4), [2, 0, 0, 0], "slave 1's health");
-    assert_eq!(rig.ask(m, 0xFF, &read_pdu(4, 5, 5)), exception(4, ILLEGAL_ADDRESS), "past register 8");
+    assert_eq!(rig.ask(m, 0xFF, &read_pdu(4, 8, 5)), exception(4, ILLEGAL_ADDRESS), "past register 11");
     assert_eq!(rig.ask(m, 0xFF, &write_pdu(0, 1)), exception(6, ILLEGAL_FUNCTION), "a write of 0xFF");
     let line_requests = rig.requests().count() as u16;
     assert_eq!(line_requests, forwarded + DOWN_AFTER as u16, "the line's log: forwarded and the retries");

@@ -136,6 +136,7 @@ impl<R: Routes, DE: OutputPin + 'static, const U: u8> Forwarding<R, DE, U> {
             routes: &self.routes,
             settings: &self.settings,
             waiting,
+            health: server.health,
             first: 0,
         };
         server.poll(chip, net, &mut gate, second);
@@ -263,9 +264,16 @@ impl<
         self.tcp.locked(|r| r.service.gateway.counters()).unwrap_or_default()
     }
 
-    /// The TCP side's counters.
+    /// The TCP side's counters (the chip's resets and the link's losses among them).
     pub fn tcp_counters(&self) -> TcpCounters {
         self.tcp.locked(|r| r.server.counters()).unwrap_or_default()
+    }
+
+    /// True while the chip answers and its link is up, as the once-a-second check last saw
+    /// them (the W5100 cannot tell its link: there, while the chip answers); false before
+    /// the start. Its own register 11 says the same.
+    pub fn link_up(&self) -> bool {
+        self.tcp.locked(|r| r.server.health.link_up()).unwrap_or(false)
     }
 
     /// The serial line's counters (the master's).

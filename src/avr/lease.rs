@@ -60,51 +60,17 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> TcpS
     }
 }
 
-/// The TCP client's DHCP client: the lease, the addresses the chip has, and the seconds
-/// counted on every overflow (the client's own poll runs at its own pace).
-#[cfg(feature = "master")]
-pub(crate) struct ClientLease {
-    lease: Lease,
-    network: Network,
-    overflows: u16,
-}
-
-#[cfg(feature = "master")]
-impl ClientLease {
-    /// The lease and the addresses `open_chip` gave the chip.
-    pub(crate) fn new(network: Network, lease: Lease) -> ClientLease {
-        ClientLease { lease, network, overflows: 0 }
-    }
-
-    /// One overflow: true once a second.
-    #[inline(always)]
-    pub(crate) fn tick(&mut self) -> bool {
-        self.overflows += 1;
-        let second = self.overflows >= super::OVERFLOWS_PER_SECOND;
-        if second {
-            self.overflows = 0;
-        }
-        second && self.lease.0.is_some()
-    }
-
-    /// Runs the client (see [`Lease::poll`]).
-    #[inline(always)]
-    pub(crate) fn poll<C: Chip, CS: OutputPin>(&mut self, chip: &mut Wiznet<C, Spi<CS>>, second: bool) {
-        self.lease.poll(chip, &mut self.network, second);
-    }
-}
-
 #[cfg(feature = "master")]
 impl<C: Chip, CS: OutputPin, const N: usize> crate::TcpClient<C, CS, N> {
     /// The addresses the shield has now (feature `dhcp`): the lease's, the fallback, or
     /// none (IP 0.0.0.0); `None` before the start.
     pub fn network(&self) -> Option<Network> {
-        self.running.locked(|r| r.lease.network)
+        self.running.locked(|r| r.network)
     }
 
     /// The DHCP client's state, the lease's time left and the counters (feature `dhcp`):
     /// `None` before the start, or without [`Network::dhcp`].
     pub fn dhcp(&self) -> Option<DhcpStatus> {
-        self.running.locked(|r| r.lease.lease.0.as_ref().map(Dhcp::status)).flatten()
+        self.running.locked(|r| r.lease.0.as_ref().map(Dhcp::status)).flatten()
     }
 }

@@ -21,26 +21,3 @@ impl Lease {
     #[inline(always)]
     pub(crate) fn poll<C: Chip, CS: OutputPin>(&mut self, _: &mut Wiznet<C, Spi<CS>>, _: &mut Network, _: bool) {}
 }
-
-/// No DHCP client for the TCP client either.
-#[cfg(feature = "master")]
-pub(crate) struct ClientLease;
-
-#[cfg(feature = "master")]
-impl ClientLease {
-    /// Nothing kept.
-    #[inline(always)]
-    pub(crate) fn new(_: Network, _: Lease) -> ClientLease {
-        ClientLease
-    }
-
-    /// Never a second to count.
-    #[inline(always)]
-    pub(crate) fn tick(&mut self) -> bool {
-        false
-    }
-
-    /// Nothing to do.
-    #[inline(always)]
-    pub(crate) fn poll<C: Chip, CS: OutputPin>(&mut self, _: &mut Wiznet<C, Spi<CS>>, _: bool) {}
-}

@@ -204,6 +204,13 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> TcpS
         self.running.locked(|r| r.server.counters()).unwrap_or_default()
     }
 
+    /// True while the chip answers and its link is up, as the once-a-second check last saw
+    /// them (the W5100 cannot tell its link: there, while the chip answers); false before
+    /// [`TcpServer::start`].
+    pub fn link_up(&self) -> bool {
+        self.running.locked(|r| r.server.health.link_up()).unwrap_or(false)
+    }
+
     /// Reads a coil, input or register by its classic reference (see [`crate::Bank::get`]).
     pub fn get(&self, reference: impl IntoReference) -> Result<u16, Error> {
         Values::get(self, reference)
@@ -266,10 +273,30 @@ impl<V: Service, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Runnin
         // With the INT line, the overflow only counts seconds and retries what was left;
         // polled, it first asks the chip whether a socket has news (one register, with
         // interrupts still off: 6 µs on the W5100) and leaves at once when none has.
+        // A chip that stopped answering is not served (its registers read 0x00 or 0xFF): the
+        // once-a-second check tries to set it up again.
         if self.lent
-            || (!second && self.server.is_quiet() && !self.service.pending() && (INT || self.chip.events() == 0))
+            || (!second
+                && (self.server.health.is_lost()
+                    || self.server.is_quiet() && !self.service.pending() && (INT || self.chip.events() == 0)))
         {
             return;
+        }
+        if second {
+            // Once a second, the chip's and the link's health (`crate::tcp::health`), with
+            // interrupts enabled (setting a chip up again takes a few milliseconds): a chip
+            // that lost its settings, or whose link went, set up again, and its sockets
+            // opened again by the serve that follows; none served while the chip does not
+            // answer (pin 2's interrupt stays masked then).
+            // SAFETY: as in `serve`: the role is marked in use.
+            unsafe { reg::enable_interrupts() };
+            self.chip.bus.configure();
+            let answers = self.server.check(&mut self.chip, &self.network);
+            // SAFETY: interrupts off again before the mark goes.
+            unsafe { reg::disable_interrupts() };
+            if !answers {
+                return;
+            }
         }
         self.serve(second);
     }
@@ -280,7 +307,7 @@ impl<V: Service, C: Chip, CS: OutputPin, const B: usize, const INT: bool> Runnin
     /// the end, comes again at once.
     #[inline(never)]
     pub(crate) fn on_event(&mut self) {
-        if !self.lent {
+        if !self.lent && !self.server.health.is_lost() {
             self.serve(false);
         }
     }

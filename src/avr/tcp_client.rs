@@ -19,12 +19,13 @@ use super::clock;
 use super::reg;
 use super::spi::Spi;
 use super::started::Started;
-use super::tcp::lease::ClientLease;
+use super::tcp::lease::Lease;
 use super::tcp::{open_chip, start_interrupts, Pin10};
 use crate::error::Error;
 use crate::link::timing::{CLOCK_HZ, TIMER0_DIVISOR};
 use crate::master::{Failure, MasterCounters, Reply, Request, Timeouts};
 use crate::tcp::client::Client;
+use crate::tcp::health::{Health, Verdict};
 use crate::tcp::server::Sockets;
 use crate::tcp::wiznet::{Chip, Wiznet};
 use crate::tcp::Network;
@@ -50,12 +51,15 @@ pub struct TcpClient<C, CS = Pin10, const N: usize = 256> {
     pub(crate) running: Started<Running<C, CS, N>>,
 }
 
-/// The running client: the pure client and the chip.
+/// The running client: the pure client, the chip and its settings (the lease's with
+/// feature `dhcp`), its health, the DHCP client.
 pub(crate) struct Running<C, CS, const N: usize> {
     client: Client<N>,
     chip: Wiznet<C, Spi<CS>>,
-    /// The DHCP client and the addresses, with feature `dhcp`.
-    pub(crate) lease: ClientLease,
+    pub(crate) network: Network,
+    health: Health,
+    /// The DHCP client, with feature `dhcp`.
+    pub(crate) lease: Lease,
     /// Overflows since the last whole poll.
     overflows: u16,
     /// The application has the SPI ([`TcpClient::with_spi`]): the poll waits.
@@ -113,8 +117,15 @@ impl<C: Chip, CS: OutputPin, const N: usize> TcpClient<C, CS, N> {
         T::Target: Sized,
     {
         let (chip, network, lease) = open_chip::<C, _, _, _>(network, spi, tc0, cs)?;
-        let lease = ClientLease::new(network, lease);
-        self.running.start(|| Running { client: Client::new(server, port), chip, lease, overflows: 0, lent: false })?;
+        self.running.start(|| Running {
+            client: Client::new(server, port),
+            chip,
+            network,
+            health: Health::new(),
+            lease,
+            overflows: 0,
+            lent: false,
+        })?;
         start_interrupts::<false>();
         Ok(())
     }
@@ -160,6 +171,21 @@ impl<C: Chip, CS: OutputPin, const N: usize> TcpClient<C, CS, N> {
     /// Connections made to the server so far (wrapping): one more after each drop.
     pub fn connections(&self) -> u16 {
         self.running.locked(|r| r.client.connections()).unwrap_or(0)
+    }
+
+    /// True while the chip answers and its link is up, as the once-a-second check last saw
+    /// them (the W5100 cannot tell its link: there, while the chip answers); false before
+    /// [`TcpClient::start`].
+    pub fn link_up(&self) -> bool {
+        self.running.locked(|r| r.health.link_up()).unwrap_or(false)
+    }
+
+    /// Times the chip was set up again (reset, addresses, the connection made again) after
+    /// it lost its settings or stopped answering, and times the link went down (W5500),
+    /// each wrapping: as the server's [`crate::tcp::TcpCounters`]' `chip_resets` and
+    /// `link_losses`.
+    pub fn chip_resets_and_link_losses(&self) -> (u16, u16) {
+        self.running.locked(|r| (r.health.restarts(), r.health.losses())).unwrap_or_default()
     }
 
     /// Sets the response timeout (from the request's start to its reply) and the retries,
@@ -208,19 +234,26 @@ impl<C: Chip, CS: OutputPin, const N: usize> Running<C, CS, N> {
     #[inline(never)]
     fn poll(&mut self) {
         self.overflows += 1;
-        let second = self.lease.tick();
-        if self.lent
-            || self.overflows < OVERFLOWS_PER_SECOND && !second && self.client.is_quiet() && self.chip.events() == 0
-        {
+        let second = self.overflows >= OVERFLOWS_PER_SECOND;
+        if self.lent || !second && self.client.is_quiet() && self.chip.events() == 0 {
             return;
         }
-        self.overflows = 0;
+        if second {
+            self.overflows = 0;
+        }
         let now = clock::millis();
         // SAFETY: the client is marked in use (`access_marked`), so nothing else reaches it
         // meanwhile; other interrupts may run.
         unsafe { reg::enable_interrupts() };
         self.chip.bus.configure();
-        self.lease.poll(&mut self.chip, second);
+        self.lease.poll(&mut self.chip, &mut self.network, second);
+        // Once a second, the chip's and the link's health (`crate::tcp::health`): a chip
+        // that lost its settings set up again and the connection made again, as after a
+        // link loss. While the chip does not answer, the client goes on (its connection
+        // attempts fail, a request times out as usual).
+        if second && self.health.check(&mut self.chip, &self.network) == Verdict::Reopen {
+            self.client.reconnect(&mut self.chip, now);
+        }
         self.client.poll(&mut self.chip, now);
         // SAFETY: interrupts off again before the mark goes (`access_marked`'s promise).
         unsafe { reg::disable_interrupts() };

@@ -304,6 +304,13 @@ impl<const N: usize> Client<N> {
         }
     }
 
+    /// The connection dropped and made again at the next poll: the chip was set up again
+    /// (`super::health`), or the link went. A request under way is sent again on the new
+    /// connection, or times out as usual.
+    pub fn reconnect<S: Sockets>(&mut self, chip: &mut S, now: u32) {
+        self.close(chip, now);
+    }
+
     /// Closes the socket (an RST to a connected server); another connection at `retry_at`.
     fn close<S: Sockets>(&mut self, chip: &mut S, retry_at: u32) {
         chip.command(SOCKET, command::CLOSE);

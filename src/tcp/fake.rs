@@ -69,6 +69,14 @@ pub(crate) struct Fake {
     pub(crate) socks: [Sock; 4],
     /// Reads of the received count and of received bytes: what a poll costs.
     pub(crate) reads: usize,
+    /// The chip lost its settings (a reset): the health check finds it so.
+    pub(crate) lost: bool,
+    /// The chip answers nothing: it cannot be set up again.
+    pub(crate) hung: bool,
+    /// The link is down.
+    pub(crate) link_down: bool,
+    /// Resets the health check tried, answered or not.
+    pub(crate) restarts: usize,
 }
 
 impl Fake {
@@ -113,6 +121,16 @@ impl Fake {
         }
         sock.ir |= 0x04;
         true
+    }
+
+    /// The chip resets while it runs (a brown-out): every socket closed, its peer's
+    /// connection reset, the settings lost.
+    pub(crate) fn chip_reset(&mut self) {
+        for sock in &mut self.socks {
+            sock.reset |= sock.status != state::CLOSED && sock.status != state::LISTEN;
+            sock.status = state::CLOSED;
+        }
+        self.lost = true;
     }
 
     /// The peer takes what was sent and acknowledges it.

@@ -34,6 +34,7 @@
 //! response timeout that often and never starves the live ones. Any answer, an exception
 //! too, ends the run of misses. The gateway keeps this health for [`TRACKED`] slaves.
 
+use super::health::Health;
 use super::mbap::HEADER;
 use super::network::Network;
 use super::server::{Answered, Handler, Server, Sockets};
@@ -384,14 +385,18 @@ pub struct Gate<'a, L, R> {
     pub settings: &'a GatewaySettings,
     /// Connections waiting for the line as the poll began (a status register).
     pub waiting: u8,
+    /// The chip's and the link's health as the poll began (status registers 9-11).
+    pub health: Health,
     /// The first register of the read of its own registers being answered.
     pub first: u16,
 }
 
 /// The gateway's own registers, at its own unit: input registers (FC 4) that FC 3 reads
 /// too. 0–7 the counters in [`GatewayCounters`]' order, 8 the connections waiting for the
-/// line; the slaves' health from [`HEALTH_REGISTERS`] on.
-pub const STATUS_REGISTERS: u16 = 9;
+/// line, 9 the chip's resets and 10 the link's losses ([`super::TcpCounters`]' `chip_resets`,
+/// `link_losses`), 11 1 while the link is up; the slaves' health from [`HEALTH_REGISTERS`]
+/// on.
+pub const STATUS_REGISTERS: u16 = 12;
 
 /// Where the slaves' health starts among the gateway's own registers: four registers for
 /// address n from `HEALTH_REGISTERS + 4 × n` (1000 + 4 × n): its answers, its misses, its
@@ -443,6 +448,9 @@ impl<L: RtuSide, R: Routes> Gate<'_, L, R> {
         Some(match index {
             0..=7 => gateway.counts[usize::from(index)],
             8 => u16::from(self.waiting),
+            9 => self.health.restarts(),
+            10 => self.health.losses(),
+            11 => u16::from(self.health.link_up()),
             HEALTH_REGISTERS..=HEALTH_END => {
                 let at = index - HEALTH_REGISTERS;
                 let health = gateway.health((at / 4) as u8, self.settings);

@@ -19,6 +19,7 @@
 //! is one ADU, checked as over TCP and answered with a datagram of its own to its sender.
 //! A datagram the allow-list refuses costs the read of that header and nothing more.
 
+use super::health::Health;
 use super::mbap::{self, Header, Refused, HEADER};
 use super::network::Network;
 use super::wiznet::{command, state, RECV, SEND_OK};
@@ -98,6 +99,12 @@ pub struct TcpCounters {
     pub idle_closed: u16,
     /// Connections closed, idle, to make room for a newcomer.
     pub evicted: u16,
+    /// Times the chip was set up again (reset, addresses, every socket opened again) after
+    /// it lost its settings (a brown-out, its reset line) or stopped answering.
+    pub chip_resets: u16,
+    /// Times the link went down (W5500; always 0 on the W5100, which cannot tell): the
+    /// connections were closed then.
+    pub link_losses: u16,
     /// RTU over TCP (feature `rtu-over-tcp`): frames dropped for a bad CRC, or bytes that
     /// make no frame (a length past 256 bytes); what the socket held was discarded.
     #[cfg(feature = "rtu-over-tcp")]
@@ -129,8 +136,8 @@ enum Count {
     BadDatagram,
 }
 
-/// How many counters there are: [`TcpCounters`]' fields.
-const COUNTS: usize = core::mem::size_of::<TcpCounters>() / 2;
+/// How many counters there are: [`Count`]'s places (the chip's health counts its own).
+const COUNTS: usize = Count::Evicted as usize + 1 + cfg!(feature = "rtu-over-tcp") as usize + cfg!(feature = "udp") as usize;
 
 /// Where a socket is, as the server last saw it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -174,6 +181,8 @@ pub struct Server<const B: usize = { mbap::MAX_ADU }> {
     first: u8,
     /// The counters, in the order of [`TcpCounters`]'s fields.
     counts: [u16; COUNTS],
+    /// The chip's and the link's health (`super::health`).
+    pub(crate) health: Health,
     buf: [u8; B],
 }
 
@@ -278,6 +287,7 @@ impl<const B: usize> Server<B> {
             changed: 0,
             first: 0,
             counts: [0; COUNTS],
+            health: Health::new(),
             buf: [0; B],
         }
     }
@@ -296,6 +306,8 @@ impl<const B: usize> Server<B> {
             refused,
             idle_closed,
             evicted,
+            chip_resets: self.health.restarts(),
+            link_losses: self.health.losses(),
             #[cfg(feature = "rtu-over-tcp")]
             bad_frame: self.counts[Count::BadFrame as usize],
             #[cfg(feature = "udp")]

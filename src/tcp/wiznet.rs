@@ -170,6 +170,15 @@ pub trait Chip {
     /// Each socket's events that reach the INT line (the W5500's Sn_IMR), if the chip can
     /// choose them.
     const SOCKET_EVENT_BITS: Option<u8> = None;
+    /// The common register whose bit 0 is the link (1: up; the W5500's PHYCFGR), if the chip
+    /// has one.
+    const LINK: Option<u16> = None;
+    /// A register [`Wiznet::init`] sets and the value it gives it, neither 0x00 nor 0xFF (what
+    /// a hung chip reads) nor the register's value after a reset: the health check reads it
+    /// back (`super::health`). The W5100's IMR (0x0F, every socket's events; 0 after a
+    /// reset), the W5500's socket 0 Sn_IMR ([`Chip::SOCKET_EVENT_BITS`], 0x0F; 0xFF after a
+    /// reset).
+    const SETTING: (Block, u16, u8);
     /// Reads (`write` false: each byte of `buf` replaced by the one received) or writes
     /// `buf` at `offset` in `block`; in a buffer, `offset` is the free-running pointer.
     fn transfer<B: Bus>(bus: &mut B, block: Block, offset: u16, buf: &mut [u8], write: bool);
@@ -206,6 +215,7 @@ impl Chip for W5100 {
     const SOCKET_EVENTS: u16 = 0x0015;
     const SOCKET_EVENT_MASK: u16 = 0x0016;
     const IDENTITY: (u16, u8) = (0x001B, 0x55);
+    const SETTING: (Block, u16, u8) = (Block::COMMON, W5100::SOCKET_EVENT_MASK, 0x0F);
 
     #[inline(never)]
     fn transfer<B: Bus>(bus: &mut B, block: Block, offset: u16, buf: &mut [u8], write: bool) {
@@ -243,6 +253,8 @@ impl Chip for W5500 {
     const SOCKET_EVENTS: u16 = 0x0017;
     const SOCKET_EVENT_MASK: u16 = 0x0018;
     const IDENTITY: (u16, u8) = (0x0039, 0x04);
+    const LINK: Option<u16> = Some(0x002E);
+    const SETTING: (Block, u16, u8) = (Block::socket(0), sn::IMR as u16, 0x0F);
 
     #[inline(never)]
     fn transfer<B: Bus>(bus: &mut B, block: Block, offset: u16, buf: &mut [u8], write: bool) {
@@ -281,6 +293,7 @@ impl<C: Chip, B: Bus> Wiznet<C, B> {
 
     /// Resets the chip, checks it is a `C`, and gives it `network`'s addresses; socket
     /// events reach the INT pin (for a board that wires it). False when no `C` answers.
+    /// (`network` is only read: mutable so that its addresses go to the chip without a copy.)
     pub fn init(&mut self, network: &Network) -> bool {
         self.set(Block::COMMON, MR, RESET);
         // The reset clears itself within microseconds; a chip that never clears it is not
@@ -306,7 +319,7 @@ impl<C: Chip, B: Bus> Wiznet<C, B> {
 
     /// The byte at `offset` in `block`.
     #[inline(never)]
-    fn get(&mut self, block: Block, offset: u16) -> u8 {
+    pub(crate) fn get(&mut self, block: Block, offset: u16) -> u8 {
         let mut byte = [0];
         C::transfer(&mut self.bus, block, offset, &mut byte, false);
         byte[0]

@@ -264,15 +264,21 @@ impl Rig {
     }
 
     fn serve(&mut self) {
+        self.serve_with(false);
+    }
+
+    /// One pass of the server, with `second` or not.
+    fn serve_with(&mut self, second: bool) {
         let mut gate = Gate {
             gateway: &mut self.gateway,
             line: &mut self.line,
             routes: &NotNine,
             settings: &self.settings,
             waiting: self.server.waiting(),
+            health: self.server.health,
             first: 0,
         };
-        self.server.poll(&mut self.chip, &self.net, &mut gate, false);
+        self.server.poll(&mut self.chip, &self.net, &mut gate, second);
     }
 
     /// Polls until nothing moves.
@@ -612,7 +618,7 @@ fn expected(transaction: u16, unit: u8, start: u16, qty: u16) -> Vec<u8> {
         1 => read_reply(transaction, unit, 0x100, start, qty),
         2 => read_reply(transaction, unit, 0x200, start, qty),
         3 => exception(transaction, unit, 3, 0x0B),
-        // The gateway's own registers end at 9.
+        // The gateway's own registers end at 12.
         0xFF => exception(transaction, unit, 3, 0x02),
         _ => exception(transaction, unit, 3, 0x0A),
     }
@@ -641,7 +647,7 @@ fn every_request_of_every_connection_gets_exactly_its_one_answer() {
                     stream.extend([(transaction >> 8) as u8, transaction as u8, 0, 0, 0, 6, 0, 6, 0, 0, 0, 1]);
                     continue;
                 }
-                let start = (next(&mut seed) % 5) as u16 + if unit == 0xFF { 9 } else { 0 };
+                let start = (next(&mut seed) % 5) as u16 + if unit == 0xFF { 12 } else { 0 };
                 let qty = 1 + (next(&mut seed) % 5) as u16;
                 match next(&mut seed) % 8 {
                     // Padded: 03 from a slave's unit (0A and 0B come first), nothing on
@@ -733,7 +739,7 @@ fn the_gateways_own_registers_count_what_it_did() {
     rig.chip.deliver(
         0,
         &[
-            read(10, 0xFF, 5, 5),
+            read(10, 0xFF, 8, 5),
             read(11, 0xFF, 200, 60),
             read(12, 0xFF, 2020, 5),
             read(13, 0xFF, 0, 0),
@@ -745,6 +751,34 @@ fn the_gateways_own_registers_count_what_it_did() {
     let expected =
         [exception(10, 0xFF, 3, 2), exception(11, 0xFF, 3, 2), exception(12, 0xFF, 3, 2), exception(13, 0xFF, 3, 3)];
     assert_eq!(answers(&mut rig), [expected.concat(), exception(14, 0xFF, 6, 1)].concat());
+}
+
+#[test]
+fn the_gateways_own_registers_9_to_11_are_the_chips_resets_link_losses_and_link() {
+    let mut rig = Rig::new([(1, Slave::Bank(regs(0x100)))]);
+    let ask = |rig: &mut Rig, t: u16| {
+        // The poll with `second`, which follows the check.
+        rig.serve_with(true);
+        if rig.chip.socks[0].status != crate::tcp::wiznet::state::ESTABLISHED {
+            rig.chip.connect(0, [10, 0, 0, 7]);
+        }
+        let mut status = read(t, 0xFF, 9, 3);
+        status[7] = 4;
+        rig.chip.deliver(0, &status);
+        rig.settle();
+        let answer = answers(rig);
+        answer[9..].chunks(2).map(|c| u16::from_be_bytes([c[0], c[1]])).collect::<Vec<_>>()
+    };
+    assert_eq!(ask(&mut rig, 1), [0, 0, 1], "no reset, no loss, the link up");
+    rig.chip.link_down = true;
+    assert!(rig.server.check(&mut rig.chip, &NET));
+    assert_eq!(ask(&mut rig, 2), [0, 1, 0], "a loss, the link down");
+    rig.chip.link_down = false;
+    rig.chip.chip_reset();
+    assert!(rig.server.check(&mut rig.chip, &NET));
+    assert_eq!(ask(&mut rig, 3), [1, 1, 0], "a reset; the link is read at the next check");
+    assert!(rig.server.check(&mut rig.chip, &NET));
+    assert_eq!(ask(&mut rig, 4), [1, 1, 1], "the link up again");
 }
 
 /// An ADU for `unit` with the PDU `pdu`, its length field from it.

@@ -65,6 +65,9 @@ commands (stdin or --control), one per line:
   adc A0 2500                    set an analog input, in mV
   pins                           print the watched pins now
   reset                          press the reset button
+  link down | link up            pull the shield's cable, plug it back (--wiznet)
+  chip reset                     reset the shield's chip alone (its defaults, sockets closed)
+  chip hang [ff|00] | chip unhang  the chip answers nothing (MISO stuck), then again
 ";
 
 /// What the command line asked for.

@@ -7,6 +7,11 @@
 //! adc A0 2500    put 2500 mV on A0 (also `adc 0 2500`)
 //! pins           print the watched output pins now
 //! reset          press the reset button (the board restarts, through its bootloader if it has one)
+//! link down      pull the shield's cable (--wiznet): nothing arrives, nothing sent arrives
+//! link up        plug it back
+//! chip reset     reset the shield's chip alone (a brown-out): its registers to their defaults
+//! chip hang ff   the chip answers nothing: MISO stuck at 0xFF (or 00), writes ignored
+//! chip unhang    the chip answers again, as it was
 //! ```
 //!
 //! The start-up options use the same values: `--pin 6=0`, `--adc A0=2500`.
@@ -24,10 +29,26 @@ pub enum Command {
     ShowPins,
     /// Press the reset button.
     Reset,
+    /// A fault of the shield's chip (`--wiznet`).
+    Chip(Fault),
+}
+
+/// A fault of the simulated Ethernet chip, while the board runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fault {
+    /// The link goes down (`true`) or comes back.
+    Link(bool),
+    /// The chip resets by itself: registers to their defaults, sockets closed.
+    Reset,
+    /// The chip hangs, MISO stuck at this value.
+    Hang(u8),
+    /// The chip answers again.
+    Unhang,
 }
 
 /// Usage of the commands, for error messages.
-pub const USAGE: &str = "commands: pin N 0|1|z, adc A0..A5 MV, pins, reset";
+pub const USAGE: &str =
+    "commands: pin N 0|1|z, adc A0..A5 MV, pins, reset, link down|up, chip reset|hang [00|ff]|unhang";
 
 impl Command {
     /// Parses one command line; `Ok(None)` for a blank line or a `#` comment.
@@ -40,6 +61,12 @@ impl Command {
             ["adc", channel, mv] => Ok(Some(Command::Adc(parse_channel(channel)?, parse_mv(mv)?))),
             ["pins"] => Ok(Some(Command::ShowPins)),
             ["reset"] => Ok(Some(Command::Reset)),
+            ["link", "down"] => Ok(Some(Command::Chip(Fault::Link(false)))),
+            ["link", "up"] => Ok(Some(Command::Chip(Fault::Link(true)))),
+            ["chip", "reset"] => Ok(Some(Command::Chip(Fault::Reset))),
+            ["chip", "hang"] => Ok(Some(Command::Chip(Fault::Hang(0xFF)))),
+            ["chip", "hang", miso] => Ok(Some(Command::Chip(Fault::Hang(parse_miso(miso)?)))),
+            ["chip", "unhang"] => Ok(Some(Command::Chip(Fault::Unhang))),
             _ => Err(format!("cannot understand `{}` ({USAGE})", line.trim())),
         }
     }
@@ -66,7 +93,27 @@ impl Command {
                 Ok(())
             }
             Command::ShowPins => Ok(()),
+            Command::Chip(fault) => {
+                if let Some(chip) = uno.wiznet_mut() {
+                    match fault {
+                        Fault::Link(up) => chip.set_link(up),
+                        Fault::Reset => chip.reset(),
+                        Fault::Hang(miso) => chip.hang(miso),
+                        Fault::Unhang => chip.unhang(),
+                    }
+                }
+                Ok(())
+            }
         }
+    }
+}
+
+/// What a hung chip's MISO reads: `00` or `ff` (`0x` before it allowed).
+fn parse_miso(text: &str) -> Result<u8, String> {
+    match text.trim_start_matches("0x").to_ascii_lowercase().as_str() {
+        "00" | "0" => Ok(0x00),
+        "ff" => Ok(0xFF),
+        _ => Err(format!("`{text}`: a hung chip reads 00 or ff")),
     }
 }
 
@@ -116,6 +163,13 @@ mod tests {
         assert_eq!(Command::parse("adc A0 2500"), Ok(Some(Command::Adc(0, 2500))));
         assert_eq!(Command::parse("adc 2 5000"), Ok(Some(Command::Adc(2, 5000))));
         assert_eq!(Command::parse("pins"), Ok(Some(Command::ShowPins)));
+        assert_eq!(Command::parse("link down"), Ok(Some(Command::Chip(Fault::Link(false)))));
+        assert_eq!(Command::parse("link up"), Ok(Some(Command::Chip(Fault::Link(true)))));
+        assert_eq!(Command::parse("chip reset"), Ok(Some(Command::Chip(Fault::Reset))));
+        assert_eq!(Command::parse("chip hang"), Ok(Some(Command::Chip(Fault::Hang(0xFF)))));
+        assert_eq!(Command::parse("chip hang 00"), Ok(Some(Command::Chip(Fault::Hang(0x00)))));
+        assert_eq!(Command::parse("chip hang 0xFF"), Ok(Some(Command::Chip(Fault::Hang(0xFF)))));
+        assert_eq!(Command::parse("chip unhang"), Ok(Some(Command::Chip(Fault::Unhang))));
         assert_eq!(Command::parse("# a comment"), Ok(None));
         assert_eq!(Command::parse(""), Ok(None));
     }
@@ -126,6 +180,8 @@ mod tests {
         assert!(Command::parse("adc A6 100").unwrap_err().contains("not an analog input"));
         assert!(Command::parse("adc A0 6000").unwrap_err().contains("0-5000"));
         assert!(Command::parse("led 13").unwrap_err().contains("commands:"));
+        assert!(Command::parse("chip hang 7f").unwrap_err().contains("00 or ff"));
+        assert!(Command::parse("link sideways").unwrap_err().contains("commands:"));
     }
 
     #[test]

@@ -88,6 +88,9 @@ fn execute(uno: &mut Uno, line: &str, watch: &[u8]) {
     match Command::parse(line) {
         Ok(None) => {}
         Ok(Some(Command::ShowPins)) => println!("{}{}", pins_line(uno, watch), at(uno)),
+        Ok(Some(Command::Chip(_))) if uno.wiznet().is_none() => {
+            eprintln!("virtual-uno: {}: no Ethernet shield (--wiznet w5100 or w5500)", line.trim());
+        }
         Ok(Some(cmd)) => match cmd.apply(uno) {
             Ok(()) => println!("set: {}", line.trim()),
             Err(e) => eprintln!("virtual-uno: {}: {e}", line.trim()),

@@ -19,12 +19,15 @@
 //! finds no room dropped; SEND as one datagram to Sn_DIPR:Sn_DPORT: [`W5x00::udp_deliver`],
 //! [`W5x00::udp_sent`]), buffer sizes (TMSR/RMSR, Sn_TXBUF_SIZE/Sn_RXBUF_SIZE). Not:
 //! IP raw and MAC raw data (the sockets open, nothing moves), PPPoE, the INT pin,
-//! keep-alives, the W5500's PHY beyond PHYCFGR saying the link is up. Commands take effect
-//! at once; a SEND completes as soon as the peer has taken its data.
+//! keep-alives, the W5500's PHY beyond PHYCFGR's link bit. Commands take effect at once; a
+//! SEND completes as soon as the peer has taken its data. Faults a test plays
+//! ([`W5x00::set_link`], [`W5x00::reset`], [`W5x00::hang`]): the link down and up, a reset
+//! while the board runs, a chip that answers nothing.
 
 mod bridge;
 mod connection;
 pub mod dhcp_server;
+mod faults;
 mod network;
 pub mod regs;
 mod socket;
@@ -144,6 +147,10 @@ pub struct W5x00 {
     spi_bytes: u64,
     /// The accesses recorded since [`W5x00::record_spi`] turned the record on.
     spi_log: Option<Vec<SpiAccess>>,
+    /// The link is up (`faults`).
+    link: bool,
+    /// The chip hangs, MISO stuck at this value (`faults`).
+    hung: Option<u8>,
 }
 
 impl W5x00 {
@@ -164,6 +171,8 @@ impl W5x00 {
             open_pointers: 0,
             spi_bytes: 0,
             spi_log: None,
+            link: true,
+            hung: None,
         };
         chip.reset();
         chip
@@ -251,6 +260,10 @@ impl W5x00 {
             return None;
         }
         self.spi_bytes += 1;
+        if let Some(miso) = self.hung {
+            // Nothing decoded, nothing written: MISO stuck.
+            return Some(miso);
+        }
         let frame_start = match self.model {
             Wiznet::W5100 => self.frame.index.is_multiple_of(4),
             Wiznet::W5500 => self.frame.index == 0,

@@ -58,6 +58,9 @@ impl W5x00 {
     /// Sn_DIPR and Sn_DPORT set, CON) and its index comes back; `None` if no socket listens on
     /// it (a real chip answers such a SYN with an RST).
     pub fn connect(&mut self, port: u16, peer: SocketAddrV4) -> Option<usize> {
+        if !self.reachable() {
+            return None;
+        }
         let n = self.listening(port)?;
         let id = self.next_id;
         self.next_id += 1;
@@ -69,6 +72,9 @@ impl W5x00 {
     /// The peer accepts socket `n`'s CONNECT (SOCK_SYNSENT): ESTABLISHED, CON. `false` if the
     /// socket is not connecting.
     pub fn accept_connect(&mut self, n: usize) -> bool {
+        if !self.reachable() {
+            return false;
+        }
         let Some(s) = self.sockets.get_mut(n).filter(|s| s.sr == state::SYNSENT) else { return false };
         let ip = std::net::Ipv4Addr::from(u32::from_be_bytes([
             s.reg(sn::DIPR),
@@ -100,7 +106,7 @@ impl W5x00 {
         self.sockets
             .iter()
             .enumerate()
-            .filter(|(_, s)| s.sr == state::SYNSENT)
+            .filter(|(_, s)| s.sr == state::SYNSENT && self.reachable())
             .map(|(n, s)| {
                 let ip = [s.reg(sn::DIPR), s.reg(sn::DIPR + 1), s.reg(sn::DIPR + 2), s.reg(sn::DIPR + 3)];
                 (n, SocketAddrV4::new(ip.into(), s.reg16(sn::DPORT)))
@@ -117,8 +123,8 @@ impl W5x00 {
     /// (Sn_RX_RSR grows, RECV); returns how many. None while the socket is not ESTABLISHED
     /// (or FIN_WAIT) or its peer is gone.
     pub fn deliver(&mut self, n: usize, bytes: &[u8]) -> usize {
-        let now = self.clock;
-        let Some(s) = self.sockets.get_mut(n) else { return 0 };
+        let (now, reachable) = (self.clock, self.reachable());
+        let Some(s) = self.sockets.get_mut(n).filter(|_| reachable) else { return 0 };
         s.land(&mut self.rx_mem[self.rx_layout[n].clone()], bytes, now)
     }
 
@@ -127,7 +133,8 @@ impl W5x00 {
     /// the firmware makes room (a full buffer: the peer retransmits). For a request split
     /// across segments, or two in one segment, as the test times them.
     pub fn deliver_at(&mut self, n: usize, bytes: &[u8], cycle: u64) {
-        let Some(s) = self.sockets.get_mut(n) else { return };
+        let reachable = self.reachable();
+        let Some(s) = self.sockets.get_mut(n).filter(|_| reachable) else { return };
         s.queue(bytes.to_vec(), cycle);
         s.pump_inbound(&mut self.rx_mem[self.rx_layout[n].clone()], self.clock);
     }
@@ -197,14 +204,16 @@ impl W5x00 {
     /// Socket `n`'s peer sends its FIN: ESTABLISHED → CLOSE_WAIT, FIN_WAIT → CLOSED; DISCON.
     /// Data queued with [`W5x00::deliver_at`] and not landed is dropped.
     pub fn peer_fin(&mut self, n: usize) {
-        if let Some(s) = self.sockets.get_mut(n) {
+        let reachable = self.reachable();
+        if let Some(s) = self.sockets.get_mut(n).filter(|_| reachable) {
             s.peer_fin();
         }
     }
 
     /// Socket `n`'s peer resets the connection: CLOSED, DISCON.
     pub fn peer_reset(&mut self, n: usize) {
-        if let Some(s) = self.sockets.get_mut(n) {
+        let reachable = self.reachable();
+        if let Some(s) = self.sockets.get_mut(n).filter(|_| reachable) {
             s.peer_reset();
         }
     }

@@ -778,3 +778,73 @@ fn udp_pointers_wrap_past_0xffff_and_past_the_buffer_end() {
         assert_eq!(d.read16(0, sn::TX_RD), 0x0004);
     }
 }
+
+// ---- faults: the link, a reset while running, a hung chip --------------------------------
+
+#[test]
+fn w5500_phycfgr_bit_0_is_the_link() {
+    let mut d = Driver::new(Wiznet::W5500);
+    assert_eq!(d.common_read(0x2E, 1)[0] & 1, 1);
+    d.chip.set_link(false);
+    assert_eq!(d.common_read(0x2E, 1)[0] & 1, 0);
+    d.chip.set_link(true);
+    assert_eq!(d.common_read(0x2E, 1)[0] & 1, 1);
+}
+
+#[test]
+fn with_the_link_down_nothing_arrives_and_the_chips_data_times_out() {
+    for model in BOTH {
+        let mut d = Driver::connected(model, 0);
+        d.chip.set_link(false);
+        assert_eq!(d.chip.deliver(0, b"lost"), 0, "{model}: data from the peer does not arrive");
+        d.chip.peer_reset(0);
+        assert_eq!(d.sr(0), state::ESTABLISHED, "{model}: nor does its RST");
+        d.send(0, b"reply");
+        assert!(d.chip.take_sent(0).is_empty(), "{model}: the reply goes nowhere");
+        let rto = d.chip.next_due().expect("the retransmissions time out");
+        d.cycle = rto;
+        assert_eq!(d.sr(0), state::CLOSED, "{model}: timed out");
+        assert!(d.chip.connection(0).unwrap().closed());
+        d.listen(1, 502);
+        assert_eq!(d.chip.connect(502, peer()), None, "{model}: no SYN arrives");
+        d.chip.set_link(true);
+        assert_eq!(d.chip.connect(502, peer()), Some(1), "{model}: the link back, a new connection comes");
+        assert_eq!(d.chip.deliver(1, b"ok"), 2);
+    }
+}
+
+#[test]
+fn a_reset_while_running_restores_the_defaults_and_resets_the_peers() {
+    for model in BOTH {
+        let mut d = Driver::connected(model, 0);
+        d.common_write(0x0F, &[192, 168, 1, 177]);
+        d.chip.reset();
+        assert_eq!(d.common_read(0x0F, 4), [0; 4], "{model}: IP 0.0.0.0");
+        assert_eq!(d.sr(0), state::CLOSED);
+        assert!(d.chip.connection(0).unwrap().reset_by_chip(), "{model}: the peer got an RST");
+    }
+}
+
+#[test]
+fn a_hung_chip_reads_its_stuck_value_takes_no_write_and_comes_back_as_it_was() {
+    for model in BOTH {
+        for stuck in [0x00, 0xFF] {
+            let mut d = Driver::connected(model, 0);
+            d.common_write(0x0F, &[192, 168, 1, 177]);
+            d.listen(1, 502);
+            d.chip.hang(stuck);
+            assert_eq!(d.chip.connect(502, peer()), None, "{model}: no SYN taken while hung");
+            assert_eq!(d.chip.deliver(0, b"lost"), 0, "{model}: nor data");
+            assert_eq!(d.common_read(0x0F, 4), [stuck; 4], "{model}");
+            assert_eq!(d.frame(&[0x0F, 0x00, 0x0F, 0x00]), [stuck; 4], "{model}: every byte, address bytes too");
+            // A write of SIPR[0] = 10, in the chip's own frame.
+            match model {
+                Wiznet::W5100 => d.frame(&[w5100::WRITE, 0x00, 0x0F, 10]),
+                Wiznet::W5500 => d.frame(&[0x00, 0x0F, w5500::control(0, true), 10]),
+            };
+            d.chip.unhang();
+            assert_eq!(d.common_read(0x0F, 4), [192, 168, 1, 177], "{model}: no write taken");
+            assert_eq!(d.sr(0), state::ESTABLISHED, "{model}: its connection as it was");
+        }
+    }
+}

@@ -24,7 +24,8 @@ const SIR: u16 = 0x17;
 pub(super) const RTR: usize = 0x19;
 /// RCR.
 pub(super) const RCR: usize = 0x1B;
-/// PHYCFGR: bits 6..3 configurable; RST reads 1; the link is up at 100 Mbit/s full duplex.
+/// PHYCFGR: bits 6..3 configurable; RST reads 1; 100 Mbit/s full duplex, bit 0 the link
+/// ([`W5x00::set_link`]).
 const PHYCFGR: u16 = 0x2E;
 /// VERSIONR: 0x04.
 const VERSIONR: u16 = 0x39;
@@ -133,7 +134,7 @@ impl W5x00 {
             Block::Common => match addr {
                 IR => self.common[usize::from(IR)] & 0xF0,
                 SIR => self.socket_interrupts(),
-                PHYCFGR => 0x80 | self.common[usize::from(PHYCFGR)] & 0x78 | 0x07,
+                PHYCFGR => 0x80 | self.common[usize::from(PHYCFGR)] & 0x78 | 0x06 | u8::from(self.link),
                 VERSIONR => 0x04,
                 0..=COMMON_END => self.common[usize::from(addr)],
                 _ => 0,
