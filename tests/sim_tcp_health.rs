@@ -177,6 +177,54 @@ fn a_link_pulled_for_10_s_frees_every_socket_and_four_masters_are_served_again()
 }
 
 #[test]
+fn a_link_that_flaps_for_6_s_leaves_no_socket_held_and_the_seconds_counted() {
+    let mut uno = boot(Wiznet::W5500);
+    let mut masters = four_masters(&mut uno);
+    let seconds_before = masters[0].seconds;
+    // Down 300 ms, up 400 ms, for 6 s: some checks see the link down, some up, some
+    // never see the flap at all.
+    let started = uno.now();
+    let mut up = true;
+    let mut toggles = 0;
+    // The down phases in which every socket was freed (the check fell in them).
+    let mut freed = std::collections::BTreeSet::new();
+    run(&mut uno, &mut masters, 6_020_000, |uno| {
+        let since = cycles_to_us(uno.now() - started) as u64;
+        if !up && all_listen(uno) {
+            freed.insert(since / 700_000);
+        }
+        let want_up = since % 700_000 >= 300_000;
+        if want_up != up {
+            up = want_up;
+            toggles += 1;
+            uno.wiznet_mut().unwrap().set_link(up);
+        }
+    });
+    assert!(toggles >= 16, "the link flapped {toggles} times");
+    // A check once a second falls in a 300 ms down phase now and then: each time, every
+    // connection is closed (its master is gone with the link) and the sockets listen.
+    eprintln!("w5500, link flapping: every socket freed in down phases {freed:?}");
+    assert!(freed.len() >= 2, "sockets freed in only {} of the 9 down phases", freed.len());
+    uno.wiznet_mut().unwrap().set_link(true);
+    let back = uno.now();
+    // Every socket either serves a master or listens: none is left closed or half-open.
+    let times = recovered(&mut uno, &mut masters, back, 2_500_000, "w5500, link flapping for 6 s");
+    let chip = uno.wiznet().unwrap();
+    for n in 0..chip.socket_count() {
+        assert!(
+            matches!(chip.status(n), state::LISTEN | state::ESTABLISHED),
+            "socket {n} left in state {:#04x}",
+            chip.status(n)
+        );
+    }
+    assert!(times.iter().all(|&ms| ms < 2_000.0), "{times:?}");
+    // The main loop was never held: its seconds went on through the flapping.
+    run(&mut uno, &mut masters, 100_000, |_| {});
+    let counted = masters[0].seconds.wrapping_sub(seconds_before);
+    assert!((6..=9).contains(&counted), "the main loop counted {counted} s over about 8 s");
+}
+
+#[test]
 fn a_chip_reset_while_four_masters_poll_is_set_up_again_and_every_master_served() {
     for chip in [Wiznet::W5100, Wiznet::W5500] {
         let mut uno = boot(chip);
