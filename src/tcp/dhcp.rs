@@ -208,38 +208,56 @@ pub(crate) trait Datagram {
     fn read(&mut self, at: u16, buf: &mut [u8]);
 }
 
-/// The options an answer's checks and the lease need, 4 bytes each, in [`Answer::values`]'s
-/// order (a router list gives its first).
-const KEPT: [u8; 6] = [option::SERVER, option::LEASE, option::T1, option::T2, option::SUBNET, option::ROUTER];
+/// The options an answer's checks and the lease need, 4 bytes each, at their place in
+/// [`Answer::values`] (a router list gives its first); the message type (option 53, 1
+/// byte) is kept after them.
 const SERVER_ID: usize = 0;
 const LEASE: usize = 1;
 const T1: usize = 2;
 const T2: usize = 3;
 const SUBNET_MASK: usize = 4;
 const ROUTER: usize = 5;
+const KIND: usize = 6;
 
 /// What an answer holds that the client keeps.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct Answer {
-    /// Option 53 (0: none).
-    kind: u8,
     /// yiaddr.
     address: [u8; 4],
-    /// Bit n: `values[n]` (option `KEPT[n]`) was there.
+    /// Bit n: `values[n]` was there.
     seen: u8,
-    values: [[u8; 4]; KEPT.len()],
+    values: [[u8; 4]; KIND + 1],
 }
 
 impl Answer {
-    /// Option `KEPT[n]`, if it was there.
-    fn get(&self, n: usize) -> Option<[u8; 4]> {
-        (self.seen & 1 << n != 0).then_some(self.values[n])
+    /// True when `values[n]` was there.
+    fn has(&self, n: usize) -> bool {
+        self.seen & 1 << n != 0
     }
 
-    /// Option `KEPT[n]` as a number of seconds, if it was there.
-    fn seconds(&self, n: usize) -> Option<u32> {
-        self.get(n).map(u32::from_be_bytes)
+    /// Option 53 (0: none).
+    fn kind(&self) -> u8 {
+        self.values[KIND][0]
     }
+}
+
+/// Seconds given in 4 bytes as the client keeps them: [`FOREVER`] for [`INFINITE`], at
+/// most [`LONGEST`] otherwise.
+fn seconds(value: [u8; 4]) -> u16 {
+    if value == [255; 4] {
+        FOREVER
+    } else if value[0] | value[1] != 0 {
+        LONGEST
+    } else {
+        u16::from_be_bytes([value[2], value[3]]).min(LONGEST)
+    }
+}
+
+/// The byte at `at` of a datagram.
+fn byte_at(datagram: &mut impl Datagram, at: u16) -> u8 {
+    let mut byte = [0];
+    datagram.read(at, &mut byte);
+    byte[0]
 }
 
 /// The DHCP client.
@@ -488,8 +506,8 @@ impl Dhcp {
     /// message is due now (the REQUEST for an offer taken).
     pub(crate) fn receive(&mut self, datagram: &mut impl Datagram) -> bool {
         let mut answer = Answer::default();
-        match self.check(datagram, &mut answer).and_then(|()| self.fits(&answer)) {
-            Ok(()) => self.take(&answer),
+        match self.check(datagram, &mut answer).and_then(|()| self.take(&answer)) {
+            Ok(due) => due,
             Err(count) => {
                 self.bump(count);
                 false
@@ -509,13 +527,13 @@ impl Dhcp {
         if head[0] != 2 {
             return Err(Count::NotReply);
         }
-        if head[1..3] != [1, 6] || head[28..34] != self.fixed[MAC..MAC + 6] {
+        if head[1] != 1 || head[2] != 6 || head[28..34] != self.fixed[MAC..MAC + 6] {
             return Err(Count::OtherClient);
         }
         if head[4..8] != self.xid.to_be_bytes() {
             return Err(Count::OtherXid);
         }
-        answer.address.copy_from_slice(&head[16..20]);
+        answer.address = [head[16], head[17], head[18], head[19]];
         let mut word = [0; 4];
         datagram.read(FIXED, &mut word);
         if word != COOKIE {
@@ -523,120 +541,116 @@ impl Dhcp {
         }
         let mut at = OPTIONS;
         while at < len {
-            let mut code = [0; 2];
-            datagram.read(at, &mut code[..1]);
-            match code[0] {
-                option::END => break,
-                option::PAD => {
-                    at += 1;
+            let code = byte_at(datagram, at);
+            if code == option::END {
+                break;
+            }
+            at += 1;
+            if code == option::PAD {
+                continue;
+            }
+            if at >= len {
+                return Err(Count::Malformed);
+            }
+            let n = byte_at(datagram, at);
+            at += 1;
+            let end = at + u16::from(n);
+            if end > len {
+                return Err(Count::Malformed);
+            }
+            let i = match code {
+                option::SERVER => SERVER_ID,
+                option::LEASE => LEASE,
+                option::T1 => T1,
+                option::T2 => T2,
+                option::SUBNET => SUBNET_MASK,
+                option::ROUTER => ROUTER,
+                option::TYPE => KIND,
+                _ => {
+                    at = end;
                     continue;
                 }
-                _ => {}
-            }
-            if at + 1 >= len {
+            };
+            // The type in 1 byte; the others in 4, or a list of them for the routers.
+            let room = if i == KIND { 1 } else { 4 };
+            if n != room && (i != ROUTER || n == 0 || n & 3 != 0) {
                 return Err(Count::Malformed);
             }
-            datagram.read(at + 1, &mut code[1..]);
-            let [code, n] = code;
-            let n = u16::from(n);
-            at += 2;
-            if at + n > len {
-                return Err(Count::Malformed);
-            }
-            if code == option::TYPE {
-                if n != 1 {
-                    return Err(Count::Malformed);
-                }
-                let mut kind = [0];
-                datagram.read(at, &mut kind);
-                answer.kind = kind[0];
-            } else if let Some(i) = KEPT.iter().position(|&kept| kept == code) {
-                // Four bytes, or a list of them for the routers.
-                if n != 4 && (i != ROUTER || n == 0 || n % 4 != 0) {
-                    return Err(Count::Malformed);
-                }
-                datagram.read(at, &mut answer.values[i]);
-                answer.seen |= 1 << i;
-            }
-            at += n;
+            datagram.read(at, &mut answer.values[i][..room as usize]);
+            answer.seen |= 1 << i;
+            at = end;
         }
         Ok(())
     }
 
-    /// An answer whole and sound checked against the state: the kind awaited, from the
-    /// server asked, with what a lease needs.
-    fn fits(&self, answer: &Answer) -> Result<(), Count> {
+    /// Takes an answer whole and sound if it fits the state: the kind awaited, from the
+    /// server asked, with what a lease needs. Ok(true) when a message is due now.
+    fn take(&mut self, answer: &Answer) -> Result<bool, Count> {
+        let kind = answer.kind();
         let asking = matches!(self.state, DhcpState::Requesting | DhcpState::Renewing);
-        let awaited = match answer.kind {
+        let awaited = match kind {
             0 => return Err(Count::Missing),
             OFFER => self.state == DhcpState::Selecting,
             ACK | NAK => asking || self.state == DhcpState::Rebinding,
             _ => false,
         };
         // While rebinding any server may answer; otherwise the one asked.
-        let other_server = asking && answer.get(SERVER_ID).is_some_and(|server| server != self.server);
-        if !awaited || other_server {
+        let server = answer.values[SERVER_ID];
+        if !awaited || (asking && answer.has(SERVER_ID) && server != self.server) {
             return Err(Count::Unexpected);
         }
-        if answer.kind == NAK {
-            return Ok(());
-        }
-        let Some(lease) = answer.seconds(LEASE) else { return Err(Count::Missing) };
-        if answer.kind == OFFER && answer.get(SERVER_ID).is_none() {
-            return Err(Count::Missing);
-        }
-        if lease == 0 {
-            return Err(Count::BadLease);
-        }
-        if !usable(answer.address) || (answer.kind == ACK && answer.address[..] != self.leased[IP..]) {
-            return Err(Count::BadAddress);
-        }
-        Ok(())
-    }
-
-    /// Takes an answer that fits. True when a message is due now.
-    fn take(&mut self, answer: &Answer) -> bool {
-        if answer.kind == NAK {
+        if kind == NAK {
             self.bump(Count::Naks);
             self.restart();
-            return false;
+            return Ok(false);
+        }
+        if !answer.has(LEASE) || (kind == OFFER && !answer.has(SERVER_ID)) {
+            return Err(Count::Missing);
+        }
+        if answer.values[LEASE] == [0; 4] {
+            return Err(Count::BadLease);
+        }
+        if !usable(answer.address) || (kind == ACK && answer.address[..] != self.leased[IP..]) {
+            return Err(Count::BadAddress);
         }
         // An offer's or an ACK's addresses: the server asked from now on, the address, and
         // the subnet and router when given (else the Network's).
-        if let Some(server) = answer.get(SERVER_ID) {
+        if answer.has(SERVER_ID) {
             self.server = server;
         }
-        if answer.kind == OFFER {
+        if kind == OFFER {
             self.leased = self.fixed;
         }
         put(&mut self.leased, IP, answer.address);
-        if let Some(subnet) = answer.get(SUBNET_MASK) {
-            put(&mut self.leased, SUBNET, subnet);
+        if answer.has(SUBNET_MASK) {
+            put(&mut self.leased, SUBNET, answer.values[SUBNET_MASK]);
         }
-        if let Some(router) = answer.get(ROUTER) {
-            put(&mut self.leased, GATEWAY, router);
+        if answer.has(ROUTER) {
+            put(&mut self.leased, GATEWAY, answer.values[ROUTER]);
         }
-        if answer.kind == OFFER {
+        if kind == OFFER {
             self.enter(DhcpState::Requesting);
             self.tries = 1;
             self.wait = 3;
-            return true;
+            return Ok(true);
         }
         self.bump(Count::Leases);
-        let given = answer.seconds(LEASE).unwrap_or(INFINITE);
-        let lease = if given == INFINITE { FOREVER } else { given.min(u32::from(LONGEST)) as u16 };
+        let lease = seconds(answer.values[LEASE]);
         self.lease = lease;
         // T1 and T2 as given when they are in order (T1 ≤ T2 ≤ lease) and the lease is kept
         // whole, else 0.5 and 0.875 of the lease (RFC 2131 §4.4.5).
-        (self.t1, self.t2) = match (answer.seconds(T1), answer.seconds(T2)) {
-            (Some(t1), Some(t2)) if t1 <= t2 && t2 <= given && given < u32::from(LONGEST) => (t1 as u16, t2 as u16),
-            _ => (lease / 2, lease - lease / 8),
+        let (t1, t2) = (seconds(answer.values[T1]), seconds(answer.values[T2]));
+        (self.t1, self.t2) = if answer.has(T1) && answer.has(T2) && t1 <= t2 && t2 <= lease && lease < LONGEST {
+            (t1, t2)
+        } else {
+            (lease / 2, lease - lease / 8)
         };
         self.age = 0;
         self.enter(DhcpState::Bound);
-        false
+        Ok(false)
     }
 }
+
 /// What the client needs of a chip beyond its TCP sockets: a UDP socket, and its
 /// addresses set while it runs.
 pub(crate) trait Udp: Sockets {
