@@ -26,7 +26,10 @@ impl Lease {
         let socket = settings.socket.min(C::SOCKETS - 1);
         let network = Network { sockets: network.sockets.min(socket), ..network };
         let dhcp = Dhcp::new(&network, dhcp::Settings { socket, ..settings });
-        (Network { addresses: dhcp.addresses(), ..network }, Lease(Some(dhcp)))
+        // No address before a lease (the fallback comes a second or more after the start).
+        let mut network = network;
+        network.addresses[dhcp::IP..].fill(0);
+        (network, Lease(Some(dhcp)))
     }
 
     /// Runs the client (interrupts enabled, the role in use): its socket's datagrams

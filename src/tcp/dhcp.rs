@@ -10,7 +10,8 @@
 //! lies (the chip's receive buffer), a few bytes at a time: a few bytes of RAM, however
 //! long the options.
 
-use super::network::{Network, ADDRESSES, GATEWAY, IP, MAC, SUBNET};
+use super::network::{Network, ADDRESSES, GATEWAY, MAC, SUBNET};
+pub(crate) use super::network::IP;
 use super::server::Sockets;
 
 /// The client's port (RFC 2131 §4.1).
@@ -62,9 +63,10 @@ const NAK: u8 = 6;
 
 /// The longest host name sent (option 12).
 pub(crate) const MAX_HOST: usize = 32;
-/// The room a message is written from: its longest options (cookie 4, type 3, client id
-/// 9, requested address and server 12, host name 34, parameters and end 6).
-pub(crate) const MESSAGE_BUF: usize = 68;
+/// The room a message is written from, in pieces: the longest is the host name (34) with
+/// the parameters and the end (6). Small, so that the poll's locals stay within the AVR's
+/// short reach of its frame (63 bytes).
+pub(crate) const MESSAGE_BUF: usize = 40;
 
 /// The client's settings, from [`Network::dhcp`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -371,15 +373,29 @@ impl Dhcp {
 
     /// The addresses the chip should have now, in its register order: the lease's, the
     /// fallback, or none (IP 0.0.0.0, the Network's subnet and gateway).
+    #[cfg(test)]
     pub(crate) fn addresses(&self) -> [u8; ADDRESSES] {
-        if self.holds() {
-            return self.leased;
-        }
-        let mut addresses = self.fixed;
-        if !self.fallback() {
-            put(&mut addresses, IP, [0; 4]);
-        }
+        let mut addresses = [0; ADDRESSES];
+        self.apply(&mut addresses);
         addresses
+    }
+
+    /// Makes `addresses` those of [`Dhcp::addresses`], in place: 0 when they were already,
+    /// else bit 0 (the gateway, subnet or MAC changed) and bit 1 (the IP changed).
+    fn apply(&self, addresses: &mut [u8; ADDRESSES]) -> u8 {
+        let holds = self.holds();
+        let from = if holds { &self.leased } else { &self.fixed };
+        let none = !holds && !self.fallback();
+        let mut changed = 0;
+        for (i, byte) in addresses.iter_mut().enumerate() {
+            let ip = i >= IP;
+            let want = if ip && none { 0 } else { from[i] };
+            if *byte != want {
+                *byte = want;
+                changed |= 1 << u8::from(ip);
+            }
+        }
+        changed
     }
 
     /// Back to discovery, any lease given up: a new exchange, a DISCOVER at the next second.
@@ -459,47 +475,47 @@ impl Dhcp {
     pub(crate) fn message(&self, buf: &mut [u8; MESSAGE_BUF], out: &mut dyn FnMut(u16, &mut [u8])) -> u16 {
         // Zeros over the whole message first (chaddr's padding, sname, file, past the end
         // option to 300 bytes).
-        buf.fill(0);
+        *buf = [0; MESSAGE_BUF];
         let mut at = 0;
-        while at < FIXED + MESSAGE_BUF as u16 {
+        while at < SENT_LEN {
             out(at, buf);
             at += MESSAGE_BUF as u16;
         }
         // The fixed part: op 1 (request), htype 1 (Ethernet), hlen 6, hops 0, xid, secs 0,
         // flags with the broadcast bit (the chip takes no unicast for an address it does
-        // not have yet), ciaddr while renewing and rebinding, chaddr.
+        // not have yet), ciaddr while renewing and rebinding; chaddr after.
         buf[..4].copy_from_slice(&[1, 1, 6, 0]);
         buf[4..8].copy_from_slice(&self.xid.to_be_bytes());
         buf[10] = 0x80;
         if self.holds() {
             buf[12..16].copy_from_slice(&self.leased[IP..]);
         }
-        buf[28..34].copy_from_slice(&self.fixed[MAC..MAC + 6]);
-        out(0, &mut buf[..34]);
+        out(0, &mut buf[..16]);
         // The options: the type, the client id (61: hardware type 1, the MAC), while
-        // requesting the address asked (50) and its server (54), the host name (12), the
-        // parameters asked (55: subnet, router, lease), the end.
+        // requesting the address asked (50) and its server (54); then the host name (12),
+        // the parameters asked (55: subnet, router, lease), the end.
         let kind = if self.state == DhcpState::Selecting { DISCOVER } else { REQUEST };
-        let host = self.settings.host.as_bytes();
-        let host = &host[..host.len().min(MAX_HOST)];
-        let mut n = 0;
-        let mut add = |bytes: &[u8]| {
-            buf[n..n + bytes.len()].copy_from_slice(bytes);
-            n += bytes.len();
-        };
-        add(&[99, 130, 83, 99, option::TYPE, 1, kind, option::CLIENT_ID, 7, 1]);
-        add(&self.fixed[MAC..MAC + 6]);
+        buf[..10].copy_from_slice(&[99, 130, 83, 99, option::TYPE, 1, kind, option::CLIENT_ID, 7, 1]);
+        buf[10..16].copy_from_slice(&self.fixed[MAC..MAC + 6]);
+        out(28, &mut buf[10..16]);
+        let mut n = 16;
         if self.state == DhcpState::Requesting {
-            add(&[option::REQUESTED, 4]);
-            add(&self.leased[IP..]);
-            add(&[option::SERVER, 4]);
-            add(&self.server);
+            buf[16..18].copy_from_slice(&[option::REQUESTED, 4]);
+            buf[18..22].copy_from_slice(&self.leased[IP..]);
+            buf[22..24].copy_from_slice(&[option::SERVER, 4]);
+            buf[24..28].copy_from_slice(&self.server);
+            n = 28;
         }
-        add(&[option::HOST_NAME, host.len() as u8]);
-        add(host);
-        add(&[option::PARAMETERS, 3, option::SUBNET, option::ROUTER, option::LEASE, option::END]);
         out(FIXED, &mut buf[..n]);
-        SENT_LEN.max(FIXED + n as u16)
+        let at = FIXED + n as u16;
+        let host = self.settings.host.as_bytes();
+        let len = host.len().min(MAX_HOST);
+        buf[0] = option::HOST_NAME;
+        buf[1] = len as u8;
+        buf[2..2 + len].copy_from_slice(&host[..len]);
+        buf[2 + len..8 + len].copy_from_slice(&[option::PARAMETERS, 3, option::SUBNET, option::ROUTER, option::LEASE, option::END]);
+        out(at, &mut buf[..8 + len]);
+        SENT_LEN.max(at + 8 + len as u16)
     }
 
     /// A datagram from a server's port 67: taken, or refused and counted. True when a
@@ -522,18 +538,23 @@ impl Dhcp {
         if len < OPTIONS {
             return Err(Count::Short);
         }
-        let mut head = [0; 34];
+        // Read in pieces into a few bytes: the poll's locals stay within the AVR's short
+        // reach of its frame.
+        let mut head = [0; 8];
         datagram.read(0, &mut head);
-        if head[0] != 2 {
+        let [op, htype, hlen, _, xid @ ..] = head;
+        let mut mac = [0; 6];
+        datagram.read(28, &mut mac);
+        if op != 2 {
             return Err(Count::NotReply);
         }
-        if head[1] != 1 || head[2] != 6 || head[28..34] != self.fixed[MAC..MAC + 6] {
+        if htype != 1 || hlen != 6 || mac[..] != self.fixed[MAC..MAC + 6] {
             return Err(Count::OtherClient);
         }
-        if head[4..8] != self.xid.to_be_bytes() {
+        if xid != self.xid.to_be_bytes() {
             return Err(Count::OtherXid);
         }
-        answer.address = [head[16], head[17], head[18], head[19]];
+        datagram.read(16, &mut answer.address);
         let mut word = [0; 4];
         datagram.read(FIXED, &mut word);
         if word != COOKIE {
@@ -661,7 +682,8 @@ pub(crate) trait Udp: Sockets {
     /// Takes the received bytes up to `pointer`, the chip's count updated on return.
     fn take_now(&mut self, s: u8, pointer: u16);
     /// Writes the chip's gateway, subnet, MAC and IP.
-    fn set_addresses(&mut self, addresses: &[u8; ADDRESSES]);
+    /// (`addresses` mutable so that they go to the chip without a copy: only read.)
+    fn set_addresses(&mut self, addresses: &mut [u8; ADDRESSES]);
 }
 
 /// Sn_MR: UDP.
@@ -734,12 +756,12 @@ pub(crate) fn poll<U: Udp>(dhcp: &mut Dhcp, chip: &mut U, network: &mut Network,
         let len = dhcp.message(&mut buf, &mut |at, piece| chip.write(s, start.wrapping_add(at), piece));
         chip.send_to(s, dhcp.destination(), SERVER_PORT, start.wrapping_add(len));
     }
-    let addresses = dhcp.addresses();
-    if addresses == network.addresses {
+    let changed = dhcp.apply(&mut network.addresses);
+    if changed == 0 {
         return false;
     }
-    chip.set_addresses(&addresses);
-    if addresses[IP..] != network.addresses[IP..] {
+    chip.set_addresses(&mut network.addresses);
+    if changed & 2 != 0 {
         // The connections were the old address's; the listening sockets go on.
         for t in 0..s {
             if chip.status(t) != super::wiznet::state::LISTEN {
@@ -747,7 +769,6 @@ pub(crate) fn poll<U: Udp>(dhcp: &mut Dhcp, chip: &mut U, network: &mut Network,
             }
         }
     }
-    network.addresses = addresses;
     true
 }
 
