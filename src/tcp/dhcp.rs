@@ -520,6 +520,7 @@ impl Dhcp {
 
     /// A datagram from a server's port 67: taken, or refused and counted. True when a
     /// message is due now (the REQUEST for an offer taken).
+    #[inline(never)]
     pub(crate) fn receive(&mut self, datagram: &mut impl Datagram) -> bool {
         let mut answer = Answer::default();
         match self.check(datagram, &mut answer).and_then(|()| self.take(&answer)) {
