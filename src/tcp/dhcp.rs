@@ -245,6 +245,7 @@ impl Answer {
 
 /// Seconds given in 4 bytes as the client keeps them: [`FOREVER`] for [`INFINITE`], at
 /// most [`LONGEST`] otherwise.
+#[inline(never)]
 fn seconds(value: [u8; 4]) -> u16 {
     if value == [255; 4] {
         FOREVER
@@ -267,7 +268,7 @@ fn byte_at(datagram: &mut impl Datagram, at: u16) -> u8 {
 pub struct Dhcp {
     state: DhcpState,
     /// The exchange's id.
-    xid: u32,
+    xid: [u8; 4],
     /// Seconds until the next message (0: at the next second).
     wait: u16,
     /// Messages sent in this state without an answer.
@@ -305,9 +306,9 @@ impl Dhcp {
     /// A client for `network` (which has [`Network::dhcp`]): a DISCOVER at the first second.
     pub(crate) fn new(network: &Network, settings: Settings) -> Dhcp {
         let mac = network.mac();
-        let mut dhcp = Dhcp {
+        Dhcp {
             state: DhcpState::Selecting,
-            xid: u32::from_be_bytes([mac[2], mac[3], mac[4], mac[5]]),
+            xid: [mac[2], mac[3], mac[4], mac[5]],
             wait: 0,
             tries: 0,
             age: 0,
@@ -320,9 +321,7 @@ impl Dhcp {
             fixed: network.addresses,
             settings,
             counts: [0; COUNTS],
-        };
-        dhcp.restart();
-        dhcp
+        }
     }
 
     /// The counters.
@@ -398,13 +397,15 @@ impl Dhcp {
         changed
     }
 
+    #[inline(never)]
     /// Back to discovery, any lease given up: a new exchange, a DISCOVER at the next second.
     fn restart(&mut self) {
         if self.holds() {
             self.without = 0;
         }
         self.state = DhcpState::Selecting;
-        self.xid = self.xid.wrapping_add(0x9E37_79B9);
+        // A new xid: its first byte counted on (the rest the MAC's, a board's own).
+        self.xid[0] = self.xid[0].wrapping_add(1);
         self.wait = 0;
         self.tries = 0;
     }
@@ -485,7 +486,7 @@ impl Dhcp {
         // flags with the broadcast bit (the chip takes no unicast for an address it does
         // not have yet), ciaddr while renewing and rebinding; chaddr after.
         buf[..4].copy_from_slice(&[1, 1, 6, 0]);
-        buf[4..8].copy_from_slice(&self.xid.to_be_bytes());
+        buf[4..8].copy_from_slice(&self.xid);
         buf[10] = 0x80;
         if self.holds() {
             buf[12..16].copy_from_slice(&self.leased[IP..]);
@@ -552,7 +553,7 @@ impl Dhcp {
         if htype != 1 || hlen != 6 || mac[..] != self.fixed[MAC..MAC + 6] {
             return Err(Count::OtherClient);
         }
-        if xid != self.xid.to_be_bytes() {
+        if xid != self.xid {
             return Err(Count::OtherXid);
         }
         datagram.read(16, &mut answer.address);
