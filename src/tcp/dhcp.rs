@@ -706,6 +706,7 @@ impl<U: Udp> Datagram for InChip<'_, U> {
         self.len
     }
 
+    #[inline(never)]
     fn read(&mut self, at: u16, buf: &mut [u8]) {
         self.chip.read(self.s, self.at.wrapping_add(at), buf);
     }
