@@ -263,12 +263,12 @@ fn byte_at(datagram: &mut impl Datagram, at: u16) -> u8 {
     byte[0]
 }
 
-/// The DHCP client.
+/// The DHCP client. In C's order, the fields that start at 0 side by side: made by one
+/// fill of zeros.
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub struct Dhcp {
     state: DhcpState,
-    /// The exchange's id.
-    xid: [u8; 4],
     /// Seconds until the next message (0: at the next second).
     wait: u16,
     /// Messages sent in this state without an answer.
@@ -284,12 +284,14 @@ pub struct Dhcp {
     /// The server the lease is asked of.
     server: [u8; 4],
     /// The addresses in the chips' order (gateway, subnet, MAC, IP): the lease's while one
-    /// is held, those of an offer while requesting.
+    /// is held, those of an offer while requesting (none before the first offer).
     leased: [u8; ADDRESSES],
+    counts: [u16; COUNTS],
+    /// The exchange's id.
+    xid: [u8; 4],
     /// The Network's own addresses, the fallback.
     fixed: [u8; ADDRESSES],
     settings: Settings,
-    counts: [u16; COUNTS],
 }
 
 fn put(addresses: &mut [u8; ADDRESSES], at: usize, bytes: [u8; 4]) {
@@ -317,7 +319,7 @@ impl Dhcp {
             t2: 0,
             without: 0,
             server: [0; 4],
-            leased: network.addresses,
+            leased: [0; ADDRESSES],
             fixed: network.addresses,
             settings,
             counts: [0; COUNTS],
