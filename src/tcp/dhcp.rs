@@ -439,19 +439,18 @@ impl Dhcp {
         if self.tries != 0 {
             self.bump(Count::Retries);
         }
-        self.wait = match self.state {
+        self.wait = if self.holds() {
             // Renewing, rebinding: again after half the time left to T2 or to the end, at
             // least 60 s (§4.4.5).
-            DhcpState::Renewing => ((self.t2 - self.age) / 2).max(60),
-            DhcpState::Rebinding => ((self.lease - self.age) / 2).max(60),
+            let end = if self.state == DhcpState::Renewing { self.t2 } else { self.lease };
+            ((end - self.age) / 2).max(60)
+        } else {
             // Selecting, requesting: after 4, 8, 16, 32, then every 64 s (§4.1); a request
             // unanswered four times, discovery again.
-            _ => {
-                if self.state == DhcpState::Requesting && self.tries >= 4 {
-                    self.restart();
-                }
-                4 << self.tries.min(4)
+            if self.state == DhcpState::Requesting && self.tries >= 4 {
+                self.restart();
             }
+            4 << self.tries.min(4)
         } - 1;
         self.tries = self.tries.saturating_add(1);
         true
