@@ -220,6 +220,9 @@ const T2: usize = 3;
 const SUBNET_MASK: usize = 4;
 const ROUTER: usize = 5;
 const KIND: usize = 6;
+/// The options kept, at their place.
+const KEPT: [u8; KIND + 1] =
+    [option::SERVER, option::LEASE, option::T1, option::T2, option::SUBNET, option::ROUTER, option::TYPE];
 
 /// What an answer holds that the client keeps.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -582,18 +585,9 @@ impl Dhcp {
             if end > len {
                 return Err(Count::Malformed);
             }
-            let i = match code {
-                option::SERVER => SERVER_ID,
-                option::LEASE => LEASE,
-                option::T1 => T1,
-                option::T2 => T2,
-                option::SUBNET => SUBNET_MASK,
-                option::ROUTER => ROUTER,
-                option::TYPE => KIND,
-                _ => {
-                    at = end;
-                    continue;
-                }
+            let Some(i) = KEPT.iter().position(|&kept| kept == code) else {
+                at = end;
+                continue;
             };
             // The type in 1 byte; the others in 4, or a list of them for the routers.
             let room = if i == KIND { 1 } else { 4 };
