@@ -360,6 +360,8 @@ impl Dhcp {
         DhcpStatus { state: self.state, fallback: self.fallback(), remaining, counters: self.counters() }
     }
 
+    /// Not inlined: a call is the counter's number, not the counters' place and length too.
+    #[inline(never)]
     fn bump(&mut self, count: Count) {
         crate::link::bump(&mut self.counts, count as u8);
     }
