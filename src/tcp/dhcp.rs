@@ -461,6 +461,7 @@ impl Dhcp {
         true
     }
 
+    #[inline(never)]
     fn enter(&mut self, state: DhcpState) {
         self.state = state;
         self.wait = 0;
