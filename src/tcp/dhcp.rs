@@ -10,8 +10,8 @@
 //! lies (the chip's receive buffer), a few bytes at a time: a few bytes of RAM, however
 //! long the options.
 
-use super::network::{Network, ADDRESSES, GATEWAY, MAC, SUBNET};
 pub(crate) use super::network::IP;
+use super::network::{Network, ADDRESSES, GATEWAY, MAC, SUBNET};
 use super::server::Sockets;
 
 /// The client's port (RFC 2131 §4.1).
@@ -521,7 +521,14 @@ impl Dhcp {
         buf[0] = option::HOST_NAME;
         buf[1] = len as u8;
         buf[2..2 + len].copy_from_slice(&host[..len]);
-        buf[2 + len..8 + len].copy_from_slice(&[option::PARAMETERS, 3, option::SUBNET, option::ROUTER, option::LEASE, option::END]);
+        buf[2 + len..8 + len].copy_from_slice(&[
+            option::PARAMETERS,
+            3,
+            option::SUBNET,
+            option::ROUTER,
+            option::LEASE,
+            option::END,
+        ]);
         out(at, &mut buf[..8 + len]);
         SENT_LEN.max(at + 8 + len as u16)
     }
