@@ -404,8 +404,10 @@ impl Dhcp {
         changed
     }
 
-    #[inline(never)]
     /// Back to discovery, any lease given up: a new exchange, a DISCOVER at the next second.
+    /// Not inlined (three places call it), as [`Dhcp::enter`], [`Dhcp::bump`] and
+    /// [`Dhcp::receive`] (whose locals then stay out of the poll's frame).
+    #[inline(never)]
     fn restart(&mut self) {
         if self.holds() {
             self.without = 0;
@@ -461,6 +463,7 @@ impl Dhcp {
         true
     }
 
+    /// Into `state`, its first message at the next second.
     #[inline(never)]
     fn enter(&mut self, state: DhcpState) {
         self.state = state;
