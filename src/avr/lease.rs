@@ -21,12 +21,14 @@ impl Lease {
     /// The client for `network` and the network to start with: with [`Network::dhcp`], no
     /// IP address yet, the client's socket one the chip `C` has (its last when asked for one
     /// beyond) and the role's sockets below it.
-    pub(crate) fn new<C: Chip>(network: Network) -> (Network, Lease) {
-        let Some(settings) = network.dhcp else { return (network, Lease(None)) };
+    pub(crate) fn new<C: Chip>(network: &mut Network) -> Lease {
+        let Some(settings) = network.dhcp else { return Lease(None) };
         let socket = settings.socket.min(C::SOCKETS - 1);
-        let network = Network { sockets: network.sockets.min(socket), ..network };
-        let dhcp = Dhcp::new(&network, dhcp::Settings { socket, ..settings });
-        (Network { addresses: dhcp.addresses(), ..network }, Lease(Some(dhcp)))
+        network.sockets = network.sockets.min(socket);
+        let dhcp = Dhcp::new(network, dhcp::Settings { socket, ..settings });
+        // No address before a lease (the fallback comes a second or more after the start).
+        network.addresses[dhcp::IP..].fill(0);
+        Lease(Some(dhcp))
     }
 
     /// Runs the client (interrupts enabled, the role in use): its socket's datagrams

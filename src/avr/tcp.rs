@@ -360,7 +360,8 @@ where
     S::Target: Sized,
     T::Target: Sized,
 {
-    let (network, lease) = Lease::new::<C>(network);
+    let mut network = network;
+    let lease = Lease::new::<C>(&mut network);
     claim::<_, { SPI_BLOCK.1 }>(spi, SPI_BLOCK.0)?;
     claim::<_, { reg::TC0.1 }>(tc0, reg::TC0.0)?;
     let mut chip = Wiznet::<C, _>::new(Spi::new(cs));

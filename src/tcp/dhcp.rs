@@ -10,7 +10,8 @@
 //! lies (the chip's receive buffer), a few bytes at a time: a few bytes of RAM, however
 //! long the options.
 
-use super::network::{Network, ADDRESSES, GATEWAY, IP, MAC, SUBNET};
+pub(crate) use super::network::IP;
+use super::network::{Network, ADDRESSES, GATEWAY, MAC, SUBNET};
 use super::server::Sockets;
 
 /// The client's port (RFC 2131 §4.1).
@@ -62,9 +63,10 @@ const NAK: u8 = 6;
 
 /// The longest host name sent (option 12).
 pub(crate) const MAX_HOST: usize = 32;
-/// The room a message is written from: its longest options (cookie 4, type 3, client id
-/// 9, requested address and server 12, host name 34, parameters and end 6).
-pub(crate) const MESSAGE_BUF: usize = 68;
+/// The room a message is written from, in pieces: the longest is the host name (34) with
+/// the parameters and the end (6). Small, so that the poll's locals stay within the AVR's
+/// short reach of its frame (63 bytes).
+pub(crate) const MESSAGE_BUF: usize = 40;
 
 /// The client's settings, from [`Network::dhcp`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -208,46 +210,68 @@ pub(crate) trait Datagram {
     fn read(&mut self, at: u16, buf: &mut [u8]);
 }
 
-/// The options an answer's checks and the lease need, 4 bytes each, in [`Answer::values`]'s
-/// order (a router list gives its first).
-const KEPT: [u8; 6] = [option::SERVER, option::LEASE, option::T1, option::T2, option::SUBNET, option::ROUTER];
+/// The options an answer's checks and the lease need, 4 bytes each, at their place in
+/// [`Answer::values`] (a router list gives its first); the message type (option 53, 1
+/// byte) is kept after them.
 const SERVER_ID: usize = 0;
 const LEASE: usize = 1;
 const T1: usize = 2;
 const T2: usize = 3;
 const SUBNET_MASK: usize = 4;
 const ROUTER: usize = 5;
+const KIND: usize = 6;
+/// The options kept, at their place.
+const KEPT: [u8; KIND + 1] =
+    [option::SERVER, option::LEASE, option::T1, option::T2, option::SUBNET, option::ROUTER, option::TYPE];
 
 /// What an answer holds that the client keeps.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct Answer {
-    /// Option 53 (0: none).
-    kind: u8,
     /// yiaddr.
     address: [u8; 4],
-    /// Bit n: `values[n]` (option `KEPT[n]`) was there.
+    /// Bit n: `values[n]` was there.
     seen: u8,
-    values: [[u8; 4]; KEPT.len()],
+    values: [[u8; 4]; KIND + 1],
 }
 
 impl Answer {
-    /// Option `KEPT[n]`, if it was there.
-    fn get(&self, n: usize) -> Option<[u8; 4]> {
-        (self.seen & 1 << n != 0).then_some(self.values[n])
+    /// True when `values[n]` was there.
+    fn has(&self, n: usize) -> bool {
+        self.seen & 1 << n != 0
     }
 
-    /// Option `KEPT[n]` as a number of seconds, if it was there.
-    fn seconds(&self, n: usize) -> Option<u32> {
-        self.get(n).map(u32::from_be_bytes)
+    /// Option 53 (0: none).
+    fn kind(&self) -> u8 {
+        self.values[KIND][0]
     }
 }
 
-/// The DHCP client.
+/// Seconds given in 4 bytes as the client keeps them: [`FOREVER`] for [`INFINITE`], at
+/// most [`LONGEST`] otherwise.
+#[inline(never)]
+fn seconds(value: [u8; 4]) -> u16 {
+    if value == [255; 4] {
+        FOREVER
+    } else if value[0] | value[1] != 0 {
+        LONGEST
+    } else {
+        u16::from_be_bytes([value[2], value[3]]).min(LONGEST)
+    }
+}
+
+/// The byte at `at` of a datagram.
+fn byte_at(datagram: &mut impl Datagram, at: u16) -> u8 {
+    let mut byte = [0];
+    datagram.read(at, &mut byte);
+    byte[0]
+}
+
+/// The DHCP client. In C's order, the fields that start at 0 side by side: made by one
+/// fill of zeros.
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub struct Dhcp {
     state: DhcpState,
-    /// The exchange's id.
-    xid: u32,
     /// Seconds until the next message (0: at the next second).
     wait: u16,
     /// Messages sent in this state without an answer.
@@ -263,12 +287,14 @@ pub struct Dhcp {
     /// The server the lease is asked of.
     server: [u8; 4],
     /// The addresses in the chips' order (gateway, subnet, MAC, IP): the lease's while one
-    /// is held, those of an offer while requesting.
+    /// is held, those of an offer while requesting (none before the first offer).
     leased: [u8; ADDRESSES],
+    counts: [u16; COUNTS],
+    /// The exchange's id.
+    xid: [u8; 4],
     /// The Network's own addresses, the fallback.
     fixed: [u8; ADDRESSES],
     settings: Settings,
-    counts: [u16; COUNTS],
 }
 
 fn put(addresses: &mut [u8; ADDRESSES], at: usize, bytes: [u8; 4]) {
@@ -285,9 +311,9 @@ impl Dhcp {
     /// A client for `network` (which has [`Network::dhcp`]): a DISCOVER at the first second.
     pub(crate) fn new(network: &Network, settings: Settings) -> Dhcp {
         let mac = network.mac();
-        let mut dhcp = Dhcp {
+        Dhcp {
             state: DhcpState::Selecting,
-            xid: u32::from_be_bytes([mac[2], mac[3], mac[4], mac[5]]),
+            xid: [mac[2], mac[3], mac[4], mac[5]],
             wait: 0,
             tries: 0,
             age: 0,
@@ -296,13 +322,11 @@ impl Dhcp {
             t2: 0,
             without: 0,
             server: [0; 4],
-            leased: network.addresses,
+            leased: [0; ADDRESSES],
             fixed: network.addresses,
             settings,
             counts: [0; COUNTS],
-        };
-        dhcp.restart();
-        dhcp
+        }
     }
 
     /// The counters.
@@ -336,6 +360,8 @@ impl Dhcp {
         DhcpStatus { state: self.state, fallback: self.fallback(), remaining, counters: self.counters() }
     }
 
+    /// Not inlined: a call is the counter's number, not the counters' place and length too.
+    #[inline(never)]
     fn bump(&mut self, count: Count) {
         crate::link::bump(&mut self.counts, count as u8);
     }
@@ -353,24 +379,42 @@ impl Dhcp {
 
     /// The addresses the chip should have now, in its register order: the lease's, the
     /// fallback, or none (IP 0.0.0.0, the Network's subnet and gateway).
+    #[cfg(test)]
     pub(crate) fn addresses(&self) -> [u8; ADDRESSES] {
-        if self.holds() {
-            return self.leased;
-        }
-        let mut addresses = self.fixed;
-        if !self.fallback() {
-            put(&mut addresses, IP, [0; 4]);
-        }
+        let mut addresses = [0; ADDRESSES];
+        self.apply(&mut addresses);
         addresses
     }
 
+    /// Makes `addresses` those of [`Dhcp::addresses`], in place: 0 when they were already,
+    /// else bit 0 (the gateway, subnet or MAC changed) and bit 1 (the IP changed).
+    fn apply(&self, addresses: &mut [u8; ADDRESSES]) -> u8 {
+        let holds = self.holds();
+        let from = if holds { &self.leased } else { &self.fixed };
+        let none = !holds && !self.fallback();
+        let mut changed = 0;
+        for (i, byte) in addresses.iter_mut().enumerate() {
+            let ip = i >= IP;
+            let want = if ip && none { 0 } else { from[i] };
+            if *byte != want {
+                *byte = want;
+                changed |= 1 << u8::from(ip);
+            }
+        }
+        changed
+    }
+
     /// Back to discovery, any lease given up: a new exchange, a DISCOVER at the next second.
+    /// Not inlined (three places call it), as [`Dhcp::enter`], [`Dhcp::bump`] and
+    /// [`Dhcp::receive`] (whose locals then stay out of the poll's frame).
+    #[inline(never)]
     fn restart(&mut self) {
         if self.holds() {
             self.without = 0;
         }
         self.state = DhcpState::Selecting;
-        self.xid = self.xid.wrapping_add(0x9E37_79B9);
+        // A new xid: its first byte counted on (the rest the MAC's, a board's own).
+        self.xid[0] = self.xid[0].wrapping_add(1);
         self.wait = 0;
         self.tries = 0;
     }
@@ -402,24 +446,25 @@ impl Dhcp {
         if self.tries != 0 {
             self.bump(Count::Retries);
         }
-        self.wait = match self.state {
+        self.wait = if self.holds() {
             // Renewing, rebinding: again after half the time left to T2 or to the end, at
             // least 60 s (§4.4.5).
-            DhcpState::Renewing => ((self.t2 - self.age) / 2).max(60),
-            DhcpState::Rebinding => ((self.lease - self.age) / 2).max(60),
+            let end = if self.state == DhcpState::Renewing { self.t2 } else { self.lease };
+            ((end - self.age) / 2).max(60)
+        } else {
             // Selecting, requesting: after 4, 8, 16, 32, then every 64 s (§4.1); a request
             // unanswered four times, discovery again.
-            _ => {
-                if self.state == DhcpState::Requesting && self.tries >= 4 {
-                    self.restart();
-                }
-                4 << self.tries.min(4)
+            if self.state == DhcpState::Requesting && self.tries >= 4 {
+                self.restart();
             }
+            4 << self.tries.min(4)
         } - 1;
         self.tries = self.tries.saturating_add(1);
         true
     }
 
+    /// Into `state`, its first message at the next second.
+    #[inline(never)]
     fn enter(&mut self, state: DhcpState) {
         self.state = state;
         self.wait = 0;
@@ -441,55 +486,63 @@ impl Dhcp {
     pub(crate) fn message(&self, buf: &mut [u8; MESSAGE_BUF], out: &mut dyn FnMut(u16, &mut [u8])) -> u16 {
         // Zeros over the whole message first (chaddr's padding, sname, file, past the end
         // option to 300 bytes).
-        buf.fill(0);
+        *buf = [0; MESSAGE_BUF];
         let mut at = 0;
-        while at < FIXED + MESSAGE_BUF as u16 {
+        while at < SENT_LEN {
             out(at, buf);
             at += MESSAGE_BUF as u16;
         }
         // The fixed part: op 1 (request), htype 1 (Ethernet), hlen 6, hops 0, xid, secs 0,
         // flags with the broadcast bit (the chip takes no unicast for an address it does
-        // not have yet), ciaddr while renewing and rebinding, chaddr.
+        // not have yet), ciaddr while renewing and rebinding; chaddr after.
         buf[..4].copy_from_slice(&[1, 1, 6, 0]);
-        buf[4..8].copy_from_slice(&self.xid.to_be_bytes());
+        buf[4..8].copy_from_slice(&self.xid);
         buf[10] = 0x80;
         if self.holds() {
             buf[12..16].copy_from_slice(&self.leased[IP..]);
         }
-        buf[28..34].copy_from_slice(&self.fixed[MAC..MAC + 6]);
-        out(0, &mut buf[..34]);
+        out(0, &mut buf[..16]);
         // The options: the type, the client id (61: hardware type 1, the MAC), while
-        // requesting the address asked (50) and its server (54), the host name (12), the
-        // parameters asked (55: subnet, router, lease), the end.
+        // requesting the address asked (50) and its server (54); then the host name (12),
+        // the parameters asked (55: subnet, router, lease), the end.
         let kind = if self.state == DhcpState::Selecting { DISCOVER } else { REQUEST };
-        let host = self.settings.host.as_bytes();
-        let host = &host[..host.len().min(MAX_HOST)];
-        let mut n = 0;
-        let mut add = |bytes: &[u8]| {
-            buf[n..n + bytes.len()].copy_from_slice(bytes);
-            n += bytes.len();
-        };
-        add(&[99, 130, 83, 99, option::TYPE, 1, kind, option::CLIENT_ID, 7, 1]);
-        add(&self.fixed[MAC..MAC + 6]);
+        buf[..10].copy_from_slice(&[99, 130, 83, 99, option::TYPE, 1, kind, option::CLIENT_ID, 7, 1]);
+        buf[10..16].copy_from_slice(&self.fixed[MAC..MAC + 6]);
+        out(28, &mut buf[10..16]);
+        let mut n = 16;
         if self.state == DhcpState::Requesting {
-            add(&[option::REQUESTED, 4]);
-            add(&self.leased[IP..]);
-            add(&[option::SERVER, 4]);
-            add(&self.server);
+            buf[16..18].copy_from_slice(&[option::REQUESTED, 4]);
+            buf[18..22].copy_from_slice(&self.leased[IP..]);
+            buf[22..24].copy_from_slice(&[option::SERVER, 4]);
+            buf[24..28].copy_from_slice(&self.server);
+            n = 28;
         }
-        add(&[option::HOST_NAME, host.len() as u8]);
-        add(host);
-        add(&[option::PARAMETERS, 3, option::SUBNET, option::ROUTER, option::LEASE, option::END]);
         out(FIXED, &mut buf[..n]);
-        SENT_LEN.max(FIXED + n as u16)
+        let at = FIXED + n as u16;
+        let host = self.settings.host.as_bytes();
+        let len = host.len().min(MAX_HOST);
+        buf[0] = option::HOST_NAME;
+        buf[1] = len as u8;
+        buf[2..2 + len].copy_from_slice(&host[..len]);
+        buf[2 + len..8 + len].copy_from_slice(&[
+            option::PARAMETERS,
+            3,
+            option::SUBNET,
+            option::ROUTER,
+            option::LEASE,
+            option::END,
+        ]);
+        out(at, &mut buf[..8 + len]);
+        SENT_LEN.max(at + 8 + len as u16)
     }
 
     /// A datagram from a server's port 67: taken, or refused and counted. True when a
     /// message is due now (the REQUEST for an offer taken).
+    #[inline(never)]
     pub(crate) fn receive(&mut self, datagram: &mut impl Datagram) -> bool {
         let mut answer = Answer::default();
-        match self.check(datagram, &mut answer).and_then(|()| self.fits(&answer)) {
-            Ok(()) => self.take(&answer),
+        match self.check(datagram, &mut answer).and_then(|()| self.take(&answer)) {
+            Ok(due) => due,
             Err(count) => {
                 self.bump(count);
                 false
@@ -504,18 +557,23 @@ impl Dhcp {
         if len < OPTIONS {
             return Err(Count::Short);
         }
-        let mut head = [0; 34];
+        // Read in pieces into a few bytes: the poll's locals stay within the AVR's short
+        // reach of its frame.
+        let mut head = [0; 8];
         datagram.read(0, &mut head);
-        if head[0] != 2 {
+        let [op, htype, hlen, _, xid @ ..] = head;
+        let mut mac = [0; 6];
+        datagram.read(28, &mut mac);
+        if op != 2 {
             return Err(Count::NotReply);
         }
-        if head[1..3] != [1, 6] || head[28..34] != self.fixed[MAC..MAC + 6] {
+        if htype != 1 || hlen != 6 || mac[..] != self.fixed[MAC..MAC + 6] {
             return Err(Count::OtherClient);
         }
-        if head[4..8] != self.xid.to_be_bytes() {
+        if xid != self.xid {
             return Err(Count::OtherXid);
         }
-        answer.address.copy_from_slice(&head[16..20]);
+        datagram.read(16, &mut answer.address);
         let mut word = [0; 4];
         datagram.read(FIXED, &mut word);
         if word != COOKIE {
@@ -523,120 +581,107 @@ impl Dhcp {
         }
         let mut at = OPTIONS;
         while at < len {
-            let mut code = [0; 2];
-            datagram.read(at, &mut code[..1]);
-            match code[0] {
-                option::END => break,
-                option::PAD => {
-                    at += 1;
-                    continue;
-                }
-                _ => {}
+            let code = byte_at(datagram, at);
+            if code == option::END {
+                break;
             }
-            if at + 1 >= len {
+            at += 1;
+            if code == option::PAD {
+                continue;
+            }
+            if at >= len {
                 return Err(Count::Malformed);
             }
-            datagram.read(at + 1, &mut code[1..]);
-            let [code, n] = code;
-            let n = u16::from(n);
-            at += 2;
-            if at + n > len {
+            let n = byte_at(datagram, at);
+            at += 1;
+            let end = at + u16::from(n);
+            if end > len {
                 return Err(Count::Malformed);
             }
-            if code == option::TYPE {
-                if n != 1 {
-                    return Err(Count::Malformed);
-                }
-                let mut kind = [0];
-                datagram.read(at, &mut kind);
-                answer.kind = kind[0];
-            } else if let Some(i) = KEPT.iter().position(|&kept| kept == code) {
-                // Four bytes, or a list of them for the routers.
-                if n != 4 && (i != ROUTER || n == 0 || n % 4 != 0) {
-                    return Err(Count::Malformed);
-                }
-                datagram.read(at, &mut answer.values[i]);
-                answer.seen |= 1 << i;
+            let Some(i) = KEPT.iter().position(|&kept| kept == code) else {
+                at = end;
+                continue;
+            };
+            // The type in 1 byte; the others in 4, or a list of them for the routers.
+            let room = if i == KIND { 1 } else { 4 };
+            if n != room && (i != ROUTER || n == 0 || n & 3 != 0) {
+                return Err(Count::Malformed);
             }
-            at += n;
+            datagram.read(at, &mut answer.values[i][..room as usize]);
+            answer.seen |= 1 << i;
+            at = end;
         }
         Ok(())
     }
 
-    /// An answer whole and sound checked against the state: the kind awaited, from the
-    /// server asked, with what a lease needs.
-    fn fits(&self, answer: &Answer) -> Result<(), Count> {
+    /// Takes an answer whole and sound if it fits the state: the kind awaited, from the
+    /// server asked, with what a lease needs. Ok(true) when a message is due now.
+    fn take(&mut self, answer: &Answer) -> Result<bool, Count> {
+        let kind = answer.kind();
         let asking = matches!(self.state, DhcpState::Requesting | DhcpState::Renewing);
-        let awaited = match answer.kind {
+        let awaited = match kind {
             0 => return Err(Count::Missing),
             OFFER => self.state == DhcpState::Selecting,
             ACK | NAK => asking || self.state == DhcpState::Rebinding,
             _ => false,
         };
         // While rebinding any server may answer; otherwise the one asked.
-        let other_server = asking && answer.get(SERVER_ID).is_some_and(|server| server != self.server);
-        if !awaited || other_server {
+        let server = answer.values[SERVER_ID];
+        if !awaited || (asking && answer.has(SERVER_ID) && server != self.server) {
             return Err(Count::Unexpected);
         }
-        if answer.kind == NAK {
-            return Ok(());
-        }
-        let Some(lease) = answer.seconds(LEASE) else { return Err(Count::Missing) };
-        if answer.kind == OFFER && answer.get(SERVER_ID).is_none() {
-            return Err(Count::Missing);
-        }
-        if lease == 0 {
-            return Err(Count::BadLease);
-        }
-        if !usable(answer.address) || (answer.kind == ACK && answer.address[..] != self.leased[IP..]) {
-            return Err(Count::BadAddress);
-        }
-        Ok(())
-    }
-
-    /// Takes an answer that fits. True when a message is due now.
-    fn take(&mut self, answer: &Answer) -> bool {
-        if answer.kind == NAK {
+        if kind == NAK {
             self.bump(Count::Naks);
             self.restart();
-            return false;
+            return Ok(false);
+        }
+        if !answer.has(LEASE) || (kind == OFFER && !answer.has(SERVER_ID)) {
+            return Err(Count::Missing);
+        }
+        if answer.values[LEASE] == [0; 4] {
+            return Err(Count::BadLease);
+        }
+        if !usable(answer.address) || (kind == ACK && answer.address[..] != self.leased[IP..]) {
+            return Err(Count::BadAddress);
         }
         // An offer's or an ACK's addresses: the server asked from now on, the address, and
         // the subnet and router when given (else the Network's).
-        if let Some(server) = answer.get(SERVER_ID) {
+        if answer.has(SERVER_ID) {
             self.server = server;
         }
-        if answer.kind == OFFER {
+        if kind == OFFER {
             self.leased = self.fixed;
         }
         put(&mut self.leased, IP, answer.address);
-        if let Some(subnet) = answer.get(SUBNET_MASK) {
-            put(&mut self.leased, SUBNET, subnet);
+        if answer.has(SUBNET_MASK) {
+            put(&mut self.leased, SUBNET, answer.values[SUBNET_MASK]);
         }
-        if let Some(router) = answer.get(ROUTER) {
-            put(&mut self.leased, GATEWAY, router);
+        if answer.has(ROUTER) {
+            put(&mut self.leased, GATEWAY, answer.values[ROUTER]);
         }
-        if answer.kind == OFFER {
+        if kind == OFFER {
             self.enter(DhcpState::Requesting);
             self.tries = 1;
             self.wait = 3;
-            return true;
+            return Ok(true);
         }
         self.bump(Count::Leases);
-        let given = answer.seconds(LEASE).unwrap_or(INFINITE);
-        let lease = if given == INFINITE { FOREVER } else { given.min(u32::from(LONGEST)) as u16 };
+        let lease = seconds(answer.values[LEASE]);
         self.lease = lease;
         // T1 and T2 as given when they are in order (T1 ≤ T2 ≤ lease) and the lease is kept
         // whole, else 0.5 and 0.875 of the lease (RFC 2131 §4.4.5).
-        (self.t1, self.t2) = match (answer.seconds(T1), answer.seconds(T2)) {
-            (Some(t1), Some(t2)) if t1 <= t2 && t2 <= given && given < u32::from(LONGEST) => (t1 as u16, t2 as u16),
-            _ => (lease / 2, lease - lease / 8),
+        let (t1, t2) = (seconds(answer.values[T1]), seconds(answer.values[T2]));
+        (self.t1, self.t2) = if answer.has(T1) && answer.has(T2) && t1 <= t2 && t2 <= lease && lease < LONGEST {
+            (t1, t2)
+        } else {
+            (lease / 2, lease - lease / 8)
         };
         self.age = 0;
         self.enter(DhcpState::Bound);
-        false
+        Ok(false)
     }
 }
+
 /// What the client needs of a chip beyond its TCP sockets: a UDP socket, and its
 /// addresses set while it runs.
 pub(crate) trait Udp: Sockets {
@@ -647,7 +692,8 @@ pub(crate) trait Udp: Sockets {
     /// Takes the received bytes up to `pointer`, the chip's count updated on return.
     fn take_now(&mut self, s: u8, pointer: u16);
     /// Writes the chip's gateway, subnet, MAC and IP.
-    fn set_addresses(&mut self, addresses: &[u8; ADDRESSES]);
+    /// (`addresses` mutable so that they go to the chip without a copy: only read.)
+    fn set_addresses(&mut self, addresses: &mut [u8; ADDRESSES]);
 }
 
 /// Sn_MR: UDP.
@@ -668,6 +714,7 @@ impl<U: Udp> Datagram for InChip<'_, U> {
         self.len
     }
 
+    #[inline(never)]
     fn read(&mut self, at: u16, buf: &mut [u8]) {
         self.chip.read(self.s, self.at.wrapping_add(at), buf);
     }
@@ -720,12 +767,12 @@ pub(crate) fn poll<U: Udp>(dhcp: &mut Dhcp, chip: &mut U, network: &mut Network,
         let len = dhcp.message(&mut buf, &mut |at, piece| chip.write(s, start.wrapping_add(at), piece));
         chip.send_to(s, dhcp.destination(), SERVER_PORT, start.wrapping_add(len));
     }
-    let addresses = dhcp.addresses();
-    if addresses == network.addresses {
+    let changed = dhcp.apply(&mut network.addresses);
+    if changed == 0 {
         return false;
     }
-    chip.set_addresses(&addresses);
-    if addresses[IP..] != network.addresses[IP..] {
+    chip.set_addresses(&mut network.addresses);
+    if changed & 2 != 0 {
         // The connections were the old address's; the listening sockets go on.
         for t in 0..s {
             if chip.status(t) != super::wiznet::state::LISTEN {
@@ -733,7 +780,6 @@ pub(crate) fn poll<U: Udp>(dhcp: &mut Dhcp, chip: &mut U, network: &mut Network,
             }
         }
     }
-    network.addresses = addresses;
     true
 }
 

@@ -485,9 +485,8 @@ impl<C: Chip, B: Bus> super::dhcp::Udp for Wiznet<C, B> {
         self.command(s, command::RECV);
     }
 
-    fn set_addresses(&mut self, addresses: &[u8; super::network::ADDRESSES]) {
-        let mut addresses = *addresses;
-        C::transfer(&mut self.bus, Block::COMMON, GAR, &mut addresses, true);
+    fn set_addresses(&mut self, addresses: &mut [u8; super::network::ADDRESSES]) {
+        C::transfer(&mut self.bus, Block::COMMON, GAR, addresses, true);
     }
 }
 

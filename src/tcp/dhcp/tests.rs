@@ -788,7 +788,7 @@ impl Udp for UdpChip {
         assert!(usize::from(pointer) <= self.rx.len());
         self.rx_rd = pointer;
     }
-    fn set_addresses(&mut self, addresses: &[u8; ADDRESSES]) {
+    fn set_addresses(&mut self, addresses: &mut [u8; ADDRESSES]) {
         self.addresses = Some(*addresses);
     }
 }
