@@ -48,11 +48,19 @@ use panic_halt as _;
 #[cfg(not(any(feature = "rtu-over-tcp", feature = "udp")))]
 const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).evict_after(2);
 #[cfg(all(feature = "rtu-over-tcp", not(feature = "udp")))]
-const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).evict_after(2).sockets(4).rtu_over_tcp(5020, 0b1000);
+const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177])
+    .evict_after(2)
+    .sockets(4)
+    .rtu_over_tcp(5020, 0b1000);
 #[cfg(all(feature = "udp", not(feature = "rtu-over-tcp")))]
-const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).evict_after(2).sockets(3).udp(3);
+const NETWORK: Network =
+    Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).evict_after(2).sockets(3).udp(3);
 #[cfg(all(feature = "udp", feature = "rtu-over-tcp"))]
-const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177]).evict_after(2).sockets(3).rtu_over_tcp(5020, 0b0100).udp(3);
+const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177])
+    .evict_after(2)
+    .sockets(3)
+    .rtu_over_tcp(5020, 0b0100)
+    .udp(3);
 const LINE: Line = Line::new(19_200, Parity::Even, StopBits::One);
 
 // This repository builds it for each shield (`AVR_MODBUS_EXAMPLE_SHIELD`): the W5100 by

@@ -23,9 +23,9 @@ use super::health::Health;
 use super::mbap::{self, Header, Refused, HEADER};
 use super::network::Network;
 use super::wiznet::{command, state, RECV, SEND_OK};
-use crate::link::crc::Crc16;
 #[cfg(feature = "udp")]
 use super::wiznet::{TIMEOUT, UDP_HEADER};
+use crate::link::crc::Crc16;
 
 /// The events that end a SEND: its SEND_OK (and, on a UDP socket, its TIMEOUT: the ARP of
 /// the destination went unanswered and nothing was sent).
@@ -137,7 +137,8 @@ enum Count {
 }
 
 /// How many counters there are: [`Count`]'s places (the chip's health counts its own).
-const COUNTS: usize = Count::Evicted as usize + 1 + cfg!(feature = "rtu-over-tcp") as usize + cfg!(feature = "udp") as usize;
+const COUNTS: usize =
+    Count::Evicted as usize + 1 + cfg!(feature = "rtu-over-tcp") as usize + cfg!(feature = "udp") as usize;
 
 /// Where a socket is, as the server last saw it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
