@@ -112,7 +112,7 @@ pub struct TcpCounters {
     /// UDP datagrams dropped for their length (feature `udp`): shorter than an MBAP
     /// header, or not the length its header's length field says (one outside 2–254
     /// included). Those of an address the allow-list refuses count in
-    /// [`TcpCounters::refused`], those of another protocol id in
+    /// [`TcpCounters::refused`], those of the right length and another protocol id in
     /// [`TcpCounters::bad_protocol`], those for another unit in [`TcpCounters::other_unit`].
     #[cfg(feature = "udp")]
     pub bad_datagrams: u16,
