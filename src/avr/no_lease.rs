@@ -11,7 +11,9 @@ use crate::tcp::Network;
 pub(crate) struct Lease;
 
 impl Lease {
-    /// The network as given.
+    /// The network as given. `C` unused: the DHCP client's signature (`lease.rs`), which
+    /// picks the chip's socket count.
+    #[allow(clippy::extra_unused_type_parameters)]
     #[inline(always)]
     pub(crate) fn new<C: Chip>(_: &mut Network) -> Lease {
         Lease

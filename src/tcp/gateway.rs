@@ -38,6 +38,7 @@ use super::health::Health;
 use super::mbap::HEADER;
 use super::network::Network;
 use super::server::{Answered, Handler, Server, Sockets};
+use crate::link::crc::Crc16;
 use crate::master::request::Shape;
 use crate::master::Failure;
 use crate::protocol::Exception;
@@ -319,25 +320,38 @@ impl Gateway {
             };
             let [t0, t1] = flight.transaction.to_be_bytes();
             let head = [t0, t1, 0, 0, 0, pdu as u8 + 1, flight.unit, flight.function | 0x80, code];
-            let answered = if net.is_rtu(flight.socket) {
-                rtu::answer(server, chip, line, flight.socket, [flight.unit, flight.function | 0x80, code], pdu)
-            } else {
-                server.answer(chip, flight.socket, (HEADER + pdu) as u16, code != 0, |chip, at, buf| {
-                    let Some(first) = buf.get_mut(..head.len()) else { return };
-                    first.copy_from_slice(&head);
-                    let lead = if code != 0 { HEADER + 2 } else { HEADER };
-                    chip.write(flight.socket, at, &mut first[..lead]);
-                    // The answer's bytes, a buffer at a time.
-                    let mut done = 0;
-                    while lead + done < HEADER + pdu {
-                        let n = (HEADER + pdu - lead - done).min(buf.len());
-                        let chunk = &mut buf[..n];
-                        line.reply(done, chunk);
-                        chip.write(flight.socket, at.wrapping_add((lead + done) as u16), chunk);
-                        done += n;
+            // To a socket of RTU over TCP (feature `rtu-over-tcp`) the answer goes as an RTU
+            // frame: from the unit id's place on (the request's address), then a CRC.
+            let rtu = net.is_rtu(flight.socket);
+            let len = if rtu { pdu + 3 } else { HEADER + pdu };
+            let answered = server.answer(chip, flight.socket, len as u16, code != 0, |chip, at, buf| {
+                let rtu = net.is_rtu(flight.socket);
+                let from = if rtu { HEADER - 1 } else { 0 };
+                let Some(first) = buf.get_mut(..head.len()) else { return };
+                first.copy_from_slice(&head);
+                let lead = if code != 0 { HEADER + 2 } else { HEADER };
+                let mut crc = Crc16::new();
+                if rtu {
+                    crc = crc.update_slice(&first[from..lead]);
+                }
+                chip.write(flight.socket, at, &mut first[from..lead]);
+                // The answer's bytes, a buffer at a time.
+                let mut done = 0;
+                while lead + done < HEADER + pdu {
+                    let n = (HEADER + pdu - lead - done).min(buf.len());
+                    let chunk = &mut buf[..n];
+                    line.reply(done, chunk);
+                    if rtu {
+                        crc = crc.update_slice(chunk);
                     }
-                })
-            };
+                    chip.write(flight.socket, at.wrapping_add((lead - from + done) as u16), chunk);
+                    done += n;
+                }
+                if rtu {
+                    let mut tail = crc.to_wire();
+                    chip.write(flight.socket, at.wrapping_add((HEADER + pdu - from) as u16), &mut tail);
+                }
+            });
             match answered {
                 // Cannot last: a request is handed over only while its socket has no SEND on
                 // its way, and nothing else is sent on it until its answer.
@@ -614,29 +628,6 @@ impl<L: RtuSide, R: Routes> Handler for Gate<'_, L, R> {
         }
         self.gateway.bump(Count::Unavailable);
         Some((encode_exception(&mut adu[HEADER..], Exception::GatewayPathUnavailable), true))
-    }
-}
-
-/// The answers to RTU over TCP's sockets (feature `rtu-over-tcp`).
-#[cfg(feature = "rtu-over-tcp")]
-mod rtu;
-
-/// Without feature `rtu-over-tcp` no socket frames as RTU ([`Network::is_rtu`]).
-#[cfg(not(feature = "rtu-over-tcp"))]
-mod rtu {
-    use super::{Answered, RtuSide, Server, Sockets};
-
-    /// Never called: no socket frames as RTU.
-    #[inline(always)]
-    pub(super) fn answer<S: Sockets, L: RtuSide, const B: usize>(
-        _server: &mut Server<B>,
-        _chip: &mut S,
-        _line: &mut L,
-        _s: u8,
-        _head: [u8; 3],
-        _pdu: usize,
-    ) -> Answered {
-        Answered::Gone
     }
 }
 

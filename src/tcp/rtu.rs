@@ -32,25 +32,60 @@ pub(crate) const MIN_FRAME: u16 = 4;
 /// The most bytes a frame has (Serial Line §2.5.1.1).
 pub(crate) const MAX_FRAME: u16 = 256;
 
+/// Each function code's frame up to FC 24 (0x18), by code: an even entry is the frame's
+/// length, an odd one the place of its byte count plus one, 0 a code with no length to read
+/// (FC 43, 0x2B, the one past 24 with a length, is 7 bytes).
+#[cfg_attr(target_arch = "avr", allow(unsafe_code), link_section = ".progmem.data")]
+static FRAMES: [u8; 25] = [
+    0, 8, 8, 8, 8, 8, 8, 4, 8, 0, 0, 4, 4, 0, 0, //   0-14: FC 1-6, 8; 7, 11, 12
+    7, 7, // 15, 16: byte count at 6
+    4, 0, 0, // 17-19: FC 17
+    3, 3, // 20, 21: byte count at 2
+    10, 11, 6, // 22: 10 bytes; 23: byte count at 10; 24: 6 bytes
+];
+
+/// [`FRAMES`]'s entry for `code` (0 past it).
+fn entry(code: u8) -> u8 {
+    let Some(entry) = FRAMES.get(usize::from(code)) else { return 0 };
+    #[cfg(target_arch = "avr")]
+    {
+        let byte: u8;
+        #[allow(unsafe_code)]
+        // SAFETY: `lpm` reads a byte of program memory, where `FRAMES` is (its link
+        // section), at `entry`, inside it; it touches nothing else.
+        unsafe {
+            core::arch::asm!(
+                "lpm {byte}, Z",
+                byte = out(reg) byte,
+                in("Z") entry as *const u8,
+                options(pure, readonly, nostack, preserves_flags),
+            );
+        }
+        byte
+    }
+    #[cfg(not(target_arch = "avr"))]
+    *entry
+}
+
 /// The length of the frame starting with `head` (its first bytes received; FC 23's byte
 /// count, the 11th byte, is the furthest it looks),
 /// from its function code and, for codes with data, its byte count; `received` bytes are
 /// there in all. `None` while `head` is too short to tell; a length outside 4–256 is no
 /// frame.
 pub(crate) fn frame_len(head: &[u8], received: u16) -> Option<u16> {
-    // The frame's length, or where its byte count is: the frame is then that place, the
-    // count, the data counted and 2 bytes of CRC long.
-    let count_at: u8 = match *head.get(1)? {
-        0x01..=0x06 | 0x08 => return Some(8),
-        0x07 | 0x0B | 0x0C | 0x11 => return Some(4),
-        0x16 => return Some(10),
-        0x18 => return Some(6),
-        0x2B => return Some(7),
-        0x0F | 0x10 => 6,
-        0x14 | 0x15 => 2,
-        0x17 => 10,
-        _ => return Some(received),
-    };
+    let code = *head.get(1)?;
+    if code == 0x2B {
+        return Some(7);
+    }
+    let entry = entry(code);
+    if entry == 0 {
+        return Some(received);
+    }
+    if entry & 1 == 0 {
+        return Some(u16::from(entry));
+    }
+    // The frame: up to its byte count, the count, the data counted, 2 bytes of CRC.
+    let count_at = entry - 1;
     head.get(usize::from(count_at)).map(|&n| u16::from(count_at) + 3 + u16::from(n))
 }
 

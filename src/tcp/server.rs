@@ -112,7 +112,7 @@ pub struct TcpCounters {
     /// UDP datagrams dropped for their length (feature `udp`): shorter than an MBAP
     /// header, or not the length its header's length field says (one outside 2–254
     /// included). Those of an address the allow-list refuses count in
-    /// [`TcpCounters::refused`], those of another protocol id in
+    /// [`TcpCounters::refused`], those of the right length and another protocol id in
     /// [`TcpCounters::bad_protocol`], those for another unit in [`TcpCounters::other_unit`].
     #[cfg(feature = "udp")]
     pub bad_datagrams: u16,
@@ -401,18 +401,17 @@ impl<const B: usize> Server<B> {
                 // The UDP socket just opened: no peer to check, no connection to count.
                 #[cfg(feature = "udp")]
                 if phase != Phase::Connected {
-                    let tcp = s != net.udp;
-                    if tcp && !net.allows(chip.peer(s)) {
-                        self.bump(Count::Refused);
-                        self.close(chip, net, s);
-                        return;
+                    if s != net.udp {
+                        if !net.allows(chip.peer(s)) {
+                            self.bump(Count::Refused);
+                            self.close(chip, net, s);
+                            return;
+                        }
+                        self.bump(Count::Connections);
                     }
                     self.enter(s, Phase::Connected);
                     self.rx[at] = chip.rx_pointer(s);
                     self.tx[at] = chip.tx_pointer(s);
-                    if tcp {
-                        self.bump(Count::Connections);
-                    }
                 }
                 let left = self.serve(chip, handler, net, s);
                 if status == state::CLOSE_WAIT && !left {
@@ -574,10 +573,10 @@ impl<const B: usize> Server<B> {
                     if received < UDP_HEADER as u16 {
                         break;
                     }
-                    let mut chip_header = [0; UDP_HEADER];
-                    chip.read(s, rx, &mut chip_header);
-                    let [a, b, c, d, _, _, high, low] = chip_header;
-                    datagram = u16::from_be_bytes([high, low]);
+                    // The chip's header, at the buffer's front (the ADU's read overwrites it).
+                    let head = &mut self.buf[..UDP_HEADER];
+                    chip.read(s, rx, head);
+                    datagram = u16::from_be_bytes([head[6], head[7]]);
                     if received - (UDP_HEADER as u16) < datagram {
                         // Not all there (the count read as a datagram landed): the next poll.
                         break;
@@ -585,16 +584,15 @@ impl<const B: usize> Server<B> {
                     rx = rx.wrapping_add(UDP_HEADER as u16);
                     received -= UDP_HEADER as u16;
                     // An address not allowed costs this header's read and nothing more.
-                    let refused = !net.allows([a, b, c, d]);
-                    if refused || datagram < HEADER as u16 {
-                        self.bump(if refused { Count::Refused } else { Count::BadDatagram });
+                    if !net.allows([head[0], head[1], head[2], head[3]]) {
+                        self.bump(Count::Refused);
                         rx = rx.wrapping_add(datagram);
                         received -= datagram;
                         continue;
                     }
                     // Its answer's destination. Sn_DIPR and Sn_DPORT keep it while the
                     // request is under way: no other datagram is read before it is answered.
-                    chip.set_peer(s, &mut chip_header[..6]);
+                    chip.set_peer(s, &mut head[..6]);
                 }
                 // The header and, in the same transfer, the body of the usual request (FC
                 // 1-6: 12 bytes in all); a longer one's rest below.
@@ -603,10 +601,13 @@ impl<const B: usize> Server<B> {
                 let (head, _) = self.buf.split_at_mut(HEADER);
                 let head: &mut [u8; HEADER] = head.try_into().unwrap_or_else(|_| unreachable!());
                 let parsed = Header::parse(head);
-                // A datagram is one ADU, its length the header's: else it is dropped whole.
+                // A datagram is one ADU, its length the header's: else it is dropped whole,
+                // counted for its protocol id when its length is right (one shorter than a
+                // header has none: what was read past it is not its own).
                 #[cfg(feature = "udp")]
                 if udp && !matches!(parsed, Ok(header) if header.adu_len() == datagram) {
-                    self.bump(if parsed == Err(Refused::Protocol) { Count::BadProtocol } else { Count::BadDatagram });
+                    let whole = Header::skip(head) == Some(datagram);
+                    self.bump(if whole { Count::BadProtocol } else { Count::BadDatagram });
                     rx = rx.wrapping_add(datagram);
                     received -= datagram;
                     continue;

@@ -436,7 +436,9 @@ impl<C: Chip, B: Bus> Sockets for Wiznet<C, B> {
 
     #[cfg(feature = "udp")]
     fn open(&mut self, s: u8, port: u16, udp: bool) {
-        self.set(Block::socket(s), sn::MR.into(), if udp { MODE_UDP } else { MODE_TCP });
+        // MODE_TCP (1) or MODE_UDP (2).
+        const { assert!(MODE_UDP == MODE_TCP + 1) };
+        self.set(Block::socket(s), sn::MR.into(), MODE_TCP + u8::from(udp));
         self.set16(s, sn::PORT, port);
         self.command(s, command::OPEN);
         if !udp {

@@ -38,13 +38,15 @@ impl<const B: usize> Server<B> {
             // The rest is on its way.
             return 0;
         }
-        // The CRC over the frame; one longer than the buffer read through it, a buffer at a
-        // time, then its start again.
-        let mut crc = Crc16::new().update_slice(&buf[..usize::from(len).min(n)]);
-        let mut done = n as u16;
+        // The CRC over the frame, a buffer at a time: one longer than the buffer is read
+        // through it, then its start again.
+        let mut crc = Crc16::new();
+        let mut done = 0;
         while done < len {
             let k = usize::from(len - done).min(n);
-            chip.read(s, rx.wrapping_add(done), &mut buf[..k]);
+            if done != 0 {
+                chip.read(s, rx.wrapping_add(done), &mut buf[..k]);
+            }
             crc = crc.update_slice(&buf[..k]);
             done += k as u16;
         }

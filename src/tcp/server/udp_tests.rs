@@ -135,6 +135,21 @@ fn bad_headers_are_dropped_and_counted_each_in_its_counter() {
 }
 
 #[test]
+fn a_datagram_shorter_than_a_header_counts_for_its_length_whatever_follows_it() {
+    // 5 bytes: a transaction id, protocol id 1, a length field's high byte. Read as a
+    // header, the next datagram's chip header (its sender's first address byte, 10) would
+    // make a length of 10 and a protocol id to refuse: the datagram is counted for its length.
+    let (mut chip, mut bank) = (Fake::default(), bank());
+    let mut server = started(&mut chip, &mut bank, &NET);
+    assert!(chip.datagram(U, sender(9, 1000), &[0, 1, 0, 1, 0]));
+    assert!(chip.datagram(U, sender(9, 1001), &read_holding(2, 1, 0, 1)));
+    settle(&mut server, &mut chip, &mut bank, &NET);
+    assert_eq!(chip.socks[U].datagrams, [(sender(9, 1001), holding_reply(2, 1, 0, 1))]);
+    let counts = server.counters();
+    assert_eq!((counts.bad_datagrams, counts.bad_protocol), (1, 0));
+}
+
+#[test]
 fn a_flood_from_an_address_not_allowed_costs_one_header_read_each_and_no_answer() {
     let net = NET.allow(&[[10, 0, 0, 9]]);
     let (mut chip, mut bank) = (Fake::default(), bank());
