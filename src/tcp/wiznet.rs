@@ -293,7 +293,6 @@ impl<C: Chip, B: Bus> Wiznet<C, B> {
 
     /// Resets the chip, checks it is a `C`, and gives it `network`'s addresses; socket
     /// events reach the INT pin (for a board that wires it). False when no `C` answers.
-    /// (`network` is only read: mutable so that its addresses go to the chip without a copy.)
     pub fn init(&mut self, network: &Network) -> bool {
         self.set(Block::COMMON, MR, RESET);
         // The reset clears itself within microseconds; a chip that never clears it is not
