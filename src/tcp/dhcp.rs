@@ -696,11 +696,6 @@ pub(crate) trait Udp: Sockets {
     fn set_addresses(&mut self, addresses: &mut [u8; ADDRESSES]);
 }
 
-/// Sn_MR: UDP.
-pub(crate) const MODE_UDP: u8 = 0x02;
-/// Sn_SR: a UDP socket open.
-pub(crate) const SOCK_UDP: u8 = 0x22;
-
 /// A datagram in socket `s`'s receive buffer.
 struct InChip<'a, U> {
     chip: &'a mut U,
@@ -732,7 +727,7 @@ pub(crate) fn poll<U: Udp>(dhcp: &mut Dhcp, chip: &mut U, network: &mut Network,
     let s = dhcp.settings.socket;
     let _ = chip.take_events(s);
     let mut due = false;
-    if chip.status(s) != SOCK_UDP {
+    if chip.status(s) != super::wiznet::state::UDP {
         chip.command(s, super::wiznet::command::CLOSE);
         chip.open_udp(s, CLIENT_PORT);
     } else {

@@ -76,8 +76,8 @@ pub mod sn {
 
 /// Sn_MR: TCP.
 pub const MODE_TCP: u8 = 0x01;
-/// Sn_MR: UDP.
-#[cfg(feature = "udp")]
+/// Sn_MR: UDP (Modbus UDP's socket, the DHCP client's).
+#[cfg(any(feature = "udp", feature = "dhcp"))]
 pub const MODE_UDP: u8 = 0x02;
 /// The header the chip puts before each datagram in a UDP socket's receive buffer: the
 /// sender's address (4 bytes), port (2), the data's length (2), big-endian.
@@ -118,7 +118,7 @@ pub mod state {
     /// The peer closed its side; this side may still send.
     pub const CLOSE_WAIT: u8 = 0x1C;
     /// Opened in UDP mode.
-    #[cfg(feature = "udp")]
+    #[cfg(any(feature = "udp", feature = "dhcp"))]
     pub const UDP: u8 = 0x22;
 }
 
@@ -468,7 +468,7 @@ impl<C: Chip, B: Bus> super::client::Connect for Wiznet<C, B> {
 #[cfg(feature = "dhcp")]
 impl<C: Chip, B: Bus> super::dhcp::Udp for Wiznet<C, B> {
     fn open_udp(&mut self, s: u8, port: u16) {
-        self.set(Block::socket(s), sn::MR.into(), super::dhcp::MODE_UDP);
+        self.set(Block::socket(s), sn::MR.into(), MODE_UDP);
         self.set16(s, sn::PORT, port);
         self.command(s, command::OPEN);
     }

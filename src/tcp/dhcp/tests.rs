@@ -777,7 +777,7 @@ impl Sockets for UdpChip {
 impl Udp for UdpChip {
     fn open_udp(&mut self, s: u8, port: u16) {
         assert_eq!((s, port), (3, CLIENT_PORT));
-        self.status[3] = SOCK_UDP;
+        self.status[3] = crate::tcp::wiznet::state::UDP;
         self.opened += 1;
     }
     fn send_to(&mut self, s: u8, ip: [u8; 4], port: u16, pointer: u16) {
