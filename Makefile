@@ -146,7 +146,8 @@ sizes: firmware
 # The TCP server (examples/tcp_server.rs) as make chips builds it, CHIP:SHIELD, into
 # target/chips/CHIP-SHIELD/: the Uno with either chip, polled or with the INT line on pin 2,
 # the Mega 2560 and the Leonardo with a W5500. Then the TCP contract (sixteen_each_tcp) and
-# the firmware with both TCP and RTU (tcp_rtu) into target/chips/atmega328p-tcp/, the contract
+# the firmware with both TCP and RTU (tcp_rtu: one model on both ports; tcp_rtu_copy: two maps
+# and a copy, its control in tests/sim_shared_model.rs) into target/chips/atmega328p-tcp/, the contract
 # with RTU over TCP on socket 3, port 5020 (feature rtu-over-tcp: tests/sim_rtu_over_tcp.rs,
 # interop_tcp's pymodbus RTU framer) into target/chips/atmega328p-tcp-rtu/, and
 # examples/libmodbus_map.rs (libmodbus's unit-test map on a W5100, with the FC 17, 22 and 23
@@ -163,6 +164,7 @@ TCP_BUILDS := atmega328p:w5100 atmega328p:w5500 atmega328p:w5100-int atmega328p:
 TCP_FIRMWARE := $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-none/release/examples/tcp_server.elf) \
 	target/chips/atmega328p-tcp/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu.elf \
+	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu_copy.elf \
 	target/chips/atmega328p-tcp-rtu/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-tcp-dhcp/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-w5100-libmodbus/avr-none/release/examples/libmodbus_map.elf \
@@ -180,7 +182,7 @@ tcp-firmware: setup
 		chip=$${build%%:*}; shield=$${build##*:}; \
 		AVR_MODBUS_EXAMPLE_SHIELD=$$shield .ci/chip-build $$chip "" $$chip-$$shield examples,tcp,millis tcp_server || exit 1; \
 	done
-	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu
+	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu tcp_rtu_copy
 	@.ci/chip-build atmega328p "" atmega328p-tcp-rtu examples,tcp,rtu-over-tcp sixteen_each_tcp
 	@.ci/chip-build atmega328p "" atmega328p-tcp-dhcp examples,tcp,dhcp sixteen_each_tcp
 	@.ci/chip-build atmega328p "" atmega328p-w5100-libmodbus examples,tcp,extra-fc,diagnostics libmodbus_map

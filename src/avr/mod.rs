@@ -81,6 +81,7 @@ mod no_pin;
 mod overflow;
 mod receive;
 mod reg;
+mod shared;
 mod slave;
 #[cfg(feature = "tcp")]
 mod spi;
@@ -100,6 +101,7 @@ pub use gateway::TcpGateway;
 #[cfg(feature = "master")]
 pub use master::Master;
 pub use no_pin::NoPin;
+pub use shared::SharedModel;
 pub use slave::Slave;
 #[cfg(feature = "tcp")]
 pub use tcp::{Pin10, TcpServer};
@@ -119,6 +121,8 @@ pub fn millis() -> u32 {
 /// For the handlers that [`crate::slave!`] binds.
 #[doc(hidden)]
 pub mod __private {
+    pub use super::shared::SharedHandle;
+
     /// USART receive complete, before anything else: when the character arrived.
     ///
     /// # Safety

@@ -104,6 +104,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
         #[cfg(feature = "reply-delay")]
         if end == EndOfFrame::Reply && self.reply_delay != 0 {
             // Processed now, sent when the delay has passed.
+            self.tell_model();
             self.tx_len = self.engine.process(&mut self.model) as TxIndex;
             if !self.timer.delay(self.reply_delay) {
                 self.send_processed();
@@ -119,10 +120,21 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
         // Executes what `on_end_deadline` accepted (nothing for the other ends) and, for a
         // reply, appends its CRC; the rest of the reply follows its first character from the
         // data-register-empty interrupt.
+        self.tell_model();
         let bytes = self.engine.process(&mut self.model);
         self.tx_len = self.reply_chars(bytes);
         if self.tx_len != 0 {
             self.usart.start_feeding();
+        }
+    }
+
+    /// A model other ports serve too learns that the request comes from this USART, and
+    /// its address (what it records of a write, [`crate::Write`]); nothing for a model of
+    /// this slave's own.
+    #[inline(always)]
+    fn tell_model(&mut self) {
+        if M::SHARED {
+            self.model.serve_from(crate::Port::Serial(U), self.engine.frame_address());
         }
     }
 
