@@ -90,8 +90,10 @@ impl<M: DataModel> server::Handler for Serving<'_, M> {
         if !M::SHARED {
             return respond(adu, pdu_len, self.0);
         }
+        // The client's address for every write (FC 5 and up: the few codes past 5 that do
+        // not write are rare, and one comparison is less code than six).
         let code = adu.get(mbap::HEADER).copied().unwrap_or(0);
-        let client = if FunctionCode::from_code(code).is_write() { chip.peer(s) } else { [0; 4] };
+        let client = if code >= FunctionCode::WriteSingleCoil.code() { chip.peer(s) } else { [0; 4] };
         let unit = adu.get(mbap::HEADER - 1).copied().unwrap_or(mbap::DEVICE_UNIT);
         self.0.exclusive(|model| {
             model.serve_from(crate::Port::Tcp { socket: s, client }, unit);

@@ -81,6 +81,24 @@ impl<M> SharedModel<M> {
             }
         })
     }
+
+    /// A port's access: [`SharedModel::access`] without marking the model in use, which
+    /// only the application's calls need (a port's access runs in the port's interrupt
+    /// handler or inside [`DataModel::exclusive`], where no other access can start).
+    #[inline(always)]
+    fn port_access<R>(&self, f: impl FnOnce(&mut M, &mut WriteLog) -> R) -> Option<R> {
+        reg::free(|| {
+            // SAFETY: interrupts are disabled, and no access of the application's is under
+            // way (`busy`): nothing else holds the model. What runs inside is the model's
+            // own code, which does not reach its shared handle.
+            unsafe {
+                if *self.busy.get() {
+                    return None;
+                }
+                Some(f(&mut *self.model.get(), &mut *self.log.get()))
+            }
+        })
+    }
 }
 
 impl<M: DataModel> SharedModel<M> {
@@ -156,7 +174,7 @@ pub trait SharedHandle: 'static {
 /// Runs `f` on `H`'s model and record, interrupts disabled.
 #[inline(always)]
 fn on<H: SharedHandle, R>(f: impl FnOnce(&mut H::Model, &mut WriteLog) -> R) -> Option<R> {
-    H::cell().access(f)
+    H::cell().port_access(f)
 }
 
 /// What a port is refused while the application holds the model (only an interrupt
