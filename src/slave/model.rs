@@ -191,7 +191,7 @@ pub trait DataModel {
         let _ = (place, stored);
     }
 
-    /// True for a model that several ports serve at once ([`crate::shared_model!`]): a port
+    /// True for a model that several ports serve at once (`shared_model!`): a port
     /// that runs its requests with interrupts enabled (the TCP server) runs each under
     /// [`DataModel::exclusive`], and every port says who asks with
     /// [`DataModel::serve_from`]. False, the default: a model one port owns, whose code

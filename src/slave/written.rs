@@ -1,4 +1,4 @@
-//! Who wrote what in a model several ports serve ([`crate::shared_model!`]): each port
+//! Who wrote what in a model several ports serve (`shared_model!`): each port
 //! says who asks before it runs a request ([`Port`], the unit id), and the model records
 //! the last write a master made ([`Write`]) for the application to take.
 
@@ -8,10 +8,10 @@ use crate::protocol::reference::{Reference, Table};
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Port {
-    /// A serial slave ([`crate::slave!`]): its USART's number (0 on the Uno's pins 0/1,
+    /// A serial slave (`slave!`): its USART's number (0 on the Uno's pins 0/1,
     /// 1–3 for a Mega's Serial1–3).
     Serial(u8),
-    /// The TCP server ([`crate::tcp_server!`]): the chip's socket the request came on, and
+    /// The TCP server (`tcp_server!`): the chip's socket the request came on, and
     /// the client's IPv4 address (of the write's connection or datagram).
     Tcp {
         /// The socket (0–3 on the W5100, 0–7 on the W5500).
@@ -22,7 +22,7 @@ pub enum Port {
 }
 
 /// A master's write to a shared model: which port and unit id it came through, and what it
-/// wrote. [`crate::SharedModel::take_write`] hands it over.
+/// wrote. `SharedModel::take_write` hands it over.
 #[cfg_attr(feature = "ufmt", derive(ufmt::derive::uDebug))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Write {
