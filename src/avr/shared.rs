@@ -63,10 +63,10 @@ impl<M> SharedModel<M> {
         }
     }
 
-    /// Runs `f` on the model and its record of writes with interrupts disabled: `None`
-    /// inside another access (a `with` inside a `with`).
+    /// Runs `f` on the model with interrupts disabled, marked in use: `None` inside another
+    /// access (a `with` inside a `with`).
     #[inline(always)]
-    fn access<R>(&self, f: impl FnOnce(&mut M, &mut WriteLog) -> R) -> Option<R> {
+    fn access<R>(&self, f: impl FnOnce(&mut M) -> R) -> Option<R> {
         reg::free(|| {
             // SAFETY: interrupts are disabled, so no other access runs now but the one
             // `busy` marks, which this one then leaves alone.
@@ -75,22 +75,23 @@ impl<M> SharedModel<M> {
                     return None;
                 }
                 *self.busy.get() = true;
-                let result = f(&mut *self.model.get(), &mut *self.log.get());
+                let result = f(&mut *self.model.get());
                 *self.busy.get() = false;
                 Some(result)
             }
         })
     }
 
-    /// A port's access: [`SharedModel::access`] without marking the model in use, which
-    /// only the application's calls need (a port's access runs in the port's interrupt
-    /// handler or inside [`DataModel::exclusive`], where no other access can start).
+    /// A port's access to the model and the record: [`SharedModel::access`] without marking
+    /// the model in use, which only the application's calls need (a port's access runs in
+    /// the port's interrupt handler or inside [`DataModel::exclusive`], where no other
+    /// access can start).
     #[inline(always)]
     fn port_access<R>(&self, f: impl FnOnce(&mut M, &mut WriteLog) -> R) -> Option<R> {
         reg::free(|| {
             // SAFETY: interrupts are disabled, and no access of the application's is under
             // way (`busy`): nothing else holds the model. What runs inside is the model's
-            // own code, which does not reach its shared handle.
+            // own code, which does not reach its shared handle, and the record's.
             unsafe {
                 if *self.busy.get() {
                     return None;
@@ -99,13 +100,21 @@ impl<M> SharedModel<M> {
             }
         })
     }
+
+    /// Runs `f` on the record of writes with interrupts disabled.
+    #[inline(always)]
+    fn log<R>(&self, f: impl FnOnce(&mut WriteLog) -> R) -> R {
+        // SAFETY: interrupts are disabled, and the record is reached only here and inside a
+        // port's access, where only the record's own code runs on it.
+        reg::free(|| f(unsafe { &mut *self.log.get() }))
+    }
 }
 
 impl<M: DataModel> SharedModel<M> {
     /// Runs `f` on the model with interrupts disabled: `None` inside another `with`. Keep
     /// `f` short: every port's interrupts wait while it runs.
     pub fn with<R>(&self, f: impl FnOnce(&mut M) -> R) -> Option<R> {
-        self.access(|model, _| f(model))
+        self.access(f)
     }
 
     /// Reads a coil, input or register by its classic reference (see [`crate::Bank::get`]).
@@ -147,7 +156,7 @@ impl<M: DataModel> SharedModel<M> {
     /// how many writes before it went untaken. `None` when no master wrote since. Writes
     /// by the application (`set`, `with`) are not recorded.
     pub fn take_write(&self) -> Option<Write> {
-        self.access(|_, log| log.take()).flatten()
+        self.log(WriteLog::take)
     }
 }
 
@@ -307,7 +316,7 @@ impl<H: SharedHandle> DataModel for H {
 
     #[inline(always)]
     fn serve_from(&mut self, by: Port, unit: u8) {
-        on::<H, _>(|_, log| log.serve_from(by, unit));
+        H::cell().log(|log| log.serve_from(by, unit));
     }
 }
 

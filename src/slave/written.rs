@@ -116,4 +116,21 @@ mod tests {
         log.wrote(Table::Coils, 1, 1);
         assert_eq!(log.take().unwrap().earlier, 0, "counted from the last take");
     }
+
+    #[test]
+    fn a_read_from_another_port_after_a_write_leaves_the_write_as_it_was() {
+        let mut log = WriteLog::new();
+        log.serve_from(TCP, 7);
+        log.wrote(Table::HoldingRegisters, 1, 1);
+        log.serve_from(Port::Serial(1), 2);
+        log.serve_from(Port::Serial(0), 3);
+        let write = log.take().unwrap();
+        assert_eq!((write.by, write.unit, write.first.address), (TCP, 7, 1));
+        // Two writes in one request (a broadcast to several units): both the request's.
+        log.serve_from(Port::Serial(0), 0);
+        log.wrote(Table::Coils, 4, 1);
+        log.wrote(Table::Coils, 5, 1);
+        let write = log.take().unwrap();
+        assert_eq!((write.by, write.unit, write.first.address, write.earlier), (Port::Serial(0), 0, 5, 1));
+    }
 }
