@@ -50,9 +50,8 @@ avr_modbus::slave!(SLAVE1 on USART1 with TIMER0_COMPA: MODEL);
 fn main() -> ! {
     let Some(dp) = pac::Peripherals::take() else { board::halt(avr_modbus::Error::AlreadyStarted) };
     // The first one started borrows Timer0 (`&*dp.TC0`), the second takes it.
-    let started = SLAVE1
-        .start(SERIAL1, dp.USART1, &*dp.TC0, MODEL)
-        .and_then(|()| SLAVE.start(SERIAL, dp.USART0, dp.TC0, MODEL));
+    let started =
+        SLAVE1.start(SERIAL1, dp.USART1, &*dp.TC0, MODEL).and_then(|()| SLAVE.start(SERIAL, dp.USART0, dp.TC0, MODEL));
     if let Err(error) = started {
         board::halt(error);
     }

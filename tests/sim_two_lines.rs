@@ -124,7 +124,13 @@ impl Two {
     /// Sends `a` on `side_a` and `b` on `side_b` so that `b`'s last character ends `offset`
     /// cycles after `a`'s (before it when negative); returns both answers, each checked to
     /// start T3.5 after its request at the earliest and [`LATE_US`] after it at the latest.
-    fn overlap(&mut self, (side_a, a): (Side, &[u8]), (side_b, b): (Side, &[u8]), offset: i64, what: &str) -> [Answer; 2] {
+    fn overlap(
+        &mut self,
+        (side_a, a): (Side, &[u8]),
+        (side_b, b): (Side, &[u8]),
+        offset: i64,
+        what: &str,
+    ) -> [Answer; 2] {
         let (ua, ub) = (usize::from(side_a.usart), usize::from(side_b.usart));
         let len_a = (a.len() as u64 - 1) * self.char_cycles[ua];
         let len_b = (b.len() as u64 - 1) * self.char_cycles[ub];

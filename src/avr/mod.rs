@@ -21,7 +21,7 @@
 //!    or its damage from `usart.rs`) → `Engine::on_byte` (`crate::slave::engine`) →
 //!    `Framer::on_byte` (`crate::link::framer`, which stores it; in ASCII `on_char`,
 //!    `link/framer/ascii.rs`, decodes the hex).
-//! 2. Timer0's compare B interrupt: `Slave::on_timer_compare` → `Running::on_timer_compare`
+//! 2. Timer0's compare B interrupt (a second slave's: compare A): `Slave::on_timer_compare` → `Running::on_timer_compare`
 //!    → `FrameTimer::on_compare` (`timer.rs`) says T1.5 passed (`Engine::on_gap_deadline`:
 //!    a character after it breaks the frame) or T3.5 did → `Engine::on_end_deadline`: the
 //!    framer's length and CRC (`crate::link::crc`), the address; for this slave the first
@@ -174,7 +174,7 @@ pub mod __private {
 /// `with TIMER0_COMPA`, and keeps its silences on Timer0's compare A, the first on compare B
 /// (`with TIMER0_COMPB`, the default, may be written out). Each has its own line settings,
 /// slave id and counters; they serve one [`crate::shared_model!`] (name it in both) or a
-/// model each. Compare A is the master's: no [`crate::master!`] or `tcp_gateway!` beside
+/// model each. Compare A is the master's: no `master!` or `tcp_gateway!` beside
 /// them (the build fails on the vector bound twice). Hand the first one started `&*dp.TC0`,
 /// the second `dp.TC0`. The interrupt handlers go in a module named `NAME`.
 ///
@@ -231,7 +231,7 @@ macro_rules! slave {
 /// as [`crate::slave!`] does for a slave: its USART's RX complete and TX complete (each
 /// character of a request is written when the one before has left; the data register empty
 /// interrupt stays free), and Timer0 compare A (the silences, the timeouts; the slave has
-/// compare B).
+/// compare B, and a second slave compare A: no master beside two slaves).
 ///
 /// ```ignore
 /// avr_modbus::master!(MASTER);                       // the board's pins 0/1, 256-byte buffers

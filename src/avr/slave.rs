@@ -89,7 +89,9 @@ impl<M: DataModel, const N: usize, const U: u8, const C: char> Slave<M, NoPin, N
     }
 }
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, const C: char> Slave<M, DE, LED, N, U, C> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, const C: char>
+    Slave<M, DE, LED, N, U, C>
+{
     /// [`Slave::start`] with an RS-485 driver-enable pin (high from just before the first
     /// character of a reply until its last one has left the wire) and a communication LED
     /// (lit while the slave answers a frame addressed to it): any `embedded-hal` output

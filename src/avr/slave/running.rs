@@ -233,6 +233,10 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, c
 
 /// The engine and Timer0 in the framing `config` asks for (feature `ascii`).
 #[cfg(feature = "ascii")]
-fn set_mode<const N: usize, const C: char>(engine: &mut Engine<N>, timer: &mut FrameTimer<Compare<C>>, config: &crate::Line) {
+fn set_mode<const N: usize, const C: char>(
+    engine: &mut Engine<N>,
+    timer: &mut FrameTimer<Compare<C>>,
+    config: &crate::Line,
+) {
     engine.set_ascii(timer.set_mode(config));
 }
