@@ -360,7 +360,7 @@ sim-test: sim-test-uno sim-test-chips
 # The simulator tests that run what make chips or make fixtures build; every other needs only
 # the Uno's firmware and the bootloaders. (One missing here fails under make test: its ELF is
 # not built yet when sim-test-uno runs it.)
-SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_dhcp,sim_gateway,sim_rtu_over_tcp,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_tcp_health,sim_template
+SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_dhcp,sim_gateway,sim_rtu_over_tcp,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_tcp_health,sim_template,sim_two_lines
 
 # Every simulator test built, those that need only the Uno's firmware run; the tools' tests
 # built (make sim-test-chips runs them).
