@@ -11,8 +11,10 @@
  *
  * Serial: slave id 1, 19200 8E1. Serial1: slave id 2, 9600 8N1. On both, the references of
  * `sixteen_each`; the main loop keeps input register 30001 at the number of master writes
- * so far, 30002 at the last writer's line (0 none yet, 1 Serial, 2 Serial1) and 30003 at
- * the seconds since start.
+ * so far, 30002 at the last writer's line (0 none yet, 1 Serial, 2 Serial1), 30003 at the
+ * seconds since start, and each line's counters: 30004/30005 the frames addressed to
+ * Serial's slave / Serial1's (or broadcast), 30006/30007 the frames each dropped for a bad
+ * CRC.
  */
 #![no_std]
 #![no_main]
@@ -63,6 +65,11 @@ fn main() -> ! {
             let _ = MODEL.set(30003, seconds);
         }
         let _ = MODEL.set(30001, MODEL.master_writes());
+        let (serial, serial1) = (SLAVE.counters(), SLAVE1.counters());
+        let _ = MODEL.set(30004, serial.messages);
+        let _ = MODEL.set(30005, serial1.messages);
+        let _ = MODEL.set(30006, serial.crc_errors);
+        let _ = MODEL.set(30007, serial1.crc_errors);
         if let Some(write) = MODEL.take_write() {
             let _ = MODEL.set(30002, if write.by == Port::Serial(0) { 1 } else { 2 });
         }

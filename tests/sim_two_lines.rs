@@ -301,9 +301,10 @@ fn long_reply_for(id: u8, holding: &[u16; 16]) -> Vec<u8> {
 }
 
 /// Each line answers its own id alone; a broadcast on either is executed (seen on the
-/// other) and answered on neither, even with the other line's request in progress.
+/// other) and answered on neither, even with the other line's request in progress; each
+/// line counts its own frames.
 #[test]
-fn ids_and_broadcasts_are_each_lines_own() {
+fn ids_broadcasts_and_counters_are_each_lines_own() {
     let mut two = Two::boot();
     for (side, other) in [(SERIAL, SERIAL1), (SERIAL1, SERIAL)] {
         let answer = two.ask(side, &read_request(other.id, 0x03, 0, 1));
@@ -331,5 +332,13 @@ fn ids_and_broadcasts_are_each_lines_own() {
     assert!(answer.reply.is_empty(), "Serial answered a broadcast: {:02X?}", answer.bytes());
     let answer = two.ask(SERIAL1, &read_request(SERIAL1.id, 0x03, 10, 1));
     assert_eq!(answer.bytes(), registers_reply(SERIAL1.id, 0x03, &[0xC0DE]), "Serial1 reads Serial's broadcast");
+    // Each line's counters (the loop keeps them in 30004–30007): Serial had 4 frames for it
+    // (or broadcast), Serial1 3; a bad CRC on Serial1 counts there alone.
+    let mut bad = read_request(SERIAL1.id, 0x03, 0, 1);
+    bad[6] ^= 1;
+    let answer = two.ask(SERIAL1, &bad);
+    assert!(answer.reply.is_empty(), "Serial1 answered a bad CRC");
+    let answer = two.ask(SERIAL, &read_request(SERIAL.id, 0x04, 3, 4));
+    assert_eq!(answer.bytes(), registers_reply(SERIAL.id, 0x04, &[4, 3, 0, 1]), "messages and CRC errors per line");
     two.assert_silent("at the end");
 }
