@@ -12,11 +12,13 @@ export AVR_MODBUS_REQUIRE_FIRMWARE := 1
 # names the 8 MHz boards' EIGHT_MHZ, whatever the shell that runs make says.
 unexport AVR_CPU_FREQUENCY_HZ
 EIGHT_MHZ := AVR_CPU_FREQUENCY_HZ=8000000
-# Every example but the gateway, which needs a Mega's two USARTs, and the TCP servers (those
+# Every example but the gateway and two_lines, which need a Mega's two USARTs (their
+# required-features keep them out of the Uno's build of every example), and the TCP servers (those
 # whose required-features in Cargo.toml name tcp), which need a shield (make chips builds them:
 # make tcp-firmware).
 TCP_EXAMPLES := $(shell awk '/^name = /{ name = $$3 } /^required-features = .*"tcp"/{ gsub(/"/, "", name); print name }' Cargo.toml)
-EXAMPLES := $(filter-out gateway $(TCP_EXAMPLES),$(patsubst examples/%.rs,%,$(wildcard examples/*.rs)))
+MEGA_EXAMPLES := gateway two_lines
+EXAMPLES := $(filter-out $(MEGA_EXAMPLES) $(TCP_EXAMPLES),$(patsubst examples/%.rs,%,$(wildcard examples/*.rs)))
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
@@ -105,7 +107,8 @@ firmware-uno: setup
 # target/chips/atmega328p/… (those with feature millis into target/chips/atmega328p-millis/…,
 # the master's beside master_boards in target/chips/atmega328p-master/…): the sizes a user of
 # the template sees, which make bench leads with; the gateway (slave on USART0, master on
-# USART1) for the ATmega2560 into target/chips/atmega2560-gateway/; and boards and
+# USART1) and two_lines (two slaves, one model) for the ATmega2560 into
+# target/chips/atmega2560-gateway/ and target/chips/atmega2560-two-lines/; and boards and
 # master_boards for an 8 MHz ATmega328P and ATmega32U4 (AVR_CPU_FREQUENCY_HZ=8000000, the
 # Pro Mini and Pro Micro 3.3 V) into target/chips/CHIP-8mhz/ and target/chips/CHIP-8mhz-master/:
 # the clock, too, is read by build.rs, so only the crate and the examples rebuild for it.
@@ -135,6 +138,7 @@ chips: setup tcp-firmware
 	@.ci/chip-build atmega328p "" atmega328p examples $(TEMPLATE_EXAMPLES)
 	@.ci/chip-build atmega328p "" atmega328p-millis examples,millis $(TEMPLATE_MILLIS_EXAMPLES)
 	@.ci/chip-build atmega2560 "" atmega2560-gateway examples,master gateway
+	@.ci/chip-build atmega2560 "" atmega2560-two-lines examples,millis two_lines
 	@export $(EIGHT_MHZ); for chip in atmega328p atmega32u4; do \
 		$(call boards_and_master,$$chip,,$$chip-8mhz,examples$(comma)master,boards master_boards) || exit 1; \
 	done
@@ -332,6 +336,8 @@ matrix-avr: setup
 	$(CARGO) uno-clippy $(addprefix --example ,$(EXAMPLES) $(TCP_EXAMPLES)) --features examples,$(ALL_FEATURES) -- -D warnings
 	CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega2560" $(CARGO) clippy --release -Zbuild-std=core --target avr-none \
 		--example gateway --features examples,master -- -D warnings
+	CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega2560" $(CARGO) clippy --release -Zbuild-std=core --target avr-none \
+		--example two_lines --features examples,millis -- -D warnings
 
 # The API docs, warnings denied: for the host (no AVR layer) and as docs.rs builds them (the
 # host, `--cfg docsrs`: the AVR layer too), checked against the README's API tables; for the Uno.
@@ -354,7 +360,7 @@ sim-test: sim-test-uno sim-test-chips
 # The simulator tests that run what make chips or make fixtures build; every other needs only
 # the Uno's firmware and the bootloaders. (One missing here fails under make test: its ELF is
 # not built yet when sim-test-uno runs it.)
-SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_dhcp,sim_gateway,sim_rtu_over_tcp,sim_shared_model,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_tcp_health,sim_template
+SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_dhcp,sim_gateway,sim_rtu_over_tcp,sim_shared_model,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_tcp_health,sim_template,sim_two_lines
 
 # Every simulator test built, those that need only the Uno's firmware run; the tools' tests
 # built (make sim-test-chips runs them).
