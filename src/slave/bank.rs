@@ -112,12 +112,14 @@ fn kind(table: Table) -> usize {
     usize::from(!table.is_bits())
 }
 
-/// True when `a` and `b` are of one kind, both bits or both registers: the tables are
-/// numbered coils 0, discrete inputs 1, input registers 2, holding registers 3, so their
-/// kind is bit 1 of the number (one compare, where two [`kind`]s are two tests).
+/// True when `run` is `table` or the table before it of its kind (coils before discrete
+/// inputs, input registers before holding registers): the tables whose runs a lookup in
+/// `table` counts. The tables are numbered coils 0, discrete inputs 1, input registers 2,
+/// holding registers 3, so `table - run` (wrapping) is then 0, or 1 for the second table of a
+/// kind (odd): one subtraction and one compare.
 #[inline(always)]
-fn same_kind(a: Table, b: Table) -> bool {
-    (a as u8 ^ b as u8) < 2
+fn is_at_or_below(run: Table, table: Table) -> bool {
+    (table as u8).wrapping_sub(run as u8) <= (table as u8 & 1)
 }
 
 const _: () = assert!(Table::Coils as u8 == 0 && Table::DiscreteInputs as u8 == 1);
@@ -335,12 +337,14 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         let mut rest = self.runs.get(..self.tally.runs.min(RUNS)).unwrap_or(&[]);
         while let [run, tail @ ..] = rest {
             rest = tail;
-            if !same_kind(run.table, table) {
+            if !is_at_or_below(run.table, table) {
                 continue;
             }
-            if (run.table as u8) < (table as u8) || (run.table == table && run.last < start) {
+            if run.table != table || run.last < start {
+                // Below `start`: a run of the table before it, or of its table ending
+                // before `start`.
                 rank += run.len();
-            } else if run.table == table && run.start <= start {
+            } else if run.start <= start {
                 // The run holds `start`: the range exists when it ends in the run too.
                 at = (qty.wrapping_sub(1) <= run.last - start).then_some(start - run.start);
             }
@@ -580,7 +584,20 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
 
 #[cfg(test)]
 mod tests {
-    use super::longest_runs;
+    use super::{is_at_or_below, longest_runs};
+    use crate::protocol::reference::Table::*;
+
+    #[test]
+    fn a_lookup_counts_the_runs_of_its_table_and_of_the_table_before_it_of_its_kind() {
+        let tables = [Coils, DiscreteInputs, InputRegisters, HoldingRegisters];
+        let below = [(Coils, DiscreteInputs), (InputRegisters, HoldingRegisters)];
+        for run in tables {
+            for table in tables {
+                let counted = run == table || below.contains(&(run, table));
+                assert_eq!(is_at_or_below(run, table), counted, "a run of {run:?} for {table:?}");
+            }
+        }
+    }
 
     #[test]
     fn a_bank_s_longest_runs_are_its_capacity_up_to_past_every_request_s_limit() {
