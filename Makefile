@@ -296,7 +296,7 @@ clippy: clippy-tools
 # The tools (the simulator, the virtual Uno, the bench), their tests included.
 clippy-tools: setup
 	$(CARGO) clippy --workspace --exclude avr-modbus --all-targets -- -D warnings
-	$(CARGO) clippy -p virtual-uno --test interop --test interop_tcp --test interop_gateway --test interop_tcp_client --test interop_udp --test interop_tcp_health -- -D warnings # test = false: not in --all-targets
+	$(CARGO) clippy -p virtual-uno --test interop --test interop_tcp --test interop_gateway --test interop_tcp_client --test interop_udp --test interop_tcp_health --test interop_two_ports -- -D warnings # test = false: not in --all-targets
 
 # The feature sets the crate's host tests run under (.ci/host-test: a test target runs under
 # each set that has the features it declares in Cargo.toml and gives the features its source
@@ -478,6 +478,7 @@ serve: $(if $(and $(filter atmega328p,$(SERVE_CHIP)),$(if $(SERVE_TCP_SERVER),,y
 # pymodbus's serial server, a slave switched off, 0A, 0B, clients gone mid-request).
 # then the firmware's TCP client against pymodbus's TCP server and libmodbus's unit-test-server (interop_tcp_client);
 # then Modbus UDP (feature udp) on the virtual shields (interop_udp: pymodbus's UDP client, clients at once, a raw socket).
+# then one model on two ports (interop_two_ports: mbpoll on the serial line and pymodbus over TCP at once, examples/tcp_rtu.rs).
 TCP_CONNECTIONS ?= 100
 interop: firmware-uno bootloaders tcp-firmware
 	$(CARGO) test -p virtual-uno --test interop -- --nocapture --test-threads=1
@@ -486,6 +487,7 @@ interop: firmware-uno bootloaders tcp-firmware
 	$(CARGO) test -p virtual-uno --test interop_tcp_client -- --nocapture --test-threads=1
 	$(CARGO) test -p virtual-uno --test interop_udp -- --nocapture --test-threads=1
 	$(CARGO) test -p virtual-uno --test interop_tcp_health -- --nocapture --test-threads=1
+	$(CARGO) test -p virtual-uno --test interop_two_ports -- --nocapture --test-threads=1
 
 # SOAK_TCP_CONNECTIONS one-shot `mbpoll -m tcp -1` connections to tcp_server (W5100) on the virtual
 # Uno, each answered, none refused (~10 min for 10000); the firmware's counters read at the end.
