@@ -75,9 +75,9 @@ impl<M: DataModel> server::Handler for Serving<'_, M> {
     }
 
     /// A model other ports serve too ([`DataModel::SHARED`]) is told who asks (for a write,
-    /// the client's address, read from the chip before the model is locked), and runs the
-    /// request with no other port's in between: a write lands whole, a read sees no half
-    /// of another port's write.
+    /// the client's address, read from the chip first); it runs each of the request's
+    /// transfers whole, so a write lands whole and a read sees no half of another port's
+    /// write, with interrupts held off only for a transfer's copy.
     #[inline(always)]
     fn handle_from<S: server::Sockets>(
         &mut self,
@@ -95,9 +95,7 @@ impl<M: DataModel> server::Handler for Serving<'_, M> {
         let code = adu.get(mbap::HEADER).copied().unwrap_or(0);
         let client = if code >= FunctionCode::WriteSingleCoil.code() { chip.peer(s) } else { [0; 4] };
         let unit = adu.get(mbap::HEADER - 1).copied().unwrap_or(mbap::DEVICE_UNIT);
-        self.0.exclusive(|model| {
-            model.serve_from(crate::Port::Tcp { socket: s, client }, unit);
-            respond(adu, pdu_len, model)
-        })
+        self.0.serve_from(crate::Port::Tcp { socket: s, client }, unit);
+        respond(adu, pdu_len, self.0)
     }
 }

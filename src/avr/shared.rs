@@ -3,13 +3,14 @@
 //! model, whatever the transport). The model lives in one static cell; each port holds a
 //! zero-sized handle that reaches it.
 //!
-//! A request runs whole with no other port's in between. A serial slave runs its requests
-//! in an interrupt handler, interrupts disabled, so they never interleave; the TCP server
-//! serves with interrupts enabled and runs each request under
-//! [`DataModel::exclusive`], interrupts held off for the request's execution alone (the
-//! chip's reads and writes around it stay interruptible). The application's calls hold
-//! them off too. So a write lands whole on every port at once, and a 32-bit pair written
-//! together is never read half old, half new, whichever port reads it.
+//! Every transfer between a request and the model (a read, a write, FC 22's read and
+//! write) runs whole with no other port's in between. A serial slave runs its requests in
+//! an interrupt handler, interrupts disabled, so they never interleave; the TCP server
+//! serves with interrupts enabled, and the handle holds them off for each transfer's copy
+//! alone (the request's checks and the chip's reads and writes around it stay
+//! interruptible). The application's calls hold them off too. So a write lands whole on
+//! every port at once, and a 32-bit pair written together is never read half old, half
+//! new, whichever port reads it.
 
 use core::cell::UnsafeCell;
 
@@ -83,9 +84,9 @@ impl<M> SharedModel<M> {
     }
 
     /// A port's access to the model and the record: [`SharedModel::access`] without marking
-    /// the model in use, which only the application's calls need (a port's access runs in
-    /// the port's interrupt handler or inside [`DataModel::exclusive`], where no other
-    /// access can start).
+    /// the model in use, which only the application's calls need: a port's access runs
+    /// with interrupts disabled and runs no code of the application's, so no other access
+    /// starts inside it.
     #[inline(always)]
     fn port_access<R>(&self, f: impl FnOnce(&mut M, &mut WriteLog) -> R) -> Option<R> {
         reg::free(|| {
@@ -310,13 +311,16 @@ impl<H: SharedHandle> DataModel for H {
     }
 
     #[inline(always)]
-    fn exclusive<R>(&mut self, f: impl FnOnce(&mut Self) -> R) -> R {
-        reg::free(|| f(self))
+    fn serve_from(&mut self, by: Port, unit: u8) -> (Port, u8) {
+        H::cell().log(|log| log.serve_from(by, unit))
     }
 
-    #[inline(always)]
-    fn serve_from(&mut self, by: Port, unit: u8) {
-        H::cell().log(|log| log.serve_from(by, unit));
+    fn mask_write_register(&mut self, address: u16, and_mask: u16, or_mask: u16) -> Result<(), Exception> {
+        on::<H, _>(|model, log| {
+            let result = model.mask_write_register(address, and_mask, or_mask);
+            record(log, result, Table::HoldingRegisters, address, 1)
+        })
+        .unwrap_or(Err(BUSY))
     }
 }
 

@@ -191,31 +191,32 @@ pub trait DataModel {
         let _ = (place, stored);
     }
 
-    /// True for a model that several ports serve at once (`shared_model!`): a port
-    /// that runs its requests with interrupts enabled (the TCP server) runs each under
-    /// [`DataModel::exclusive`], and every port says who asks with
-    /// [`DataModel::serve_from`]. False, the default: a model one port owns, whose code
-    /// has none of this.
+    /// True for a model that several ports serve at once (`shared_model!`): every port
+    /// says who asks with [`DataModel::serve_from`], and the model runs each transfer whole
+    /// with no other port's in between. False, the default: a model one port owns, whose
+    /// code has none of this.
     #[doc(hidden)]
     const SHARED: bool = false;
 
-    /// Runs `f` on the model with no other port's request in between (interrupts held off,
-    /// for a shared model); the default just runs it.
+    /// The port and unit id of the requests that follow, until the next call: the writes
+    /// a shared model records ([`crate::Write`]). Returns the port and unit it replaces,
+    /// for a port that interrupted another's request to give back when it is done.
+    /// Nothing, the default.
     #[doc(hidden)]
     #[inline(always)]
-    fn exclusive<R>(&mut self, f: impl FnOnce(&mut Self) -> R) -> R
-    where
-        Self: Sized,
-    {
-        f(self)
+    fn serve_from(&mut self, by: crate::slave::written::Port, unit: u8) -> (crate::slave::written::Port, u8) {
+        (by, unit)
     }
 
-    /// The port and unit id of the requests that follow, until the next call: the writes
-    /// a shared model records ([`crate::Write`]). Nothing, the default.
+    /// FC 22 (Mask Write Register): holding register `address` becomes
+    /// `(current & and_mask) | (or_mask & !and_mask)`, read and written with no other
+    /// port's write in between (a shared model runs it whole).
     #[doc(hidden)]
-    #[inline(always)]
-    fn serve_from(&mut self, by: crate::slave::written::Port, unit: u8) {
-        let _ = (by, unit);
+    fn mask_write_register(&mut self, address: u16, and_mask: u16, or_mask: u16) -> Result<(), Exception> {
+        let mut value = [0; 2];
+        self.transfer(Access::Read, Table::HoldingRegisters, address, 1, &mut value)?;
+        let value = (u16::from_be_bytes(value) & and_mask) | (or_mask & !and_mask);
+        self.transfer(Access::Write, Table::HoldingRegisters, address, 1, &mut value.to_be_bytes())
     }
 
     /// How many master writes succeeded so far, wrapping (see

@@ -66,9 +66,11 @@ impl WriteLog {
 
     /// The requests that follow come from `by`, addressed to `unit`.
     #[inline(always)]
-    pub(crate) fn serve_from(&mut self, by: Port, unit: u8) {
+    pub(crate) fn serve_from(&mut self, by: Port, unit: u8) -> (Port, u8) {
+        let before = (self.by, self.unit);
         self.by = by;
         self.unit = unit;
+        before
     }
 
     /// A master's write of `count` values of `table` from `start` succeeded.

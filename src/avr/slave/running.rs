@@ -106,8 +106,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, c
         #[cfg(feature = "reply-delay")]
         if end == EndOfFrame::Reply && self.reply_delay != 0 {
             // Processed now, sent when the delay has passed.
-            self.tell_model();
-            self.tx_len = self.engine.process(&mut self.model) as TxIndex;
+            self.tx_len = self.process() as TxIndex;
             if !self.timer.delay(self.reply_delay) {
                 self.send_processed();
             }
@@ -122,22 +121,34 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, c
         // Executes what `on_end_deadline` accepted (nothing for the other ends) and, for a
         // reply, appends its CRC; the rest of the reply follows its first character from the
         // data-register-empty interrupt.
-        self.tell_model();
-        let bytes = self.engine.process(&mut self.model);
+        let bytes = self.process();
         self.tx_len = self.reply_chars(bytes);
         if self.tx_len != 0 {
             self.usart.start_feeding();
         }
     }
 
-    /// A model other ports serve too learns that the request comes from this USART, and
-    /// its address (what it records of a write, [`crate::Write`]); nothing for a model of
-    /// this slave's own.
+    /// Executes what `on_end_deadline` accepted (`Engine::process`). A model other ports
+    /// serve too learns meanwhile that the request comes from this USART, and its address
+    /// (what it records of a write, [`crate::Write`]), and gets back afterwards the port
+    /// whose request this interrupt may have come in the middle of (the TCP server's).
     #[inline(always)]
-    fn tell_model(&mut self) {
+    fn process(&mut self) -> usize {
         if M::SHARED {
-            self.model.serve_from(crate::Port::Serial(U), self.engine.frame_address());
+            self.process_shared()
+        } else {
+            self.engine.process(&mut self.model)
         }
+    }
+
+    /// [`Running::process`] for a shared model, not inlined: the T3.5 interrupt keeps the
+    /// registers it saves, and its first reply byte leaves as soon as with a model of its own.
+    #[inline(never)]
+    fn process_shared(&mut self) -> usize {
+        let (by, unit) = self.model.serve_from(crate::Port::Serial(U), self.engine.frame_address());
+        let bytes = self.engine.process(&mut self.model);
+        self.model.serve_from(by, unit);
+        bytes
     }
 
     /// RTU framing: what `passed`, the inter-character gap deadline (T1.5, which marks a

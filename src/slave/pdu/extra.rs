@@ -26,11 +26,7 @@ pub fn respond<M: DataModel + ?Sized>(
     let (start, b) = (word(request, 1), word(request, 3));
     if request.first().copied() == Some(FunctionCode::MaskWriteRegister.code()) {
         value_check(len == 7)?;
-        let (and_mask, or_mask) = (b, word(request, 5));
-        let mut value = [0; 2];
-        model.transfer(Access::Read, Table::HoldingRegisters, start, 1, &mut value)?;
-        let value = (u16::from_be_bytes(value) & and_mask) | (or_mask & !and_mask);
-        model.transfer(Access::Write, Table::HoldingRegisters, start, 1, &mut value.to_be_bytes())?;
+        model.mask_write_register(start, b, word(request, 5))?;
         return Ok(7);
     }
     let (write_start, write_qty) = (word(request, 5), word(request, 7));

@@ -348,13 +348,11 @@ fn server_received(chip: &mut Fake) -> u16 {
     chip.received(0)
 }
 
-/// A model several ports serve ([`DataModel::SHARED`]): the bank, marked while a request
-/// runs under [`DataModel::exclusive`] (a transfer outside it fails with 04), and the port
-/// each request was said to come from.
+/// A model several ports serve ([`DataModel::SHARED`]): the bank, and the port each
+/// request was said to come from, with the bank's value of 40002 at that moment.
 struct SharedBank {
     bank: Bank<4, 16, 4, 0, 0>,
-    exclusive: bool,
-    from: Vec<(crate::Port, u8)>,
+    from: Vec<(crate::Port, u8, u16)>,
 }
 
 impl crate::DataModel for SharedBank {
@@ -375,36 +373,18 @@ impl crate::DataModel for SharedBank {
     fn write_registers(&mut self, start: u16, values: &[u8]) -> Result<(), crate::Exception> {
         self.bank.write_registers(start, values)
     }
-    fn transfer(
-        &mut self,
-        access: crate::internal::Access,
-        table: Table,
-        start: u16,
-        qty: u16,
-        data: &mut [u8],
-    ) -> Result<(), crate::Exception> {
-        if !self.exclusive {
-            return Err(crate::Exception::ServerDeviceFailure);
-        }
-        self.bank.transfer(access, table, start, qty, data)
-    }
-    fn exclusive<R>(&mut self, f: impl FnOnce(&mut Self) -> R) -> R {
-        self.exclusive = true;
-        let result = f(self);
-        self.exclusive = false;
-        result
-    }
-    fn serve_from(&mut self, by: crate::Port, unit: u8) {
-        self.from.push((by, unit));
+    fn serve_from(&mut self, by: crate::Port, unit: u8) -> (crate::Port, u8) {
+        self.from.push((by, unit, self.bank.get(40002).unwrap()));
+        (by, unit)
     }
 }
 
 use crate::protocol::reference::Table;
 
 #[test]
-fn a_shared_model_runs_each_request_exclusively_told_the_socket_and_a_writers_address() {
+fn a_shared_model_is_told_the_socket_before_each_request_and_a_writers_address() {
     let mut chip = Fake::default();
-    let mut shared = SharedBank { bank: bank(), exclusive: false, from: Vec::new() };
+    let mut shared = SharedBank { bank: bank(), from: Vec::new() };
     let mut server: Server = Server::new();
     server.poll(&mut chip, &NET, &mut Serving(&mut shared), false);
     chip.connect(2, [10, 0, 0, 9]);
@@ -414,11 +394,10 @@ fn a_shared_model_runs_each_request_exclusively_told_the_socket_and_a_writers_ad
     server.poll(&mut chip, &NET, &mut Serving(&mut shared), false);
     let mut expected = holding_reply(1, 0x11, 0, 2);
     expected.extend_from_slice(&[0, 2, 0, 0, 0, 6, 0x11, 0x06, 0x00, 0x01, 0xBE, 0xEF]);
-    assert_eq!(chip.socks[2].sent, expected, "both answered, neither with 04");
+    assert_eq!(chip.socks[2].sent, expected);
     assert_eq!(shared.bank.get(40002), Ok(0xBEEF));
-    // The address is read from the chip for a write only.
+    // The address is read from the chip for a write only; each call before its request ran.
     let read_from = crate::Port::Tcp { socket: 2, client: [0; 4] };
     let write_from = crate::Port::Tcp { socket: 2, client: [10, 0, 0, 9] };
-    assert_eq!(shared.from, [(read_from, 0x11), (write_from, 0x11)]);
-    assert!(!shared.exclusive);
+    assert_eq!(shared.from, [(read_from, 0x11, 0x0101), (write_from, 0x11, 0x0101)]);
 }
