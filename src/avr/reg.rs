@@ -148,6 +148,15 @@ pub(crate) fn free<R>(f: impl FnOnce() -> R) -> R {
     result
 }
 
+/// [`free`], telling `f` whether interrupts were enabled when the section began (true in
+/// the main loop and in a handler that enabled them, the TCP server's poll; false inside
+/// any other interrupt handler).
+#[inline(always)]
+pub(crate) fn free_telling<R>(f: impl FnOnce(bool) -> R) -> R {
+    let enabled = SREG.read() & SREG_I != 0;
+    free(|| f(enabled))
+}
+
 /// `value`, computed before this point: an empty `asm!` takes it in registers and, not
 /// being pure, keeps its place among the `cli` and `sei` of [`free`]. Without it the
 /// compiler may sink a computation whose result only a critical section uses into that

@@ -86,10 +86,12 @@ impl<M> SharedModel<M> {
     /// A port's access to the model and the record: [`SharedModel::access`] without marking
     /// the model in use, which only the application's calls need: a port's access runs
     /// with interrupts disabled and runs no code of the application's, so no other access
-    /// starts inside it.
+    /// starts inside it. `f` is told whether interrupts were enabled before: the TCP
+    /// server's requests run so, a serial slave's inside its interrupt (whose port the
+    /// record then names).
     #[inline(always)]
-    fn port_access<R>(&self, f: impl FnOnce(&mut M, &mut WriteLog) -> R) -> Option<R> {
-        reg::free(|| {
+    fn port_access<R>(&self, f: impl FnOnce(&mut M, &mut WriteLog, bool) -> R) -> Option<R> {
+        reg::free_telling(|network| {
             // SAFETY: interrupts are disabled, and no access of the application's is under
             // way (`busy`): nothing else holds the model. What runs inside is the model's
             // own code, which does not reach its shared handle, and the record's.
@@ -97,7 +99,7 @@ impl<M> SharedModel<M> {
                 if *self.busy.get() {
                     return None;
                 }
-                Some(f(&mut *self.model.get(), &mut *self.log.get()))
+                Some(f(&mut *self.model.get(), &mut *self.log.get(), network))
             }
         })
     }
@@ -183,7 +185,7 @@ pub trait SharedHandle: 'static {
 
 /// Runs `f` on `H`'s model and record, interrupts disabled.
 #[inline(always)]
-fn on<H: SharedHandle, R>(f: impl FnOnce(&mut H::Model, &mut WriteLog) -> R) -> Option<R> {
+fn on<H: SharedHandle, R>(f: impl FnOnce(&mut H::Model, &mut WriteLog, bool) -> R) -> Option<R> {
     H::cell().port_access(f)
 }
 
@@ -192,17 +194,18 @@ fn on<H: SharedHandle, R>(f: impl FnOnce(&mut H::Model, &mut WriteLog) -> R) -> 
 const BUSY: Exception = Exception::ServerDeviceFailure;
 
 /// A write `result` of `count` values of `table` from `start` that succeeded goes in the
-/// record.
+/// record, as the network's (`network`) or a serial line's.
 #[inline(always)]
 fn record(
     log: &mut WriteLog,
+    network: bool,
     result: Result<(), Exception>,
     table: Table,
     start: u16,
     count: u16,
 ) -> Result<(), Exception> {
     if result.is_ok() {
-        log.wrote(table, start, count);
+        log.wrote(network, table, start, count);
     }
     result
 }
@@ -213,26 +216,30 @@ impl<H: SharedHandle> DataModel for H {
     const SHARED: bool = true;
 
     fn read_bits(&self, table: Table, start: u16, qty: u16, out: &mut [u8]) -> Result<(), Exception> {
-        on::<H, _>(|model, _| model.read_bits(table, start, qty, out)).unwrap_or(Err(BUSY))
+        on::<H, _>(|model, _, _| model.read_bits(table, start, qty, out)).unwrap_or(Err(BUSY))
     }
 
     fn read_registers(&self, table: Table, start: u16, out: &mut [u8]) -> Result<(), Exception> {
-        on::<H, _>(|model, _| model.read_registers(table, start, out)).unwrap_or(Err(BUSY))
+        on::<H, _>(|model, _, _| model.read_registers(table, start, out)).unwrap_or(Err(BUSY))
     }
 
     fn has_range(&self, table: Table, start: u16, qty: u16) -> bool {
-        on::<H, _>(|model, _| model.has_range(table, start, qty)).unwrap_or(false)
+        on::<H, _>(|model, _, _| model.has_range(table, start, qty)).unwrap_or(false)
     }
 
     fn write_coils(&mut self, start: u16, qty: u16, packed: &[u8]) -> Result<(), Exception> {
-        on::<H, _>(|model, log| record(log, model.write_coils(start, qty, packed), Table::Coils, start, qty))
-            .unwrap_or(Err(BUSY))
+        on::<H, _>(|model, log, network| {
+            record(log, network, model.write_coils(start, qty, packed), Table::Coils, start, qty)
+        })
+        .unwrap_or(Err(BUSY))
     }
 
     fn write_registers(&mut self, start: u16, values: &[u8]) -> Result<(), Exception> {
         let qty = (values.len() / 2) as u16;
-        on::<H, _>(|model, log| record(log, model.write_registers(start, values), Table::HoldingRegisters, start, qty))
-            .unwrap_or(Err(BUSY))
+        on::<H, _>(|model, log, network| {
+            record(log, network, model.write_registers(start, values), Table::HoldingRegisters, start, qty)
+        })
+        .unwrap_or(Err(BUSY))
     }
 
     #[inline(always)]
@@ -244,10 +251,10 @@ impl<H: SharedHandle> DataModel for H {
         qty: u16,
         data: &mut [u8],
     ) -> Result<(), Exception> {
-        on::<H, _>(|model, log| {
+        on::<H, _>(|model, log, network| {
             let result = model.transfer(access, table, start, qty, data);
             if access == Access::Write {
-                return record(log, result, table, start, qty);
+                return record(log, network, result, table, start, qty);
             }
             result
         })
@@ -255,19 +262,19 @@ impl<H: SharedHandle> DataModel for H {
     }
 
     fn value(&self, reference: Reference) -> Result<u16, Error> {
-        on::<H, _>(|model, _| model.value(reference)).unwrap_or(Err(Error::Busy))
+        on::<H, _>(|model, _, _| model.value(reference)).unwrap_or(Err(Error::Busy))
     }
 
     fn set_value(&mut self, reference: Reference, value: u16) -> Result<(), Error> {
-        on::<H, _>(|model, _| model.set_value(reference, value)).unwrap_or(Err(Error::Busy))
+        on::<H, _>(|model, _, _| model.set_value(reference, value)).unwrap_or(Err(Error::Busy))
     }
 
     fn get_wide<T: crate::Wide>(&self, first: Reference, order: crate::WordOrder) -> Result<T, Error> {
-        on::<H, _>(|model, _| model.get_wide(first, order)).unwrap_or(Err(Error::Busy))
+        on::<H, _>(|model, _, _| model.get_wide(first, order)).unwrap_or(Err(Error::Busy))
     }
 
     fn set_wide<T: crate::Wide>(&mut self, first: Reference, value: T, order: crate::WordOrder) -> Result<(), Error> {
-        on::<H, _>(|model, _| model.set_wide(first, value, order)).unwrap_or(Err(Error::Busy))
+        on::<H, _>(|model, _, _| model.set_wide(first, value, order)).unwrap_or(Err(Error::Busy))
     }
 
     #[inline(always)]
@@ -277,20 +284,20 @@ impl<H: SharedHandle> DataModel for H {
 
     #[inline(always)]
     fn load(&self, place: Place) -> u16 {
-        on::<H, _>(|model, _| model.load(place)).unwrap_or(0)
+        on::<H, _>(|model, _, _| model.load(place)).unwrap_or(0)
     }
 
     #[inline(always)]
     fn store(&mut self, place: Place, stored: u16) {
-        on::<H, _>(|model, _| model.store(place, stored));
+        on::<H, _>(|model, _, _| model.store(place, stored));
     }
 
     fn master_writes(&self) -> u16 {
-        on::<H, _>(|model, _| model.master_writes()).unwrap_or(0)
+        on::<H, _>(|model, _, _| model.master_writes()).unwrap_or(0)
     }
 
     fn exception_status(&self) -> u8 {
-        on::<H, _>(|model, _| model.exception_status()).unwrap_or(0)
+        on::<H, _>(|model, _, _| model.exception_status()).unwrap_or(0)
     }
 
     fn device_info(&self) -> &[u8] {
@@ -307,18 +314,18 @@ impl<H: SharedHandle> DataModel for H {
 
     #[cfg(feature = "eeprom-settings")]
     fn take_new_settings(&mut self) -> Option<Config> {
-        on::<H, _>(|model, _| model.take_new_settings()).flatten()
+        on::<H, _>(|model, _, _| model.take_new_settings()).flatten()
     }
 
     #[inline(always)]
-    fn serve_from(&mut self, by: Port, unit: u8) -> (Port, u8) {
-        H::cell().log(|log| log.serve_from(by, unit))
+    fn serve_from(&mut self, by: Port, unit: u8) {
+        H::cell().log(|log| log.serve_from(by, unit));
     }
 
     fn mask_write_register(&mut self, address: u16, and_mask: u16, or_mask: u16) -> Result<(), Exception> {
-        on::<H, _>(|model, log| {
+        on::<H, _>(|model, log, network| {
             let result = model.mask_write_register(address, and_mask, or_mask);
-            record(log, result, Table::HoldingRegisters, address, 1)
+            record(log, network, result, Table::HoldingRegisters, address, 1)
         })
         .unwrap_or(Err(BUSY))
     }

@@ -198,14 +198,13 @@ pub trait DataModel {
     #[doc(hidden)]
     const SHARED: bool = false;
 
-    /// The port and unit id of the requests that follow, until the next call: the writes
-    /// a shared model records ([`crate::Write`]). Returns the port and unit it replaces,
-    /// for a port that interrupted another's request to give back when it is done.
-    /// Nothing, the default.
+    /// The port and unit id of the requests that follow on that port's side (the TCP
+    /// server's, or the serial lines'), until the next call: the writes a shared model
+    /// records ([`crate::Write`]). Nothing, the default.
     #[doc(hidden)]
     #[inline(always)]
-    fn serve_from(&mut self, by: crate::slave::written::Port, unit: u8) -> (crate::slave::written::Port, u8) {
-        (by, unit)
+    fn serve_from(&mut self, by: crate::slave::written::Port, unit: u8) {
+        let _ = (by, unit);
     }
 
     /// FC 22 (Mask Write Register): holding register `address` becomes

@@ -39,14 +39,17 @@ pub struct Write {
     pub earlier: u16,
 }
 
-/// The record a shared model keeps: who asks now, and the last write not yet taken. All
-/// zero at rest (no write, the first serial port), so that a shared model's cell stays in
-/// `.bss`.
+/// The record a shared model keeps: who asks now on each side (the TCP server, whose
+/// requests run with interrupts enabled; a serial slave, whose run inside its interrupt and
+/// may come in the middle of the server's), and the last write not yet taken. All zero at
+/// rest (no write, the first serial port), so that a shared model's cell stays in `.bss`.
 #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct WriteLog {
-    by: Port,
-    unit: u8,
+    /// The TCP server's request under way: its socket and client, its unit id.
+    network: (Port, u8),
+    /// A serial slave's request under way: its USART, its address.
+    line: (u8, u8),
     /// The last write, valid when `fresh`.
     last: Write,
     fresh: bool,
@@ -61,23 +64,26 @@ const NONE: Write =
 impl WriteLog {
     /// Nothing written yet.
     pub(crate) const fn new() -> Self {
-        WriteLog { by: Port::Serial(0), unit: 0, last: NONE, fresh: false }
+        WriteLog { network: (Port::Serial(0), 0), line: (0, 0), last: NONE, fresh: false }
     }
 
-    /// The requests that follow come from `by`, addressed to `unit`.
+    /// The requests that follow on `by`'s side (the network's or the serial lines') come
+    /// from `by`, addressed to `unit`.
     #[inline(always)]
-    pub(crate) fn serve_from(&mut self, by: Port, unit: u8) -> (Port, u8) {
-        let before = (self.by, self.unit);
-        self.by = by;
-        self.unit = unit;
-        before
+    pub(crate) fn serve_from(&mut self, by: Port, unit: u8) {
+        match by {
+            Port::Serial(usart) => self.line = (usart, unit),
+            network => self.network = (network, unit),
+        }
     }
 
-    /// A master's write of `count` values of `table` from `start` succeeded.
-    pub(crate) fn wrote(&mut self, table: Table, start: u16, count: u16) {
+    /// A master's write of `count` values of `table` from `start` succeeded, on the
+    /// network's side (`network`) or a serial line's.
+    pub(crate) fn wrote(&mut self, network: bool, table: Table, start: u16, count: u16) {
         let earlier = if self.fresh { self.last.earlier.wrapping_add(1) } else { 0 };
+        let (by, unit) = if network { self.network } else { (Port::Serial(self.line.0), self.line.1) };
         let first = Reference { table, address: start };
-        self.last = Write { by: self.by, unit: self.unit, first, count, earlier };
+        self.last = Write { by, unit, first, count, earlier };
         self.fresh = true;
     }
 
@@ -93,12 +99,16 @@ mod tests {
     use super::*;
 
     const TCP: Port = Port::Tcp { socket: 2, client: [192, 168, 1, 20] };
+    /// What `wrote` is told: the write came through the network (the TCP server), or a
+    /// serial line.
+    const NETWORK: bool = true;
+    const LINE: bool = false;
 
     #[test]
     fn a_write_is_recorded_with_the_port_and_unit_that_asked() {
         let mut log = WriteLog::new();
         log.serve_from(TCP, 255);
-        log.wrote(Table::HoldingRegisters, 3, 2);
+        log.wrote(NETWORK, Table::HoldingRegisters, 3, 2);
         let first = Reference { table: Table::HoldingRegisters, address: 3 };
         assert_eq!(log.take(), Some(Write { by: TCP, unit: 255, first, count: 2, earlier: 0 }));
         assert_eq!(log.take(), None, "taken once");
@@ -108,30 +118,34 @@ mod tests {
     fn writes_not_taken_are_counted_in_the_next_one() {
         let mut log = WriteLog::new();
         log.serve_from(Port::Serial(0), 1);
-        log.wrote(Table::Coils, 0, 1);
+        log.wrote(LINE, Table::Coils, 0, 1);
         log.serve_from(TCP, 1);
-        log.wrote(Table::HoldingRegisters, 7, 1);
+        log.wrote(NETWORK, Table::HoldingRegisters, 7, 1);
         log.serve_from(Port::Serial(0), 1);
-        log.wrote(Table::HoldingRegisters, 9, 4);
+        log.wrote(LINE, Table::HoldingRegisters, 9, 4);
         let write = log.take().unwrap();
         assert_eq!((write.by, write.first.address, write.count, write.earlier), (Port::Serial(0), 9, 4, 2));
-        log.wrote(Table::Coils, 1, 1);
+        log.wrote(LINE, Table::Coils, 1, 1);
         assert_eq!(log.take().unwrap().earlier, 0, "counted from the last take");
     }
 
     #[test]
-    fn a_read_from_another_port_after_a_write_leaves_the_write_as_it_was() {
+    fn a_serial_request_in_the_middle_of_a_tcp_request_leaves_the_tcp_writes_its_own() {
         let mut log = WriteLog::new();
         log.serve_from(TCP, 7);
-        log.wrote(Table::HoldingRegisters, 1, 1);
+        // A serial slave's request comes in between, and writes.
         log.serve_from(Port::Serial(1), 2);
-        log.serve_from(Port::Serial(0), 3);
+        log.wrote(LINE, Table::Coils, 9, 1);
+        let write = log.take().unwrap();
+        assert_eq!((write.by, write.unit, write.first.address), (Port::Serial(1), 2, 9));
+        // The TCP request's write, after it: the TCP client's.
+        log.wrote(NETWORK, Table::HoldingRegisters, 1, 1);
         let write = log.take().unwrap();
         assert_eq!((write.by, write.unit, write.first.address), (TCP, 7, 1));
         // Two writes in one request (a broadcast to several units): both the request's.
         log.serve_from(Port::Serial(0), 0);
-        log.wrote(Table::Coils, 4, 1);
-        log.wrote(Table::Coils, 5, 1);
+        log.wrote(LINE, Table::Coils, 4, 1);
+        log.wrote(LINE, Table::Coils, 5, 1);
         let write = log.take().unwrap();
         assert_eq!((write.by, write.unit, write.first.address, write.earlier), (Port::Serial(0), 0, 5, 1));
     }

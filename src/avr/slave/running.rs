@@ -129,26 +129,14 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, c
     }
 
     /// Executes what `on_end_deadline` accepted (`Engine::process`). A model other ports
-    /// serve too learns meanwhile that the request comes from this USART, and its address
-    /// (what it records of a write, [`crate::Write`]), and gets back afterwards the port
-    /// whose request this interrupt may have come in the middle of (the TCP server's).
+    /// serve too learns first that the request comes from this USART, and its address
+    /// (what it records of a write, [`crate::Write`]).
     #[inline(always)]
     fn process(&mut self) -> usize {
         if M::SHARED {
-            self.process_shared()
-        } else {
-            self.engine.process(&mut self.model)
+            self.model.serve_from(crate::Port::Serial(U), self.engine.frame_address());
         }
-    }
-
-    /// [`Running::process`] for a shared model, not inlined: the T3.5 interrupt keeps the
-    /// registers it saves, and its first reply byte leaves as soon as with a model of its own.
-    #[inline(never)]
-    fn process_shared(&mut self) -> usize {
-        let (by, unit) = self.model.serve_from(crate::Port::Serial(U), self.engine.frame_address());
-        let bytes = self.engine.process(&mut self.model);
-        self.model.serve_from(by, unit);
-        bytes
+        self.engine.process(&mut self.model)
     }
 
     /// RTU framing: what `passed`, the inter-character gap deadline (T1.5, which marks a

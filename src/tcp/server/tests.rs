@@ -373,9 +373,8 @@ impl crate::DataModel for SharedBank {
     fn write_registers(&mut self, start: u16, values: &[u8]) -> Result<(), crate::Exception> {
         self.bank.write_registers(start, values)
     }
-    fn serve_from(&mut self, by: crate::Port, unit: u8) -> (crate::Port, u8) {
+    fn serve_from(&mut self, by: crate::Port, unit: u8) {
         self.from.push((by, unit, self.bank.get(40002).unwrap()));
-        (by, unit)
     }
 }
 
