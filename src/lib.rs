@@ -71,6 +71,7 @@ pub use slave::bank::{bit_bytes, Bank};
 pub use slave::counters::SlaveCounters;
 pub use slave::model::DataModel;
 pub use slave::pdu::device_id::Identification;
+pub use slave::units::{Units, Windows};
 #[cfg(feature = "eeprom-settings")]
 pub use slave::settings::Configurable;
 

@@ -52,10 +52,14 @@ use crate::slave::pdu::{encode_exception, Answer, Exception};
 /// `pdu_len` bytes) against `model`, as the RTU slave would: the reply PDU written over the
 /// request. Returns its length and whether it is an exception. FC 8's listen-only mode
 /// belongs to the serial line (Application Protocol §6.8.1): over TCP it is exception 01.
+///
+/// A model of several slave ids ([`crate::Units`], [`crate::Windows`]) serves the unit id's
+/// unit; a unit id it does not answer (0 and 0xFF included) gets exception 0B, as from a
+/// gateway with no slave of that address behind it.
 pub fn respond<M: DataModel + ?Sized>(adu: &mut [u8], pdu_len: usize, model: &mut M) -> Option<(usize, bool)> {
     let unit = adu.get(mbap::HEADER - 1).copied().unwrap_or(mbap::DEVICE_UNIT);
     let pdu = adu.get_mut(mbap::HEADER..)?;
-    let result = match dispatch(pdu, pdu_len, model, &SlaveCounters::new(), unit, true) {
+    let result = match dispatch_unit(pdu, pdu_len, model, unit) {
         Ok(Answer::Reply(n) | Answer::Restart(n)) => Ok(n),
         Ok(Answer::ListenOnly) => Err(Exception::IllegalFunction),
         Err(exception) => Err(exception),
@@ -64,6 +68,21 @@ pub fn respond<M: DataModel + ?Sized>(adu: &mut [u8], pdu_len: usize, model: &mu
         Ok(n) => (n, false),
         Err(exception) => (encode_exception(pdu, exception), true),
     })
+}
+
+/// [`dispatch`] for unit id `unit`: with a model of several ids, to that unit, or exception
+/// 0B when the model does not answer it.
+#[inline(always)]
+fn dispatch_unit<M: DataModel + ?Sized>(
+    pdu: &mut [u8],
+    pdu_len: usize,
+    model: &mut M,
+    unit: u8,
+) -> Result<Answer, Exception> {
+    if M::UNITS && !model.select(unit) {
+        return Err(Exception::GatewayTargetDeviceFailedToRespond);
+    }
+    dispatch(pdu, pdu_len, model, &SlaveCounters::new(), unit, true)
 }
 
 /// The handler of a server serving `model`.
