@@ -196,8 +196,7 @@ impl<const N: usize> Engine<N> {
 
     /// T3.5 of silence passed: checks the frame's CRC and address and counts.
     pub fn on_end_deadline(&mut self) -> EndOfFrame {
-        let id = self.id.get();
-        self.end_of_frame(|address| address == id)
+        self.end_of_frame(|engine, address| address == engine.id.get())
     }
 
     /// [`Engine::on_end_deadline`] for a slave serving `model`: with a model of several
@@ -207,16 +206,16 @@ impl<const N: usize> Engine<N> {
     #[inline(always)]
     pub fn on_end_deadline_for<M: DataModel + ?Sized>(&mut self, model: &mut M) -> EndOfFrame {
         if M::UNITS {
-            self.end_of_frame(|address| model.select(address))
+            self.end_of_frame(|_, address| model.select(address))
         } else {
             self.on_end_deadline()
         }
     }
 
     /// The end of a frame, its address (not the broadcast address) this slave's when
-    /// `ours` says so.
+    /// `ours` says so (asked only then, and given the engine: the slave id is read there).
     #[inline(always)]
-    fn end_of_frame(&mut self, ours: impl FnOnce(u8) -> bool) -> EndOfFrame {
+    fn end_of_frame(&mut self, ours: impl FnOnce(&Self, u8) -> bool) -> EndOfFrame {
         let Some(result) = self.framer.on_end_deadline() else {
             return EndOfFrame::Nothing;
         };
@@ -230,7 +229,7 @@ impl<const N: usize> Engine<N> {
         };
         let address = self.framer.buffer()[0];
         let broadcast = address == SlaveId::BROADCAST;
-        if !broadcast && !ours(address) {
+        if !broadcast && !ours(self, address) {
             self.framer.release();
             return EndOfFrame::OtherSlave;
         }
