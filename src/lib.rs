@@ -71,9 +71,9 @@ pub use slave::bank::{bit_bytes, Bank};
 pub use slave::counters::SlaveCounters;
 pub use slave::model::DataModel;
 pub use slave::pdu::device_id::Identification;
-pub use slave::units::{Units, Windows};
 #[cfg(feature = "eeprom-settings")]
 pub use slave::settings::Configurable;
+pub use slave::units::{Units, Windows};
 
 /// The guides in `docs/`, the depth behind the README (documentation only: each guide's
 /// Rust blocks are doctests, so that they keep up with the API).

@@ -54,8 +54,10 @@ use crate::slave::pdu::{encode_exception, Answer, Exception};
 /// belongs to the serial line (Application Protocol §6.8.1): over TCP it is exception 01.
 ///
 /// A model of several slave ids ([`crate::Units`], [`crate::Windows`]) serves the unit id's
-/// unit; a unit id it does not answer (0 and 0xFF included) gets exception 0B, as from a
-/// gateway with no slave of that address behind it.
+/// unit; a unit id it does not answer (0xFF included) gets exception 0B, as from a gateway
+/// with no slave of that address behind it. Unit 0 is all of them, as a serial broadcast: a
+/// write is made in each and answered with its echo (RTU over TCP's address 0 is not
+/// answered, as ever); a read, which no one unit answers, gets 0B.
 pub fn respond<M: DataModel + ?Sized>(adu: &mut [u8], pdu_len: usize, model: &mut M) -> Option<(usize, bool)> {
     let unit = adu.get(mbap::HEADER - 1).copied().unwrap_or(mbap::DEVICE_UNIT);
     let pdu = adu.get_mut(mbap::HEADER..)?;
@@ -71,7 +73,7 @@ pub fn respond<M: DataModel + ?Sized>(adu: &mut [u8], pdu_len: usize, model: &mu
 }
 
 /// [`dispatch`] for unit id `unit`: with a model of several ids, to that unit, or exception
-/// 0B when the model does not answer it.
+/// 0B when the model does not answer it; unit 0 to all of them, as a serial broadcast.
 #[inline(always)]
 fn dispatch_unit<M: DataModel + ?Sized>(
     pdu: &mut [u8],
@@ -79,10 +81,30 @@ fn dispatch_unit<M: DataModel + ?Sized>(
     model: &mut M,
     unit: u8,
 ) -> Result<Answer, Exception> {
+    if M::UNITS && unit == 0 {
+        return every_unit(pdu, pdu_len, model);
+    }
     if M::UNITS && !model.select(unit) {
         return Err(Exception::GatewayTargetDeviceFailedToRespond);
     }
     dispatch(pdu, pdu_len, model, &SlaveCounters::new(), unit, true)
+}
+
+/// Unit 0 to a model of several ids: the request as a broadcast to each of its units in
+/// turn (a write made in each, the request left as it came), answered as the write's echo;
+/// anything else, with no one unit to answer it (a read), exception 0B.
+fn every_unit<M: DataModel + ?Sized>(pdu: &mut [u8], pdu_len: usize, model: &mut M) -> Result<Answer, Exception> {
+    let mut result = Err(Exception::GatewayTargetDeviceFailedToRespond);
+    // Every slave id (Serial Line §2.2: 1–247).
+    for unit in 1..=247 {
+        if model.select(unit) {
+            result = result.or(dispatch(pdu, pdu_len, model, &SlaveCounters::new(), unit, false));
+        }
+    }
+    match result {
+        Ok(Answer::Reply(0)) => Err(Exception::GatewayTargetDeviceFailedToRespond),
+        other => other,
+    }
 }
 
 /// The handler of a server serving `model`.

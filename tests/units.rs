@@ -263,9 +263,20 @@ mod tcp {
     }
 
     #[test]
+    fn unit_0_writes_every_unit_and_reads_none() {
+        let mut units = units();
+        assert_eq!(over_tcp(&mut units, 0, &write_pdu(1, 5)), (write_pdu(1, 5), false));
+        for id in 5..=8 {
+            assert_eq!(units.get(id, 40002), Ok(5), "id {id}");
+            assert_eq!(units.unit(id).unwrap().master_writes(), 1, "id {id}");
+        }
+        assert_eq!(over_tcp(&mut units, 0, &read_pdu(0x04, 0, 1)), (vec![0x84, 0x0B], true));
+    }
+
+    #[test]
     fn a_unit_id_the_model_does_not_answer_is_exception_0b() {
         let mut units = units();
-        for unit in [0, 1, 9, 0xFF] {
+        for unit in [1, 4, 9, 0xFF] {
             assert_eq!(over_tcp(&mut units, unit, &read_pdu(0x04, 0, 1)), (vec![0x84, 0x0B], true), "unit {unit}");
         }
     }

@@ -183,7 +183,7 @@ impl<M: DataModel, const N: usize> DataModel for Units<M, N> {
 /// }
 /// // Slave ids 1–4: id 1 reads 30001 as 30001, id 2 as 30011, id 3 as 30021, id 4 as 30031.
 /// let mut sensors: Windows<Sensors, 4> = Windows::new(1, 10, Sensors::new());
-/// sensors.model_mut().set_value(avr_modbus::Reference::classic(30021).unwrap(), 215).unwrap();
+/// sensors.model_mut().set(30021, 215).unwrap();
 /// ```
 ///
 /// The slave's own `get` and `set` (and [`DataModel::value`]) reach the whole model, by its
