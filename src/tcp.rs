@@ -59,9 +59,12 @@ use crate::slave::pdu::{encode_exception, Answer, Exception};
 /// write is made in each and answered with its echo (RTU over TCP's address 0 is not
 /// answered, as ever); a read, which no one unit answers, gets 0B.
 pub fn respond<M: DataModel + ?Sized>(adu: &mut [u8], pdu_len: usize, model: &mut M) -> Option<(usize, bool)> {
+    if M::UNITS {
+        return respond_unit(adu, pdu_len, model);
+    }
     let unit = adu.get(mbap::HEADER - 1).copied().unwrap_or(mbap::DEVICE_UNIT);
     let pdu = adu.get_mut(mbap::HEADER..)?;
-    let result = match dispatch_unit(pdu, pdu_len, model, unit) {
+    let result = match dispatch(pdu, pdu_len, model, &SlaveCounters::new(), unit, true) {
         Ok(Answer::Reply(n) | Answer::Restart(n)) => Ok(n),
         Ok(Answer::ListenOnly) => Err(Exception::IllegalFunction),
         Err(exception) => Err(exception),
@@ -72,22 +75,35 @@ pub fn respond<M: DataModel + ?Sized>(adu: &mut [u8], pdu_len: usize, model: &mu
     })
 }
 
-/// [`dispatch`] for unit id `unit`: with a model of several ids, to that unit, or exception
-/// 0B when the model does not answer it; unit 0 to all of them, as a serial broadcast.
-#[inline(always)]
-fn dispatch_unit<M: DataModel + ?Sized>(
-    pdu: &mut [u8],
-    pdu_len: usize,
-    model: &mut M,
-    unit: u8,
-) -> Result<Answer, Exception> {
-    if M::UNITS && unit == 0 {
-        return every_unit(pdu, pdu_len, model);
+/// The reply PDU written over the request for `result`: its length, and whether it is an
+/// exception. [`respond`] keeps its own copy of these lines: through a shared function its
+/// firmware would be laid out otherwise (16 B more with `diagnostics` and `extra-fc`).
+fn reply(pdu: &mut [u8], result: Result<Answer, Exception>) -> (usize, bool) {
+    let result = match result {
+        Ok(Answer::Reply(n) | Answer::Restart(n)) => Ok(n),
+        Ok(Answer::ListenOnly) => Err(Exception::IllegalFunction),
+        Err(exception) => Err(exception),
+    };
+    match result {
+        Ok(n) => (n, false),
+        Err(exception) => (encode_exception(pdu, exception), true),
     }
-    if M::UNITS && !model.select(unit) {
-        return Err(Exception::GatewayTargetDeviceFailedToRespond);
-    }
-    dispatch(pdu, pdu_len, model, &SlaveCounters::new(), unit, true)
+}
+
+/// [`respond`] with a model of several ids ([`DataModel::UNITS`]): to the unit id's unit, or
+/// exception 0B when the model does not answer it; unit 0 to all of them, as a serial
+/// broadcast.
+fn respond_unit<M: DataModel + ?Sized>(adu: &mut [u8], pdu_len: usize, model: &mut M) -> Option<(usize, bool)> {
+    let unit = adu.get(mbap::HEADER - 1).copied().unwrap_or(mbap::DEVICE_UNIT);
+    let pdu = adu.get_mut(mbap::HEADER..)?;
+    let result = if unit == 0 {
+        every_unit(pdu, pdu_len, model)
+    } else if model.select(unit) {
+        dispatch(pdu, pdu_len, model, &SlaveCounters::new(), unit, true)
+    } else {
+        Err(Exception::GatewayTargetDeviceFailedToRespond)
+    };
+    Some(reply(pdu, result))
 }
 
 /// Unit 0 to a model of several ids: the request as a broadcast to each of its units in
