@@ -73,6 +73,7 @@ pub use slave::model::DataModel;
 pub use slave::pdu::device_id::Identification;
 #[cfg(feature = "eeprom-settings")]
 pub use slave::settings::Configurable;
+pub use slave::units::{Units, Windows};
 pub use slave::written::{Port, Write};
 
 /// The guides in `docs/`, the depth behind the README (documentation only: each guide's

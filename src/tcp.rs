@@ -52,7 +52,16 @@ use crate::slave::pdu::{encode_exception, Answer, Exception, FunctionCode};
 /// `pdu_len` bytes) against `model`, as the RTU slave would: the reply PDU written over the
 /// request. Returns its length and whether it is an exception. FC 8's listen-only mode
 /// belongs to the serial line (Application Protocol §6.8.1): over TCP it is exception 01.
+///
+/// A model of several slave ids ([`crate::Units`], [`crate::Windows`]) serves the unit id's
+/// unit; a unit id it does not answer (0xFF included) gets exception 0B, as from a gateway
+/// with no slave of that address behind it. Unit 0 is all of them, as a serial broadcast: a
+/// write is made in each and answered with its echo (RTU over TCP's address 0 is not
+/// answered, as ever); a read, which no one unit answers, gets 0B.
 pub fn respond<M: DataModel + ?Sized>(adu: &mut [u8], pdu_len: usize, model: &mut M) -> Option<(usize, bool)> {
+    if M::UNITS {
+        return respond_unit(adu, pdu_len, model);
+    }
     let unit = adu.get(mbap::HEADER - 1).copied().unwrap_or(mbap::DEVICE_UNIT);
     let pdu = adu.get_mut(mbap::HEADER..)?;
     let result = match dispatch(pdu, pdu_len, model, &SlaveCounters::new(), unit, true) {
@@ -64,6 +73,54 @@ pub fn respond<M: DataModel + ?Sized>(adu: &mut [u8], pdu_len: usize, model: &mu
         Ok(n) => (n, false),
         Err(exception) => (encode_exception(pdu, exception), true),
     })
+}
+
+/// The reply PDU written over the request for `result`: its length, and whether it is an
+/// exception. [`respond`] keeps its own copy of these lines: through a shared function its
+/// firmware would be laid out otherwise (16 B more with `diagnostics` and `extra-fc`).
+fn reply(pdu: &mut [u8], result: Result<Answer, Exception>) -> (usize, bool) {
+    let result = match result {
+        Ok(Answer::Reply(n) | Answer::Restart(n)) => Ok(n),
+        Ok(Answer::ListenOnly) => Err(Exception::IllegalFunction),
+        Err(exception) => Err(exception),
+    };
+    match result {
+        Ok(n) => (n, false),
+        Err(exception) => (encode_exception(pdu, exception), true),
+    }
+}
+
+/// [`respond`] with a model of several ids ([`DataModel::UNITS`]): to the unit id's unit, or
+/// exception 0B when the model does not answer it; unit 0 to all of them, as a serial
+/// broadcast.
+fn respond_unit<M: DataModel + ?Sized>(adu: &mut [u8], pdu_len: usize, model: &mut M) -> Option<(usize, bool)> {
+    let unit = adu.get(mbap::HEADER - 1).copied().unwrap_or(mbap::DEVICE_UNIT);
+    let pdu = adu.get_mut(mbap::HEADER..)?;
+    let result = if unit == 0 {
+        every_unit(pdu, pdu_len, model)
+    } else if model.select(unit) {
+        dispatch(pdu, pdu_len, model, &SlaveCounters::new(), unit, true)
+    } else {
+        Err(Exception::GatewayTargetDeviceFailedToRespond)
+    };
+    Some(reply(pdu, result))
+}
+
+/// Unit 0 to a model of several ids: the request as a broadcast to each of its units in
+/// turn (a write made in each, the request left as it came), answered as the write's echo;
+/// anything else, with no one unit to answer it (a read), exception 0B.
+fn every_unit<M: DataModel + ?Sized>(pdu: &mut [u8], pdu_len: usize, model: &mut M) -> Result<Answer, Exception> {
+    let mut result = Err(Exception::GatewayTargetDeviceFailedToRespond);
+    // Every slave id (Serial Line §2.2: 1–247).
+    for unit in 1..=247 {
+        if model.select(unit) {
+            result = result.or(dispatch(pdu, pdu_len, model, &SlaveCounters::new(), unit, false));
+        }
+    }
+    match result {
+        Ok(Answer::Reply(0)) => Err(Exception::GatewayTargetDeviceFailedToRespond),
+        other => other,
+    }
 }
 
 /// The handler of a server serving `model`.

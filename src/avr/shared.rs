@@ -184,9 +184,18 @@ pub trait SharedHandle: 'static {
 }
 
 /// Runs `f` on `H`'s model and record, interrupts disabled.
+///
+/// A model of several ids (`DataModel::UNITS`) is each side's own meanwhile: the unit the
+/// side selected last is selected again first, since a serial slave's request may have
+/// come in the middle of the TCP server's and selected another.
 #[inline(always)]
 fn on<H: SharedHandle, R>(f: impl FnOnce(&mut H::Model, &mut WriteLog, bool) -> R) -> Option<R> {
-    H::cell().port_access(f)
+    H::cell().port_access(|model, log, network| {
+        if H::Model::UNITS {
+            model.select(log.selected(network));
+        }
+        f(model, log, network)
+    })
 }
 
 /// What a port is refused while the application holds the model (only an interrupt
@@ -214,6 +223,16 @@ impl<H: SharedHandle> DataModel for H {
     const FRAME: usize = H::Model::FRAME;
     const FRAME_HOLDS_ALL: bool = H::Model::FRAME_HOLDS_ALL;
     const SHARED: bool = true;
+    const UNITS: bool = H::Model::UNITS;
+
+    fn select(&mut self, unit: u8) -> bool {
+        H::cell()
+            .port_access(|model, log, network| {
+                log.select(network, unit);
+                model.select(unit)
+            })
+            .unwrap_or(false)
+    }
 
     fn read_bits(&self, table: Table, start: u16, qty: u16, out: &mut [u8]) -> Result<(), Exception> {
         on::<H, _>(|model, _, _| model.read_bits(table, start, qty, out)).unwrap_or(Err(BUSY))

@@ -203,6 +203,26 @@ impl<const N: usize> Engine<N> {
 
     /// T3.5 of silence passed: checks the frame's CRC and address and counts.
     pub fn on_end_deadline(&mut self) -> EndOfFrame {
+        self.end_of_frame(|engine, address| address == engine.id.get())
+    }
+
+    /// [`Engine::on_end_deadline`] for a slave serving `model`: with a model of several
+    /// slave ids ([`DataModel::UNITS`]) the model says which addresses are this slave's
+    /// ([`DataModel::select`], which also picks the unit that [`Engine::process`] serves);
+    /// with any other, the slave id alone.
+    #[inline(always)]
+    pub fn on_end_deadline_for<M: DataModel + ?Sized>(&mut self, model: &mut M) -> EndOfFrame {
+        if M::UNITS {
+            self.end_of_frame(|_, address| model.select(address))
+        } else {
+            self.on_end_deadline()
+        }
+    }
+
+    /// The end of a frame, its address (not the broadcast address) this slave's when
+    /// `ours` says so (asked only then, and given the engine: the slave id is read there).
+    #[inline(always)]
+    fn end_of_frame(&mut self, ours: impl FnOnce(&Self, u8) -> bool) -> EndOfFrame {
         let Some(result) = self.framer.on_end_deadline() else {
             return EndOfFrame::Nothing;
         };
@@ -216,7 +236,7 @@ impl<const N: usize> Engine<N> {
         };
         let address = self.framer.buffer()[0];
         let broadcast = address == SlaveId::BROADCAST;
-        if !broadcast && address != self.id.get() {
+        if !broadcast && !ours(self, address) {
             self.framer.release();
             return EndOfFrame::OtherSlave;
         }
@@ -300,7 +320,8 @@ impl<const N: usize> Engine<N> {
         // where it is used).
         let pdu_len = if diagnostics::ENABLED { len.saturating_sub(3) } else { len.wrapping_sub(3) };
         let counters = if diagnostics::ENABLED { self.counters() } else { SlaveCounters::new() };
-        let id = self.id.get();
+        // With several ids, the one addressed (FC 17 reports it).
+        let id = if M::UNITS { self.address() } else { self.id.get() };
         let (_, pdu) = self.framer.buffer_mut().split_at_mut(1);
         dispatch(pdu, pdu_len, model, &counters, id, unicast)
     }
@@ -331,7 +352,7 @@ impl<const N: usize> Engine<N> {
     ///
     /// One call of [`Engine::handle`] for both, so that it is inlined here.
     fn answer<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M, unicast: bool) -> usize {
-        let result = self.handle(len, model, unicast);
+        let result = if M::UNITS && !unicast { self.each_unit(len, model) } else { self.handle(len, model, unicast) };
         self.count(&result);
         if !unicast {
             self.framer.release();
@@ -355,6 +376,28 @@ impl<const N: usize> Engine<N> {
         // the calls above, so that it is not read back from memory.
         self.reply_len = 1 + reply_pdu;
         self.reply_len
+    }
+
+    /// A broadcast to a model of several slave ids ([`DataModel::UNITS`]): handled once for
+    /// each id the model answers, in order, so that a write is made in each unit's model or
+    /// window. The request stays as it came for the next unit (a broadcast only writes; what
+    /// a diagnostic writes over it is never acted on). Counted once, as one request to this
+    /// slave: valid when it was for any unit.
+    fn each_unit<M: DataModel + ?Sized>(&mut self, len: usize, model: &mut M) -> Result<Answer, Exception> {
+        let mut result = Err(Exception::IllegalFunction);
+        // Every slave id (Serial Line §2.2: 1–247).
+        for unit in 1..=247 {
+            if model.select(unit) {
+                result = result.or(self.handle(len, model, false));
+            }
+        }
+        result
+    }
+
+    /// The address of the frame in the buffer: the slave id a reply carries.
+    #[inline(always)]
+    pub(crate) fn address(&self) -> u8 {
+        self.framer.buffer()[0]
     }
 
     /// A frame that gets no reply. FC 8 sub-function 04 enters listen-only mode; in it,
@@ -444,7 +487,7 @@ impl<const N: usize> Engine<N> {
     /// T3.5 of silence: ends the frame in progress and executes it if it is one to
     /// execute (also ends the power-up wait).
     fn complete<M: DataModel + ?Sized>(&mut self, model: &mut M) -> EndOfFrame {
-        let end = self.on_end_deadline();
+        let end = self.on_end_deadline_for(model);
         self.process(model);
         end
     }

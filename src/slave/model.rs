@@ -84,6 +84,22 @@ pub trait DataModel {
     #[doc(hidden)]
     const FRAME_HOLDS_ALL: bool = false;
 
+    /// True for a model that answers several slave ids ([`crate::Units`], [`crate::Windows`]):
+    /// the engine then asks [`DataModel::select`] whether a frame's address is this slave's,
+    /// instead of comparing it with its own id. False, the default: the engine never calls
+    /// `select`, and the firmware holds none of its path.
+    #[doc(hidden)]
+    const UNITS: bool = false;
+
+    /// Only when [`DataModel::UNITS`]: true when the model answers slave id `unit` (1–247,
+    /// or with TCP the MBAP unit id), and then every call that follows, until the next
+    /// `select`, goes to that unit's model or window. False: the frame is another slave's.
+    #[doc(hidden)]
+    fn select(&mut self, unit: u8) -> bool {
+        let _ = unit;
+        false
+    }
+
     /// Reads `qty` (≥ 1) bits of `table` (coils or discrete inputs) from `start` into
     /// `out`, packed LSB first, the unused high bits of the last byte zero.
     /// `out.len()` is `qty.div_ceil(8)`.

@@ -53,6 +53,9 @@ pub(crate) struct WriteLog {
     /// The last write, valid when `fresh`.
     last: Write,
     fresh: bool,
+    /// The unit each side selected last, in a model of several ids (`DataModel::UNITS`):
+    /// the network's, then the serial lines'.
+    selected: [u8; 2],
 }
 
 #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
@@ -64,7 +67,7 @@ const NONE: Write =
 impl WriteLog {
     /// Nothing written yet.
     pub(crate) const fn new() -> Self {
-        WriteLog { network: (Port::Serial(0), 0), line: (0, 0), last: NONE, fresh: false }
+        WriteLog { network: (Port::Serial(0), 0), line: (0, 0), last: NONE, fresh: false, selected: [0; 2] }
     }
 
     /// The requests that follow on `by`'s side (the network's or the serial lines') come
@@ -85,6 +88,18 @@ impl WriteLog {
         let first = Reference { table, address: start };
         self.last = Write { by, unit, first, count, earlier };
         self.fresh = true;
+    }
+
+    /// The network's side (`network`) or the serial lines' selected `unit`.
+    #[inline(always)]
+    pub(crate) fn select(&mut self, network: bool, unit: u8) {
+        self.selected[usize::from(network)] = unit;
+    }
+
+    /// The unit the network's side (`network`) or the serial lines' selected last.
+    #[inline(always)]
+    pub(crate) fn selected(&self, network: bool) -> u8 {
+        self.selected[usize::from(network)]
     }
 
     /// The last write not yet taken.

@@ -101,7 +101,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, c
         if !ended {
             return;
         }
-        let end = self.engine.on_end_deadline();
+        let end = self.engine.on_end_deadline_for(&mut self.model);
         // (Never in ASCII framing: its reply delay is 0, `Config::reply_delay_ticks`.)
         #[cfg(feature = "reply-delay")]
         if end == EndOfFrame::Reply && self.reply_delay != 0 {
@@ -167,7 +167,18 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, c
     /// The reply's first character: the address, or in ASCII framing `:`.
     #[inline(always)]
     fn first_char(&self) -> u8 {
-        self.engine.framing().first_char(self.engine.id().get())
+        self.engine.framing().first_char(self.address())
+    }
+
+    /// The address a reply carries: the slave id, or with a model of several ids
+    /// ([`DataModel::UNITS`]) the one the request addressed.
+    #[inline(always)]
+    fn address(&self) -> u8 {
+        if M::UNITS {
+            self.engine.address()
+        } else {
+            self.engine.id().get()
+        }
     }
 
     /// Characters on the wire for a reply of `bytes` bytes (at most 255, FC 3 or 4 with 125
@@ -183,7 +194,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, c
     fn send_processed(&mut self) {
         let _ = self.driver_enable.set_high();
         let _ = self.led.set_high();
-        self.usart.write(self.engine.id().get());
+        self.usart.write(self.address());
         self.tx_next = 1;
         self.usart.start_feeding();
     }

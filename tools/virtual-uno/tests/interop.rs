@@ -509,6 +509,48 @@ fn libmodbus_runs_every_function_code_exceptions_01_02_03_and_broadcast() {
 }
 
 // ------------------------------------------------------------------------------------------
+// several slave ids on one line
+
+/// examples/units.rs (slave ids 1-4, each its own register map) through pymodbus: each id's
+/// reading and writes, a broadcast reaching the four, silence from id 5, 200 reads over the
+/// four ids in turn.
+#[test]
+fn pymodbus_polls_the_four_slave_ids_of_units() {
+    let _one = serialise();
+    let uno = VirtualUno::start(&firmware("units"), &[]);
+    pymodbus(&uno, "--board units --reads 200", Duration::from_secs(60));
+}
+
+/// The same through libmodbus (`demo/libmodbus_units_check.c`), switching ids with
+/// `modbus_set_slave` as a master polling several slaves does.
+#[test]
+fn libmodbus_polls_the_four_slave_ids_of_units() {
+    let _one = serialise();
+    let uno = VirtualUno::start(&firmware("units"), &[]);
+    let mut cmd = Command::new(compile("libmodbus_units_check"));
+    cmd.arg(uno.port()).args(["19200", "E", "1", "200"]);
+    let (ok, out) = run(&mut cmd, Duration::from_secs(60));
+    println!("{out}");
+    assert!(ok, "libmodbus_units_check failed\n{}", transcript(&out, &uno));
+}
+
+/// `demo/NAME.c` compiled against libmodbus into the test's temporary directory.
+fn compile(name: &str) -> PathBuf {
+    let exe = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let flags = Command::new("pkg-config")
+        .args(["--cflags", "--libs", "libmodbus"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map_or("-I/usr/include/modbus -lmodbus".to_owned(), |o| String::from_utf8_lossy(&o.stdout).into_owned());
+    let mut cc = Command::new(std::env::var("CC").unwrap_or_else(|_| "cc".into()));
+    cc.arg("-o").arg(&exe).arg(workspace().join(format!("demo/{name}.c"))).args(flags.split_whitespace());
+    let (ok, out) = run(&mut cc, Duration::from_secs(60));
+    assert!(ok, "cannot build demo/{name}.c (apt-get install libmodbus-dev):\n{out}");
+    exe
+}
+
+// ------------------------------------------------------------------------------------------
 // the binary itself
 
 #[test]
