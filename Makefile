@@ -165,6 +165,7 @@ TCP_FIRMWARE := $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-non
 	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu.elf \
 	target/chips/atmega328p-tcp-rtu/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-tcp-dhcp/avr-none/release/examples/sixteen_each_tcp.elf \
+	target/chips/atmega328p-tcp-read-only/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-w5100-libmodbus/avr-none/release/examples/libmodbus_map.elf \
 	target/chips/atmega328p-tcp-gateway/avr-none/release/examples/tcp_gateway.elf \
 	target/chips/atmega328p-tcp-gateway-int/avr-none/release/examples/tcp_gateway.elf \
@@ -183,6 +184,7 @@ tcp-firmware: setup
 	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu
 	@.ci/chip-build atmega328p "" atmega328p-tcp-rtu examples,tcp,rtu-over-tcp sixteen_each_tcp
 	@.ci/chip-build atmega328p "" atmega328p-tcp-dhcp examples,tcp,dhcp sixteen_each_tcp
+	@.ci/chip-build atmega328p "" atmega328p-tcp-read-only examples,tcp,write-protect sixteen_each_tcp
 	@.ci/chip-build atmega328p "" atmega328p-w5100-libmodbus examples,tcp,extra-fc,diagnostics libmodbus_map
 	@.ci/chip-build atmega328p "" atmega328p-tcp-gateway examples,tcp,master tcp_gateway
 	@AVR_MODBUS_EXAMPLE_SHIELD=w5100-int .ci/chip-build atmega328p "" atmega328p-tcp-gateway-int examples,tcp,master tcp_gateway
