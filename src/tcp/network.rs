@@ -54,8 +54,21 @@ pub(crate) const SUBNET: usize = 4;
 pub(crate) const MAC: usize = 8;
 pub(crate) const IP: usize = 14;
 
-/// True when `peer` is one of `clients`.
+/// What a client may do ([`Network::rights`], feature `write-protect`).
 #[cfg(feature = "write-protect")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Rights {
+    /// Not connect.
+    None,
+    /// Connect and read.
+    Read,
+    /// Connect, read and write.
+    Write,
+}
+
+/// True when `peer` is one of `clients` (one loop for both lists).
+#[cfg(feature = "write-protect")]
+#[inline(never)]
 fn listed(clients: &[[u8; 4]], peer: [u8; 4]) -> bool {
     let peer = u32::from_ne_bytes(peer);
     clients.iter().any(|&client| u32::from_ne_bytes(client) == peer)
@@ -253,17 +266,25 @@ impl Network {
         self.allow.is_empty() || self.allow.iter().any(|&client| u32::from_ne_bytes(client) == peer)
     }
 
-    /// True when a client at `peer` may connect (to read, at least).
-    #[cfg(feature = "write-protect")]
+    /// True when a client at `peer` may connect (the tests' view of [`Network::rights`]).
+    #[cfg(all(test, feature = "write-protect"))]
     pub(crate) fn allows(&self, peer: [u8; 4]) -> bool {
-        self.writes(peer) || listed(self.allow_reading, peer)
+        self.rights(peer) != Rights::None
     }
 
-    /// True when a client at `peer` may write: every client when neither list is given,
-    /// else those of [`Network::allow`].
+    /// What a client at `peer` may do (feature `write-protect`): [`Rights::Write`] for every
+    /// client when neither list is given, else for those of [`Network::allow`];
+    /// [`Rights::Read`] for those of [`Network::allow_reading`] alone; [`Rights::None`] for
+    /// the others, which may not connect.
     #[cfg(feature = "write-protect")]
-    pub(crate) fn writes(&self, peer: [u8; 4]) -> bool {
-        (self.allow.is_empty() && self.allow_reading.is_empty()) || listed(self.allow, peer)
+    pub(crate) fn rights(&self, peer: [u8; 4]) -> Rights {
+        if (self.allow.is_empty() && self.allow_reading.is_empty()) || listed(self.allow, peer) {
+            Rights::Write
+        } else if listed(self.allow_reading, peer) {
+            Rights::Read
+        } else {
+            Rights::None
+        }
     }
 
     /// True when a request for `unit` is this device's.
@@ -449,15 +470,14 @@ mod tests {
     #[cfg(feature = "write-protect")]
     #[test]
     fn a_client_allowed_to_read_connects_and_does_not_write() {
-        assert!(NET.writes([1, 2, 3, 4]), "no list: anyone writes");
+        assert_eq!(NET.rights([1, 2, 3, 4]), Rights::Write, "no list: anyone writes");
         let net = NET.allow(&[[10, 0, 0, 9]]).allow_reading(&[[10, 0, 0, 7], [10, 0, 0, 9]]);
-        let rights = |peer| (net.allows(peer), net.writes(peer));
-        assert_eq!(rights([10, 0, 0, 9]), (true, true), "on both lists");
-        assert_eq!(rights([10, 0, 0, 7]), (true, false));
-        assert_eq!(rights([10, 0, 0, 8]), (false, false));
+        assert_eq!(net.rights([10, 0, 0, 9]), Rights::Write, "on both lists");
+        assert_eq!(net.rights([10, 0, 0, 7]), Rights::Read);
+        assert_eq!(net.rights([10, 0, 0, 8]), Rights::None);
         let readers = NET.allow_reading(&[[10, 0, 0, 7]]);
-        assert_eq!((readers.allows([10, 0, 0, 7]), readers.writes([10, 0, 0, 7])), (true, false));
-        assert!(!readers.allows([10, 0, 0, 8]), "a reading list alone refuses the others");
+        assert_eq!(readers.rights([10, 0, 0, 7]), Rights::Read);
+        assert_eq!(readers.rights([10, 0, 0, 8]), Rights::None, "a reading list alone refuses the others");
     }
 
     #[cfg(feature = "rtu-over-tcp")]

@@ -354,14 +354,20 @@ impl<const B: usize> Server<B> {
         self.read_only
     }
 
-    /// Socket `s`'s client may write (`writes`) or only read.
+    /// True when a client at `peer` may connect to socket `s` (or send it a datagram); with
+    /// feature `write-protect`, whether it may write is kept for the socket.
+    #[cfg(not(feature = "write-protect"))]
+    #[inline(always)]
+    fn admits(&mut self, net: &Network, _s: u8, peer: [u8; 4]) -> bool {
+        net.allows(peer)
+    }
+
+    /// True when a client at `peer` may connect to socket `s`; with feature
+    /// `write-protect`, whether it may write is kept for the socket.
     #[cfg(feature = "write-protect")]
-    fn set_writes(&mut self, s: u8, writes: bool) {
-        if writes {
-            self.readers &= !(1 << s);
-        } else {
-            self.readers |= 1 << s;
-        }
+    #[inline(always)]
+    fn admits(&mut self, net: &Network, s: u8, peer: [u8; 4]) -> bool {
+        admits(&mut self.readers, net, s, peer)
     }
 
     /// The exception 01 for the request in the buffer when it writes and socket `s` may
@@ -457,14 +463,11 @@ impl<const B: usize> Server<B> {
             status @ (state::ESTABLISHED | state::CLOSE_WAIT | UDP) => {
                 #[cfg(not(feature = "udp"))]
                 if phase != Phase::Connected {
-                    let peer = chip.peer(s);
-                    if !net.allows(peer) {
+                    if !self.admits(net, s, chip.peer(s)) {
                         self.bump(Count::Refused);
                         self.close(chip, net, s);
                         return;
                     }
-                    #[cfg(feature = "write-protect")]
-                    self.set_writes(s, net.writes(peer));
                     self.enter(s, Phase::Connected);
                     self.rx[at] = chip.rx_pointer(s);
                     self.tx[at] = chip.tx_pointer(s);
@@ -474,14 +477,11 @@ impl<const B: usize> Server<B> {
                 #[cfg(feature = "udp")]
                 if phase != Phase::Connected {
                     if s != net.udp {
-                        let peer = chip.peer(s);
-                        if !net.allows(peer) {
+                        if !self.admits(net, s, chip.peer(s)) {
                             self.bump(Count::Refused);
                             self.close(chip, net, s);
                             return;
                         }
-                        #[cfg(feature = "write-protect")]
-                        self.set_writes(s, net.writes(peer));
                         self.bump(Count::Connections);
                     }
                     self.enter(s, Phase::Connected);
@@ -659,20 +659,20 @@ impl<const B: usize> Server<B> {
                     rx = rx.wrapping_add(UDP_HEADER as u16);
                     received -= UDP_HEADER as u16;
                     // An address not allowed costs this header's read and nothing more.
-                    if !net.allows([head[0], head[1], head[2], head[3]]) {
+                    #[cfg(not(feature = "write-protect"))]
+                    let admitted = net.allows([head[0], head[1], head[2], head[3]]);
+                    // The sender's right to write, kept for this datagram.
+                    #[cfg(feature = "write-protect")]
+                    let admitted = admits(&mut self.readers, net, s, [head[0], head[1], head[2], head[3]]);
+                    if !admitted {
                         self.bump(Count::Refused);
                         rx = rx.wrapping_add(datagram);
                         received -= datagram;
                         continue;
                     }
-                    #[cfg(feature = "write-protect")]
-                    let writes = net.writes([head[0], head[1], head[2], head[3]]);
                     // Its answer's destination. Sn_DIPR and Sn_DPORT keep it while the
                     // request is under way: no other datagram is read before it is answered.
                     chip.set_peer(s, &mut head[..6]);
-                    // The sender's right to write, for this datagram.
-                    #[cfg(feature = "write-protect")]
-                    self.set_writes(s, writes);
                 }
                 // The header and, in the same transfer, the body of the usual request (FC
                 // 1-6: 12 bytes in all); a longer one's rest below.
@@ -850,6 +850,21 @@ impl<const B: usize> Server<B> {
             }
         }
     }
+}
+
+/// True when a client at `peer` may connect to socket `s` (or send it a datagram), and its
+/// right to write kept in `readers` (bit `s` set: it may only read). Feature `write-protect`.
+#[cfg(feature = "write-protect")]
+#[inline(never)]
+fn admits(readers: &mut u8, net: &Network, s: u8, peer: [u8; 4]) -> bool {
+    use super::network::Rights;
+    let rights = net.rights(peer);
+    if rights == Rights::Write {
+        *readers &= !(1 << s);
+    } else {
+        *readers |= 1 << s;
+    }
+    rights != Rights::None
 }
 
 /// RTU over TCP's sockets served (feature `rtu-over-tcp`).
