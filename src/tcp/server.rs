@@ -855,7 +855,7 @@ impl<const B: usize> Server<B> {
 /// True when a client at `peer` may connect to socket `s` (or send it a datagram), and its
 /// right to write kept in `readers` (bit `s` set: it may only read). Feature `write-protect`.
 #[cfg(feature = "write-protect")]
-#[inline(never)]
+#[inline(always)]
 fn admits(readers: &mut u8, net: &Network, s: u8, peer: [u8; 4]) -> bool {
     use super::network::Rights;
     let rights = net.rights(peer);
