@@ -148,7 +148,9 @@ sizes: firmware
 # the Mega 2560 and the Leonardo with a W5500. Then the TCP contract (sixteen_each_tcp) and
 # the firmware with both TCP and RTU (tcp_rtu) into target/chips/atmega328p-tcp/, the contract
 # with RTU over TCP on socket 3, port 5020 (feature rtu-over-tcp: tests/sim_rtu_over_tcp.rs,
-# interop_tcp's pymodbus RTU framer) into target/chips/atmega328p-tcp-rtu/, and
+# interop_tcp's pymodbus RTU framer) into target/chips/atmega328p-tcp-rtu/, the contract with an
+# allow-list whose second client may only read (feature write-protect: tests/sim_read_only.rs,
+# interop_tcp's read-only client) into target/chips/atmega328p-tcp-read-only/, and
 # examples/libmodbus_map.rs (libmodbus's unit-test map on a W5100, with the FC 17, 22 and 23
 # its unit-test-client uses) into target/chips/atmega328p-w5100-libmodbus/: make interop runs
 # tcp_server and libmodbus_map on the virtual shields (tools/virtual-uno/tests/interop_tcp.rs).
@@ -354,7 +356,7 @@ sim-test: sim-test-uno sim-test-chips
 # The simulator tests that run what make chips or make fixtures build; every other needs only
 # the Uno's firmware and the bootloaders. (One missing here fails under make test: its ELF is
 # not built yet when sim-test-uno runs it.)
-SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_dhcp,sim_gateway,sim_rtu_over_tcp,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_tcp_health,sim_template
+SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_dhcp,sim_gateway,sim_read_only,sim_rtu_over_tcp,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_tcp_health,sim_template
 
 # Every simulator test built, those that need only the Uno's firmware run; the tools' tests
 # built (make sim-test-chips runs them).
