@@ -17,7 +17,6 @@
 //! `examples/sixteen_each_tcp.rs` (`demo/pymodbus_rtu_over_tcp_check.py`, on pymodbus 3.0 or
 //! 3.13 as `INTEROP_PYTHON` has it).
 //!
-//!
 //! With feature `write-protect`, two pymodbus clients against `examples/sixteen_each_tcp.rs`,
 //! one from 127.0.0.2, which its allow-list lets only read, one from 127.0.0.1, which writes
 //! (`demo/pymodbus_read_only_check.py`).
