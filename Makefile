@@ -87,6 +87,7 @@ firmware-uno: setup
 	$(CARGO) uno $(addprefix --example ,$(MASTER_EXAMPLES)) --features examples,master
 	$(CARGO) uno --example ascii_master --features examples,master,ascii
 	$(CARGO) uno --example slow_master --features examples,reply-delay
+	$(CARGO) uno --example panel_setpoint --features examples,write-protect
 	$(CARGO) uno --example libmodbus_map_rtu --features examples,extra-fc,diagnostics
 	@.ci/sizes $(FIRMWARE)
 	@.ci/firmware-check $(FIRMWARE)
