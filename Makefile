@@ -12,11 +12,13 @@ export AVR_MODBUS_REQUIRE_FIRMWARE := 1
 # names the 8 MHz boards' EIGHT_MHZ, whatever the shell that runs make says.
 unexport AVR_CPU_FREQUENCY_HZ
 EIGHT_MHZ := AVR_CPU_FREQUENCY_HZ=8000000
-# Every example but the gateway, which needs a Mega's two USARTs, and the TCP servers (those
+# Every example but the gateway and two_lines, which need a Mega's two USARTs (their
+# required-features keep them out of the Uno's build of every example), and the TCP servers (those
 # whose required-features in Cargo.toml name tcp), which need a shield (make chips builds them:
 # make tcp-firmware).
 TCP_EXAMPLES := $(shell awk '/^name = /{ name = $$3 } /^required-features = .*"tcp"/{ gsub(/"/, "", name); print name }' Cargo.toml)
-EXAMPLES := $(filter-out gateway $(TCP_EXAMPLES),$(patsubst examples/%.rs,%,$(wildcard examples/*.rs)))
+MEGA_EXAMPLES := gateway two_lines
+EXAMPLES := $(filter-out $(MEGA_EXAMPLES) $(TCP_EXAMPLES),$(patsubst examples/%.rs,%,$(wildcard examples/*.rs)))
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
@@ -106,7 +108,8 @@ firmware-uno: setup
 # target/chips/atmega328p/… (those with feature millis into target/chips/atmega328p-millis/…,
 # the master's beside master_boards in target/chips/atmega328p-master/…): the sizes a user of
 # the template sees, which make bench leads with; the gateway (slave on USART0, master on
-# USART1) for the ATmega2560 into target/chips/atmega2560-gateway/; and boards and
+# USART1) and two_lines (two slaves, one model) for the ATmega2560 into
+# target/chips/atmega2560-gateway/ and target/chips/atmega2560-two-lines/; and boards and
 # master_boards for an 8 MHz ATmega328P and ATmega32U4 (AVR_CPU_FREQUENCY_HZ=8000000, the
 # Pro Mini and Pro Micro 3.3 V) into target/chips/CHIP-8mhz/ and target/chips/CHIP-8mhz-master/:
 # the clock, too, is read by build.rs, so only the crate and the examples rebuild for it.
@@ -136,6 +139,7 @@ chips: setup tcp-firmware
 	@.ci/chip-build atmega328p "" atmega328p examples $(TEMPLATE_EXAMPLES)
 	@.ci/chip-build atmega328p "" atmega328p-millis examples,millis $(TEMPLATE_MILLIS_EXAMPLES)
 	@.ci/chip-build atmega2560 "" atmega2560-gateway examples,master gateway
+	@.ci/chip-build atmega2560 "" atmega2560-two-lines examples,millis two_lines
 	@export $(EIGHT_MHZ); for chip in atmega328p atmega32u4; do \
 		$(call boards_and_master,$$chip,,$$chip-8mhz,examples$(comma)master,boards master_boards) || exit 1; \
 	done
@@ -147,7 +151,8 @@ sizes: firmware
 # The TCP server (examples/tcp_server.rs) as make chips builds it, CHIP:SHIELD, into
 # target/chips/CHIP-SHIELD/: the Uno with either chip, polled or with the INT line on pin 2,
 # the Mega 2560 and the Leonardo with a W5500. Then the TCP contract (sixteen_each_tcp) and
-# the firmware with both TCP and RTU (tcp_rtu) into target/chips/atmega328p-tcp/, the contract
+# the firmware with both TCP and RTU (tcp_rtu: one model on both ports; tcp_rtu_copy: two maps
+# and a copy, its control in tests/sim_shared_model.rs) into target/chips/atmega328p-tcp/, the contract
 # with RTU over TCP on socket 3, port 5020 (feature rtu-over-tcp: tests/sim_rtu_over_tcp.rs,
 # interop_tcp's pymodbus RTU framer) into target/chips/atmega328p-tcp-rtu/, the contract with an
 # allow-list whose second client may only read (feature write-protect: tests/sim_read_only.rs,
@@ -166,6 +171,7 @@ TCP_BUILDS := atmega328p:w5100 atmega328p:w5500 atmega328p:w5100-int atmega328p:
 TCP_FIRMWARE := $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-none/release/examples/tcp_server.elf) \
 	target/chips/atmega328p-tcp/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu.elf \
+	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu_copy.elf \
 	target/chips/atmega328p-tcp-rtu/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-tcp-dhcp/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-tcp-read-only/avr-none/release/examples/sixteen_each_tcp.elf \
@@ -184,7 +190,7 @@ tcp-firmware: setup
 		chip=$${build%%:*}; shield=$${build##*:}; \
 		AVR_MODBUS_EXAMPLE_SHIELD=$$shield .ci/chip-build $$chip "" $$chip-$$shield examples,tcp,millis tcp_server || exit 1; \
 	done
-	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu
+	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu tcp_rtu_copy
 	@.ci/chip-build atmega328p "" atmega328p-tcp-rtu examples,tcp,rtu-over-tcp sixteen_each_tcp
 	@.ci/chip-build atmega328p "" atmega328p-tcp-dhcp examples,tcp,dhcp sixteen_each_tcp
 	@.ci/chip-build atmega328p "" atmega328p-tcp-read-only examples,tcp,write-protect sixteen_each_tcp
@@ -295,7 +301,7 @@ clippy: clippy-tools
 # The tools (the simulator, the virtual Uno, the bench), their tests included.
 clippy-tools: setup
 	$(CARGO) clippy --workspace --exclude avr-modbus --all-targets -- -D warnings
-	$(CARGO) clippy -p virtual-uno --test interop --test interop_tcp --test interop_gateway --test interop_tcp_client --test interop_udp --test interop_tcp_health -- -D warnings # test = false: not in --all-targets
+	$(CARGO) clippy -p virtual-uno --test interop --test interop_tcp --test interop_gateway --test interop_tcp_client --test interop_udp --test interop_tcp_health --test interop_two_ports -- -D warnings # test = false: not in --all-targets
 
 # The feature sets the crate's host tests run under (.ci/host-test: a test target runs under
 # each set that has the features it declares in Cargo.toml and gives the features its source
@@ -335,6 +341,8 @@ matrix-avr: setup
 	$(CARGO) uno-clippy $(addprefix --example ,$(EXAMPLES) $(TCP_EXAMPLES)) --features examples,$(ALL_FEATURES) -- -D warnings
 	CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega2560" $(CARGO) clippy --release -Zbuild-std=core --target avr-none \
 		--example gateway --features examples,master -- -D warnings
+	CARGO_TARGET_AVR_NONE_RUSTFLAGS="-C target-cpu=atmega2560" $(CARGO) clippy --release -Zbuild-std=core --target avr-none \
+		--example two_lines --features examples,millis -- -D warnings
 
 # The API docs, warnings denied: for the host (no AVR layer) and as docs.rs builds them (the
 # host, `--cfg docsrs`: the AVR layer too), checked against the README's API tables; for the Uno.
@@ -357,7 +365,7 @@ sim-test: sim-test-uno sim-test-chips
 # The simulator tests that run what make chips or make fixtures build; every other needs only
 # the Uno's firmware and the bootloaders. (One missing here fails under make test: its ELF is
 # not built yet when sim-test-uno runs it.)
-SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_dhcp,sim_gateway,sim_read_only,sim_rtu_over_tcp,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_tcp_health,sim_template
+SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_dhcp,sim_gateway,sim_read_only,sim_rtu_over_tcp,sim_shared_model,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_tcp_health,sim_template,sim_two_lines
 
 # Every simulator test built, those that need only the Uno's firmware run; the tools' tests
 # built (make sim-test-chips runs them).
@@ -475,6 +483,7 @@ serve: $(if $(and $(filter atmega328p,$(SERVE_CHIP)),$(if $(SERVE_TCP_SERVER),,y
 # pymodbus's serial server, a slave switched off, 0A, 0B, clients gone mid-request).
 # then the firmware's TCP client against pymodbus's TCP server and libmodbus's unit-test-server (interop_tcp_client);
 # then Modbus UDP (feature udp) on the virtual shields (interop_udp: pymodbus's UDP client, clients at once, a raw socket).
+# then one model on two ports (interop_two_ports: mbpoll on the serial line and pymodbus over TCP at once, examples/tcp_rtu.rs).
 TCP_CONNECTIONS ?= 100
 interop: firmware-uno bootloaders tcp-firmware
 	$(CARGO) test -p virtual-uno --test interop -- --nocapture --test-threads=1
@@ -483,6 +492,7 @@ interop: firmware-uno bootloaders tcp-firmware
 	$(CARGO) test -p virtual-uno --test interop_tcp_client -- --nocapture --test-threads=1
 	$(CARGO) test -p virtual-uno --test interop_udp -- --nocapture --test-threads=1
 	$(CARGO) test -p virtual-uno --test interop_tcp_health -- --nocapture --test-threads=1
+	$(CARGO) test -p virtual-uno --test interop_two_ports -- --nocapture --test-threads=1
 
 # SOAK_TCP_CONNECTIONS one-shot `mbpoll -m tcp -1` connections to tcp_server (W5100) on the virtual
 # Uno, each answered, none refused (~10 min for 10000); the firmware's counters read at the end.

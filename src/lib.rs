@@ -54,7 +54,7 @@ pub use avr::TcpClient;
 pub use avr::TcpGateway;
 #[cfg(any(target_arch = "avr", all(doc, docsrs)))]
 #[cfg_attr(docsrs, doc(cfg(target_arch = "avr")))]
-pub use avr::{NoPin, Slave};
+pub use avr::{NoPin, SharedModel, Slave};
 #[cfg(all(any(target_arch = "avr", all(doc, docsrs)), feature = "tcp"))]
 #[cfg_attr(docsrs, doc(cfg(all(target_arch = "avr", feature = "tcp"))))]
 pub use avr::{Pin10, TcpServer};
@@ -73,6 +73,7 @@ pub use slave::model::DataModel;
 pub use slave::pdu::device_id::Identification;
 #[cfg(feature = "eeprom-settings")]
 pub use slave::settings::Configurable;
+pub use slave::written::{Port, Write};
 
 /// The guides in `docs/`, the depth behind the README (documentation only: each guide's
 /// Rust blocks are doctests, so that they keep up with the API).

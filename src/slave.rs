@@ -1,7 +1,7 @@
 //! The slave (server), Modbus Application Protocol v1.1b3 §6: its protocol state above the
 //! link (`engine`), the PDU engine and the optional function codes (`pdu`, `diagnostics`),
 //! and the data it serves: the classic references, the register map fixed at build time,
-//! the run-time bank, the data-model trait, their shared value storage and the line
+//! the run-time bank, the data-model trait, the record of who wrote a shared model, their shared value storage and the line
 //! settings kept as registers.
 
 pub(crate) mod bank;
@@ -17,3 +17,4 @@ pub(crate) mod pdu;
 pub(crate) mod settings;
 pub(crate) mod storage;
 pub(crate) mod words;
+pub(crate) mod written;

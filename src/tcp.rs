@@ -46,7 +46,7 @@ pub use wiznet::{W5100, W5500};
 use crate::slave::counters::SlaveCounters;
 use crate::slave::engine::dispatch;
 use crate::slave::model::DataModel;
-use crate::slave::pdu::{encode_exception, Answer, Exception};
+use crate::slave::pdu::{encode_exception, Answer, Exception, FunctionCode};
 
 /// Handles the request of an ADU in `adu` (header, then the first bytes of a PDU of
 /// `pdu_len` bytes) against `model`, as the RTU slave would: the reply PDU written over the
@@ -69,8 +69,35 @@ pub fn respond<M: DataModel + ?Sized>(adu: &mut [u8], pdu_len: usize, model: &mu
 /// The handler of a server serving `model`.
 pub struct Serving<'a, M: ?Sized>(pub &'a mut M);
 
-impl<M: DataModel + ?Sized> server::Handler for Serving<'_, M> {
+impl<M: DataModel> server::Handler for Serving<'_, M> {
     fn handle(&mut self, adu: &mut [u8], pdu_len: usize) -> Option<(usize, bool)> {
         respond(adu, pdu_len, self.0)
+    }
+
+    /// A model other ports serve too ([`DataModel::SHARED`]) is told who asks (for a write,
+    /// the client's address, read from the chip before the model is locked), and runs the
+    /// request with no other port's in between: a write lands whole, a read sees no half
+    /// of another port's write.
+    #[inline(always)]
+    fn handle_from<S: server::Sockets>(
+        &mut self,
+        adu: &mut [u8],
+        pdu_len: usize,
+        chip: &mut S,
+        s: u8,
+        _at: u16,
+    ) -> Option<(usize, bool)> {
+        if !M::SHARED {
+            return respond(adu, pdu_len, self.0);
+        }
+        // The client's address for every write (FC 5 and up: the few codes past 5 that do
+        // not write are rare, and one comparison is less code than six).
+        let code = adu.get(mbap::HEADER).copied().unwrap_or(0);
+        let client = if code >= FunctionCode::WriteSingleCoil.code() { chip.peer(s) } else { [0; 4] };
+        let unit = adu.get(mbap::HEADER - 1).copied().unwrap_or(mbap::DEVICE_UNIT);
+        self.0.exclusive(|model| {
+            model.serve_from(crate::Port::Tcp { socket: s, client }, unit);
+            respond(adu, pdu_len, model)
+        })
     }
 }

@@ -21,7 +21,7 @@
 //!    or its damage from `usart.rs`) → `Engine::on_byte` (`crate::slave::engine`) →
 //!    `Framer::on_byte` (`crate::link::framer`, which stores it; in ASCII `on_char`,
 //!    `link/framer/ascii.rs`, decodes the hex).
-//! 2. Timer0's compare B interrupt: `Slave::on_timer_compare` → `Running::on_timer_compare`
+//! 2. Timer0's compare B interrupt (a second slave's: compare A): `Slave::on_timer_compare` → `Running::on_timer_compare`
 //!    → `FrameTimer::on_compare` (`timer.rs`) says T1.5 passed (`Engine::on_gap_deadline`:
 //!    a character after it breaks the frame) or T3.5 did → `Engine::on_end_deadline`: the
 //!    framer's length and CRC (`crate::link::crc`), the address; for this slave the first
@@ -81,6 +81,7 @@ mod no_pin;
 mod overflow;
 mod receive;
 mod reg;
+mod shared;
 mod slave;
 #[cfg(feature = "tcp")]
 mod spi;
@@ -100,6 +101,7 @@ pub use gateway::TcpGateway;
 #[cfg(feature = "master")]
 pub use master::Master;
 pub use no_pin::NoPin;
+pub use shared::SharedModel;
 pub use slave::Slave;
 #[cfg(feature = "tcp")]
 pub use tcp::{Pin10, TcpServer};
@@ -119,6 +121,8 @@ pub fn millis() -> u32 {
 /// For the handlers that [`crate::slave!`] binds.
 #[doc(hidden)]
 pub mod __private {
+    pub use super::shared::SharedHandle;
+
     /// USART receive complete, before anything else: when the character arrived.
     ///
     /// # Safety
@@ -126,6 +130,16 @@ pub mod __private {
     #[inline(always)]
     pub unsafe fn usart_rx_arrived() {
         super::timer::on_receive::<super::timer::B>();
+    }
+
+    /// A second slave's USART receive complete, before anything else: its deadlines are
+    /// compare A's (`slave!(… with TIMER0_COMPA: …)`).
+    ///
+    /// # Safety
+    /// Only first thing in that slave's USART_RX interrupt handler (interrupts disabled).
+    #[inline(always)]
+    pub unsafe fn usart_rx_arrived_a() {
+        super::timer::on_receive::<super::timer::A>();
     }
 
     /// The master's USART receive complete, before anything else (feature `master`).
@@ -141,19 +155,28 @@ pub mod __private {
 
 /// Declares the slave `NAME` for a data model type and binds the four interrupts it needs:
 /// its USART's RX complete, data register empty and TX complete, and Timer0 compare B (the
-/// silences). With feature `millis` the crate binds Timer0's overflow too, the clock of
-/// `millis()`.
+/// silences; compare A for a second slave, below). With feature `millis` the crate binds
+/// Timer0's overflow too, the clock of `millis()`.
 ///
 /// ```ignore
 /// avr_modbus::slave!(SLAVE: Registers);                  // the board's pins 0/1, no pins
 /// avr_modbus::slave!(SLAVE: Registers, NoPin, LedPin);   // driver enable, LED
 /// avr_modbus::slave!(SLAVE on USART1: Registers);        // a Mega's Serial1 (pins 19/18)
+/// avr_modbus::slave!(SLAVE2 on USART1 with TIMER0_COMPA: MODEL);  // a second slave
 /// ```
 ///
 /// Without `on`, the slave serves the USART on the board's pins 0/1: USART0 on the
 /// ATmega328P, ATmega168, ATmega2560 and ATmega1280, USART1 on the ATmega32U4. `on USARTn`
 /// names any USART the chip has (USART0–USART3 on the Mega's chips); one it lacks fails the
 /// build. [`Slave::start`] then takes that USART (`dp.USART1`, …).
+///
+/// Two slaves run at once on a chip with two USARTs (a Mega): the second one names
+/// `with TIMER0_COMPA`, and keeps its silences on Timer0's compare A, the first on compare B
+/// (`with TIMER0_COMPB`, the default, may be written out). Each has its own line settings,
+/// slave id and counters; they serve one [`crate::shared_model!`] (name it in both) or a
+/// model each. Compare A is the master's: no `master!` or `tcp_gateway!` beside
+/// them (the build fails on the vector bound twice). Hand the first one started `&*dp.TC0`,
+/// the second `dp.TC0`. The interrupt handlers go in a module named `NAME`.
 ///
 /// The handlers use the `avr-interrupt` calling convention: the firmware crate needs
 /// `#![feature(abi_avr_interrupt)]`, as every AVR interrupt handler does. Nothing else in
@@ -163,15 +186,31 @@ pub mod __private {
 #[macro_export]
 macro_rules! slave {
     (@on $usart:ident $name:ident : $model:ty, $de:ty, $led:ty) => {
+        $crate::slave!(@unit $usart TIMER0_COMPB $name: $model, $de, $led);
+    };
+    (@unit $usart:ident TIMER0_COMPB $name:ident : $model:ty, $de:ty, $led:ty) => {
+        $crate::slave!(@declare $usart 'B' $name: $model, $de, $led);
+        $crate::__bind_role!($name, $name, $usart, TIMER0_COMPB, usart_rx_arrived, on_usart_udre);
+    };
+    (@unit $usart:ident TIMER0_COMPA $name:ident : $model:ty, $de:ty, $led:ty) => {
+        $crate::slave!(@declare $usart 'A' $name: $model, $de, $led);
+        $crate::__bind_role!($name, $name, $usart, TIMER0_COMPA, usart_rx_arrived_a, on_usart_udre);
+    };
+    (@declare $usart:ident $unit:literal $name:ident : $model:ty, $de:ty, $led:ty) => {
         static $name: $crate::Slave<
             $model,
             $de,
             $led,
             { <$model as $crate::DataModel>::FRAME },
             { $crate::__chip!(usart $usart) },
+            $unit,
         > = $crate::Slave::new();
-
-        $crate::__bind_role!(__avr_modbus_interrupts, $name, $usart, TIMER0_COMPB, usart_rx_arrived, on_usart_udre);
+    };
+    ($name:ident on $usart:ident with $compare:ident : $model:ty) => {
+        $crate::slave!(@unit $usart $compare $name: $model, $crate::NoPin, $crate::NoPin);
+    };
+    ($name:ident on $usart:ident with $compare:ident : $model:ty, $de:ty, $led:ty) => {
+        $crate::slave!(@unit $usart $compare $name: $model, $de, $led);
     };
     ($name:ident on $usart:ident : $model:ty) => {
         $crate::slave!(@on $usart $name: $model, $crate::NoPin, $crate::NoPin);
@@ -192,7 +231,7 @@ macro_rules! slave {
 /// as [`crate::slave!`] does for a slave: its USART's RX complete and TX complete (each
 /// character of a request is written when the one before has left; the data register empty
 /// interrupt stays free), and Timer0 compare A (the silences, the timeouts; the slave has
-/// compare B).
+/// compare B, and a second slave compare A: no master beside two slaves).
 ///
 /// ```ignore
 /// avr_modbus::master!(MASTER);                       // the board's pins 0/1, 256-byte buffers
@@ -229,7 +268,8 @@ macro_rules! master {
     };
 }
 
-/// The interrupts a role (`slave!`, `master!`) binds, in module `$module`: Timer0's
+/// The interrupts a role (`slave!`, `master!`) binds, in module `$module` (a slave's is
+/// named after its static, so that two slaves' differ): Timer0's
 /// compare unit `$compare` (its silences, and the master's timeouts), and USART `$usart`'s
 /// RX complete (first `__private::$arrived`, which starts the silence deadlines), data
 /// register empty (the slave's, whose handler is `$feed`; the master sends from TX complete

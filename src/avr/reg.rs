@@ -95,7 +95,6 @@ pub(crate) const TCCR0B: Reg = Reg(0x45);
 /// Timer0 counter.
 pub(crate) const TCNT0: Reg = Reg(0x46);
 /// Timer0 output compare A.
-#[cfg(feature = "master")]
 pub(crate) const OCR0A: Reg = Reg(0x47);
 /// Timer0 output compare B.
 pub(crate) const OCR0B: Reg = Reg(0x48);

@@ -43,12 +43,13 @@ mod values;
 /// The slave starts all-zero, so it lives in `.bss` and costs no flash for an
 /// initializer. `N` is its frame buffer's size: [`crate::slave!`] gives it the model's
 /// [`DataModel::FRAME`]; 256, the default, fits every model. `U` is the number of the
-/// USART it serves, as `slave!` names it.
-pub struct Slave<M, DE = NoPin, LED = NoPin, const N: usize = MAX_FRAME, const U: u8 = 0> {
-    running: Started<Running<M, DE, LED, N, U>>,
+/// USART it serves, as `slave!` names it, and `C` Timer0's compare unit that keeps its
+/// silences: `'B'`, or `'A'` for a second slave (`slave!(… with TIMER0_COMPA: …)`).
+pub struct Slave<M, DE = NoPin, LED = NoPin, const N: usize = MAX_FRAME, const U: u8 = 0, const C: char = 'B'> {
+    running: Started<Running<M, DE, LED, N, U, C>>,
 }
 
-impl<M, DE, LED, const N: usize, const U: u8> Slave<M, DE, LED, N, U> {
+impl<M, DE, LED, const N: usize, const U: u8, const C: char> Slave<M, DE, LED, N, U, C> {
     /// A slave not yet started: what [`crate::slave!`] declares.
     #[doc(hidden)]
     pub const fn new() -> Self {
@@ -60,18 +61,18 @@ impl<M, DE, LED, const N: usize, const U: u8> Slave<M, DE, LED, N, U> {
     /// # Safety
     /// As for [`Started::access_in_handler`].
     #[inline(always)]
-    unsafe fn access_in_handler<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N, U>) -> R) -> R {
+    unsafe fn access_in_handler<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N, U, C>) -> R) -> R {
         // SAFETY: the caller's promise.
         unsafe { self.running.access_in_handler(f) }
     }
 
     /// Runs `f` on the running slave with interrupts disabled.
-    fn locked<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N, U>) -> R) -> Option<R> {
+    fn locked<R>(&self, f: impl FnOnce(&mut Running<M, DE, LED, N, U, C>) -> R) -> Option<R> {
         self.running.locked(f)
     }
 }
 
-impl<M: DataModel, const N: usize, const U: u8> Slave<M, NoPin, NoPin, N, U> {
+impl<M: DataModel, const N: usize, const U: u8, const C: char> Slave<M, NoPin, NoPin, N, U, C> {
     /// Starts the slave: takes the USART that [`crate::slave!`] named (`dp.USART0` on the
     /// Uno's pins 0/1, `dp.USART1` on the Leonardo's or the Mega's Serial1, …) and `TC0`
     /// from the application's `Peripherals` (arduino-hal's or `avr-device`'s, any version),
@@ -88,7 +89,9 @@ impl<M: DataModel, const N: usize, const U: u8> Slave<M, NoPin, NoPin, N, U> {
     }
 }
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Slave<M, DE, LED, N, U> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, const C: char>
+    Slave<M, DE, LED, N, U, C>
+{
     /// [`Slave::start`] with an RS-485 driver-enable pin (high from just before the first
     /// character of a reply until its last one has left the wire) and a communication LED
     /// (lit while the slave answers a frame addressed to it): any `embedded-hal` output

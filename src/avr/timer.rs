@@ -5,9 +5,12 @@
 //! deadline relative to the counter's current value; when that passes, the compare
 //! interrupt moves it on to T3.5, counting the whole turns still to wait (`src/link/timing/plan.rs`
 //! has the arithmetic, [`TimerPlan`]). One compare unit and one interrupt serve both
-//! silences of a line: compare B the slave's ([`B`]), compare A the master's ([`A`]), so that
-//! a gateway runs both roles on one timer. The compare interrupt stays enabled: with no
-//! deadline set, its match (once a turn) finds nothing to do.
+//! silences of a line: compare B a slave's ([`B`]), compare A the master's ([`A`]), so that
+//! a gateway runs both roles on one timer; a second slave takes compare A in the master's
+//! place (`slave!(… with TIMER0_COMPA: …)`). The units share the counter and its clock
+//! (clk/64, whatever each line's baud rate): each keeps its own plan and deadlines, counted
+//! from the counter's value when its own line's character arrived. The compare interrupt
+//! stays enabled: with no deadline set, its match (once a turn) finds nothing to do.
 //!
 //! Timer0 is one peripheral, so its state lives in statics, like its registers: the
 //! deadlines of each compare unit here, the clock in `super::clock`. They are only touched
@@ -17,9 +20,7 @@ use core::cell::UnsafeCell;
 
 use core::marker::PhantomData;
 
-#[cfg(feature = "master")]
-use super::reg::OCR0A;
-use super::reg::{Reg, OCR0B, TCCR0A, TCCR0B, TCNT0, TIFR0, TIMSK0};
+use super::reg::{Reg, OCR0A, OCR0B, TCCR0A, TCCR0B, TCNT0, TIFR0, TIMSK0};
 pub(crate) use crate::link::timing::Passed;
 use crate::link::timing::{Schedule, TimerPlan, TIMER0_CLOCK_SELECT};
 
@@ -51,28 +52,30 @@ pub(crate) trait Unit {
     fn deadlines() -> &'static Exclusive<Deadlines>;
 }
 
-/// Compare B: the slave's.
-pub(crate) struct B;
-/// Compare A: the master's.
-#[cfg(feature = "master")]
-pub(crate) struct A;
+/// Timer0's compare unit `C`, `'A'` or `'B'` (the slave's const parameter names it so).
+pub(crate) struct Compare<const C: char>;
+/// Compare B: a slave's (the one slave's, or the first of two).
+pub(crate) type B = Compare<'B'>;
+/// Compare A: the master's, or a second slave's.
+pub(crate) type A = Compare<'A'>;
 
-impl Unit for B {
-    const OCR: Reg = OCR0B;
-    const FLAG: u8 = OCF0B;
+impl<const C: char> Unit for Compare<C> {
+    const OCR: Reg = {
+        assert!(C == 'A' || C == 'B', "Timer0 has compare units A and B");
+        if C == 'A' {
+            OCR0A
+        } else {
+            OCR0B
+        }
+    };
+    const FLAG: u8 = if C == 'A' { OCF0A } else { OCF0B };
     #[inline(always)]
     fn deadlines() -> &'static Exclusive<Deadlines> {
-        &DEADLINES_B
-    }
-}
-
-#[cfg(feature = "master")]
-impl Unit for A {
-    const OCR: Reg = OCR0A;
-    const FLAG: u8 = OCF0A;
-    #[inline(always)]
-    fn deadlines() -> &'static Exclusive<Deadlines> {
-        &DEADLINES_A
+        if C == 'A' {
+            &DEADLINES_A
+        } else {
+            &DEADLINES_B
+        }
     }
 }
 
@@ -98,7 +101,7 @@ impl<T> Exclusive<T> {
 }
 
 /// The silence deadlines: the plan of the configuration (compare offsets and whole turns),
-/// how many matches of compare B the compare interrupt has seen since the last character
+/// how many matches of the unit's compare value the compare interrupt has seen since the last character
 /// ([`Schedule::on_match`]), and the compare flags found already set when the deadline
 /// was set (stale: their interrupt is not a match of the new value). The receive interrupt
 /// only reads TCNT0 and TIFR0, writes the compare register, and zeroes the count.
@@ -119,7 +122,6 @@ pub(crate) struct Deadlines {
 /// of Timer0's interrupts is enabled: in `.bss`, with no initial value kept in flash.
 static DEADLINES_B: Exclusive<Deadlines> = Exclusive(UnsafeCell::new(Deadlines::zero()));
 /// Compare A's, as [`DEADLINES_B`].
-#[cfg(feature = "master")]
 static DEADLINES_A: Exclusive<Deadlines> = Exclusive(UnsafeCell::new(Deadlines::zero()));
 
 impl Deadlines {
@@ -179,7 +181,7 @@ impl Deadlines {
         self.matches = u8::MAX;
     }
 
-    /// The gap deadline passed: compare B moves on to T3.5's value, and the count to the
+    /// The gap deadline passed: the unit's compare value moves on to T3.5's value, and the count to the
     /// matches seen of it ([`Schedule::count_after_gap`]). TCNT0 is read before the write;
     /// when it reads T3.5's value itself, the write waits for the next tick edge (at most
     /// a tick, 64 cycles), so that whether the match comes does not hang on the moment of
@@ -293,7 +295,7 @@ impl<U: Unit> FrameTimer<U> {
         }
     }
 
-    /// Compare B fired: which deadline passed, if one did. At the gap deadline the compare
+    /// The unit's compare interrupt fired: which deadline passed, if one did. At the gap deadline the compare
     /// value moves on to T3.5's; after T3.5 no deadline is set until the next character, and
     /// the timer runs on. In ASCII framing: the end of a frame when one is due, the
     /// inter-character timeout as [`Passed::Gap`].

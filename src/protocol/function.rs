@@ -111,6 +111,22 @@ impl FunctionCode {
     }
 }
 
+impl FunctionCode {
+    /// True for the codes that write a model's coils or holding registers: FC 5, 6, 15
+    /// (0x0F), 16 (0x10), 22 (0x16) and 23 (0x17).
+    pub const fn is_write(self) -> bool {
+        matches!(
+            self,
+            FunctionCode::WriteSingleCoil
+                | FunctionCode::WriteSingleRegister
+                | FunctionCode::WriteMultipleCoils
+                | FunctionCode::WriteMultipleRegisters
+                | FunctionCode::MaskWriteRegister
+                | FunctionCode::ReadWriteMultipleRegisters
+        )
+    }
+}
+
 /// The code byte ([`FunctionCode::code`]).
 impl From<FunctionCode> for u8 {
     fn from(function: FunctionCode) -> u8 {
@@ -134,6 +150,8 @@ mod tests {
         assert_eq!(format!("{:?}", FunctionCode::custom(0x41)), "FunctionCode(0x41)");
         let named = (0..=255u8).filter(|&c| FunctionCode::from_code(c).name().is_some()).count();
         assert_eq!(named, 15);
+        let writes: Vec<u8> = (0..=255u8).filter(|&c| FunctionCode::from_code(c).is_write()).collect();
+        assert_eq!(writes, [0x05, 0x06, 0x0F, 0x10, 0x16, 0x17]);
     }
 
     #[test]

@@ -7,9 +7,9 @@
 //! Addresses are described by *runs*: maximal ranges of consecutive addresses of one table,
 //! 5 bytes each on AVR (table, first and last address), in no particular order. Adding an
 //! address next to a run extends it and joins it to the following run when the gap closes,
-//! so 40001–40100 added one by one, in any order, end as one run. A lookup walks the runs
-//! with the compile-time map's test ([`Span::index`]) and counts the values of those below;
-//! a range the master asks for is valid exactly when it lies inside one run. Beside the runs,
+//! so 40001–40100 added one by one, in any order, end as one run. A lookup walks the runs,
+//! counts the values of those below the address and finds the one that holds it; a range
+//! the master asks for is valid exactly when it lies inside one run. Beside the runs,
 //! 12 bytes: their count and, for each kind of value (bits; registers), how many are in use
 //! and the highest address.
 //!
@@ -31,7 +31,6 @@
 
 use crate::error::Error;
 use crate::protocol::reference::{IntoReference, Reference, Table};
-use crate::slave::map::Span;
 use crate::slave::model::{frame_for, Access, DataModel};
 #[cfg(feature = "device-id")]
 use crate::slave::pdu::device_id::Identification;
@@ -96,9 +95,10 @@ impl Kind {
     }
 }
 
-/// The runs in use and both kinds: what [`Bank::add_range`] reads and writes, and does so
-/// as one copy. The compiler follows a copy of a new bank's zeros through a row of calls
-/// where it may not follow the loads of single fields, and then folds them.
+/// The runs in use and both kinds: what [`Bank::add_range`] reads as one copy and writes
+/// field by field. The compiler follows a copy of a new bank's zeros through a row of calls
+/// where it may not follow the loads of single fields, and then folds them; written back
+/// whole, each call's copy left stores in the firmware that the next call's overwrite.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Tally {
     runs: usize,
@@ -111,6 +111,19 @@ struct Tally {
 fn kind(table: Table) -> usize {
     usize::from(!table.is_bits())
 }
+
+/// True when `run` is `table` or the table before it of its kind (coils before discrete
+/// inputs, input registers before holding registers): the tables whose runs a lookup in
+/// `table` counts. The tables are numbered coils 0, discrete inputs 1, input registers 2,
+/// holding registers 3, so `table - run` (wrapping) is then 0, or 1 for the second table of a
+/// kind (odd): one subtraction and one compare.
+#[inline(always)]
+fn is_at_or_below(run: Table, table: Table) -> bool {
+    (table as u8).wrapping_sub(run as u8) <= (table as u8 & 1)
+}
+
+const _: () = assert!(Table::Coils as u8 == 0 && Table::DiscreteInputs as u8 == 1);
+const _: () = assert!(Table::InputRegisters as u8 == 2 && Table::HoldingRegisters as u8 == 3);
 
 /// A range of coils or holding registers the master may read but not write.
 /// Holding registers `start..=last` that hold 32-bit values in pairs from `start`
@@ -226,7 +239,7 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         let Reference { table, address: start } = first.into_reference()?;
         let last = count.checked_sub(1).and_then(|n| start.checked_add(n)).ok_or(Error::BadRange)?;
         let k = kind(table);
-        let mut tally = self.tally;
+        let tally = self.tally;
         let top = tally.kinds[k];
         if !top.is_apart_below(table, start) {
             return self.insert(table, start, last);
@@ -237,9 +250,8 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
         }
         let slot = self.runs.get_mut(tally.runs).ok_or(Error::RunsFull)?;
         *slot = Run { table, start, last };
-        tally.runs += 1;
-        tally.kinds[k] = Kind { used, table, last };
-        self.tally = tally;
+        self.tally.runs = tally.runs + 1;
+        self.tally.kinds[k] = Kind { used, table, last };
         Ok(())
     }
 
@@ -314,20 +326,30 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
 
     /// Storage index of `start` when `start..start + qty` (`qty` ≥ 1) all exist (in one
     /// run): the values of its kind below `start`.
+    ///
+    /// Not inlined: every request and every `get` and `set` calls this one copy, and its
+    /// loop keeps its values in registers, which it did not inside the engine's `process`.
+    /// The runs in use are walked as a slice of at most `RUNS`, so that one count ends the
+    /// loop. At most one run of `table` holds `start`: runs of one table never overlap.
+    #[inline(never)]
     fn locate(&self, table: Table, start: u16, qty: u16) -> Option<usize> {
-        let (mut rank, mut found) = (0, false);
-        for run in self.runs.iter().take(self.tally.runs) {
-            if kind(run.table) != kind(table) {
+        let (mut rank, mut at) = (0, None);
+        let mut rest = self.runs.get(..self.tally.runs.min(RUNS)).unwrap_or(&[]);
+        while let [run, tail @ ..] = rest {
+            rest = tail;
+            if !is_at_or_below(run.table, table) {
                 continue;
             }
-            if (run.table as u8) < (table as u8) || (run.table == table && run.last < start) {
+            if run.table != table || run.last < start {
+                // Below `start`: a run of the table before it, or of its table ending
+                // before `start`.
                 rank += run.len();
-            } else if let Some(at) = Span::run(run.table, run.start, run.last).index(table, start, qty) {
-                rank += at;
-                found = true;
+            } else if run.start <= start {
+                // The run holds `start`: the range exists when it ends in the run too.
+                at = (qty.wrapping_sub(1) <= run.last - start).then_some(start - run.start);
             }
         }
-        found.then_some(rank)
+        at.map(|i| rank + usize::from(i))
     }
 
     /// True if the address was added.
@@ -562,7 +584,20 @@ impl<const RUNS: usize, const REGS: usize, const BIT_BYTES: usize, const PROTECT
 
 #[cfg(test)]
 mod tests {
-    use super::longest_runs;
+    use super::{is_at_or_below, longest_runs};
+    use crate::protocol::reference::Table::*;
+
+    #[test]
+    fn a_lookup_counts_the_runs_of_its_table_and_of_the_table_before_it_of_its_kind() {
+        let tables = [Coils, DiscreteInputs, InputRegisters, HoldingRegisters];
+        let below = [(Coils, DiscreteInputs), (InputRegisters, HoldingRegisters)];
+        for run in tables {
+            for table in tables {
+                let counted = run == table || below.contains(&(run, table));
+                assert_eq!(is_at_or_below(run, table), counted, "a run of {run:?} for {table:?}");
+            }
+        }
+    }
 
     #[test]
     fn a_bank_s_longest_runs_are_its_capacity_up_to_past_every_request_s_limit() {

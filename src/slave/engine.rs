@@ -128,6 +128,13 @@ impl<const N: usize> Engine<N> {
         self.id
     }
 
+    /// The address of the frame [`Engine::on_end_deadline`] accepted and
+    /// [`Engine::process`] has yet to handle (0 for a broadcast).
+    #[inline(always)]
+    pub fn frame_address(&self) -> u8 {
+        self.framer.buffer()[0]
+    }
+
     /// Changes this slave's address, from the next frame on.
     pub fn set_id(&mut self, id: SlaveId) {
         self.id = id;

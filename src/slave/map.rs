@@ -205,13 +205,6 @@ impl Layout {
 }
 
 impl Span {
-    /// A range `start..=last` of `table` with no other range following it without a gap,
-    /// its first value at storage index 0: a [`crate::Bank`]'s run.
-    #[inline(always)]
-    pub(crate) fn run(table: Table, start: u16, last: u16) -> Self {
-        Span { table, start, last, reach: last, offset: 0 }
-    }
-
     /// The storage index of `start` when `start..start + qty` (`qty` ≥ 1) all exist and
     /// `start` lies in this range.
     #[inline(always)]

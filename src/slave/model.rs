@@ -191,6 +191,33 @@ pub trait DataModel {
         let _ = (place, stored);
     }
 
+    /// True for a model that several ports serve at once (`shared_model!`): a port
+    /// that runs its requests with interrupts enabled (the TCP server) runs each under
+    /// [`DataModel::exclusive`], and every port says who asks with
+    /// [`DataModel::serve_from`]. False, the default: a model one port owns, whose code
+    /// has none of this.
+    #[doc(hidden)]
+    const SHARED: bool = false;
+
+    /// Runs `f` on the model with no other port's request in between (interrupts held off,
+    /// for a shared model); the default just runs it.
+    #[doc(hidden)]
+    #[inline(always)]
+    fn exclusive<R>(&mut self, f: impl FnOnce(&mut Self) -> R) -> R
+    where
+        Self: Sized,
+    {
+        f(self)
+    }
+
+    /// The port and unit id of the requests that follow, until the next call: the writes
+    /// a shared model records ([`crate::Write`]). Nothing, the default.
+    #[doc(hidden)]
+    #[inline(always)]
+    fn serve_from(&mut self, by: crate::slave::written::Port, unit: u8) {
+        let _ = (by, unit);
+    }
+
     /// How many master writes succeeded so far, wrapping (see
     /// [`crate::Bank::master_writes`]).
     fn master_writes(&self) -> u16 {

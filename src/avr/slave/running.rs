@@ -8,7 +8,7 @@ use embedded_hal::digital::OutputPin;
 
 use crate::avr::receive::receive;
 use crate::avr::started::open_line;
-use crate::avr::timer::{FrameTimer, Passed, B};
+use crate::avr::timer::{Compare, FrameTimer, Passed};
 use crate::avr::usart::Usart;
 use crate::link::config::Config;
 use crate::link::framing::Framing;
@@ -20,15 +20,15 @@ mod ascii;
 
 /// The running slave: its peripherals, protocol state with a frame buffer of `N` bytes,
 /// the application's data model `M`, the RS-485 driver-enable pin `DE` and the
-/// communication LED `LED`. It lives in a [`Slave`] and is reached only with interrupts
-/// disabled.
+/// communication LED `LED`, on USART `U` and Timer0's compare unit `C`. It lives in a
+/// [`Slave`] and is reached only with interrupts disabled.
 #[repr(C)]
-pub(crate) struct Running<M, DE, LED, const N: usize, const U: u8> {
+pub(crate) struct Running<M, DE, LED, const N: usize, const U: u8, const C: char> {
     // First, in declaration order (`repr(C)`): the engine starts with the fields that start
     // other than zero, the rest of the slave follows its run of zeros (see `Engine`).
     pub(super) engine: Engine<N>,
     pub(super) usart: Usart<U>,
-    pub(super) timer: FrameTimer<B>,
+    pub(super) timer: FrameTimer<Compare<C>>,
     pub(super) model: M,
     /// Index of the reply's next byte, and the reply's length (at most 255 bytes; in
     /// ASCII framing, characters: at most 513).
@@ -47,7 +47,9 @@ type TxIndex = u8;
 #[cfg(feature = "ascii")]
 type TxIndex = u16;
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<M, DE, LED, N, U> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, const C: char>
+    Running<M, DE, LED, N, U, C>
+{
     /// Configures the USART and Timer0 for `config` and starts the power-up wait (T3.5 of
     /// silence before the first frame; none in ASCII framing).
     pub(super) fn new(config: Config, model: M, mut driver_enable: DE, mut led: LED) -> Self {
@@ -80,7 +82,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
         receive(&self.usart, &mut self.timer, &mut self.engine);
     }
 
-    /// Timer0 compare B: a frame's end, when it is one (the RTU silences here, ASCII's in
+    /// Timer0's compare unit `C`: a frame's end, when it is one (the RTU silences here, ASCII's in
     /// `ascii.rs`). A frame for this slave is answered from here: the first character (the
     /// address, in ASCII `:`) goes out first, then the request is processed and the reply's
     /// CRC (LRC) appended while it is on the wire.
@@ -104,6 +106,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
         #[cfg(feature = "reply-delay")]
         if end == EndOfFrame::Reply && self.reply_delay != 0 {
             // Processed now, sent when the delay has passed.
+            self.tell_model();
             self.tx_len = self.engine.process(&mut self.model) as TxIndex;
             if !self.timer.delay(self.reply_delay) {
                 self.send_processed();
@@ -119,10 +122,21 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
         // Executes what `on_end_deadline` accepted (nothing for the other ends) and, for a
         // reply, appends its CRC; the rest of the reply follows its first character from the
         // data-register-empty interrupt.
+        self.tell_model();
         let bytes = self.engine.process(&mut self.model);
         self.tx_len = self.reply_chars(bytes);
         if self.tx_len != 0 {
             self.usart.start_feeding();
+        }
+    }
+
+    /// A model other ports serve too learns that the request comes from this USART, and
+    /// its address (what it records of a write, [`crate::Write`]); nothing for a model of
+    /// this slave's own.
+    #[inline(always)]
+    fn tell_model(&mut self) {
+        if M::SHARED {
+            self.model.serve_from(crate::Port::Serial(U), self.engine.frame_address());
         }
     }
 
@@ -219,6 +233,10 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> R
 
 /// The engine and Timer0 in the framing `config` asks for (feature `ascii`).
 #[cfg(feature = "ascii")]
-fn set_mode<const N: usize>(engine: &mut Engine<N>, timer: &mut FrameTimer<B>, config: &crate::Line) {
+fn set_mode<const N: usize, const C: char>(
+    engine: &mut Engine<N>,
+    timer: &mut FrameTimer<Compare<C>>,
+    config: &crate::Line,
+) {
     engine.set_ascii(timer.set_mode(config));
 }

@@ -10,8 +10,8 @@ use crate::slave::model::DataModel;
 #[cfg(feature = "eeprom-settings")]
 // Named for the docs: inside the AVR layer the automatic badge misses impl blocks (src/lib.rs).
 #[cfg_attr(docsrs, doc(cfg(feature = "eeprom-settings")))]
-impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8>
-    Slave<crate::slave::settings::Configurable<M>, DE, LED, N, U>
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, const C: char>
+    Slave<crate::slave::settings::Configurable<M>, DE, LED, N, U, C>
 {
     /// The main loop's part of a settings change (feature `eeprom-settings`): call it
     /// from the main loop as often as it comes round. Returns how many EEPROM bytes it

@@ -9,7 +9,9 @@ use crate::error::Error;
 use crate::protocol::reference::IntoReference;
 use crate::slave::model::DataModel;
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Values for Slave<M, DE, LED, N, U> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, const C: char> Values
+    for Slave<M, DE, LED, N, U, C>
+{
     type Model = M;
 
     #[inline(always)]
@@ -18,7 +20,9 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> V
     }
 }
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Slave<M, DE, LED, N, U> {
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, const C: char>
+    Slave<M, DE, LED, N, U, C>
+{
     /// Reads a coil, input or register by its classic reference (see [`crate::Bank::get`]).
     pub fn get(&self, reference: impl IntoReference) -> Result<u16, Error> {
         Values::get(self, reference)

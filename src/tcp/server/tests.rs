@@ -441,3 +441,78 @@ mod read_only {
         assert_eq!(server.counters().refused_writes, 1);
     }
 }
+
+/// A model several ports serve ([`DataModel::SHARED`]): the bank, marked while a request
+/// runs under [`DataModel::exclusive`] (a transfer outside it fails with 04), and the port
+/// each request was said to come from.
+struct SharedBank {
+    bank: Bank<4, 16, 4, 0, 0>,
+    exclusive: bool,
+    from: Vec<(crate::Port, u8)>,
+}
+
+impl crate::DataModel for SharedBank {
+    const SHARED: bool = true;
+
+    fn read_bits(&self, table: Table, start: u16, qty: u16, out: &mut [u8]) -> Result<(), crate::Exception> {
+        self.bank.read_bits(table, start, qty, out)
+    }
+    fn read_registers(&self, table: Table, start: u16, out: &mut [u8]) -> Result<(), crate::Exception> {
+        self.bank.read_registers(table, start, out)
+    }
+    fn has_range(&self, table: Table, start: u16, qty: u16) -> bool {
+        self.bank.has_range(table, start, qty)
+    }
+    fn write_coils(&mut self, start: u16, qty: u16, packed: &[u8]) -> Result<(), crate::Exception> {
+        self.bank.write_coils(start, qty, packed)
+    }
+    fn write_registers(&mut self, start: u16, values: &[u8]) -> Result<(), crate::Exception> {
+        self.bank.write_registers(start, values)
+    }
+    fn transfer(
+        &mut self,
+        access: crate::internal::Access,
+        table: Table,
+        start: u16,
+        qty: u16,
+        data: &mut [u8],
+    ) -> Result<(), crate::Exception> {
+        if !self.exclusive {
+            return Err(crate::Exception::ServerDeviceFailure);
+        }
+        self.bank.transfer(access, table, start, qty, data)
+    }
+    fn exclusive<R>(&mut self, f: impl FnOnce(&mut Self) -> R) -> R {
+        self.exclusive = true;
+        let result = f(self);
+        self.exclusive = false;
+        result
+    }
+    fn serve_from(&mut self, by: crate::Port, unit: u8) {
+        self.from.push((by, unit));
+    }
+}
+
+use crate::protocol::reference::Table;
+
+#[test]
+fn a_shared_model_runs_each_request_exclusively_told_the_socket_and_a_writers_address() {
+    let mut chip = Fake::default();
+    let mut shared = SharedBank { bank: bank(), exclusive: false, from: Vec::new() };
+    let mut server: Server = Server::new();
+    server.poll(&mut chip, &NET, &mut Serving(&mut shared), false);
+    chip.connect(2, [10, 0, 0, 9]);
+    // A read, then FC 6 writing 40002 = 0xBEEF.
+    chip.deliver(2, &read_holding(1, 0x11, 0, 2));
+    chip.deliver(2, &[0, 2, 0, 0, 0, 6, 0x11, 0x06, 0x00, 0x01, 0xBE, 0xEF]);
+    server.poll(&mut chip, &NET, &mut Serving(&mut shared), false);
+    let mut expected = holding_reply(1, 0x11, 0, 2);
+    expected.extend_from_slice(&[0, 2, 0, 0, 0, 6, 0x11, 0x06, 0x00, 0x01, 0xBE, 0xEF]);
+    assert_eq!(chip.socks[2].sent, expected, "both answered, neither with 04");
+    assert_eq!(shared.bank.get(40002), Ok(0xBEEF));
+    // The address is read from the chip for a write only.
+    let read_from = crate::Port::Tcp { socket: 2, client: [0; 4] };
+    let write_from = crate::Port::Tcp { socket: 2, client: [10, 0, 0, 9] };
+    assert_eq!(shared.from, [(read_from, 0x11), (write_from, 0x11)]);
+    assert!(!shared.exclusive);
+}

@@ -10,8 +10,10 @@ use super::Running;
 use crate::avr::timer::Passed;
 use crate::slave::model::DataModel;
 
-impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Running<M, DE, LED, N, U> {
-    /// Timer0 compare B in ASCII framing: what `passed`, a frame's end (true), or the
+impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, const C: char>
+    Running<M, DE, LED, N, U, C>
+{
+    /// Timer0's compare unit in ASCII framing: what `passed`, a frame's end (true), or the
     /// inter-character timeout, which has dropped the frame in progress and is reported as a
     /// frame's end is.
     #[inline(always)]
