@@ -89,6 +89,7 @@ firmware-uno: setup
 	$(CARGO) uno $(addprefix --example ,$(MASTER_EXAMPLES)) --features examples,master
 	$(CARGO) uno --example ascii_master --features examples,master,ascii
 	$(CARGO) uno --example slow_master --features examples,reply-delay
+	$(CARGO) uno --example panel_setpoint --features examples,write-protect
 	$(CARGO) uno --example libmodbus_map_rtu --features examples,extra-fc,diagnostics
 	@.ci/sizes $(FIRMWARE)
 	@.ci/firmware-check $(FIRMWARE)
@@ -153,7 +154,9 @@ sizes: firmware
 # the firmware with both TCP and RTU (tcp_rtu: one model on both ports; tcp_rtu_copy: two maps
 # and a copy, its control in tests/sim_shared_model.rs) into target/chips/atmega328p-tcp/, the contract
 # with RTU over TCP on socket 3, port 5020 (feature rtu-over-tcp: tests/sim_rtu_over_tcp.rs,
-# interop_tcp's pymodbus RTU framer) into target/chips/atmega328p-tcp-rtu/, and
+# interop_tcp's pymodbus RTU framer) into target/chips/atmega328p-tcp-rtu/, the contract with an
+# allow-list whose second client may only read (feature write-protect: tests/sim_read_only.rs,
+# interop_tcp's read-only client) into target/chips/atmega328p-tcp-read-only/, and
 # examples/libmodbus_map.rs (libmodbus's unit-test map on a W5100, with the FC 17, 22 and 23
 # its unit-test-client uses) into target/chips/atmega328p-w5100-libmodbus/: make interop runs
 # tcp_server and libmodbus_map on the virtual shields (tools/virtual-uno/tests/interop_tcp.rs).
@@ -171,6 +174,7 @@ TCP_FIRMWARE := $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-non
 	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu_copy.elf \
 	target/chips/atmega328p-tcp-rtu/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-tcp-dhcp/avr-none/release/examples/sixteen_each_tcp.elf \
+	target/chips/atmega328p-tcp-read-only/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-w5100-libmodbus/avr-none/release/examples/libmodbus_map.elf \
 	target/chips/atmega328p-tcp-gateway/avr-none/release/examples/tcp_gateway.elf \
 	target/chips/atmega328p-tcp-gateway-int/avr-none/release/examples/tcp_gateway.elf \
@@ -189,6 +193,7 @@ tcp-firmware: setup
 	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu tcp_rtu_copy
 	@.ci/chip-build atmega328p "" atmega328p-tcp-rtu examples,tcp,rtu-over-tcp sixteen_each_tcp
 	@.ci/chip-build atmega328p "" atmega328p-tcp-dhcp examples,tcp,dhcp sixteen_each_tcp
+	@.ci/chip-build atmega328p "" atmega328p-tcp-read-only examples,tcp,write-protect sixteen_each_tcp
 	@.ci/chip-build atmega328p "" atmega328p-w5100-libmodbus examples,tcp,extra-fc,diagnostics libmodbus_map
 	@.ci/chip-build atmega328p "" atmega328p-tcp-gateway examples,tcp,master tcp_gateway
 	@AVR_MODBUS_EXAMPLE_SHIELD=w5100-int .ci/chip-build atmega328p "" atmega328p-tcp-gateway-int examples,tcp,master tcp_gateway
@@ -360,7 +365,7 @@ sim-test: sim-test-uno sim-test-chips
 # The simulator tests that run what make chips or make fixtures build; every other needs only
 # the Uno's firmware and the bootloaders. (One missing here fails under make test: its ELF is
 # not built yet when sim-test-uno runs it.)
-SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_dhcp,sim_gateway,sim_rtu_over_tcp,sim_shared_model,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_tcp_health,sim_template,sim_two_lines
+SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_dhcp,sim_gateway,sim_read_only,sim_rtu_over_tcp,sim_shared_model,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_tcp_health,sim_template,sim_two_lines
 
 # Every simulator test built, those that need only the Uno's firmware run; the tools' tests
 # built (make sim-test-chips runs them).

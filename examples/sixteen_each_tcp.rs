@@ -11,7 +11,10 @@
  * takes one from the top, so that built with one alone (`make tcp-firmware`, the measure of
  * its cost) it has socket 3 and MBAP the others: `udp` Modbus UDP on port 502, `dhcp` the
  * DHCP client (host name `sixteen-each`; 192.168.1.177 the fallback after 30 s without a
- * lease), `rtu-over-tcp` RTU over TCP on port 5020.
+ * lease), `rtu-over-tcp` RTU over TCP on port 5020. With `write-protect`, an allow-list
+ * whose readers may not write: 192.168.1.10 (and 127.0.0.1, the host's own clients of
+ * `virtual-uno`) read and write, 192.168.1.20 (and 127.0.0.2) only read (their writes get
+ * exception 01); nobody else connects.
  */
 #![no_std]
 #![no_main]
@@ -32,6 +35,8 @@ const NETWORK: Network = {
     let net = net.sockets(top).rtu_over_tcp(5020, 1 << (top - 1));
     #[cfg(any(feature = "udp", feature = "dhcp", feature = "rtu-over-tcp"))]
     let _ = top;
+    #[cfg(feature = "write-protect")]
+    let net = net.allow(&[[192, 168, 1, 10], [127, 0, 0, 1]]).allow_reading(&[[192, 168, 1, 20], [127, 0, 0, 2]]);
     net
 };
 

@@ -269,6 +269,15 @@ impl<
         self.tcp.locked(|r| r.server.counters()).unwrap_or_default()
     }
 
+    /// Refuses every client's writes from now on (`true`), or gives the clients of
+    /// [`crate::tcp::Network::allow`] theirs back (feature `write-protect`): a refused write
+    /// is answered exception 01 (Illegal Function) by the gateway, never forwarded to the
+    /// line, and counted ([`TcpCounters::refused_writes`]). Does nothing before the start.
+    #[cfg(feature = "write-protect")]
+    pub fn set_read_only(&self, on: bool) {
+        self.tcp.locked(|r| r.server.set_read_only(on));
+    }
+
     /// True while the chip answers and its link is up, as the once-a-second check last saw
     /// them (the W5100 cannot tell its link: there, while the chip answers); false before
     /// the start. Its own register 11 says the same.

@@ -169,4 +169,17 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, c
     pub fn counters(&self) -> SlaveCounters {
         self.locked(|s| s.engine.counters()).unwrap_or_default()
     }
+
+    /// Refuses the master's writes from now on (`true`), or allows them again (feature
+    /// `write-protect`): while a local panel holds a setpoint, or for good on a port that
+    /// must never change one. FC 5, 6, 15, 16, 22 and 23 get exception 01 (Illegal
+    /// Function), change nothing and are counted ([`SlaveCounters::refused_writes`]; a
+    /// broadcast write is dropped unanswered); reads and FC 8 go on. To start read-only,
+    /// call it right after [`Slave::start`]: the first request can only end after the
+    /// start's T3.5 of silence and a whole frame, milliseconds later. Does nothing before
+    /// the start.
+    #[cfg(feature = "write-protect")]
+    pub fn set_read_only(&self, on: bool) {
+        self.locked(|s| s.engine.set_read_only(on));
+    }
 }

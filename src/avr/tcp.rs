@@ -214,6 +214,17 @@ impl<M: DataModel, C: Chip, CS: OutputPin, const B: usize, const INT: bool> TcpS
         self.running.locked(|r| r.server.counters()).unwrap_or_default()
     }
 
+    /// Refuses every client's writes from now on (`true`), or gives the clients of
+    /// [`Network::allow`] theirs back (feature `write-protect`): while a local panel holds a
+    /// setpoint, say. Writes get exception 01 (Illegal Function), change nothing and are
+    /// counted ([`TcpCounters::refused_writes`]); reads go on. Clients that may only ever
+    /// read are [`Network::allow_reading`]'s. To start read-only, call it right after
+    /// [`TcpServer::start`]: no client has connected yet. Does nothing before the start.
+    #[cfg(feature = "write-protect")]
+    pub fn set_read_only(&self, on: bool) {
+        self.running.locked(|r| r.server.set_read_only(on));
+    }
+
     /// True while the chip answers and its link is up, as the once-a-second check last saw
     /// them (the W5100 cannot tell its link: there, while the chip answers); false before
     /// [`TcpServer::start`].

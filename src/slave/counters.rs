@@ -30,6 +30,11 @@ pub struct SlaveCounters {
     /// Requests completed without an exception (the comm event counter of FC 11 (0x0B), which
     /// does not count its own requests).
     pub events: u16,
+    /// Writes refused with exception 01 while the slave is read-only (feature
+    /// `write-protect`, `set_read_only`), broadcasts included; each counts in
+    /// [`SlaveCounters::exceptions`] too.
+    #[cfg(feature = "write-protect")]
+    pub refused_writes: u16,
 }
 
 impl SlaveCounters {
@@ -47,6 +52,8 @@ impl SlaveCounters {
             broadcasts: 0,
             no_response: 0,
             events: 0,
+            #[cfg(feature = "write-protect")]
+            refused_writes: 0,
         }
     }
 }

@@ -53,6 +53,9 @@ pub struct Engine<const N: usize = MAX_FRAME> {
     pending: Pending,
     reply_len: usize,
     listen_only: bool,
+    /// Writes refused with exception 01 ([`Engine::set_read_only`], feature `write-protect`).
+    #[cfg(feature = "write-protect")]
+    read_only: bool,
 }
 
 /// A frame [`Engine::on_end_deadline`] accepted and [`Engine::process`] has yet to
@@ -81,10 +84,12 @@ enum Count {
     Broadcasts,
     NoResponse,
     Events,
+    #[cfg(feature = "write-protect")]
+    RefusedWrites,
 }
 
 /// How many counters there are.
-const COUNTS: usize = Count::Events as usize + 1;
+const COUNTS: usize = Count::Events as usize + 1 + cfg!(feature = "write-protect") as usize;
 
 const _: () = {
     use FrameError::*;
@@ -113,6 +118,8 @@ impl<const N: usize> Engine<N> {
             pending: Pending::None,
             reply_len: 0,
             listen_only: false,
+            #[cfg(feature = "write-protect")]
+            read_only: false,
         }
     }
 
@@ -135,7 +142,7 @@ impl<const N: usize> Engine<N> {
 
     /// The counters.
     pub fn counters(&self) -> SlaveCounters {
-        let [frames, crc_errors, uart_errors, overruns, malformed, messages, exceptions, replies, broadcasts, no_response, events] =
+        let [frames, crc_errors, uart_errors, overruns, malformed, messages, exceptions, replies, broadcasts, no_response, events, ..] =
             self.counts;
         SlaveCounters {
             frames,
@@ -149,7 +156,26 @@ impl<const N: usize> Engine<N> {
             broadcasts,
             no_response,
             events,
+            #[cfg(feature = "write-protect")]
+            refused_writes: self.counts[Count::RefusedWrites as usize],
         }
+    }
+
+    /// Refuses every write from now on (`true`) or allows them again (feature
+    /// `write-protect`): FC 5, 6, 15 (0x0F), 16 (0x10), 22 (0x16) and 23 (0x17) get exception 01
+    /// (Illegal Function) before anything else of the request is checked, change nothing and
+    /// are counted ([`SlaveCounters::refused_writes`]); a broadcast write is dropped, as
+    /// broadcasts get no reply. Reads, and FC 8's counters, go on. FC 8's restart leaves the
+    /// setting as it is.
+    #[cfg(feature = "write-protect")]
+    pub fn set_read_only(&mut self, on: bool) {
+        self.read_only = on;
+    }
+
+    /// True while writes are refused ([`Engine::set_read_only`], feature `write-protect`).
+    #[cfg(feature = "write-protect")]
+    pub fn is_read_only(&self) -> bool {
+        self.read_only
     }
 
     /// One more in `counter`, wrapping (through [`Engine::bump_at`]).
@@ -319,6 +345,11 @@ impl<const N: usize> Engine<N> {
         // bytes, `MIN_FRAME`, so either subtraction gives the same; each is the smaller code
         // where it is used).
         let pdu_len = if diagnostics::ENABLED { len.saturating_sub(3) } else { len.wrapping_sub(3) };
+        #[cfg(feature = "write-protect")]
+        if self.read_only && crate::slave::pdu::is_write_code(self.framer.buffer()[1]) {
+            self.bump(Count::RefusedWrites);
+            return Err(Exception::IllegalFunction);
+        }
         let counters = if diagnostics::ENABLED { self.counters() } else { SlaveCounters::new() };
         // With several ids, the one addressed (FC 17 reports it).
         let id = if M::UNITS { self.address() } else { self.id.get() };

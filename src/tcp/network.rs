@@ -25,6 +25,9 @@ pub struct Network {
     pub(crate) idle_timeout_s: u8,
     pub(crate) evict_after_s: u8,
     pub(crate) allow: &'static [[u8; 4]],
+    /// The clients that may connect and only read ([`Network::allow_reading`]).
+    #[cfg(feature = "write-protect")]
+    pub(crate) allow_reading: &'static [[u8; 4]],
     /// The port of the sockets that speak RTU over TCP ([`Network::rtu_over_tcp`]).
     #[cfg(feature = "rtu-over-tcp")]
     pub(crate) rtu_port: u16,
@@ -50,6 +53,26 @@ pub(crate) const GATEWAY: usize = 0;
 pub(crate) const SUBNET: usize = 4;
 pub(crate) const MAC: usize = 8;
 pub(crate) const IP: usize = 14;
+
+/// What a client may do ([`Network::rights`], feature `write-protect`).
+#[cfg(feature = "write-protect")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Rights {
+    /// Not connect.
+    None,
+    /// Connect and read.
+    Read,
+    /// Connect, read and write.
+    Write,
+}
+
+/// True when `peer` is one of `clients` (one loop for both lists).
+#[cfg(feature = "write-protect")]
+#[inline(never)]
+fn listed(clients: &[[u8; 4]], peer: [u8; 4]) -> bool {
+    let peer = u32::from_ne_bytes(peer);
+    clients.iter().any(|&client| u32::from_ne_bytes(client) == peer)
+}
 
 /// `bytes` copied into `addresses` from `at` on.
 const fn put<const N: usize>(mut addresses: [u8; ADDRESSES], at: usize, bytes: [u8; N]) -> [u8; ADDRESSES] {
@@ -89,6 +112,8 @@ impl Network {
             idle_timeout_s: 60,
             evict_after_s: 10,
             allow: &[],
+            #[cfg(feature = "write-protect")]
+            allow_reading: &[],
             #[cfg(feature = "rtu-over-tcp")]
             rtu_port: 0,
             #[cfg(feature = "rtu-over-tcp")]
@@ -160,9 +185,30 @@ impl Network {
 
     /// Accepts connections only from these client addresses (§4.2.3's access control);
     /// every other is closed at once and counted ([`crate::tcp::TcpCounters::refused`]).
-    /// Empty, the default: any client.
+    /// Empty, the default: any client (unless [`Network::allow_reading`] lists some).
     pub const fn allow(self, clients: &'static [[u8; 4]]) -> Network {
         Network { allow: clients, ..self }
+    }
+
+    /// Accepts connections from these client addresses too, which may read but not write
+    /// (feature `write-protect`): a SCADA or a home-automation server that must never change
+    /// a setpoint. Their FC 5, 6, 15 (0x0F), 16 (0x10), 22 (0x16) and 23 (0x17) get
+    /// exception 01 (Illegal Function), change nothing and are counted
+    /// ([`crate::tcp::TcpCounters::refused_writes`]); a gateway never forwards them. With
+    /// either list given, a client on neither is refused; one on both may write. The right
+    /// is the client's address's: over Modbus UDP each datagram's sender's.
+    ///
+    /// ```
+    /// use avr_modbus::tcp::Network;
+    ///
+    /// // The panel at .10 writes, the SCADA at .20 only reads, nobody else connects.
+    /// const NETWORK: Network = Network::new([0xDE, 0xAD, 0xBE, 0xEF, 0xFE, 0x01], [192, 168, 1, 177])
+    ///     .allow(&[[192, 168, 1, 10]])
+    ///     .allow_reading(&[[192, 168, 1, 20]]);
+    /// ```
+    #[cfg(feature = "write-protect")]
+    pub const fn allow_reading(self, clients: &'static [[u8; 4]]) -> Network {
+        Network { allow_reading: clients, ..self }
     }
 
     /// Serves Modbus UDP too (feature `udp`): the same ADUs, one per datagram, on the same
@@ -214,9 +260,31 @@ impl Network {
     }
 
     /// True when a client at `peer` may connect.
+    #[cfg(not(feature = "write-protect"))]
     pub(crate) fn allows(&self, peer: [u8; 4]) -> bool {
         let peer = u32::from_ne_bytes(peer);
         self.allow.is_empty() || self.allow.iter().any(|&client| u32::from_ne_bytes(client) == peer)
+    }
+
+    /// True when a client at `peer` may connect (the tests' view of [`Network::rights`]).
+    #[cfg(all(test, feature = "write-protect"))]
+    pub(crate) fn allows(&self, peer: [u8; 4]) -> bool {
+        self.rights(peer) != Rights::None
+    }
+
+    /// What a client at `peer` may do (feature `write-protect`): [`Rights::Write`] for every
+    /// client when neither list is given, else for those of [`Network::allow`];
+    /// [`Rights::Read`] for those of [`Network::allow_reading`] alone; [`Rights::None`] for
+    /// the others, which may not connect.
+    #[cfg(feature = "write-protect")]
+    pub(crate) fn rights(&self, peer: [u8; 4]) -> Rights {
+        if (self.allow.is_empty() && self.allow_reading.is_empty()) || listed(self.allow, peer) {
+            Rights::Write
+        } else if listed(self.allow_reading, peer) {
+            Rights::Read
+        } else {
+            Rights::None
+        }
     }
 
     /// True when a request for `unit` is this device's.
@@ -397,6 +465,19 @@ mod tests {
         let net = NET.allow(&[[10, 0, 0, 9]]);
         assert!(net.allows([10, 0, 0, 9]));
         assert!(!net.allows([10, 0, 0, 8]));
+    }
+
+    #[cfg(feature = "write-protect")]
+    #[test]
+    fn a_client_allowed_to_read_connects_and_does_not_write() {
+        assert_eq!(NET.rights([1, 2, 3, 4]), Rights::Write, "no list: anyone writes");
+        let net = NET.allow(&[[10, 0, 0, 9]]).allow_reading(&[[10, 0, 0, 7], [10, 0, 0, 9]]);
+        assert_eq!(net.rights([10, 0, 0, 9]), Rights::Write, "on both lists");
+        assert_eq!(net.rights([10, 0, 0, 7]), Rights::Read);
+        assert_eq!(net.rights([10, 0, 0, 8]), Rights::None);
+        let readers = NET.allow_reading(&[[10, 0, 0, 7]]);
+        assert_eq!(readers.rights([10, 0, 0, 7]), Rights::Read);
+        assert_eq!(readers.rights([10, 0, 0, 8]), Rights::None, "a reading list alone refuses the others");
     }
 
     #[cfg(feature = "rtu-over-tcp")]

@@ -116,6 +116,11 @@ pub struct TcpCounters {
     /// [`TcpCounters::bad_protocol`], those for another unit in [`TcpCounters::other_unit`].
     #[cfg(feature = "udp")]
     pub bad_datagrams: u16,
+    /// Writes refused with exception 01 (feature `write-protect`): from a client that may
+    /// only read ([`Network::allow_reading`]), or while the whole server is read-only
+    /// (`set_read_only`). Each counts in [`TcpCounters::exceptions`] too.
+    #[cfg(feature = "write-protect")]
+    pub refused_writes: u16,
 }
 
 /// A counter's place in [`Server::counts`]: the order of [`TcpCounters`]'s fields.
@@ -134,11 +139,16 @@ enum Count {
     BadFrame,
     #[cfg(feature = "udp")]
     BadDatagram,
+    #[cfg(feature = "write-protect")]
+    RefusedWrites,
 }
 
 /// How many counters there are: [`Count`]'s places (the chip's health counts its own).
-const COUNTS: usize =
-    Count::Evicted as usize + 1 + cfg!(feature = "rtu-over-tcp") as usize + cfg!(feature = "udp") as usize;
+const COUNTS: usize = Count::Evicted as usize
+    + 1
+    + cfg!(feature = "rtu-over-tcp") as usize
+    + cfg!(feature = "udp") as usize
+    + cfg!(feature = "write-protect") as usize;
 
 /// Where a socket is, as the server last saw it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -184,6 +194,13 @@ pub struct Server<const B: usize = { mbap::MAX_ADU }> {
     counts: [u16; COUNTS],
     /// The chip's and the link's health (`super::health`).
     pub(crate) health: Health,
+    /// Bit n: socket n's client may only read (feature `write-protect`, decided when it
+    /// connected; the UDP socket's, for the datagram being served).
+    #[cfg(feature = "write-protect")]
+    readers: u8,
+    /// Every client may only read ([`Server::set_read_only`]).
+    #[cfg(feature = "write-protect")]
+    read_only: bool,
     buf: [u8; B],
 }
 
@@ -289,6 +306,10 @@ impl<const B: usize> Server<B> {
             first: 0,
             counts: [0; COUNTS],
             health: Health::new(),
+            #[cfg(feature = "write-protect")]
+            readers: 0,
+            #[cfg(feature = "write-protect")]
+            read_only: false,
             buf: [0; B],
         }
     }
@@ -313,7 +334,61 @@ impl<const B: usize> Server<B> {
             bad_frame: self.counts[Count::BadFrame as usize],
             #[cfg(feature = "udp")]
             bad_datagrams: self.counts[Count::BadDatagram as usize],
+            #[cfg(feature = "write-protect")]
+            refused_writes: self.counts[Count::RefusedWrites as usize],
         }
+    }
+
+    /// Refuses every client's writes from now on (`true`), or gives the clients of
+    /// [`Network::allow`] theirs back (feature `write-protect`): while a local panel holds a
+    /// setpoint, say. Writes get exception 01 (Illegal Function), change nothing and are
+    /// counted ([`TcpCounters::refused_writes`]); reads go on.
+    #[cfg(feature = "write-protect")]
+    pub fn set_read_only(&mut self, on: bool) {
+        self.read_only = on;
+    }
+
+    /// True while every client's writes are refused ([`Server::set_read_only`]).
+    #[cfg(feature = "write-protect")]
+    pub fn is_read_only(&self) -> bool {
+        self.read_only
+    }
+
+    /// True when a client at `peer` may connect to socket `s` (or send it a datagram); with
+    /// feature `write-protect`, whether it may write is kept for the socket.
+    #[cfg(not(feature = "write-protect"))]
+    #[inline(always)]
+    fn admits(&mut self, net: &Network, _s: u8, peer: [u8; 4]) -> bool {
+        net.allows(peer)
+    }
+
+    /// True when a client at `peer` may connect to socket `s`; with feature
+    /// `write-protect`, whether it may write is kept for the socket.
+    #[cfg(feature = "write-protect")]
+    #[inline(always)]
+    fn admits(&mut self, net: &Network, s: u8, peer: [u8; 4]) -> bool {
+        admits(&mut self.readers, net, s, peer)
+    }
+
+    /// The exception 01 for the request in the buffer when it writes and socket `s` may
+    /// not (counted); `None` for any other, which the handler gets.
+    #[cfg(feature = "write-protect")]
+    fn refused_write(&mut self, s: u8) -> Option<(usize, bool)> {
+        let refused =
+            (self.read_only || self.readers & (1 << s) != 0) && crate::slave::pdu::is_write_code(self.buf[HEADER]);
+        if !refused {
+            return None;
+        }
+        self.bump(Count::RefusedWrites);
+        let pdu = &mut self.buf[HEADER..];
+        Some((crate::slave::pdu::encode_exception(pdu, crate::protocol::Exception::IllegalFunction), true))
+    }
+
+    /// Without feature `write-protect` every client writes.
+    #[cfg(not(feature = "write-protect"))]
+    #[inline(always)]
+    fn refused_write(&mut self, _s: u8) -> Option<(usize, bool)> {
+        None
     }
 
     /// One more in `counter`, wrapping ([`crate::link::bump`], not inlined).
@@ -388,7 +463,7 @@ impl<const B: usize> Server<B> {
             status @ (state::ESTABLISHED | state::CLOSE_WAIT | UDP) => {
                 #[cfg(not(feature = "udp"))]
                 if phase != Phase::Connected {
-                    if !net.allows(chip.peer(s)) {
+                    if !self.admits(net, s, chip.peer(s)) {
                         self.bump(Count::Refused);
                         self.close(chip, net, s);
                         return;
@@ -402,7 +477,7 @@ impl<const B: usize> Server<B> {
                 #[cfg(feature = "udp")]
                 if phase != Phase::Connected {
                     if s != net.udp {
-                        if !net.allows(chip.peer(s)) {
+                        if !self.admits(net, s, chip.peer(s)) {
                             self.bump(Count::Refused);
                             self.close(chip, net, s);
                             return;
@@ -584,7 +659,12 @@ impl<const B: usize> Server<B> {
                     rx = rx.wrapping_add(UDP_HEADER as u16);
                     received -= UDP_HEADER as u16;
                     // An address not allowed costs this header's read and nothing more.
-                    if !net.allows([head[0], head[1], head[2], head[3]]) {
+                    #[cfg(not(feature = "write-protect"))]
+                    let admitted = net.allows([head[0], head[1], head[2], head[3]]);
+                    // The sender's right to write, kept for this datagram.
+                    #[cfg(feature = "write-protect")]
+                    let admitted = admits(&mut self.readers, net, s, [head[0], head[1], head[2], head[3]]);
+                    if !admitted {
                         self.bump(Count::Refused);
                         rx = rx.wrapping_add(datagram);
                         received -= datagram;
@@ -668,7 +748,12 @@ impl<const B: usize> Server<B> {
                 self.changed &= !(1 << s);
                 self.first = s + 1;
             }
-            let Some((reply, exception)) = handler.handle_from(&mut self.buf, pdu_len, chip, s, from) else {
+            // A write from a client that may only read is answered here: no handler sees it.
+            let answer = match self.refused_write(s) {
+                Some(refused) => Some(refused),
+                None => handler.handle_from(&mut self.buf, pdu_len, chip, s, from),
+            };
+            let Some((reply, exception)) = answer else {
                 continue;
             };
             if rtu && header.unit == 0 {
@@ -765,6 +850,21 @@ impl<const B: usize> Server<B> {
             }
         }
     }
+}
+
+/// True when a client at `peer` may connect to socket `s` (or send it a datagram), and its
+/// right to write kept in `readers` (bit `s` set: it may only read). Feature `write-protect`.
+#[cfg(feature = "write-protect")]
+#[inline(always)]
+fn admits(readers: &mut u8, net: &Network, s: u8, peer: [u8; 4]) -> bool {
+    use super::network::Rights;
+    let rights = net.rights(peer);
+    if rights == Rights::Write {
+        *readers &= !(1 << s);
+    } else {
+        *readers |= 1 << s;
+    }
+    rights != Rights::None
 }
 
 /// RTU over TCP's sockets served (feature `rtu-over-tcp`).

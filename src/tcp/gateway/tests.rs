@@ -412,6 +412,33 @@ fn a_slaves_exception_is_passed_back_as_it_came() {
     assert_eq!((counts.answers, counts.exceptions, counts.no_response), (1, 1, 0));
 }
 
+#[cfg(feature = "write-protect")]
+#[test]
+fn a_reading_clients_write_is_answered_01_by_the_gateway_and_never_forwarded() {
+    // 10.0.0.8 writes, 10.0.0.7 only reads.
+    let net = NET.allow(&[[10, 0, 0, 8]]).allow_reading(&[[10, 0, 0, 7]]);
+    let mut rig = Rig::on(net, [(1, Slave::Bank(regs(0x100)))]);
+    rig.chip.connect(0, [10, 0, 0, 7]);
+    rig.chip.connect(1, [10, 0, 0, 8]);
+    let write = |transaction: u8| vec![0, transaction, 0, 0, 0, 6, 1, 0x06, 0, 0, 0x12, 0x34];
+    // The reader's FC 6 and FC 16, then a read, which goes to the slave.
+    rig.chip.deliver(0, &write(1));
+    rig.chip.deliver(0, &[0, 2, 0, 0, 0, 9, 1, 0x10, 0, 0, 0, 1, 2, 0x12, 0x34]);
+    rig.chip.deliver(0, &read(3, 1, 0, 1));
+    rig.settle();
+    let expected = [exception(1, 1, 0x06, 0x01), exception(2, 1, 0x10, 0x01), read_reply(3, 1, 0x100, 0, 1)];
+    assert_eq!(rig.chip.socks[0].sent, expected.concat());
+    let functions: Vec<u8> = rig.line.sent.iter().map(|(_, f)| f[1]).collect();
+    assert_eq!(functions, [3], "only the read went to the line");
+    // The writer's FC 6 goes to the line.
+    rig.chip.deliver(1, &write(4));
+    rig.settle();
+    assert_eq!(rig.chip.socks[1].sent, write(4));
+    assert_eq!(rig.line.sent.last().map(|(_, f)| f[1]), Some(0x06));
+    assert_eq!(rig.server.counters().refused_writes, 2);
+    assert_eq!(rig.gateway.counters().forwarded, 2);
+}
+
 /// Socket 0's answers since the last call, cleared.
 fn answers(rig: &mut Rig) -> Vec<u8> {
     core::mem::take(&mut rig.chip.socks[0].sent)

@@ -348,6 +348,100 @@ fn server_received(chip: &mut Fake) -> u16 {
     chip.received(0)
 }
 
+/// Clients that may only read (feature `write-protect`): [`Network::allow_reading`] and
+/// [`Server::set_read_only`].
+#[cfg(feature = "write-protect")]
+mod read_only {
+    use super::*;
+
+    /// 10.0.0.9 writes, 10.0.0.7 only reads.
+    const SPLIT: Network = NET.allow(&[[10, 0, 0, 9]]).allow_reading(&[[10, 0, 0, 7]]);
+
+    /// FC 6 writing `value` to 40001.
+    fn write_single(transaction: u16, value: u16) -> Vec<u8> {
+        let [v0, v1] = value.to_be_bytes();
+        vec![0, transaction as u8, 0, 0, 0, 6, 1, 0x06, 0, 0, v0, v1]
+    }
+
+    /// The exception reply to a request of `function`.
+    fn exception(transaction: u16, function: u8, code: u8) -> Vec<u8> {
+        vec![0, transaction as u8, 0, 0, 0, 3, 1, function | 0x80, code]
+    }
+
+    #[test]
+    fn a_reading_clients_writes_get_01_and_change_nothing_while_a_writing_client_writes() {
+        let (mut chip, mut bank) = (Fake::default(), bank());
+        let mut server = started(&mut chip, &mut bank);
+        chip.connect(0, [10, 0, 0, 7]);
+        chip.connect(1, [10, 0, 0, 9]);
+        // The reader: FC 6; FC 16 of quantity 0 (03 from a writer); FC 23 (its read refused
+        // too); then a read, answered.
+        chip.deliver(0, &write_single(1, 0x1234));
+        chip.deliver(0, &[0, 2, 0, 0, 0, 6, 1, 0x10, 0, 0, 0, 0]);
+        chip.deliver(0, &[0, 3, 0, 0, 0, 13, 1, 0x17, 0, 0, 0, 1, 0, 1, 0, 1, 2, 0xAB, 0xCD]);
+        chip.deliver(0, &read_holding(4, 1, 0, 1));
+        server.poll(&mut chip, &SPLIT, &mut Serving(&mut bank), false);
+        let expected =
+            [exception(1, 0x06, 0x01), exception(2, 0x10, 0x01), exception(3, 0x17, 0x01), holding_reply(4, 1, 0, 1)];
+        assert_eq!(chip.socks[0].sent, expected.concat());
+        assert_eq!((bank.get(40001), bank.get(40002), bank.master_writes()), (Ok(0x0100), Ok(0x0101), 0));
+        // The writer's FC 6 is done.
+        chip.deliver(1, &write_single(5, 0x1234));
+        server.poll(&mut chip, &SPLIT, &mut Serving(&mut bank), false);
+        assert_eq!(chip.socks[1].sent, write_single(5, 0x1234));
+        assert_eq!((bank.get(40001), bank.master_writes()), (Ok(0x1234), 1));
+        let counters = server.counters();
+        assert_eq!((counters.refused_writes, counters.exceptions, counters.requests), (3, 3, 5));
+        assert_eq!((counters.connections, counters.refused), (2, 0));
+    }
+
+    #[test]
+    fn the_next_connection_on_a_socket_has_its_own_clients_right() {
+        let (mut chip, mut bank) = (Fake::default(), bank());
+        let mut server = started(&mut chip, &mut bank);
+        chip.connect(0, [10, 0, 0, 7]);
+        server.poll(&mut chip, &SPLIT, &mut Serving(&mut bank), false);
+        // The reader resets; the writer comes on the same socket.
+        chip.socks[0].status = state::CLOSED;
+        chip.socks[0].ir |= 0x02;
+        server.poll(&mut chip, &SPLIT, &mut Serving(&mut bank), false);
+        chip.connect(0, [10, 0, 0, 9]);
+        chip.deliver(0, &write_single(1, 0x4321));
+        server.poll(&mut chip, &SPLIT, &mut Serving(&mut bank), false);
+        assert_eq!(chip.socks[0].sent, write_single(1, 0x4321));
+        assert_eq!(bank.get(40001), Ok(0x4321));
+    }
+
+    #[test]
+    fn a_client_on_neither_list_is_refused() {
+        let (mut chip, mut bank) = (Fake::default(), bank());
+        let mut server = started(&mut chip, &mut bank);
+        chip.connect(0, [10, 0, 0, 8]);
+        server.poll(&mut chip, &SPLIT, &mut Serving(&mut bank), false);
+        assert!(chip.socks[0].reset);
+        assert_eq!(server.counters().refused, 1);
+    }
+
+    #[test]
+    fn the_whole_server_read_only_refuses_every_write_until_switched_back() {
+        let (mut chip, mut bank) = (Fake::default(), bank());
+        let mut server = started(&mut chip, &mut bank);
+        chip.connect(1, [10, 0, 0, 9]);
+        server.set_read_only(true);
+        assert!(server.is_read_only());
+        chip.deliver(1, &write_single(1, 0x1234));
+        chip.deliver(1, &read_holding(2, 1, 0, 1));
+        server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+        assert_eq!(chip.socks[1].sent, [exception(1, 0x06, 0x01), holding_reply(2, 1, 0, 1)].concat());
+        assert_eq!(bank.get(40001), Ok(0x0100));
+        server.set_read_only(false);
+        chip.deliver(1, &write_single(3, 0x1234));
+        server.poll(&mut chip, &NET, &mut Serving(&mut bank), false);
+        assert_eq!(bank.get(40001), Ok(0x1234));
+        assert_eq!(server.counters().refused_writes, 1);
+    }
+}
+
 /// A model several ports serve ([`DataModel::SHARED`]): the bank, and the port each
 /// request was said to come from, with the bank's value of 40002 at that moment.
 struct SharedBank {

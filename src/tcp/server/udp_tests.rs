@@ -287,3 +287,31 @@ fn a_datagram_not_all_there_waits_for_the_rest() {
     assert_eq!(chip.socks[U].datagrams, [(sender(9, 1000), holding_reply(1, 1, 0, 1))]);
     assert_eq!(server.counters().bad_datagrams, 0);
 }
+
+#[cfg(feature = "write-protect")]
+#[test]
+fn each_datagram_has_its_senders_right_to_write() {
+    // 10.0.0.9 writes, 10.0.0.7 only reads: a reader's write between two of the writer's.
+    let net = NET.allow(&[[10, 0, 0, 9]]).allow_reading(&[[10, 0, 0, 7]]);
+    let (mut chip, mut bank) = (Fake::default(), bank());
+    let mut server = started(&mut chip, &mut bank, &net);
+    let write = |transaction: u8, value: u8| vec![0, transaction, 0, 0, 0, 6, 1, 0x06, 0, 0, 0, value];
+    assert!(chip.datagram(U, sender(9, 1000), &write(1, 0x11)));
+    assert!(chip.datagram(U, sender(7, 1000), &write(2, 0x22)));
+    assert!(chip.datagram(U, sender(9, 1000), &write(3, 0x33)));
+    assert!(chip.datagram(U, sender(7, 1000), &read_holding(4, 1, 0, 1)));
+    settle(&mut server, &mut chip, &mut bank, &net);
+    let refused = vec![0, 2, 0, 0, 0, 3, 1, 0x86, 0x01];
+    let mut read = holding_reply(4, 1, 0, 1);
+    read[9..11].copy_from_slice(&[0, 0x33]);
+    assert_eq!(
+        chip.socks[U].datagrams,
+        [
+            (sender(9, 1000), write(1, 0x11)),
+            (sender(7, 1000), refused),
+            (sender(9, 1000), write(3, 0x33)),
+            (sender(7, 1000), read)
+        ]
+    );
+    assert_eq!((bank.master_writes(), server.counters().refused_writes), (2, 1));
+}

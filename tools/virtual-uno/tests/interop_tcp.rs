@@ -17,6 +17,10 @@
 //! `examples/sixteen_each_tcp.rs` (`demo/pymodbus_rtu_over_tcp_check.py`, on pymodbus 3.0 or
 //! 3.13 as `INTEROP_PYTHON` has it).
 //!
+//! With feature `write-protect`, two pymodbus clients against `examples/sixteen_each_tcp.rs`,
+//! one from 127.0.0.2, which its allow-list lets only read, one from 127.0.0.1, which writes
+//! (`demo/pymodbus_read_only_check.py`).
+//!
 //! mbpoll cannot send a request that gets exception 03: libmodbus refuses a quantity over the
 //! spec's limits before sending (`Too many data`), so 03 is checked through pymodbus, the raw
 //! socket and libmodbus's crafted requests (`modbus_send_raw_request`).
@@ -617,6 +621,21 @@ fn pymodbus_rtu_framer_over_tcp_reads_writes_and_exceptions() {
     mbap.write_all(&adu(1, 1, &[0x03, 0, 0, 0, 4])).unwrap();
     let reply = read_adu(&mut mbap).expect("an MBAP reply on port 502");
     assert_eq!(reply, adu(1, 1, &[0x03, 8, 0, 17, 0x12, 0x34, 0xBE, 0xEF, 0, 7]), "{}", transcript(&out, &board));
+}
+
+/// Two pymodbus TCP clients against `examples/sixteen_each_tcp.rs` built with feature
+/// `write-protect` (`demo/pymodbus_read_only_check.py`): the one from 127.0.0.2, which the
+/// allow-list lets only read, gets exception 01 for FC 5, 6, 15 and 16 and changes nothing;
+/// the one from 127.0.0.1 writes.
+#[test]
+fn pymodbus_reading_client_gets_01_for_its_writes_and_a_writing_client_writes() {
+    let _one = serialise();
+    let board = Board::start(&chip_firmware("atmega328p-tcp-read-only", "sixteen_each_tcp"), "w5100");
+    let mut cmd = Command::new(python());
+    cmd.arg(workspace().join("demo/pymodbus_read_only_check.py")).args(["check", "127.0.0.1", &board.port.to_string()]);
+    let (ok, out) = run(&mut cmd, Duration::from_secs(60));
+    println!("{out}");
+    assert!(ok, "pymodbus_read_only_check.py failed (python: {})\n{}", python(), transcript(&out, &board));
 }
 
 /// A master: `pymodbus_tcp_check.py poll` in a process of its own.
