@@ -46,10 +46,9 @@ pub struct Write {
 #[cfg_attr(not(target_arch = "avr"), allow(dead_code))]
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct WriteLog {
-    /// The TCP server's request under way: its socket and client, its unit id.
-    network: (Port, u8),
-    /// A serial slave's request under way: its USART, its address.
-    line: (u8, u8),
+    /// The requests under way and their unit ids: a serial slave's (its USART, its
+    /// address), then the TCP server's (its socket and client, its unit id).
+    askers: [(Port, u8); 2],
     /// The last write, valid when `fresh`.
     last: Write,
     fresh: bool,
@@ -67,24 +66,22 @@ const NONE: Write =
 impl WriteLog {
     /// Nothing written yet.
     pub(crate) const fn new() -> Self {
-        WriteLog { network: (Port::Serial(0), 0), line: (0, 0), last: NONE, fresh: false, selected: [0; 2] }
+        WriteLog { askers: [(Port::Serial(0), 0); 2], last: NONE, fresh: false, selected: [0; 2] }
     }
 
     /// The requests that follow on `by`'s side (the network's or the serial lines') come
     /// from `by`, addressed to `unit`.
     #[inline(always)]
     pub(crate) fn serve_from(&mut self, by: Port, unit: u8) {
-        match by {
-            Port::Serial(usart) => self.line = (usart, unit),
-            network => self.network = (network, unit),
-        }
+        let network = !matches!(by, Port::Serial(_));
+        self.askers[usize::from(network)] = (by, unit);
     }
 
     /// A master's write of `count` values of `table` from `start` succeeded, on the
     /// network's side (`network`) or a serial line's.
     pub(crate) fn wrote(&mut self, network: bool, table: Table, start: u16, count: u16) {
         let earlier = if self.fresh { self.last.earlier.wrapping_add(1) } else { 0 };
-        let (by, unit) = if network { self.network } else { (Port::Serial(self.line.0), self.line.1) };
+        let (by, unit) = self.askers[usize::from(network)];
         let first = Reference { table, address: start };
         self.last = Write { by, unit, first, count, earlier };
         self.fresh = true;
