@@ -152,8 +152,7 @@ sizes: firmware
 # target/chips/CHIP-SHIELD/: the Uno with either chip, polled or with the INT line on pin 2,
 # the Mega 2560 and the Leonardo with a W5500. Then the TCP contract (sixteen_each_tcp) and
 # the firmware with both TCP and RTU (tcp_rtu: one model on both ports; tcp_rtu_copy: two maps
-# and a copy, its control in tests/sim_shared_model.rs; tcp_rtu_units: two units on both ports)
-# into target/chips/atmega328p-tcp/, the contract
+# and a copy, its control in tests/sim_shared_model.rs) into target/chips/atmega328p-tcp/, the contract
 # with RTU over TCP on socket 3, port 5020 (feature rtu-over-tcp: tests/sim_rtu_over_tcp.rs,
 # interop_tcp's pymodbus RTU framer) into target/chips/atmega328p-tcp-rtu/, the contract with an
 # allow-list whose second client may only read (feature write-protect: tests/sim_read_only.rs,
@@ -173,7 +172,6 @@ TCP_FIRMWARE := $(foreach b,$(TCP_BUILDS),target/chips/$(subst :,-,$(b))/avr-non
 	target/chips/atmega328p-tcp/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu.elf \
 	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu_copy.elf \
-	target/chips/atmega328p-tcp/avr-none/release/examples/tcp_rtu_units.elf \
 	target/chips/atmega328p-tcp-rtu/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-tcp-dhcp/avr-none/release/examples/sixteen_each_tcp.elf \
 	target/chips/atmega328p-tcp-read-only/avr-none/release/examples/sixteen_each_tcp.elf \
@@ -192,7 +190,7 @@ tcp-firmware: setup
 		chip=$${build%%:*}; shield=$${build##*:}; \
 		AVR_MODBUS_EXAMPLE_SHIELD=$$shield .ci/chip-build $$chip "" $$chip-$$shield examples,tcp,millis tcp_server || exit 1; \
 	done
-	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu tcp_rtu_copy tcp_rtu_units
+	@.ci/chip-build atmega328p "" atmega328p-tcp examples,tcp sixteen_each_tcp tcp_rtu tcp_rtu_copy
 	@.ci/chip-build atmega328p "" atmega328p-tcp-rtu examples,tcp,rtu-over-tcp sixteen_each_tcp
 	@.ci/chip-build atmega328p "" atmega328p-tcp-dhcp examples,tcp,dhcp sixteen_each_tcp
 	@.ci/chip-build atmega328p "" atmega328p-tcp-read-only examples,tcp,write-protect sixteen_each_tcp

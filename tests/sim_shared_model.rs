@@ -4,8 +4,7 @@
 //! hammering the same 32-bit pair from both ports never read it torn, on either port, and
 //! the last write wins; the application learns which port wrote. The control,
 //! `examples/tcp_rtu_copy.rs` (two maps and a copy in the loop, the way before), shows torn
-//! pairs under the same hammer, so the hammer can see one. `examples/tcp_rtu_units.rs`: two
-//! units (ids 1 and 2) on both ports, each port asking its own unit at the same moments.
+//! pairs under the same hammer, so the hammer can see one.
 
 mod sim;
 
@@ -27,8 +26,6 @@ struct Both {
     /// A character on the serial line, in cycles.
     char_time: u64,
     transaction: u16,
-    /// The TCP requests' unit id.
-    unit: u8,
 }
 
 impl Both {
@@ -43,14 +40,14 @@ impl Both {
         let n = uno.wiznet_mut().unwrap().connect(502, peer).expect("a socket listens");
         uno.run_for(us_to_cycles(5000)).unwrap();
         let char_time = uno.wire_char_cycles().expect("the USART is set up");
-        Both { uno, n, char_time, transaction: 0, unit: 1 }
+        Both { uno, n, char_time, transaction: 0 }
     }
 
-    /// The ADU of `pdu` for unit `self.unit`, with the next transaction id.
+    /// The ADU of `pdu` for unit 1, with the next transaction id.
     fn adu(&mut self, pdu: &[u8]) -> Vec<u8> {
         self.transaction = self.transaction.wrapping_add(1);
         let mut adu = self.transaction.to_be_bytes().to_vec();
-        adu.extend_from_slice(&[0, 0, 0, pdu.len() as u8 + 1, self.unit]);
+        adu.extend_from_slice(&[0, 0, 0, pdu.len() as u8 + 1, 1]);
         adu.extend_from_slice(pdu);
         adu
     }
@@ -131,12 +128,7 @@ fn values(pdu: &[u8]) -> Vec<u16> {
 
 /// The serial frame of `pdu` for the slave.
 fn frame(pdu: &[u8]) -> Vec<u8> {
-    frame_to(ID, pdu)
-}
-
-/// The serial frame of `pdu` for slave id `id`.
-fn frame_to(id: u8, pdu: &[u8]) -> Vec<u8> {
-    let mut frame = vec![id];
+    let mut frame = vec![ID];
     frame.extend_from_slice(pdu);
     frame
 }
@@ -226,36 +218,4 @@ fn two_maps_and_a_copy_show_torn_pairs_under_the_same_hammer() {
     let (rtu, tcp) = hammer(&mut both, 150, 46);
     println!("two maps and a copy: {rtu} torn pairs read on the serial line, {tcp} over TCP, of 150 rounds");
     assert!(rtu > 0, "no torn pair: the hammer would not see one either");
-}
-
-#[test]
-fn two_units_on_both_ports_each_port_asking_its_own_unit_at_the_same_moments() {
-    let mut both = Both::boot("tcp_rtu_units");
-    // Unit 2 written over TCP, read on the line; id 1 untouched.
-    both.unit = 2;
-    assert_eq!(both.tcp(&write_pdu(0, &[0x2222, 0x2222])), [0x10, 0x00, 0x00, 0x00, 0x02]);
-    assert_eq!(values(&both.rtu(&frame_to(2, &read_pdu(0, 2)))), [0x2222, 0x2222]);
-    assert_eq!(values(&both.rtu(&frame_to(1, &read_pdu(0, 2)))), [0, 0]);
-    both.rtu(&frame_to(1, &write_pdu(0, &[0x1111, 0x1111])));
-    // The line asks id 1 while TCP asks unit 2, reads and writes, at moments spread over
-    // the serial request: each gets its own unit's values (a serial request coming in the
-    // middle of a TCP request selects id 1; without the TCP side's unit selected again, one
-    // read of 200 here got unit 1's).
-    let mut rng = Rng(7);
-    let mut wrong = 0;
-    for _ in 0..200 {
-        let (rtu, tcp) = both.both(&frame_to(1, &read_pdu(0, 2)), &read_pdu(0, 2), rng.range(0, 12));
-        if values(&rtu) != [0x1111, 0x1111] || values(&tcp) != [0x2222, 0x2222] {
-            wrong += 1;
-        }
-        let write = (frame_to(1, &write_pdu(0, &[0x1111, 0x1111])), write_pdu(0, &[0x2222, 0x2222]));
-        let (rtu, tcp) = both.both(&write.0, &write.1, rng.range(0, 12));
-        assert_eq!((rtu[0], tcp[0]), (0x10, 0x10));
-        both.uno.run_for(us_to_cycles(rng.range(0, 3000))).unwrap();
-    }
-    println!("two units: {wrong} reads of another unit's values of 200");
-    assert_eq!(wrong, 0);
-    both.unit = 1;
-    assert_eq!(values(&both.tcp(&read_pdu(0, 2))), [0x1111, 0x1111]);
-    assert_eq!(values(&both.rtu(&frame_to(2, &read_pdu(0, 2)))), [0x2222, 0x2222]);
 }
