@@ -113,16 +113,17 @@ impl FunctionCode {
 
 impl FunctionCode {
     /// True for the codes that write a model's coils or holding registers: FC 5, 6, 15
-    /// (0x0F), 16 (0x10), 22 (0x16) and 23 (0x17, which reads too). What a port that may
-    /// only read (feature `write-protect`) answers with exception 01 (Application Protocol
-    /// v1.1b3 §7: "not an allowable action for the server"), before anything else of the
-    /// request is checked, as 01 comes first in the spec's order. Comparisons of the code's
-    /// three pairs, no lookup table.
+    /// (0x0F), 16 (0x10), 22 (0x16) and 23 (0x17).
     pub const fn is_write(self) -> bool {
-        let code = self.0;
-        code.wrapping_sub(FunctionCode::WriteSingleCoil.0) < 2
-            || code.wrapping_sub(FunctionCode::WriteMultipleCoils.0) < 2
-            || code.wrapping_sub(FunctionCode::MaskWriteRegister.0) < 2
+        matches!(
+            self,
+            FunctionCode::WriteSingleCoil
+                | FunctionCode::WriteSingleRegister
+                | FunctionCode::WriteMultipleCoils
+                | FunctionCode::WriteMultipleRegisters
+                | FunctionCode::MaskWriteRegister
+                | FunctionCode::ReadWriteMultipleRegisters
+        )
     }
 }
 

@@ -346,7 +346,7 @@ impl<const N: usize> Engine<N> {
         // where it is used).
         let pdu_len = if diagnostics::ENABLED { len.saturating_sub(3) } else { len.wrapping_sub(3) };
         #[cfg(feature = "write-protect")]
-        if self.read_only && crate::FunctionCode::from_code(self.framer.buffer()[1]).is_write() {
+        if self.read_only && crate::slave::pdu::is_write_code(self.framer.buffer()[1]) {
             self.bump(Count::RefusedWrites);
             return Err(Exception::IllegalFunction);
         }

@@ -124,6 +124,18 @@ pub(crate) fn word(pdu: &[u8], at: usize) -> u16 {
     }
 }
 
+/// True for the function codes that change data: 5, 6, 15 (0x0F), 16 (0x10), 22 (0x16)
+/// and 23 (0x17, which reads too and is refused whole). What a port that may only read
+/// (feature `write-protect`) answers with exception 01 (Application Protocol v1.1b3 §7:
+/// "not an allowable action for the server"), before anything else of the request is
+/// checked, as 01 comes first in the spec's order. Comparisons, no lookup table.
+#[cfg(feature = "write-protect")]
+pub(crate) fn is_write_code(code: u8) -> bool {
+    code.wrapping_sub(FunctionCode::WriteSingleCoil.code()) < 2
+        || code.wrapping_sub(FunctionCode::WriteMultipleCoils.code()) < 2
+        || code.wrapping_sub(FunctionCode::MaskWriteRegister.code()) < 2
+}
+
 /// 03 unless `ok`.
 pub(crate) fn value_check(ok: bool) -> Result<(), Exception> {
     if ok {

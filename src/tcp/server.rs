@@ -374,8 +374,8 @@ impl<const B: usize> Server<B> {
     /// not (counted); `None` for any other, which the handler gets.
     #[cfg(feature = "write-protect")]
     fn refused_write(&mut self, s: u8) -> Option<(usize, bool)> {
-        let refused = (self.read_only || self.readers & (1 << s) != 0)
-            && crate::FunctionCode::from_code(self.buf[HEADER]).is_write();
+        let refused =
+            (self.read_only || self.readers & (1 << s) != 0) && crate::slave::pdu::is_write_code(self.buf[HEADER]);
         if !refused {
             return None;
         }
