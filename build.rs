@@ -123,10 +123,13 @@ fn table_of(chip: &Facts) -> String {
     let (pin, bit) = chip.led;
     let [ss, mosi, sck, cs] = chip.spi;
     let (_, eicr, shift, mask, int_pin, int_bit) = chip.pin2_int;
+    let table::Capture { block, timsk, tifr, port, pins: [rx, tx], peripheral: (pac, pac_size), .. } = &chip.capture;
     format!(
         "/// The {name}'s facts ({boards}).\n\
          pub(crate) const CHIP: Chip = Chip {{ usarts: [{usarts}], eeprom_size: {eeprom}, led: ({pin:#X}, {bit}), \
-         spi: [{ss}, {mosi}, {sck}, {cs}], pin2_int: ({eicr:#X}, {shift}, {mask}, {int_pin:#X}, {int_bit}) }};\n",
+         spi: [{ss}, {mosi}, {sck}, {cs}], pin2_int: ({eicr:#X}, {shift}, {mask}, {int_pin:#X}, {int_bit}), \
+         capture: CaptureTimer {{ block: {block:#X}, timsk: {timsk:#X}, tifr: {tifr:#X}, port: {port:#X}, rx: {rx}, tx: {tx}, \
+         peripheral: ({pac:#X}, {pac_size:#X}) }} }};\n",
         name = chip.part,
         boards = chip.boards,
         usarts = usarts.collect::<Vec<_>>().join(", "),
@@ -150,6 +153,12 @@ fn macro_of(chip: &Facts) -> String {
     for usart in &chip.usarts {
         writeln!(arms, "    (usart USART{0}) => {{ {0} }};", usart.number).unwrap();
     }
+    let capture = &chip.capture;
+    for (what, vector) in ["CAPT", "COMPA", "COMPB"].iter().zip(capture.vectors) {
+        writeln!(arms, "    (vector TIMER{} {what}) => {{ \"__vector_{vector}\" }};", capture.timer).unwrap();
+    }
+    writeln!(arms, "    (usart TIMER{}) => {{ $crate::__private::capture_line() }};", capture.timer).unwrap();
+    writeln!(arms, "    (capture TIMER{}) => {{ true }};", capture.timer).unwrap();
     let names: Vec<String> = chip.usarts.iter().map(|usart| format!("USART{}", usart.number)).collect();
     let contiguous = chip.usarts.windows(2).all(|pair| pair[1].number == pair[0].number + 1);
     let theirs = match &names[..] {
@@ -172,6 +181,7 @@ fn macro_of(chip: &Facts) -> String {
                  ))\n    \
              }};\n    \
              (vector $other:ident $what:ident) => {{ \"\" }};\n    \
+             (capture $other:ident) => {{ false }};\n    \
              (default $($slave:tt)*) => {{ $crate::slave!(@on USART{default} $($slave)*); }};\n    \
              (default_master $($master:tt)*) => {{ $crate::master!(@on USART{default} $($master)*); }};\n    \
              (default_gateway $($gateway:tt)*) => {{ $crate::tcp_gateway!(@pick USART{default} $($gateway)*); }};\n\
@@ -194,13 +204,15 @@ fn unsupported(chips: &[Facts], seen: &str) -> String {
     format!(
         "::core::compile_error!({message:?});\n\n\
          /// No table, so that the only error is the one above.\n\
-         pub(crate) const CHIP: Chip = Chip {{ usarts: [None; 4], eeprom_size: 0, led: (0, 0), spi: [0; 4], pin2_int: (0, 0, 0, 0, 0) }};\n\n\
+         pub(crate) const CHIP: Chip = Chip {{ usarts: [None; 4], eeprom_size: 0, led: (0, 0), spi: [0; 4], pin2_int: (0, 0, 0, 0, 0), \
+         capture: CaptureTimer {{ block: 0, timsk: 0, tifr: 0, port: 0, rx: 0, tx: 0, peripheral: (0, 0) }} }};\n\n\
          /// No vectors either.\n\
          #[doc(hidden)]\n\
          #[macro_export]\n\
          macro_rules! __chip {{\n    \
              (vector $($what:ident)*) => {{ \"\" }};\n    \
              (usart $what:ident) => {{ 0 }};\n    \
+             (capture $what:ident) => {{ false }};\n    \
              (default $($slave:tt)*) => {{ $crate::slave!(@on USART0 $($slave)*); }};\n    \
              (default_master $($master:tt)*) => {{ $crate::master!(@on USART0 $($master)*); }};\n    \
              (default_gateway $($gateway:tt)*) => {{ $crate::tcp_gateway!(@pick USART0 $($gateway)*); }};\n\

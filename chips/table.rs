@@ -15,6 +15,28 @@ pub struct Usart {
     pub pins_0_1: bool,
 }
 
+/// The timer whose input capture and output compare A make a serial line (AltSoftSerial's
+/// pins).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Capture {
+    /// Its number: 1 for Timer1.
+    pub timer: u8,
+    /// The data-space address of its block (TCCRnA ... OCRnBH).
+    pub block: u16,
+    /// TIMSKn's data-space address.
+    pub timsk: u16,
+    /// TIFRn's data-space address.
+    pub tifr: u16,
+    /// Its CAPT, COMPA and COMPB vector numbers (`__vector_N`).
+    pub vectors: [u8; 3],
+    /// The PINx address of the port with the ICP and OCnA pins.
+    pub port: u16,
+    /// The ICP pin's bit (RX) and the OCnA pin's bit (TX) on that port.
+    pub pins: [u8; 2],
+    /// The PAC's register block for the timer: its address and size in bytes.
+    pub peripheral: (u16, u16),
+}
+
 /// One chip's facts.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Facts {
@@ -45,6 +67,8 @@ pub struct Facts {
     pub adc: u8,
     /// Whether Arduino pins 0-19 name its ports as on the Uno.
     pub uno_pins: bool,
+    /// The timer of its capture line.
+    pub capture: Capture,
 }
 
 impl Facts {
@@ -100,6 +124,7 @@ struct Partial {
     return_address_bytes: Option<u8>,
     adc: Option<u8>,
     uno_pins: Option<bool>,
+    capture: Option<Capture>,
 }
 
 impl Partial {
@@ -143,6 +168,7 @@ impl Partial {
                     _ => return Err(format!("`uno-pins {value}`: yes or no")),
                 })
             }
+            "capture" => self.capture = Some(capture(&words)?),
             _ => return Err(format!("unknown key `{key}`")),
         }
         Ok(())
@@ -171,9 +197,31 @@ impl Partial {
             return_address_bytes: self.return_address_bytes.ok_or_else(|| missing("return-address"))?,
             adc: self.adc.ok_or_else(|| missing("adc"))?,
             uno_pins: self.uno_pins.ok_or_else(|| missing("uno-pins"))?,
+            capture: self.capture.ok_or_else(|| missing("capture"))?,
             cpu,
         })
     }
+}
+
+/// `TIMERn BLOCK TIMSK TIFR CAPT COMPA COMPB PINx RX TX PAC-ADDRESS PAC-SIZE`.
+fn capture(words: &[&str]) -> Result<Capture, String> {
+    let [timer, block, timsk, tifr, capt, compa, compb, port, rx, tx, address, size] = words[..] else {
+        return Err(format!(
+            "`capture {}`: TIMERn, block, TIMSK, TIFR, three vectors, PINx, RX and TX bits, the PAC's block and size",
+            words.join(" ")
+        ));
+    };
+    let timer = timer.strip_prefix("TIMER").ok_or_else(|| format!("`{timer}`: TIMERn"))?;
+    Ok(Capture {
+        timer: number(timer)?,
+        block: number(block)?,
+        timsk: number(timsk)?,
+        tifr: number(tifr)?,
+        vectors: [number(capt)?, number(compa)?, number(compb)?],
+        port: number(port)?,
+        pins: [number(rx)?, number(tx)?],
+        peripheral: (number(address)?, number(size)?),
+    })
 }
 
 /// `USARTn BLOCK RX UDRE TX [pins-0/1]`.
@@ -213,7 +261,8 @@ mod tests {
 
     const UNO: &str = "chip atmega328p\npart ATmega328P\nfamily ATmega328P\nboards Uno\n\
                        usart USART0 0xC0 18 19 20 pins-0/1   # the pins\ntimer0 14 15 16\neeprom 1024\n\
-                       led 0x23 5\nspi 2 3 5 2\npin2-int 1 0x69 0 0 0x29 2\nreturn-address 2\nadc 8\nuno-pins yes\n";
+                       led 0x23 5\nspi 2 3 5 2\npin2-int 1 0x69 0 0 0x29 2\nreturn-address 2\nadc 8\nuno-pins yes\n\
+                       capture TIMER1 0x80 0x6F 0x36 10 11 12 0x23 0 1 0x36 0x56\n";
 
     #[test]
     fn reads_a_block() {
@@ -222,6 +271,19 @@ mod tests {
         let uno = &chips[0];
         assert_eq!((uno.cpu.as_str(), uno.eeprom, uno.led, uno.timer0), ("atmega328p", 1024, (0x23, 5), [14, 15, 16]));
         assert_eq!(uno.pins_0_1(), &Usart { number: 0, block: 0xC0, vectors: [18, 19, 20], pins_0_1: true });
+        assert_eq!(
+            uno.capture,
+            Capture {
+                timer: 1,
+                block: 0x80,
+                timsk: 0x6F,
+                tifr: 0x36,
+                vectors: [10, 11, 12],
+                port: 0x23,
+                pins: [0, 1],
+                peripheral: (0x36, 0x56)
+            }
+        );
     }
 
     #[test]
@@ -245,6 +307,8 @@ mod tests {
         assert!(parse(&UNO.replace("uno-pins yes", "uno-pins maybe")).is_err());
         assert!(parse(&UNO.replace("USART0", "USART4")).is_err());
         assert!(parse(&UNO.replace("18 19 20", "18 19")).is_err());
+        assert!(parse(&UNO.replace("TIMER1 0x80", "TIMER1")).unwrap_err().contains("capture"));
+        assert!(parse(&UNO.replace("capture TIMER1", "capture COUNTER1")).is_err());
         assert!(parse(&format!("{UNO}flash 32768\n")).unwrap_err().contains("unknown key"));
         assert!(parse("part ATmega328P\n").unwrap_err().contains("before the first `chip`"));
         assert!(parse("# nothing\n").unwrap_err().contains("no chip"));

@@ -30,6 +30,31 @@ pub(crate) struct Chip {
     /// port's PINx address and its bit.
     #[cfg_attr(not(feature = "tcp"), allow(dead_code))]
     pub(crate) pin2_int: (usize, u8, u8, usize, u8),
+    /// The timer of the capture line (`super::capture`).
+    #[cfg_attr(not(feature = "capture-line"), allow(dead_code))]
+    pub(crate) capture: CaptureTimer,
+}
+
+/// The timer whose input capture and output compare A make the capture line, AltSoftSerial's
+/// pins (`super::capture`): Timer1 on the 328P and 168, Timer3 on the 32U4, Timer5 on the
+/// Megas.
+#[cfg_attr(not(feature = "capture-line"), allow(dead_code))]
+pub(crate) struct CaptureTimer {
+    /// The data-space address of TCCRnA; TCCRnB, TCCRnC, TCNTn, ICRn, OCRnA and OCRnB follow
+    /// at +1, +2, +4, +6, +8 and +10.
+    pub(crate) block: usize,
+    /// TIMSKn.
+    pub(crate) timsk: usize,
+    /// TIFRn.
+    pub(crate) tifr: usize,
+    /// The PINx address of the port with both pins (DDRx and PORTx follow).
+    pub(crate) port: usize,
+    /// The ICP pin's bit: the line's RX.
+    pub(crate) rx: u8,
+    /// The OCnA pin's bit: the line's TX.
+    pub(crate) tx: u8,
+    /// The PAC's register block for the timer (`TC1`, `TC3`, `TC5`): address and size.
+    pub(crate) peripheral: (usize, usize),
 }
 
 impl Chip {

@@ -190,6 +190,10 @@ impl<DE: OutputPin, LED: OutputPin, const N: usize, const U: u8> Master<DE, LED,
         P::Target: Sized,
         T::Target: Sized,
     {
+        #[cfg(feature = "capture-line")]
+        if Usart::<U>::CAPTURE && !super::capture::runs_at(&line) {
+            return Err(Error::Baud);
+        }
         self.running.start_on::<_, _, U>(usart, tc0, || Running::new(line, driver_enable, led))
     }
 

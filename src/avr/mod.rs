@@ -67,6 +67,8 @@ pub mod board;
 // named by its path inside the crate that defines it.
 #[macro_use]
 mod chip;
+#[cfg(feature = "capture-line")]
+mod capture;
 #[cfg(feature = "millis")]
 mod clock;
 #[cfg(any(feature = "examples", feature = "eeprom-settings"))]
@@ -150,6 +152,66 @@ pub mod __private {
     #[inline(always)]
     pub unsafe fn master_rx_arrived() {
         super::timer::on_receive::<super::timer::A>();
+    }
+
+    /// The line number `slave!` and `master!` give a role on the timer's capture line
+    /// (`… on TIMER1`, feature `capture-line`).
+    #[cfg(feature = "capture-line")]
+    pub const fn capture_line() -> u8 {
+        super::usart::CAPTURE_LINE
+    }
+    /// Without feature `capture-line`, a role on a timer does not build.
+    #[cfg(not(feature = "capture-line"))]
+    pub const fn capture_line() -> u8 {
+        panic!("slave! or master! on TIMERn (pins 8/9 on the Uno) needs avr-modbus's feature `capture-line`")
+    }
+
+    /// The capture line's edge interrupt (TIMERn_CAPT): `received` runs when the edge
+    /// completed a character (the role's receive handler, its deadlines first).
+    ///
+    /// # Safety
+    /// Only from that interrupt's handler, interrupts disabled; `received` must not enable
+    /// them.
+    #[cfg(feature = "capture-line")]
+    #[inline(always)]
+    pub unsafe fn capture_edge(received: impl FnOnce()) {
+        // SAFETY: the caller's promise.
+        if unsafe { super::capture::on_edge() } {
+            received();
+        }
+    }
+
+    /// The capture line's first-stop-bit interrupt (TIMERn_COMPB), as [`capture_edge`].
+    ///
+    /// # Safety
+    /// As for [`capture_edge`], from TIMERn_COMPB's handler.
+    #[cfg(feature = "capture-line")]
+    #[inline(always)]
+    pub unsafe fn capture_stop_bit(received: impl FnOnce()) {
+        // SAFETY: the caller's promise.
+        if unsafe { super::capture::on_stop_bit() } {
+            received();
+        }
+    }
+
+    /// The capture line's transmit interrupt (TIMERn_COMPA): `feed` runs when the role asked
+    /// for the next character and the buffer is empty (the USART's data register empty),
+    /// `done` when the last character has left the wire (its transmit complete).
+    ///
+    /// # Safety
+    /// As for [`capture_edge`], from TIMERn_COMPA's handler.
+    #[cfg(feature = "capture-line")]
+    #[inline(always)]
+    pub unsafe fn capture_transmit(feed: impl FnOnce(), done: impl FnOnce()) {
+        use super::capture::{on_transmit, settle, Transmit};
+        // SAFETY: the caller's promise.
+        match unsafe { on_transmit() } {
+            Transmit::Nothing => {}
+            Transmit::Feed => feed(),
+            Transmit::Done => done(),
+        }
+        // SAFETY: as above.
+        unsafe { settle() };
     }
 }
 
@@ -277,6 +339,15 @@ macro_rules! master {
 #[doc(hidden)]
 #[macro_export]
 macro_rules! __bind_role {
+    ($module:ident, $name:ident, TIMER1, $($rest:tt)*) => {
+        $crate::__bind_capture!($module, $name, TIMER1, $($rest)*);
+    };
+    ($module:ident, $name:ident, TIMER3, $($rest:tt)*) => {
+        $crate::__bind_capture!($module, $name, TIMER3, $($rest)*);
+    };
+    ($module:ident, $name:ident, TIMER5, $($rest:tt)*) => {
+        $crate::__bind_capture!($module, $name, TIMER5, $($rest)*);
+    };
     ($module:ident, $name:ident, $usart:ident, $compare:ident, $arrived:ident $(, $feed:ident)?) => {
         #[doc(hidden)]
         #[allow(non_snake_case)]
@@ -316,6 +387,71 @@ macro_rules! __bind_role {
                 // SAFETY: the transmit-complete interrupt handler, interrupts disabled, and
                 // it does not enable them.
                 unsafe { super::$name.on_usart_tx() }
+            }
+        }
+    };
+}
+
+/// The interrupts a role binds on the timer's capture line (`… on TIMER1`, feature
+/// `capture-line`), as `__bind_role` does on a USART: Timer0's compare unit `$compare`, and
+/// the timer's capture (an edge on RX), compare B (the middle of a character's first stop
+/// bit) and compare A (TX). A character completed runs `__private::$arrived` first, then
+/// the role's receive handler; the transmitter's events run its data-register-empty
+/// handler `$feed` (the slave's) and its transmit-complete one.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __bind_capture {
+    ($module:ident, $name:ident, $timer:ident, $compare:ident, $arrived:ident $(, $feed:ident)?) => {
+        #[doc(hidden)]
+        #[allow(non_snake_case)]
+        mod $module {
+            /// TIMER0_COMPx: the gap deadline, then T3.5 (and the master's timeouts).
+            #[export_name = $crate::__chip!(vector $compare)]
+            unsafe extern "avr-interrupt" fn TIMER0_COMPARE() {
+                // SAFETY: an interrupt handler, which runs with interrupts disabled.
+                unsafe { super::$name.on_timer_compare() }
+            }
+
+            /// A character came in: its deadlines first, then the role's receive handler.
+            /// Once, for both interrupts that complete a character.
+            ///
+            /// # Safety
+            /// From those interrupts' handlers, interrupts disabled.
+            #[inline(never)]
+            unsafe fn received() {
+                // SAFETY: the caller's promise; the role's receive handler does not enable
+                // interrupts.
+                unsafe {
+                    $crate::__private::$arrived();
+                    super::$name.on_usart_rx()
+                }
+            }
+
+            /// TIMERn_CAPT: an edge on RX.
+            #[export_name = $crate::__chip!(vector $timer CAPT)]
+            unsafe extern "avr-interrupt" fn CAPTURE() {
+                // SAFETY: the capture interrupt's handler, interrupts disabled.
+                unsafe { $crate::__private::capture_edge(|| received()) }
+            }
+
+            /// TIMERn_COMPB: the middle of a character's first stop bit.
+            #[export_name = $crate::__chip!(vector $timer COMPB)]
+            unsafe extern "avr-interrupt" fn STOP_BIT() {
+                // SAFETY: as in CAPTURE, from compare B's handler.
+                unsafe { $crate::__private::capture_stop_bit(|| received()) }
+            }
+
+            /// TIMERn_COMPA: TX changed its level, or a character's end.
+            #[export_name = $crate::__chip!(vector $timer COMPA)]
+            unsafe extern "avr-interrupt" fn TRANSMIT() {
+                // SAFETY: as in CAPTURE, from compare A's handler; the role's transmit
+                // handlers do not enable interrupts.
+                unsafe {
+                    $crate::__private::capture_transmit(
+                        || { $(super::$name.$feed())? },
+                        || super::$name.on_usart_tx(),
+                    )
+                }
             }
         }
     };

@@ -79,6 +79,15 @@ where
     P::Target: Sized,
 {
     const { assert!(core::mem::size_of::<P::Target>() == SIZE, "not the peripheral expected here") };
+    claim_at(peripheral, address)
+}
+
+/// [`claim`] without the check of the block's size (the caller checks it).
+#[inline(always)]
+pub(crate) fn claim_at<P: Deref>(peripheral: P, address: usize) -> Result<(), Error>
+where
+    P::Target: Sized,
+{
     if ptr::from_ref(&*peripheral) as usize == address {
         Ok(())
     } else {
@@ -180,12 +189,13 @@ pub(crate) unsafe fn enable_interrupts() {
     unsafe { asm!("sei") };
 }
 
-/// Disables interrupts (the TCP server's poll, at its end).
+/// Disables interrupts (the TCP server's poll, at its end; the slave on the capture line
+/// after its request).
 ///
 /// # Safety
 /// Only where the code that follows expects them off and restores them itself (an
 /// interrupt handler's return).
-#[cfg(feature = "tcp")]
+#[cfg(any(feature = "tcp", feature = "capture-line"))]
 #[inline(always)]
 pub(crate) unsafe fn disable_interrupts() {
     // SAFETY: the caller's promise.

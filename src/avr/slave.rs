@@ -109,6 +109,10 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, c
         P::Target: Sized,
         T::Target: Sized,
     {
+        #[cfg(feature = "capture-line")]
+        if super::usart::Usart::<U>::CAPTURE && !super::capture::runs_at(config.line()) {
+            return Err(Error::Baud);
+        }
         self.running.start_on::<_, _, U>(usart, tc0, || Running::new(config, model, driver_enable, led))
     }
 

@@ -8,7 +8,7 @@ use core::ops::Deref;
 
 use embedded_hal::digital::OutputPin;
 
-use super::reg::{self, claim};
+use super::reg::{self, claim, claim_at};
 use super::timer::{FrameTimer, Unit};
 use super::usart::Usart;
 use crate::error::Error;
@@ -70,12 +70,17 @@ impl<R> Started<R> {
     {
         const {
             assert!(
-                may_be_usart(core::any::type_name::<P>(), U, Usart::<U>::BLOCK),
+                may_be_usart(core::any::type_name::<P>(), U, Usart::<U>::PERIPHERAL.0),
                 "start takes the USART that slave! or master! names: dp.USART0 for slave!(SLAVE: …) or \
-                 master!(MASTER: …) on pins 0/1 (dp.USART1 on the ATmega32U4), dp.USARTn for … on USARTn"
+                 master!(MASTER: …) on pins 0/1 (dp.USART1 on the ATmega32U4), dp.USARTn for … on USARTn, \
+                 the timer for … on TIMERn (dp.TC1 on the Uno's pins 8/9)"
+            );
+            assert!(
+                core::mem::size_of::<P::Target>() == Usart::<U>::PERIPHERAL.1,
+                "start takes the USART that slave! or master! names, or for … on TIMERn that timer (dp.TC1 on the Uno)"
             );
         };
-        claim::<_, { reg::USART_SIZE }>(usart, Usart::<U>::BLOCK)?;
+        claim_at(usart, Usart::<U>::PERIPHERAL.0)?;
         claim::<_, { reg::TC0.1 }>(tc0, reg::TC0.0)?;
         self.start(make)?;
         // SAFETY: the role is in its cell, so its interrupt handlers can run.

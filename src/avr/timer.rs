@@ -37,7 +37,7 @@ pub(crate) const TOV0: u8 = 1 << 0;
 /// server started it, which a serial role started after it leaves on).
 const OVERFLOW_INTERRUPT: u8 = if cfg!(feature = "millis") { TOIE0 } else { 0 };
 /// TIMSK0's overflow interrupt enable.
-const TOIE0: u8 = 1 << 0;
+pub(crate) const TOIE0: u8 = 1 << 0;
 const OCF0A: u8 = 1 << 1;
 const OCF0B: u8 = 1 << 2;
 

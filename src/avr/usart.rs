@@ -1,9 +1,14 @@
 //! A USART in asynchronous mode, 8 data bits (or 7 for ASCII framing, feature `ascii`),
 //! ATmega328P datasheet §20 (registers §20.11); the same block on every chip the crate
-//! runs on, at the address the chip's table gives (`super::chip`).
+//! runs on, at the address the chip's table gives (`super::chip`). Line
+//! [`CAPTURE_LINE`] is the timer's capture line instead (feature `capture-line`,
+//! `super::capture`): each method forwards to it, a choice the compiler makes, so a
+//! USART's firmware holds none of it.
 
 use core::arch::asm;
 
+#[cfg(feature = "capture-line")]
+use super::capture;
 use super::chip::CHIP;
 use super::reg::Reg;
 use crate::link::config::{Line, Parity, StopBits};
@@ -60,13 +65,38 @@ impl Format {
     }
 }
 
+/// The line number of the timer's capture line: [`Usart`]`<CAPTURE_LINE>` is that line.
+#[cfg(feature = "capture-line")]
+pub(crate) use capture::CAPTURE_LINE;
+/// No capture line without the feature: no line has this number.
+#[cfg(not(feature = "capture-line"))]
+pub(crate) const CAPTURE_LINE: u8 = u8::MAX;
+
+/// The capture line's `f`, with interrupts disabled (every caller of a `Usart` method has
+/// them so): the methods' forwarding.
+#[cfg(feature = "capture-line")]
+#[inline(always)]
+fn on_capture_line<R>(f: unsafe fn() -> R) -> R {
+    // SAFETY: interrupts are disabled: the `Usart` methods run in the roles' interrupt
+    // handlers and in their starts and critical sections.
+    unsafe { f() }
+}
+
 /// USART `U` (USART0 on the Uno's pins 0/1, USART1 on the Leonardo's, USART0–3 on the
-/// Mega's): its registers, UCSRnA to UDRn, from the block the chip's table gives.
+/// Mega's): its registers, UCSRnA to UDRn, from the block the chip's table gives; or for
+/// `U` = [`CAPTURE_LINE`] the timer's capture line.
 pub(crate) struct Usart<const U: u8>;
 
 impl<const U: u8> Usart<U> {
-    /// The register block's data-space address; a build error for a USART the chip lacks.
-    pub(crate) const BLOCK: usize = CHIP.usart(U);
+    /// Whether this is the capture line.
+    pub(crate) const CAPTURE: bool = U == CAPTURE_LINE;
+    /// The register block's data-space address; a build error for a USART the chip lacks
+    /// (0 for the capture line, which has none).
+    pub(crate) const BLOCK: usize = if Self::CAPTURE { 0 } else { CHIP.usart(U) };
+    /// The peripheral a role's start takes for this line: the USART, or the capture line's
+    /// timer (`TC1` on the Uno): its address and size as the PAC lays it out.
+    pub(crate) const PERIPHERAL: (usize, usize) =
+        if Self::CAPTURE { CHIP.capture.peripheral } else { (Self::BLOCK, super::reg::USART_SIZE) };
     /// Control and status A (the flags).
     const UCSRA: Reg = Reg::at(Self::BLOCK);
     /// Control and status B (enables).
@@ -97,6 +127,10 @@ impl<const U: u8> Usart<U> {
     // With the feature it is called twice (start, and a settings switch): once out of line.
     #[cfg_attr(feature = "eeprom-settings", inline(never))]
     pub(crate) fn configure(&mut self, config: &Line) {
+        #[cfg(feature = "capture-line")]
+        if Self::CAPTURE {
+            return capture::configure(config);
+        }
         let Format { ucsra, ucsrc, ubrr: [ubrr_high, ubrr_low] } = Format::of(config);
         Self::UCSRB.write(0);
         Self::UCSRC.write(ucsrc);
@@ -133,6 +167,10 @@ impl<const U: u8> Usart<U> {
     /// to the character in UDRn, so they are read first.
     #[inline(always)]
     pub(crate) fn read(&self) -> Result<u8, UartError> {
+        #[cfg(feature = "capture-line")]
+        if Self::CAPTURE {
+            return on_capture_line(capture::read);
+        }
         let errors = Self::read_errors();
         let byte = Self::UDR.read();
         if errors == 0 {
@@ -148,18 +186,32 @@ impl<const U: u8> Usart<U> {
 
     /// True when a received character waits in Self::UDR.
     pub(crate) fn has_data(&self) -> bool {
+        #[cfg(feature = "capture-line")]
+        if Self::CAPTURE {
+            return on_capture_line(capture::has_data);
+        }
         Self::UCSRA.read() & RXC0 != 0
     }
 
     /// Writes one character to the transmit buffer.
     #[inline(always)]
     pub(crate) fn write(&self, byte: u8) {
+        #[cfg(feature = "capture-line")]
+        if Self::CAPTURE {
+            // SAFETY: as `on_capture_line`'s.
+            return unsafe { capture::write(byte) };
+        }
         Self::UDR.write(byte);
     }
 
     /// Starts feeding a reply from the data-register-empty interrupt.
     #[inline(always)]
     pub(crate) fn start_feeding(&self) {
+        #[cfg(feature = "capture-line")]
+        if Self::CAPTURE {
+            // SAFETY: as `on_capture_line`'s.
+            return unsafe { capture::set_events(|events| events | capture::FEED) };
+        }
         self.modify_control(|b| b | UDRIE0);
     }
 
@@ -167,6 +219,11 @@ impl<const U: u8> Usart<U> {
     /// wait for the transmit-complete one.
     #[inline(always)]
     pub(crate) fn last_written(&self) {
+        #[cfg(feature = "capture-line")]
+        if Self::CAPTURE {
+            // SAFETY: as `on_capture_line`'s.
+            return unsafe { capture::set_events(|_| capture::DONE) };
+        }
         // Writing 1 to TXC0 clears it; U2X0 is written back unchanged and the error flags
         // are read-only.
         Self::UCSRA.modify(|bits| (bits & U2X0) | TXC0);
@@ -184,6 +241,11 @@ impl<const U: u8> Usart<U> {
     #[cfg(feature = "master")]
     #[inline(always)]
     pub(crate) fn start_sending(&self) {
+        #[cfg(feature = "capture-line")]
+        if Self::CAPTURE {
+            // SAFETY: as `on_capture_line`'s.
+            return unsafe { capture::set_events(|events| events | capture::DONE) };
+        }
         self.modify_control(|b| b | TXCIE0);
     }
 
@@ -191,12 +253,21 @@ impl<const U: u8> Usart<U> {
     /// way.
     #[cfg(feature = "eeprom-settings")]
     pub(crate) fn is_sending(&self) -> bool {
+        #[cfg(feature = "capture-line")]
+        if Self::CAPTURE {
+            return on_capture_line(capture::is_sending);
+        }
         Self::UCSRB.read() & (UDRIE0 | TXCIE0) != 0
     }
 
     /// The reply has left the wire: stop the transmit-complete interrupt.
     #[inline(always)]
     pub(crate) fn finished(&self) {
+        #[cfg(feature = "capture-line")]
+        if Self::CAPTURE {
+            // SAFETY: as `on_capture_line`'s.
+            return unsafe { capture::set_events(|events| events & !capture::DONE) };
+        }
         self.modify_control(|b| b & !TXCIE0);
     }
 

@@ -1,0 +1,637 @@
+//! A serial line on a timer's input capture and output compare units, AltSoftSerial's way
+//! (feature `capture-line`): on the Uno, Nano and Pro Mini Timer1 with RX on pin 8 (ICP1)
+//! and TX on pin 9 (OC1A); on the Leonardo and Micro Timer3, RX pin 13 (ICP3), TX pin 5
+//! (OC3A); on the Megas Timer5, RX pin 48 (ICP5), TX pin 46 (OC5A) (`chips/chips.txt`).
+//! ATmega328P datasheet §16 (16-bit Timer/Counter1): §16.6 the input capture unit, §16.7 the
+//! output compare units, §16.8 the compare match output unit.
+//!
+//! The timer runs freely in normal mode at clk/8 (0.5 µs a tick at 16 MHz, 1 µs at 8 MHz).
+//! - **Receiving**: the capture unit copies the count into ICRn at each edge of RX, so an
+//!   edge's time does not depend on when its interrupt runs. A falling edge on an idle line
+//!   starts a character; each later edge says that the bits whose middles it passed had the
+//!   level before it. Compare B is set to the middle of the first stop bit: its interrupt
+//!   samples the rest, where the USART's receiver sets its receive flag. The edge-select bit
+//!   follows the line, so each edge is one interrupt; a character takes as many as it has
+//!   level changes (at most 10, 8E1) and one more at its end.
+//! - **Sending**: compare A drives TX. Its interrupt runs at each level change the hardware
+//!   made, and sets the next one (the time in OCRnA, the level in COMnA1:0); bits of the same
+//!   level cost nothing. A character's end is one more match, which starts the next.
+//!
+//! To the roles this is a USART (`super::usart::Usart` forwards to it for line
+//! [`CAPTURE_LINE`]): a received character and its damage (parity, framing, overrun), a
+//! one-character transmit buffer, and the same three events, character received, room for the
+//! next (data register empty) and transmission complete, which the roles' handlers receive
+//! from this module's three interrupts ([`crate::slave!`] and [`crate::master!`] bind them).
+//!
+//! The silences (T1.5, T3.5) are Timer0's, as on a USART: each character's deadlines count
+//! from the compare B interrupt at its first stop bit's middle, a time the capture unit's
+//! stamp of its start edge fixed.
+
+use core::cell::UnsafeCell;
+
+use super::chip::CHIP;
+use super::reg::Reg;
+use super::timer::Exclusive;
+use crate::link::config::{Line, Parity, StopBits};
+use crate::link::framer::UartError;
+use crate::link::timing::CLOCK_HZ;
+
+/// The line number the roles know the capture line by, after the USARTs' 0 to 3.
+pub(crate) const CAPTURE_LINE: u8 = 4;
+
+/// Timer ticks per second: the CPU clock / 8.
+const TICK_HZ: u32 = CLOCK_HZ / 8;
+
+/// The lowest and highest rates the line runs at: a character at 1200 bps (11 bits, 18 333
+/// ticks at 16 MHz) fits in the 16-bit count; at 38 400 a bit is 52 ticks (26 at 8 MHz).
+pub(crate) const RATES: (u32, u32) = (1200, 38_400);
+
+/// Whether the line runs at `line`'s rate ([`RATES`]).
+pub(crate) const fn runs_at(line: &Line) -> bool {
+    line.baud() >= RATES.0 && line.baud() <= RATES.1
+}
+
+/// Ticks from a write of a character to an idle transmitter to its start bit: far enough
+/// ahead that the counter has not passed it when OCRnA is written.
+const LEAD: u16 = 4;
+
+// TCCRnA
+const COMA1: u8 = 1 << 7;
+const COMA0: u8 = 1 << 6;
+// TCCRnB
+const ICNC: u8 = 1 << 7;
+const ICES: u8 = 1 << 6;
+const CLOCK_DIV_8: u8 = 0b010;
+// TCCRnC
+const FOCA: u8 = 1 << 7;
+// TIMSKn and TIFRn share their bits.
+const CAPTURE: u8 = 1 << 5;
+const COMPARE_B: u8 = 1 << 2;
+const COMPARE_A: u8 = 1 << 1;
+
+/// The timer's registers, from the chip's table.
+const TCCRA: Reg = Reg::at(CHIP.capture.block);
+const TCCRB: Reg = Reg::at(CHIP.capture.block + 1);
+const TCCRC: Reg = Reg::at(CHIP.capture.block + 2);
+const TCNT: usize = CHIP.capture.block + 4;
+const ICR: usize = CHIP.capture.block + 6;
+const OCRA: usize = CHIP.capture.block + 8;
+const OCRB: usize = CHIP.capture.block + 10;
+const TIMSK: Reg = Reg::at(CHIP.capture.timsk);
+const TIFR: Reg = Reg::at(CHIP.capture.tifr);
+/// The port with both pins: PINx, DDRx, PORTx.
+const PIN: Reg = Reg::at(CHIP.capture.port);
+const DDR: Reg = Reg::at(CHIP.capture.port + 1);
+const PORT: Reg = Reg::at(CHIP.capture.port + 2);
+const RX: u8 = 1 << CHIP.capture.rx;
+const TX: u8 = 1 << CHIP.capture.tx;
+
+/// Reads a 16-bit timer register: low byte first, which latches the high one (§16.3).
+/// Interrupts must be disabled (the latch is the timer's one TEMP register).
+#[inline(always)]
+fn read16(address: usize) -> u16 {
+    let low = Reg::at(address).read();
+    let high = Reg::at(address + 1).read();
+    u16::from_le_bytes([low, high])
+}
+
+/// Writes a 16-bit timer register: high byte first, into TEMP; the low byte's write moves both
+/// (§16.3). Interrupts must be disabled.
+#[inline(always)]
+fn write16(address: usize, value: u16) {
+    let [low, high] = value.to_le_bytes();
+    Reg::at(address + 1).write(high);
+    Reg::at(address).write(low);
+}
+
+/// `later` is after `earlier` on the wrapping 16-bit count (within half a turn, 16 ms).
+#[inline(always)]
+fn after(later: u16, earlier: u16) -> bool {
+    (later.wrapping_sub(earlier) as i16) > 0
+}
+
+/// The receiver between characters.
+const IDLE: u8 = u8::MAX;
+
+/// The line's format and state, all bytes and words so that it starts all zero, in `.bss`;
+/// a role's start configures it. Touched only with interrupts disabled.
+struct State {
+    /// Ticks per bit, rounded.
+    bit: u16,
+    /// Ticks from a start edge to the middle of the first stop bit, rounded up.
+    stop_middle: u16,
+    /// Data bits: 8, or 7 in ASCII framing.
+    data_bits: u8,
+    /// The bit after the last data bit, where the parity bit goes, the first stop bit's
+    /// index when there is none (1 + data bits + parity bits).
+    stop_index: u8,
+    /// The parity the data and parity bits add up to: 0 even, 1 odd, [`NO_PARITY`] none.
+    parity: u8,
+    /// Ones from the parity bit's place on: the stop bits (and the idle line after them) of a
+    /// character sent, its parity bit laid over them.
+    stop_ones: u16,
+    /// The parity bit of a character sent, in place.
+    parity_bit: u16,
+    /// Bits a character sent takes after its start bit: data, parity and stop bits.
+    tx_bits: u8,
+    /// The receiver: bits sampled of the character coming in ([`IDLE`] between characters)
+    /// and the time of the next one's middle; the data bits so far (the latest in bit 7),
+    /// the parity of the data and parity bits so far, and the character's damage so far
+    /// ([`FRAMING`] for a missed edge or a low stop bit).
+    sampled: u8,
+    next_middle: u16,
+    data: u8,
+    ones: u8,
+    damage: u8,
+    /// A character received and not yet read ([`RECEIVED`]) and its damage, or none: the
+    /// USART's UDRn and error flags.
+    received: u8,
+    received_data: u8,
+    /// The role is busy (the slave answering a request with interrupts enabled): characters
+    /// received wait, without the receive event; and one that did, for the role now.
+    held: bool,
+    withheld: bool,
+    /// The transmitter: the bits of the character going out still to send (the next in bit
+    /// 0) and how many, whether its end is the next match, whether a character is going out.
+    frame: u16,
+    left: u8,
+    ending: bool,
+    sending: bool,
+    /// The transmit buffer: the next character, when `next_full`.
+    next: u8,
+    next_full: bool,
+    /// The events the role asked for: [`FEED`], [`DONE`].
+    events: u8,
+}
+
+/// `State::parity` when there is no parity bit.
+const NO_PARITY: u8 = 2;
+/// A character waits in the receive buffer (`State::received`); the damage bits follow.
+const RECEIVED: u8 = 1 << 0;
+/// Damage: a low stop bit, or an edge missed.
+const FRAMING: u8 = 1 << 1;
+/// Damage: the parity does not add up.
+const PARITY: u8 = 1 << 2;
+/// Damage: characters were lost before this one (the last was not read).
+const OVERRUN: u8 = 1 << 3;
+
+/// The role wants the next character when the buffer is empty (UDRIEn).
+pub(crate) const FEED: u8 = 1 << 0;
+/// The role wants to know when the last character has left the wire (TXCIEn).
+pub(crate) const DONE: u8 = 1 << 1;
+
+static STATE: Exclusive<State> = Exclusive(UnsafeCell::new(State {
+    bit: 0,
+    stop_middle: 0,
+    data_bits: 0,
+    stop_index: 0,
+    parity: 0,
+    stop_ones: 0,
+    parity_bit: 0,
+    tx_bits: 0,
+    sampled: 0,
+    next_middle: 0,
+    data: 0,
+    ones: 0,
+    damage: 0,
+    received: 0,
+    received_data: 0,
+    held: false,
+    withheld: false,
+    frame: 0,
+    left: 0,
+    ending: false,
+    sending: false,
+    next: 0,
+    next_full: false,
+    events: 0,
+}));
+
+/// Runs `f` on the line's state.
+///
+/// # Safety
+/// Interrupts disabled, and `f` does not reach the state again.
+#[inline(always)]
+unsafe fn with<R>(f: impl FnOnce(&mut State) -> R) -> R {
+    // SAFETY: the caller's promise.
+    unsafe { STATE.with(f) }
+}
+
+/// What the transmitter asks of the role after a compare A interrupt.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Transmit {
+    /// Nothing.
+    Nothing,
+    /// The buffer is empty and the role asked to feed it: the data-register-empty event.
+    Feed,
+    /// The last character has left the wire: the transmit-complete event.
+    Done,
+}
+
+/// Configures the timer, the pins and the format for `line`: TX high (idle), RX an input with
+/// its pull-up, the receiver waiting for a start bit, the capture interrupt on. Interrupts must
+/// be disabled.
+#[inline(always)]
+pub(crate) fn configure(line: &Line) {
+    let baud = line.baud();
+    let bit = (TICK_HZ + baud / 2) / baud;
+    #[cfg(feature = "ascii")]
+    let data_bits = line.data_bits() as u8;
+    #[cfg(not(feature = "ascii"))]
+    let data_bits = 8;
+    let (parity, parity_bits) = match line.parity() {
+        Parity::None => (NO_PARITY, 0),
+        Parity::Even => (0, 1),
+        Parity::Odd => (1, 1),
+    };
+    let stop_bits = if line.stop_bits() == StopBits::Two { 2 } else { 1 };
+    let stop_index = 1 + data_bits + parity_bits;
+    // SAFETY: interrupts are disabled (the caller's promise); nothing else holds the state.
+    unsafe {
+        with(|s| {
+            *s = State {
+                bit: bit as u16,
+                // (1 + data + parity + 1/2) bits, in ticks rounded up: never before the middle.
+                stop_middle: ((2 * u32::from(stop_index) + 1) * TICK_HZ).div_ceil(2 * baud) as u16,
+                data_bits,
+                stop_index,
+                parity,
+                stop_ones: u16::MAX << (data_bits + parity_bits),
+                parity_bit: 1 << data_bits,
+                tx_bits: data_bits + parity_bits + stop_bits,
+                sampled: IDLE,
+                next_middle: 0,
+                data: 0,
+                ones: 0,
+                damage: 0,
+                received: 0,
+                received_data: 0,
+                held: false,
+                withheld: false,
+                frame: 0,
+                left: 0,
+                ending: false,
+                sending: false,
+                next: 0,
+                next_full: false,
+                events: 0,
+            };
+        })
+    };
+    TIMSK.write(0);
+    // TX: OCnA set (high) at once, then the pin its output; RX: an input, pulled up.
+    TCCRA.write(COMA1 | COMA0);
+    TCCRC.write(FOCA);
+    PORT.modify(|bits| bits | TX | RX);
+    DDR.modify(|bits| (bits | TX) & !RX);
+    // Normal mode, clk/8, the noise canceller on, the capture on a falling edge.
+    TCCRB.write(ICNC | CLOCK_DIV_8);
+    TIFR.write(CAPTURE | COMPARE_A | COMPARE_B);
+    TIMSK.write(CAPTURE);
+}
+
+/// TIMERn_CAPT: an edge on RX. True when it completed a character, which the role's receive
+/// handler is then to read (unless the role is held: it reads it when it is done).
+///
+/// # Safety
+/// Only from the capture interrupt handler, interrupts disabled.
+#[inline(always)]
+pub(crate) unsafe fn on_edge() -> bool {
+    let at = read16(ICR);
+    let select = TCCRB.read();
+    let rising = select & ICES != 0;
+    // The next edge is the other way; a flag the switch raised is cleared (§16.6.3).
+    TCCRB.write(select ^ ICES);
+    TIFR.write(CAPTURE);
+    let missed = (PIN.read() & RX != 0) != rising && TIFR.read() & CAPTURE == 0;
+    // SAFETY: interrupts are disabled (the caller's promise).
+    unsafe { with(|s| s.edge(at, rising, missed)) }
+}
+
+/// TIMERn_COMPB: the middle of the first stop bit of the character coming in. True when it
+/// completed a character, as [`on_edge`].
+///
+/// # Safety
+/// Only from the compare B interrupt handler, interrupts disabled.
+#[inline(always)]
+pub(crate) unsafe fn on_stop_bit() -> bool {
+    // The line's level now: low while the next edge to catch is a rising one.
+    let level = TCCRB.read() & ICES == 0;
+    // SAFETY: interrupts are disabled (the caller's promise).
+    unsafe {
+        with(|s| {
+            if s.sampled == IDLE {
+                // A character held back while the role was busy (`hold`), or one that ended
+                // at an edge already (`State::edge`).
+                TIMSK.modify(|bits| bits & !COMPARE_B);
+                return core::mem::take(&mut s.withheld);
+            }
+            while s.sampled <= s.stop_index {
+                s.sample(level);
+            }
+            s.finish()
+        })
+    }
+}
+
+/// TIMERn_COMPA: the transmitter's match. What the role is to do.
+///
+/// # Safety
+/// Only from the compare A interrupt handler, interrupts disabled.
+#[inline(always)]
+pub(crate) unsafe fn on_transmit() -> Transmit {
+    // SAFETY: interrupts are disabled (the caller's promise).
+    unsafe { with(State::transmit) }
+}
+
+/// After the role's handler for a [`Transmit`] event: with nothing going out, the compare A
+/// interrupt stops.
+///
+/// # Safety
+/// Interrupts disabled.
+#[inline(always)]
+pub(crate) unsafe fn settle() {
+    // SAFETY: the caller's promise.
+    if !unsafe { with(|s| s.sending) } {
+        TIMSK.modify(|bits| bits & !COMPARE_A);
+    }
+}
+
+/// The character received, or its damage: what the USART's UDRn and error flags give (an
+/// overrun when there is none).
+///
+/// # Safety
+/// Interrupts disabled.
+#[inline(always)]
+pub(crate) unsafe fn read() -> Result<u8, UartError> {
+    // SAFETY: the caller's promise.
+    let (received, data) = unsafe {
+        with(|s| {
+            let received = s.received;
+            s.received = 0;
+            (received, s.received_data)
+        })
+    };
+    if received & !RECEIVED == 0 && received != 0 {
+        Ok(data)
+    } else if received & (OVERRUN | FRAMING) == FRAMING {
+        Err(UartError::Framing)
+    } else if received & PARITY != 0 {
+        Err(UartError::Parity)
+    } else {
+        Err(UartError::Overrun)
+    }
+}
+
+/// True when a character waits to be read.
+///
+/// # Safety
+/// Interrupts disabled.
+pub(crate) unsafe fn has_data() -> bool {
+    // SAFETY: the caller's promise.
+    unsafe { with(|s| s.received != 0) }
+}
+
+/// Writes a character: it starts at once on an idle transmitter, else waits in the buffer
+/// (which a role only writes when it is empty, as a USART's).
+///
+/// # Safety
+/// Interrupts disabled.
+#[inline(always)]
+pub(crate) unsafe fn write(byte: u8) {
+    // SAFETY: the caller's promise.
+    unsafe {
+        with(|s| {
+            if s.sending {
+                s.next = byte;
+                s.next_full = true;
+            } else {
+                s.begin(byte, read16(TCNT).wrapping_add(LEAD));
+            }
+        })
+    }
+}
+
+/// Sets the events the role wants ([`FEED`] and [`DONE`] bits) with `f`. Asked for the next
+/// character while nothing goes out, the transmitter makes a match at once for it (the
+/// USART's data-register-empty interrupt comes at once too).
+///
+/// # Safety
+/// Interrupts disabled.
+#[inline(always)]
+pub(crate) unsafe fn set_events(f: impl FnOnce(u8) -> u8) {
+    // SAFETY: the caller's promise.
+    unsafe {
+        with(|s| {
+            s.events = f(s.events);
+            if s.events & FEED != 0 && !s.sending {
+                // An end of character with no character: the match asks for the next.
+                s.sending = true;
+                s.ending = true;
+                s.schedule(read16(TCNT).wrapping_add(LEAD), true);
+                TIFR.write(COMPARE_A);
+                TIMSK.modify(|bits| bits | COMPARE_A);
+            }
+        })
+    }
+}
+
+/// True while the role wants an event of the transmitter (a reply or request going out).
+///
+/// # Safety
+/// Interrupts disabled.
+#[cfg(feature = "eeprom-settings")]
+pub(crate) unsafe fn is_sending() -> bool {
+    // SAFETY: the caller's promise.
+    unsafe { with(|s| s.events != 0) }
+}
+
+/// Holds received characters back from the role (`true`: it is busy with interrupts enabled)
+/// or lets them through again (`false`): a character that came in meanwhile then reaches
+/// the role from a compare B interrupt made at once, as if its stop bit's middle were now
+/// (unless another character starts first: then it is lost, an overrun).
+///
+/// # Safety
+/// Interrupts disabled.
+#[inline(always)]
+pub(crate) unsafe fn hold(on: bool) {
+    // SAFETY: the caller's promise.
+    unsafe {
+        with(|s| {
+            s.held = on;
+            if !on && s.received != 0 && s.sampled == IDLE {
+                s.withheld = true;
+                write16(OCRB, read16(TCNT).wrapping_add(LEAD));
+                TIFR.write(COMPARE_B);
+                TIMSK.modify(|bits| bits | COMPARE_B);
+            }
+        })
+    }
+}
+
+impl State {
+    /// An edge at `at`, rising or falling; `missed` when the line had already moved on.
+    #[inline(always)]
+    fn edge(&mut self, at: u16, rising: bool, missed: bool) -> bool {
+        let mut complete = false;
+        if self.sampled != IDLE {
+            // The bits whose middles passed before the edge had the level before it.
+            while self.sampled <= self.stop_index && after(at, self.next_middle) {
+                self.sample(!rising);
+                self.next_middle = self.next_middle.wrapping_add(self.bit);
+            }
+            if self.sampled == 0 && rising {
+                // Back up before the start bit's middle: a glitch, not a start bit (the
+                // USART's receiver checks the start bit at its middle and drops it too).
+                self.idle();
+            } else if self.sampled > self.stop_index {
+                // The edge came after the first stop bit's middle and before its interrupt
+                // ran: the character is complete, and a falling edge starts the next.
+                complete = self.finish();
+            }
+        }
+        if self.sampled == IDLE && !rising {
+            self.start(at);
+        }
+        if missed {
+            self.damage = FRAMING;
+            // The edge select follows the line as it is now.
+            let select = TCCRB.read();
+            TCCRB.write(if PIN.read() & RX != 0 { select & !ICES } else { select | ICES });
+            TIFR.write(CAPTURE);
+        }
+        complete
+    }
+
+    /// Bit number `sampled` of the character coming in was `level` at its middle: the start
+    /// bit (its level was checked at the edge after it), a data bit, the parity bit, or the
+    /// first stop bit, which must be high.
+    #[inline(never)]
+    fn sample(&mut self, level: bool) {
+        let index = self.sampled;
+        self.sampled = index + 1;
+        if index == 0 {
+            return;
+        }
+        if index == self.stop_index {
+            if !level {
+                self.damage |= FRAMING;
+            }
+            return;
+        }
+        self.ones ^= u8::from(level);
+        if index <= self.data_bits {
+            self.data = (self.data >> 1) | (u8::from(level) << 7);
+        }
+    }
+
+    /// A start bit began at `at`: its middle is the first sample, compare B waits for the
+    /// first stop bit's middle.
+    #[inline(always)]
+    fn start(&mut self, at: u16) {
+        self.sampled = 0;
+        self.withheld = false;
+        self.damage = 0;
+        self.ones = 0;
+        self.next_middle = at.wrapping_add(self.bit / 2);
+        write16(OCRB, at.wrapping_add(self.stop_middle));
+        TIFR.write(COMPARE_B);
+        TIMSK.modify(|bits| bits | COMPARE_B);
+    }
+
+    /// Between characters: compare B off.
+    #[inline(always)]
+    fn idle(&mut self) {
+        self.sampled = IDLE;
+        TIMSK.modify(|bits| bits & !COMPARE_B);
+    }
+
+    /// The character's bits are all sampled: its data or its damage into the receive buffer
+    /// (an overrun when the last one was not read). True when the role is to read it now.
+    #[inline(never)]
+    fn finish(&mut self) -> bool {
+        self.idle();
+        let mut damage = self.damage;
+        if self.parity != NO_PARITY && self.ones != self.parity {
+            damage |= PARITY;
+        }
+        if self.received != 0 {
+            damage = OVERRUN;
+        }
+        self.received = RECEIVED | damage;
+        // Seven data bits came in at bits 1 to 7.
+        self.received_data = if self.data_bits == 8 { self.data } else { self.data >> 1 };
+        !self.held
+    }
+
+    /// Sends `byte` from `at`: its start bit there, the rest from the compare A interrupt.
+    #[inline(never)]
+    fn begin(&mut self, byte: u8, at: u16) {
+        let data = if self.data_bits == 8 { byte } else { byte & 0x7F };
+        let mut frame = u16::from(data) | self.stop_ones;
+        if self.parity != NO_PARITY {
+            // The data's parity, folded into bit 0.
+            let mut parity = data ^ (data >> 4);
+            parity ^= parity >> 2;
+            parity ^= parity >> 1;
+            if parity & 1 == self.parity {
+                frame &= !self.parity_bit;
+            }
+        }
+        self.frame = frame;
+        self.left = self.tx_bits;
+        self.sending = true;
+        self.ending = false;
+        self.schedule(at, false);
+        // A match of the old value, while nothing went out, left the flag up.
+        TIFR.write(COMPARE_A);
+        TIMSK.modify(|bits| bits | COMPARE_A);
+    }
+
+    /// The next match of compare A at `at`, setting TX to `level` there.
+    #[inline(always)]
+    fn schedule(&mut self, at: u16, level: bool) {
+        write16(OCRA, at);
+        TCCRA.write(if level { COMA1 | COMA0 } else { COMA1 });
+    }
+
+    /// Compare A matched: TX took the level set for it. The next change is set, or after
+    /// the last bit the character's end; at the end, the next character starts or the role
+    /// hears of the empty buffer.
+    #[inline(always)]
+    fn transmit(&mut self) -> Transmit {
+        if self.ending {
+            self.ending = false;
+            self.sending = false;
+            if self.next_full {
+                self.next_full = false;
+                self.begin(self.next, read16(TCNT).wrapping_add(LEAD));
+                return Transmit::Nothing;
+            }
+            if self.events & FEED != 0 {
+                return Transmit::Feed;
+            }
+            if self.events & DONE != 0 {
+                return Transmit::Done;
+            }
+            return Transmit::Nothing;
+        }
+        let level = TCCRA.read() & COMA0 != 0;
+        let mut next = read16(OCRA);
+        loop {
+            next = next.wrapping_add(self.bit);
+            if self.left == 0 {
+                self.ending = true;
+                self.schedule(next, true);
+                return Transmit::Nothing;
+            }
+            let bit = self.frame & 1 != 0;
+            self.frame >>= 1;
+            self.left -= 1;
+            if bit != level {
+                self.schedule(next, bit);
+                return Transmit::Nothing;
+            }
+        }
+    }
+}
