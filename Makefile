@@ -113,6 +113,11 @@ firmware-uno: setup
 # master_boards for an 8 MHz ATmega328P and ATmega32U4 (AVR_CPU_FREQUENCY_HZ=8000000, the
 # Pro Mini and Pro Micro 3.3 V) into target/chips/CHIP-8mhz/ and target/chips/CHIP-8mhz-master/:
 # the clock, too, is read by build.rs, so only the crate and the examples rebuild for it.
+# The serial line on a timer's input capture (feature capture-line, AVR_MODBUS_EXAMPLE_USART=
+# capture): boards and master_boards on the Uno's pins 8/9, the Leonardo's 13/5 and the Mega's
+# 48/46 into target/chips/CHIP-capture/, for the Uno the contract on pins 8/9
+# (sixteen_each_capture) into target/chips/atmega328p-capture-uno/ and the gateway (slave on
+# pins 8/9, master on pins 0/1) into target/chips/atmega328p-capture-gateway/.
 # The chips and USARTs, from chips/chips.txt: CHIP: (the board's pins 0/1), then CHIP:N for
 # each of its other USARTs.
 CHIP_BUILDS := $(shell awk '$$1 == "chip" { chip = $$2; print chip ":" } \
@@ -140,6 +145,11 @@ chips: setup tcp-firmware
 	@.ci/chip-build atmega328p "" atmega328p-millis examples,millis $(TEMPLATE_MILLIS_EXAMPLES)
 	@.ci/chip-build atmega2560 "" atmega2560-gateway examples,master gateway
 	@.ci/chip-build atmega2560 "" atmega2560-two-lines examples,millis two_lines
+	@for chip in atmega328p atmega32u4 atmega2560; do \
+		.ci/chip-build $$chip capture $$chip-capture examples,capture-line,master boards master_boards || exit 1; \
+	done
+	@.ci/chip-build atmega328p "" atmega328p-capture-uno examples,capture-line sixteen_each_capture
+	@.ci/chip-build atmega328p "" atmega328p-capture-gateway examples,capture-line,master gateway
 	@export $(EIGHT_MHZ); for chip in atmega328p atmega32u4; do \
 		$(call boards_and_master,$$chip,,$$chip-8mhz,examples$(comma)master,boards master_boards) || exit 1; \
 	done
@@ -288,7 +298,7 @@ fmt-check: setup
 # The optional function codes, checked and tested as a second build.
 OPTIONAL := diagnostics,extra-fc,write-protect
 # Every feature (all add) but examples, which builds this repository's firmware.
-ALL_FEATURES := ufmt,millis,master,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id,tcp,rtu-over-tcp,udp,dhcp
+ALL_FEATURES := ufmt,millis,master,capture-line,reply-delay,write-protect,extra-fc,diagnostics,eeprom-settings,ascii,device-id,tcp,rtu-over-tcp,udp,dhcp
 
 # The host's lints, tests included, check builds only: the tools (clippy-tools) and the crate's
 # library and test targets as make unit and make sim-test build them (under
@@ -365,7 +375,7 @@ sim-test: sim-test-uno sim-test-chips
 # The simulator tests that run what make chips or make fixtures build; every other needs only
 # the Uno's firmware and the bootloaders. (One missing here fails under make test: its ELF is
 # not built yet when sim-test-uno runs it.)
-SIM_CHIPS := sim_8mhz,sim_boards,sim_boards_settings,sim_dhcp,sim_gateway,sim_read_only,sim_rtu_over_tcp,sim_shared_model,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_tcp_health,sim_template,sim_two_lines
+SIM_CHIPS := sim_8mhz,sim_capture,sim_boards,sim_boards_settings,sim_dhcp,sim_gateway,sim_read_only,sim_rtu_over_tcp,sim_shared_model,sim_tcp,sim_tcp_client,sim_tcp_gateway,sim_tcp_health,sim_template,sim_two_lines
 
 # Every simulator test built, those that need only the Uno's firmware run; the tools' tests
 # built (make sim-test-chips runs them).

@@ -45,7 +45,7 @@ fn main() {
     let mut values: Vec<String> = chips.iter().map(|chip| format!("\"{}\"", chip.cpu)).collect();
     values.push("\"unsupported\"".to_owned());
     println!("cargo::rustc-check-cfg=cfg(avr_chip, values({}))", values.join(", "));
-    println!("cargo::rustc-check-cfg=cfg(example_usart, values(\"0\", \"1\", \"2\", \"3\"))");
+    println!("cargo::rustc-check-cfg=cfg(example_usart, values(\"0\", \"1\", \"2\", \"3\", \"capture\"))");
     println!("cargo::rustc-check-cfg=cfg(example_shield, values(\"w5100\", \"w5500\", \"w5100-int\", \"w5500-int\"))");
     let clocks: Vec<String> = CLOCKS.iter().map(|(hz, _)| format!("\"{hz}\"")).collect();
     println!("cargo::rustc-check-cfg=cfg(avr_cpu_frequency_hz, values({}))", clocks.join(", "));

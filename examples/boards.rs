@@ -19,7 +19,10 @@
  *
  * On a Mega with the slave on USART1–3, USART0 (pins 0/1, the USB serial) stays the
  * application's: this firmware prints `writes N` there at 9600 8N1 each time the master
- * has written.
+ * has written. So it does on an Uno or a Mega with the slave on the timer's capture line
+ * (feature `capture-line`, as `make chips` builds it with AVR_MODBUS_EXAMPLE_USART=capture):
+ * RX on pin 8, TX on pin 9 (the Mega's 48 and 46; the Leonardo's 13 and 5, without the LED
+ * and the console).
  *
  * Serial line: slave id 1, 19200 bps, 8 data bits, even parity, 1 stop bit (8E1). With
  * feature `eeprom-settings` (and `ascii`), as `make firmware` builds it once more for the
@@ -78,7 +81,7 @@ const SETTINGS_AT: u16 = 0;
 
 // The USART `make firmware` builds this for (AVR_MODBUS_EXAMPLE_USART, see build.rs);
 // in a firmware of your own, one line: `slave!(SLAVE on USART1: …)` or `slave!(SLAVE: …)`.
-#[cfg(not(any(example_usart = "1", example_usart = "2", example_usart = "3")))]
+#[cfg(not(any(example_usart = "1", example_usart = "2", example_usart = "3", example_usart = "capture")))]
 avr_modbus::slave!(SLAVE: Model, NoPin, board::Pin);
 #[cfg(example_usart = "1")]
 avr_modbus::slave!(SLAVE on USART1: Model, NoPin, board::Pin);
@@ -86,6 +89,14 @@ avr_modbus::slave!(SLAVE on USART1: Model, NoPin, board::Pin);
 avr_modbus::slave!(SLAVE on USART2: Model, NoPin, board::Pin);
 #[cfg(example_usart = "3")]
 avr_modbus::slave!(SLAVE on USART3: Model, NoPin, board::Pin);
+// The timer's capture line (feature `capture-line`): pins 8/9 on the Uno, 48/46 on the Mega,
+// 13/5 on the Leonardo, whose LED is on pin 13 and stays dark.
+#[cfg(all(example_usart = "capture", any(avr_chip = "atmega328p", avr_chip = "atmega168")))]
+avr_modbus::slave!(SLAVE on TIMER1: Model, NoPin, board::Pin);
+#[cfg(all(example_usart = "capture", avr_chip = "atmega32u4"))]
+avr_modbus::slave!(SLAVE on TIMER3: Model, NoPin, NoPin);
+#[cfg(all(example_usart = "capture", any(avr_chip = "atmega2560", avr_chip = "atmega1280")))]
+avr_modbus::slave!(SLAVE on TIMER5: Model, NoPin, board::Pin);
 
 #[avr_device::entry]
 fn main() -> ! {
@@ -94,11 +105,14 @@ fn main() -> ! {
     let led_port = dp.PORTB;
     #[cfg(avr_chip = "atmega32u4")]
     let led_port = dp.PORTC;
+    #[cfg(not(all(example_usart = "capture", avr_chip = "atmega32u4")))]
     let led = match board::led(led_port) {
         Ok(led) => led,
         Err(error) => board::halt(error),
     };
-    #[cfg(not(any(example_usart = "1", example_usart = "2", example_usart = "3")))]
+    #[cfg(all(example_usart = "capture", avr_chip = "atmega32u4"))]
+    let (led, _) = (NoPin, led_port);
+    #[cfg(not(any(example_usart = "1", example_usart = "2", example_usart = "3", example_usart = "capture")))]
     let usart = {
         #[cfg(not(avr_chip = "atmega32u4"))]
         let usart = dp.USART0;
@@ -112,6 +126,12 @@ fn main() -> ! {
     let usart = dp.USART2;
     #[cfg(example_usart = "3")]
     let usart = dp.USART3;
+    #[cfg(all(example_usart = "capture", any(avr_chip = "atmega328p", avr_chip = "atmega168")))]
+    let usart = dp.TC1;
+    #[cfg(all(example_usart = "capture", avr_chip = "atmega32u4"))]
+    let usart = dp.TC3;
+    #[cfg(all(example_usart = "capture", any(avr_chip = "atmega2560", avr_chip = "atmega1280")))]
+    let usart = dp.TC5;
     #[cfg(not(feature = "eeprom-settings"))]
     let (config, model) = (CONFIG, Registers::new());
     #[cfg(feature = "eeprom-settings")]
@@ -122,7 +142,7 @@ fn main() -> ! {
     if let Err(error) = SLAVE.start_with_pins(config, usart, dp.TC0, model, NoPin, led) {
         board::halt(error);
     }
-    #[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3"))]
+    #[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3", all(example_usart = "capture", not(avr_chip = "atmega32u4"))))]
     let console = Console::new(dp.USART0);
     let mut seen = 0;
     loop {
@@ -132,7 +152,7 @@ fn main() -> ! {
         let writes = SLAVE.master_writes();
         if writes != seen {
             seen = writes;
-            #[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3"))]
+            #[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3", all(example_usart = "capture", not(avr_chip = "atmega32u4"))))]
             console.print_writes(writes);
         }
     }
@@ -148,10 +168,10 @@ fn settings(eeprom: pac::EEPROM) -> Result<(Config, Model, board::Eeprom), avr_m
 
 /// USART0 as the application's own output, beside a slave on another USART: polled, 9600
 /// 8N1, transmit only.
-#[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3"))]
+#[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3", all(example_usart = "capture", not(avr_chip = "atmega32u4"))))]
 struct Console(pac::USART0);
 
-#[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3"))]
+#[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3", all(example_usart = "capture", not(avr_chip = "atmega32u4"))))]
 impl Console {
     fn new(usart: pac::USART0) -> Self {
         // 9600 bps at 16 MHz: UBRR0 = 103; 8 data bits, no parity, 1 stop bit (reset value).

@@ -45,7 +45,7 @@ const LINE: Line = Line::new(19_200, Parity::Even, StopBits::One);
 // The USART `make chips` builds this for (AVR_MODBUS_EXAMPLE_USART, see build.rs); in a
 // firmware of your own, one line: `master!(MASTER on USART1: 25)` or `master!(MASTER: 25)`.
 // FC 3 × 10 is answered in 25 bytes.
-#[cfg(not(any(example_usart = "1", example_usart = "2", example_usart = "3")))]
+#[cfg(not(any(example_usart = "1", example_usart = "2", example_usart = "3", example_usart = "capture")))]
 avr_modbus::master!(MASTER: 25);
 #[cfg(example_usart = "1")]
 avr_modbus::master!(MASTER on USART1: 25);
@@ -53,11 +53,19 @@ avr_modbus::master!(MASTER on USART1: 25);
 avr_modbus::master!(MASTER on USART2: 25);
 #[cfg(example_usart = "3")]
 avr_modbus::master!(MASTER on USART3: 25);
+// The timer's capture line (feature `capture-line`): pins 8/9 on the Uno, 48/46 on the Mega,
+// 13/5 on the Leonardo.
+#[cfg(all(example_usart = "capture", any(avr_chip = "atmega328p", avr_chip = "atmega168")))]
+avr_modbus::master!(MASTER on TIMER1: 25);
+#[cfg(all(example_usart = "capture", avr_chip = "atmega32u4"))]
+avr_modbus::master!(MASTER on TIMER3: 25);
+#[cfg(all(example_usart = "capture", any(avr_chip = "atmega2560", avr_chip = "atmega1280")))]
+avr_modbus::master!(MASTER on TIMER5: 25);
 
 #[avr_device::entry]
 fn main() -> ! {
     let Some(dp) = pac::Peripherals::take() else { avr_modbus::board::halt(avr_modbus::Error::AlreadyStarted) };
-    #[cfg(not(any(example_usart = "1", example_usart = "2", example_usart = "3")))]
+    #[cfg(not(any(example_usart = "1", example_usart = "2", example_usart = "3", example_usart = "capture")))]
     let usart = {
         #[cfg(not(avr_chip = "atmega32u4"))]
         let usart = dp.USART0;
@@ -71,6 +79,12 @@ fn main() -> ! {
     let usart = dp.USART2;
     #[cfg(example_usart = "3")]
     let usart = dp.USART3;
+    #[cfg(all(example_usart = "capture", any(avr_chip = "atmega328p", avr_chip = "atmega168")))]
+    let usart = dp.TC1;
+    #[cfg(all(example_usart = "capture", avr_chip = "atmega32u4"))]
+    let usart = dp.TC3;
+    #[cfg(all(example_usart = "capture", any(avr_chip = "atmega2560", avr_chip = "atmega1280")))]
+    let usart = dp.TC5;
     if let Err(error) = MASTER.start(LINE, usart, dp.TC0) {
         board::halt(error);
     }

@@ -249,33 +249,20 @@ pub(crate) fn configure(line: &Line) {
     // SAFETY: interrupts are disabled (the caller's promise); nothing else holds the state.
     unsafe {
         with(|s| {
-            *s = State {
-                bit: bit as u16,
-                // (1 + data + parity + 1/2) bits, in ticks rounded up: never before the middle.
-                stop_middle: ((2 * u32::from(stop_index) + 1) * TICK_HZ).div_ceil(2 * baud) as u16,
-                data_bits,
-                stop_index,
-                parity,
-                stop_ones: u16::MAX << (data_bits + parity_bits),
-                parity_bit: 1 << data_bits,
-                tx_bits: data_bits + parity_bits + stop_bits,
-                sampled: IDLE,
-                next_middle: 0,
-                data: 0,
-                ones: 0,
-                damage: 0,
-                received: 0,
-                received_data: 0,
-                held: false,
-                withheld: false,
-                frame: 0,
-                left: 0,
-                ending: false,
-                sending: false,
-                next: 0,
-                next_full: false,
-                events: 0,
-            };
+            // All zero first (no character coming or going, nothing received or asked for),
+            // as at power-up, then the format.
+            // SAFETY: every field is an integer or a bool, for which zero is a value.
+            *s = core::mem::zeroed();
+            s.bit = bit as u16;
+            // (1 + data + parity + 1/2) bits, in ticks rounded up: never before the middle.
+            s.stop_middle = ((2 * u32::from(stop_index) + 1) * TICK_HZ).div_ceil(2 * baud) as u16;
+            s.data_bits = data_bits;
+            s.stop_index = stop_index;
+            s.parity = parity;
+            s.stop_ones = u16::MAX << (data_bits + parity_bits);
+            s.parity_bit = 1 << data_bits;
+            s.tx_bits = data_bits + parity_bits + stop_bits;
+            s.sampled = IDLE;
         })
     };
     TIMSK.write(0);

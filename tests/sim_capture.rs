@@ -1,0 +1,359 @@
+//! The serial line on a timer's input capture (feature `capture-line`): the slave and the
+//! master on the Uno's pins 8 (RX, ICP1) and 9 (TX, OC1A), the Leonardo's 13/5 and the Mega's
+//! 48/46, on the simulated chips with every edge scheduled at its exact cycle and every level
+//! TX shows logged at its cycle (`uno_sim::PinUart`): requests answered after T3.5 and never
+//! before, the silences, damaged characters and frames dropped, bad input (glitches, a break,
+//! a line held low, frames run together), the master's poll, and a gateway on one Uno.
+//!
+//! Built by `make chips`: `boards` and `master_boards` with AVR_MODBUS_EXAMPLE_USART=capture
+//! for each chip (target/chips/CHIP-capture/), the contract on pins 8/9
+//! (target/chips/atmega328p-capture-uno/) and the gateway (atmega328p-capture-gateway/).
+
+mod sim;
+
+use sim::{read_request, registers_reply, write_register_request, Line, ID};
+use sim::{built, target_dir};
+use uno_sim::{us_to_cycles, Chip, DecodedByte, Options, Parity, PinUart, Uno};
+
+/// The contract's and `boards`' line: 19200 8E1.
+const LINE: Line = Line::B19200_8E1;
+const UART: PinUart = PinUart::new(19200).parity(Parity::Even);
+
+/// The firmware `name` of build `dir` (`make chips`).
+fn elf(dir: &str, name: &str) -> std::path::PathBuf {
+    built(target_dir().join("chips").join(dir).join("avr-none/release/examples").join(format!("{name}.elf")), "make chips")
+}
+
+/// A firmware with a line on two pins, and a master (or slave) on them.
+struct PinLine {
+    uno: Uno,
+    rx: (char, u8),
+    tx: (char, u8),
+    /// The line has been quiet since this cycle.
+    quiet_since: u64,
+}
+
+/// One request and what came back.
+struct Reply {
+    request_end: u64,
+    bytes: Vec<DecodedByte>,
+}
+
+impl Reply {
+    fn data(&self) -> Vec<u8> {
+        self.bytes.iter().map(|b| b.byte).collect()
+    }
+
+    /// Cycles from the request's last stop bit to the reply's first start bit.
+    fn turnaround(&self) -> u64 {
+        let start = self.bytes.first().expect("a reply").start_cycle;
+        start.checked_sub(self.request_end).unwrap_or_else(|| {
+            panic!("the reply started {} cycles before the request ended", self.request_end - start)
+        })
+    }
+}
+
+impl PinLine {
+    /// Boots `elf` with its line's RX on `rx` and TX on `tx`.
+    fn boot(elf: &std::path::Path, rx: (char, u8), tx: (char, u8)) -> PinLine {
+        let mut uno = Uno::load_with(elf, Options::new()).expect("firmware loads");
+        uno.watch_pin(tx).expect("TX logged");
+        // Start-up and the power-up T3.5.
+        uno.run_for(us_to_cycles(5_000)).expect("firmware runs");
+        let quiet_since = uno.now();
+        PinLine { uno, rx, tx, quiet_since }
+    }
+
+    /// The Uno's pins 8 and 9.
+    fn uno(elf: &std::path::Path) -> PinLine {
+        PinLine::boot(elf, ('B', 0), ('B', 1))
+    }
+
+    /// Sends `frame` from at least T3.5 after the line went quiet plus `delay` cycles, waits
+    /// for the reply until the line has been quiet for `quiet` cycles (at most 200 ms).
+    fn ask_after(&mut self, frame: &[u8], delay: u64) -> Reply {
+        let start = self.quiet_since.max(self.uno.now()) + LINE.t35() + delay;
+        let end = self.uno.send_pin_uart(self.rx, frame, UART, start, 0).expect("frame scheduled");
+        let bytes = self.collect(end);
+        self.quiet_since = bytes.last().map_or(end, |b| b.end_cycle);
+        Reply { request_end: end, bytes }
+    }
+
+    fn ask(&mut self, frame: &[u8]) -> Reply {
+        self.ask_after(frame, 0)
+    }
+
+    /// Runs until TX has been quiet for 5 ms after `from`, and reads what it sent.
+    fn collect(&mut self, from: u64) -> Vec<DecodedByte> {
+        let mut bytes = Vec::new();
+        let mut last = from;
+        let deadline = from + us_to_cycles(200_000);
+        while self.uno.now() < deadline {
+            self.uno.run_for(us_to_cycles(1_000)).expect("firmware runs");
+            let more = self.uno.take_pin_uart(self.tx, UART).expect("TX decoded");
+            if let Some(b) = more.last() {
+                last = b.end_cycle;
+            }
+            bytes.extend(more);
+            if self.uno.now() > last + us_to_cycles(5_000) {
+                break;
+            }
+        }
+        bytes
+    }
+
+    /// Sends `bits` (one level per bit time) at T3.5 after the line went quiet, and lets the
+    /// line rest high for `rest` cycles after.
+    fn send_bits(&mut self, bits: &[bool], rest: u64) -> u64 {
+        let start = self.quiet_since.max(self.uno.now()) + LINE.t35();
+        let end = self.uno.send_pin_bits(self.rx, UART, start, bits).expect("bits scheduled");
+        self.uno.schedule_pin(self.rx, end, true).expect("line released");
+        self.uno.run_until(end + rest).expect("firmware runs");
+        self.quiet_since = end;
+        end
+    }
+}
+
+/// FC 3 of the contract's 16 holding registers.
+fn read16() -> Vec<u8> {
+    read_request(ID, 0x03, 0, 16)
+}
+
+fn assert_clean(reply: &Reply) {
+    for b in &reply.bytes {
+        assert!(b.parity_ok && b.stop_ok, "reply character {b:?} malformed");
+    }
+}
+
+#[test]
+fn the_contract_on_pins_8_9_answers_reads_and_writes_after_t35() {
+    let mut line = PinLine::uno(&elf("atmega328p-capture-uno", "sixteen_each_capture"));
+    let write = write_register_request(ID, 40003 - 40001, 0xBEEF);
+    let echo = line.ask(&write);
+    assert_eq!(echo.data(), write, "FC 6 echoed");
+    assert_clean(&echo);
+    let reply = line.ask(&read16());
+    let mut values = [0u16; 16];
+    values[2] = 0xBEEF;
+    assert_eq!(reply.data(), registers_reply(ID, 0x03, &values));
+    assert_clean(&reply);
+    let turnaround = reply.turnaround();
+    assert!(turnaround >= LINE.t35(), "reply {turnaround} cycles after the request, before T3.5 {}", LINE.t35());
+    // A reply's characters follow each other closely (the next starts from the last one's
+    // end interrupt): far inside T1.5.
+    for pair in reply.bytes.windows(2) {
+        let gap = pair[1].start_cycle - pair[0].end_cycle;
+        assert!(gap < us_to_cycles(50), "{gap} cycles between reply characters");
+    }
+}
+
+#[test]
+fn the_reply_starts_within_50_us_of_t35_at_every_phase() {
+    let mut line = PinLine::uno(&elf("atmega328p-capture-uno", "sixteen_each_capture"));
+    let mut late = Vec::new();
+    for phase in 0..40u64 {
+        // Spread the request's start over a Timer0 turn (1024 µs) and Timer1's ticks.
+        let reply = line.ask_after(&read16(), phase * 26 * 16 + phase % 8);
+        assert_eq!(reply.bytes.len(), 37, "phase {phase}: whole reply");
+        late.push(reply.turnaround() - LINE.t35());
+    }
+    late.sort_unstable();
+    let worst = *late.last().unwrap();
+    assert!(worst <= us_to_cycles(50), "reply {worst} cycles past T3.5 at worst: {late:?}");
+}
+
+#[test]
+fn a_frame_with_a_bad_crc_or_a_damaged_character_gets_no_reply() {
+    let mut line = PinLine::uno(&elf("atmega328p-capture-uno", "sixteen_each_capture"));
+    let mut bad = read16();
+    let last = bad.len() - 1;
+    bad[last] ^= 0x01;
+    assert!(line.ask(&bad).bytes.is_empty(), "bad CRC answered");
+    // Wrong parity on the function code: the frame is dropped though its CRC is right.
+    let request = read16();
+    let mut bits: Vec<bool> = Vec::new();
+    for (i, &byte) in request.iter().enumerate() {
+        let mut frame = UART.frame(byte);
+        if i == 1 {
+            frame[9] = !frame[9];
+        }
+        bits.extend(frame);
+    }
+    line.send_bits(&bits, us_to_cycles(20_000));
+    assert!(line.uno.take_pin_uart(line.tx, UART).unwrap().is_empty(), "a parity error answered");
+    // A missing stop bit (low) on the address: framing error, dropped.
+    let mut bits: Vec<bool> = Vec::new();
+    for (i, &byte) in request.iter().enumerate() {
+        let mut frame = UART.frame(byte);
+        if i == 0 {
+            frame[10] = false;
+        }
+        bits.extend(frame);
+    }
+    line.send_bits(&bits, us_to_cycles(20_000));
+    assert!(line.uno.take_pin_uart(line.tx, UART).unwrap().is_empty(), "a framing error answered");
+    // And the next good request is answered.
+    assert_eq!(line.ask(&read16()).bytes.len(), 37);
+}
+
+#[test]
+fn a_gap_longer_than_t15_inside_a_frame_drops_it() {
+    let mut line = PinLine::uno(&elf("atmega328p-capture-uno", "sixteen_each_capture"));
+    let request = read16();
+    let start = line.quiet_since.max(line.uno.now()) + LINE.t35();
+    let mid = line.uno.send_pin_uart(line.rx, &request[..3], UART, start, 0).unwrap();
+    // 2 character times of silence: past T1.5, short of T3.5.
+    let gap = LINE.t15() + LINE.t15() / 3;
+    assert!(gap < LINE.t35());
+    let end = line.uno.send_pin_uart(line.rx, &request[3..], UART, mid + gap, 0).unwrap();
+    line.quiet_since = end;
+    assert!(line.collect(end).is_empty(), "a frame broken by a gap past T1.5 answered");
+    assert_eq!(line.ask(&read16()).bytes.len(), 37);
+}
+
+#[test]
+fn glitches_a_break_and_a_line_held_low_are_never_taken_for_a_frame() {
+    let mut line = PinLine::uno(&elf("atmega328p-capture-uno", "sixteen_each_capture"));
+    let bit = us_to_cycles(1_000_000) / 19_200;
+    // Glitches shorter than half a bit on the idle line, then at once a request: the glitches
+    // are not characters (as on the USART), so the request stands.
+    let start = line.quiet_since.max(line.uno.now()) + LINE.t35();
+    for k in 0..5u64 {
+        let at = start + k * 3 * bit;
+        line.uno.schedule_pin(line.rx, at, false).unwrap();
+        line.uno.schedule_pin(line.rx, at + bit / 3, true).unwrap();
+    }
+    line.quiet_since = start;
+    let reply = line.ask_after(&read16(), 0);
+    assert_eq!(reply.bytes.len(), 37, "the request after short glitches");
+    // A break: the line low for 20 character times; no reply, then a request answered.
+    line.send_bits(&vec![false; 20 * 11], us_to_cycles(10_000));
+    assert!(line.uno.take_pin_uart(line.tx, UART).unwrap().is_empty(), "a break answered");
+    assert_eq!(line.ask(&read16()).bytes.len(), 37, "the request after a break");
+    // Glitches inside a request's characters, across a bit's middle: the frame is dropped.
+    let request = read16();
+    let start = line.quiet_since.max(line.uno.now()) + LINE.t35();
+    let end = line.uno.send_pin_uart(line.rx, &request, UART, start, 0).unwrap();
+    let char_cycles = UART.bit_start(UART.char_bits());
+    // A short low pulse over the middle of the fourth character's last data bit (high: 0x00's
+    // data bits are low; the quantity's low byte 0x10 has bit 4 high).
+    let fourth = start + 5 * char_cycles;
+    let middle = fourth + UART.bit_start(5) + bit / 2;
+    line.uno.schedule_pin(line.rx, middle - bit / 4, false).unwrap();
+    line.uno.schedule_pin(line.rx, middle + bit / 4, true).unwrap();
+    line.quiet_since = end;
+    assert!(line.collect(end).is_empty(), "a request with a flipped bit answered");
+    // The line held low (a cut cable), then released: nothing answered, nothing stuck.
+    let held = line.send_bits(&[false; 1], 0);
+    line.uno.schedule_pin(line.rx, held, false).unwrap();
+    line.uno.run_until(held + us_to_cycles(300_000)).unwrap();
+    line.uno.schedule_pin(line.rx, line.uno.now() + 10, true).unwrap();
+    line.quiet_since = line.uno.now() + 10;
+    assert!(line.uno.take_pin_uart(line.tx, UART).unwrap().is_empty(), "a line held low answered");
+    assert_eq!(line.ask(&read16()).bytes.len(), 37, "the request after the line came back");
+}
+
+#[test]
+fn frames_back_to_back_each_get_their_reply() {
+    let mut line = PinLine::uno(&elf("atmega328p-capture-uno", "sixteen_each_capture"));
+    // Characters with no idle between them (start bit right after the stop bit), twenty
+    // frames: each answered.
+    for n in 0..20u16 {
+        let write = write_register_request(ID, n % 16, n);
+        assert_eq!(line.ask(&write).data(), write, "write {n}");
+    }
+    let reply = line.ask(&read16());
+    let values: Vec<u16> = (0..16).map(|i| if i < 4 { 16 + i } else { i }).collect();
+    assert_eq!(reply.data(), registers_reply(ID, 0x03, &values));
+}
+
+#[test]
+fn characters_held_up_by_a_critical_section_are_not_lost() {
+    // The capture unit stamps each edge as it comes; an interrupt held off for less than a
+    // bit loses nothing. `boards` reads millis() and sets 30001 in its loop, interrupts off
+    // for a few µs each time, while the requests come in.
+    let mut line = PinLine::uno(&elf("atmega328p-capture", "boards"));
+    for _ in 0..30 {
+        let reply = line.ask(&read_request(ID, 0x03, 0, 16));
+        assert_eq!(reply.bytes.len(), 37);
+        assert_clean(&reply);
+    }
+}
+
+/// The Leonardo's (13 = PC7 RX, 5 = PC6 TX) and the Mega's (48 = PL1 RX, 46 = PL3 TX) lines.
+#[test]
+fn the_leonardo_and_the_mega_answer_on_their_capture_pins() {
+    for (chip, rx, tx) in [(Chip::Atmega32u4, ('C', 7), ('C', 6)), (Chip::Atmega2560, ('L', 1), ('L', 3))] {
+        let mut line = PinLine::boot(&elf(&format!("{chip}-capture"), "boards"), rx, tx);
+        let write = write_register_request(ID, 4, 0x1234);
+        assert_eq!(line.ask(&write).data(), write, "{chip}: FC 6");
+        let reply = line.ask(&read_request(ID, 0x03, 4, 1));
+        assert_eq!(reply.data(), registers_reply(ID, 0x03, &[0x1234]), "{chip}: FC 3");
+        assert!(reply.turnaround() >= LINE.t35(), "{chip}: early");
+    }
+}
+
+/// The master on pins 8/9 (master_boards: FC 3 of 10 registers from slave 1, over and over),
+/// answered by the test as a slave would. A good reply is taken: the next request follows
+/// T3.5 after it. A reply with a bad CRC is not: the master waits for its response timeout
+/// (1000 ms) and asks again.
+#[test]
+fn the_master_on_pins_8_9_polls_and_takes_only_good_replies() {
+    let mut line = PinLine::uno(&elf("atmega328p-capture", "master_boards"));
+    let expected = read_request(ID, 0x03, 0, 10);
+    let mut reply_end = line.uno.now();
+    for round in 0..5u16 {
+        // The next request, up to 1.5 s on.
+        let mut request = Vec::new();
+        while request.len() < expected.len() && line.uno.now() < reply_end + us_to_cycles(1_500_000) {
+            line.uno.run_for(us_to_cycles(1_000)).unwrap();
+            request.extend(line.uno.take_pin_uart(line.tx, UART).unwrap());
+        }
+        let data: Vec<u8> = request.iter().map(|b| b.byte).collect();
+        assert_eq!(data, expected, "round {round}: the request");
+        assert!(request.iter().all(|b| b.parity_ok && b.stop_ok), "round {round}: request characters");
+        let waited = request[0].start_cycle - reply_end;
+        if round == 3 {
+            assert!(waited >= us_to_cycles(1_000_000), "a bad reply taken: the next request {waited} cycles after it");
+        } else if round > 0 {
+            assert!(waited < us_to_cycles(10_000), "a good reply not taken: the next request {waited} cycles after it");
+        }
+        let end = request.last().unwrap().end_cycle;
+        let values: Vec<u16> = (0..10).map(|i| round * 100 + i).collect();
+        let mut reply = registers_reply(ID, 0x03, &values);
+        if round == 2 {
+            let n = reply.len();
+            reply[n - 1] ^= 0xFF;
+        }
+        reply_end = line.uno.send_pin_uart(line.rx, &reply, UART, end + LINE.t35(), 0).unwrap();
+    }
+}
+
+/// A gateway on one Uno: the SCADA's slave on pins 8/9, the master on pins 0/1 polling the
+/// field device (the test, on USART0's wire).
+#[test]
+fn the_uno_gateway_serves_the_field_device_s_registers_on_pins_8_9() {
+    let path = elf("atmega328p-capture-gateway", "gateway");
+    let mut uno = Uno::load_with(&path, Options::new()).expect("gateway loads");
+    uno.watch_pin(('B', 1)).unwrap();
+    uno.run_for(us_to_cycles(5_000)).unwrap();
+    let field = read_request(1, 0x03, 0, 10);
+    let values: Vec<u16> = (0..10).map(|i| 0x100 + i).collect();
+    // Answer the gateway's polls on USART0 for a while.
+    let mut answered = 0;
+    let until = uno.now() + us_to_cycles(600_000);
+    while uno.now() < until {
+        let tx = uno.run_until_tx_idle(us_to_cycles(3_000), uno.now() + us_to_cycles(200_000)).unwrap();
+        let bytes: Vec<u8> = tx.iter().map(|t| t.byte).collect();
+        if bytes == field {
+            let end = tx.last().unwrap().end_cycle;
+            let reply = registers_reply(1, 0x03, &values);
+            uno.send_frame(&reply, end + LINE.t35() + 1000, 0).unwrap();
+            answered += 1;
+        }
+    }
+    assert!(answered >= 2, "the gateway polled the field device {answered} times");
+    let mut line = PinLine { quiet_since: uno.now(), uno, rx: ('B', 0), tx: ('B', 1) };
+    let reply = line.ask(&read_request(ID, 0x03, 0, 10));
+    assert_eq!(reply.data(), registers_reply(ID, 0x03, &values), "the SCADA reads the field device's registers");
+}
