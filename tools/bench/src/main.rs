@@ -24,7 +24,10 @@
 //! (`call_loop`: each call's interrupts-off cycles, and the replies' turnaround while it
 //! calls the slave as fast as it can); `bench calls` measures that part alone. Modbus TCP
 //! ([`tcp`]; `bench tcp` alone) and the TCP to RTU gateway's sizes and overheads with four
-//! TCP masters polling three RTU slaves ([`gateway`]; `bench gateway` alone). Every figure
+//! TCP masters polling three RTU slaves ([`gateway`]; `bench gateway` alone). The serial line
+//! on the Uno's pins 8/9 (feature `capture-line`): its flash over the USART's, its interrupts'
+//! cycles per edge and per character, the reply past T3.5, its CPU share ([`capture`];
+//! `bench capture` alone). Every figure
 //! comes from this run; all timings are simulated cycles, so a run on any machine gives the
 //! same numbers.
 //!
@@ -39,6 +42,7 @@
 
 mod bus;
 mod calls;
+mod capture;
 mod chips;
 mod elf;
 mod features;
@@ -78,6 +82,8 @@ fn main() -> ExitCode {
         Some("calls") => return print_only(calls::only(&root, &mut log), &log),
         // `bench tcp`: Modbus TCP alone, printed and not written.
         Some("tcp") => return print_only(tcp::only(&root, &mut log), &log),
+        // `bench capture`: the serial line on pins 8/9 alone, printed and not written.
+        Some("capture") => return print_only(capture::only(&root, &mut log), &log),
         // `bench gateway`: the TCP to RTU gateway alone, printed and not written.
         Some("gateway") => return print_only(gateway::only(&root, &mut log), &log),
         _ => {}

@@ -30,6 +30,8 @@ pub(crate) struct Report {
     pub(crate) tcp: Option<crate::tcp::Measured>,
     /// The TCP to RTU gateway, if built.
     pub(crate) gateway: Option<crate::gateway::Measured>,
+    /// The serial line on pins 8/9, if built.
+    pub(crate) capture: Option<crate::capture::Measured>,
 }
 
 impl Report {
@@ -49,6 +51,7 @@ impl Report {
             master: master::measure(root, log)?,
             tcp: crate::tcp::measure(root, log)?,
             gateway: crate::gateway::measure(root, log)?,
+            capture: crate::capture::measure(root, log)?,
         })
     }
 

@@ -29,6 +29,7 @@ pub(crate) fn render(r: &Report, log: &Log, root: &Path) -> Result<String> {
     master::section(&mut md, root, &r.master)?;
     crate::tcp::section(&mut md, &r.tcp)?;
     crate::gateway::section(&mut md, &r.gateway)?;
+    crate::capture::section(&mut md, &r.capture)?;
     features::section(&mut md, &r.features)?;
     sizes::section(&mut md, &r.profiles)?;
     chips::section(&mut md, &r.chips)?;
