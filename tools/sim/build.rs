@@ -1,4 +1,5 @@
-//! Compiles `csrc/shim.c` and `csrc/spi.c` against the system's simavr (Debian: libsimavr-dev) and links it.
+//! Compiles `csrc/shim.c` and the parts it uses (`csrc/spi.c`, `csrc/pins.c`, `csrc/timers.c`)
+//! against the system's simavr (Debian: libsimavr-dev) and links it.
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -19,6 +20,10 @@ fn main() {
     println!("cargo:rerun-if-changed=csrc/shim.c");
     println!("cargo:rerun-if-changed=csrc/spi.c");
     println!("cargo:rerun-if-changed=csrc/spi.h");
+    println!("cargo:rerun-if-changed=csrc/pins.c");
+    println!("cargo:rerun-if-changed=csrc/pins.h");
+    println!("cargo:rerun-if-changed=csrc/timers.c");
+    println!("cargo:rerun-if-changed=csrc/timers.h");
     println!("cargo:rerun-if-env-changed=PKG_CONFIG_PATH");
 
     let mut includes: Vec<PathBuf> =
@@ -35,6 +40,8 @@ fn main() {
     cc::Build::new()
         .file("csrc/shim.c")
         .file("csrc/spi.c")
+        .file("csrc/pins.c")
+        .file("csrc/timers.c")
         .includes(&includes)
         .flag("-std=gnu11")
         .warnings(true)

@@ -53,8 +53,10 @@
 #include "avr_ioport.h"
 #include "avr_uart.h"
 
-#include "spi.h"
 #include "avr_extint.h"
+#include "pins.h"
+#include "spi.h"
+#include "timers.h"
 
 DEFINE_FIFO(uint16_t, uart_fifo);
 
@@ -76,8 +78,6 @@ DEFINE_FIFO(uint16_t, uart_fifo);
 
 /* USART0..3 */
 #define USARTS 4
-/* ports 'A'..'L' */
-#define PORTS 12
 
 /* Marks a received frame with a parity error (bit 15 is simavr's UART_INPUT_FE). */
 #define UNO_INPUT_PE 0x4000
@@ -168,8 +168,10 @@ typedef struct uno_shim {
 	uint64_t resets;
 	uint8_t reset_cause;
 
-	/* externally driven inputs per port 'A'..'L' */
-	uint8_t ext_mask[PORTS], ext_value[PORTS];
+	/* the pins: driven from outside (now or at a scheduled cycle), shown, logged */
+	pins_t pins;
+	/* the timers' compare outputs, input captures and TEMP, as the chip has them */
+	timers_t timers;
 
 	/* a part on the SPI bus (spi.c), if one is attached */
 	spi_part_t spi_part;
@@ -544,27 +546,6 @@ static void uarts_off(avr_t *avr)
 			avr_regbit_clear(avr, ((avr_uart_t *)io)->txen);
 }
 
-/* avr_reset zeroes PINx but leaves the pin IRQs at their old levels, and simavr passes
- * on only a change of level: a pull-up switched on again would never reach PINx. Start
- * every pin IRQ at 0, as PINx now reads, then drive the pins driven from outside again. */
-static void pins_after_reset(uno_shim_t *s)
-{
-	avr_t *avr = s->avr;
-	for (avr_io_t *io = avr->io_port; io; io = io->next) {
-		if (strcmp(io->kind, "port"))
-			continue;
-		avr_ioport_t *p = (avr_ioport_t *)io;
-		for (int bit = 0; bit < 8; bit++)
-			p->io.irq[bit].value = 0;
-		int i = p->name - 'A';
-		if (i < 0 || i >= PORTS)
-			continue;
-		for (int bit = 0; bit < 8; bit++)
-			if (s->ext_mask[i] & (1 << bit))
-				avr_raise_irq(p->io.irq + bit, (s->ext_value[i] >> bit) & 1);
-	}
-}
-
 /* A reset of the core that keeps the clock, the flash, the EEPROM and SRAM (the chip
  * clears only its I/O registers), with `cause` ORed into MCUSR. Characters on the wire
  * in either direction are lost; the statistics stay. */
@@ -575,7 +556,8 @@ static void chip_reset(uno_shim_t *s, uint8_t cause)
 	avr_reset(avr); /* drops every cycle timer: the RX schedule and the TX model go too */
 	avr->cycle = cycle;
 	uarts_off(avr);
-	pins_after_reset(s);
+	pins_after_reset(&s->pins);
+	timers_after_reset(&s->timers);
 	avr->data[R_MCUSR] |= cause;
 	s->reset_cause = avr->data[R_MCUSR];
 	s->resets++;
@@ -690,6 +672,8 @@ uno_shim_t *uno_new(const char *path, const char *mcu, int usart, uint16_t base,
 	avr->sleep = sleep_exact;
 	s->core_run = avr->run;
 	s->response = response;
+	pins_init(&s->pins, avr);
+	timers_init(&s->timers, avr, &s->pins);
 	for (int i = 0; i < wires; i++) {
 		s->wire[i].shim = s;
 		s->wire[i].uart_name = (char)('0' + usart_of[i]);
@@ -765,6 +749,7 @@ void uno_free(uno_shim_t *s)
 	}
 	for (int i = 0; i < USARTS; i++)
 		free(s->out[i].bytes);
+	pins_free(&s->pins);
 	free(s);
 }
 
@@ -993,20 +978,11 @@ long uno_usart_take(uno_shim_t *s, int usart, uint8_t *out, size_t max)
 	return (long)n;
 }
 
-/* simavr's description of port `port` ('A'..'L'), or NULL if the chip has none. */
-static avr_ioport_t *find_port(const uno_shim_t *s, char port)
-{
-	for (avr_io_t *io = s->avr->io_port; io; io = io->next)
-		if (!strcmp(io->kind, "port") && ((avr_ioport_t *)io)->name == port)
-			return (avr_ioport_t *)io;
-	return NULL;
-}
-
 /* Data-space addresses of PINx, DDRx and PORTx of port `port`; UNO_ERR_ARG if the chip
  * has no such port. */
 int uno_port_regs(const uno_shim_t *s, char port, uint16_t *pin, uint16_t *ddr, uint16_t *portreg)
 {
-	avr_ioport_t *p = find_port(s, port);
+	avr_ioport_t *p = pins_port(&s->pins, port);
 	if (!p)
 		return UNO_ERR_ARG;
 	*pin = p->r_pin;
@@ -1015,37 +991,58 @@ int uno_port_regs(const uno_shim_t *s, char port, uint16_t *pin, uint16_t *ddr, 
 	return UNO_OK;
 }
 
+static int pins_error(int err)
+{
+	switch (err) {
+	case PINS_OK:
+		return UNO_OK;
+	case PINS_ERR_PAST:
+		return UNO_ERR_PAST;
+	case PINS_ERR_NOMEM:
+		return UNO_ERR_NOMEM;
+	default:
+		return UNO_ERR_ARG;
+	}
+}
+
 /* Drive input `bit` of port `port` ('A'..'L', as the chip has them) to `level` (0/1), or
  * release it (-1). */
 int uno_pin_drive(uno_shim_t *s, char port, int bit, int level)
 {
-	if (port < 'A' || port >= 'A' + PORTS || bit < 0 || bit > 7 || level < -1 || level > 1)
-		return UNO_ERR_ARG;
-	avr_ioport_t *p = find_port(s, port);
-	if (!p)
-		return UNO_ERR_ARG;
-	avr_t *avr = s->avr;
-	int i = port - 'A';
-	uint8_t m = (uint8_t)(1 << bit);
-	avr_irq_t *irq = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ(port), bit);
-	if (!irq)
-		return UNO_ERR_ARG;
-	if (level < 0) {
-		s->ext_mask[i] &= (uint8_t)~m;
-	} else {
-		s->ext_mask[i] |= m;
-		s->ext_value[i] = (uint8_t)((s->ext_value[i] & ~m) | (level ? m : 0));
-	}
-	avr_ioport_external_t e = { .name = (unsigned long)port, .mask = s->ext_mask[i], .value = s->ext_value[i] };
-	avr_ioctl(avr, AVR_IOCTL_IOPORT_SET_EXTERNAL(port), &e);
-	if (level >= 0) {
-		avr_raise_irq(irq, (uint32_t)level);
-	} else {
-		/* released: an input with its pull-up on reads high, a floating one low */
-		if (!(avr->data[p->r_ddr] & m))
-			avr_raise_irq(irq, (avr->data[p->r_port] & m) ? 1 : 0);
-	}
-	return UNO_OK;
+	return pins_error(pins_drive(&s->pins, port, bit, level));
+}
+
+/* The same at cycle `at`: UNO_ERR_PAST if it has gone. */
+int uno_pin_schedule(uno_shim_t *s, char port, int bit, uint64_t at, int level)
+{
+	return pins_error(pins_schedule(&s->pins, port, bit, at, level));
+}
+
+/* Scheduled levels not applied yet. */
+size_t uno_pin_scheduled(const uno_shim_t *s)
+{
+	return pins_scheduled(&s->pins);
+}
+
+/* The level pin P`port``bit` shows (an output's, with a compare output; an input's PINx), or
+ * UNO_ERR_ARG. */
+int uno_pin_level(const uno_shim_t *s, char port, int bit)
+{
+	int level = pins_level(&s->pins, port, bit);
+	return level < 0 ? UNO_ERR_ARG : level;
+}
+
+/* Logs the level changes of output P`port``bit`; `level`: its level now. */
+int uno_pin_log(uno_shim_t *s, char port, int bit, int *level)
+{
+	return pins_error(pins_log(&s->pins, port, bit, level));
+}
+
+/* Moves up to `max` logged changes of P`port``bit` to `out`: how many, or UNO_ERR_ARG. */
+long uno_pin_log_take(uno_shim_t *s, char port, int bit, pin_edge_t *out, size_t max)
+{
+	long n = pins_take_log(&s->pins, port, bit, out, max);
+	return n < 0 ? UNO_ERR_ARG : n;
 }
 
 int uno_adc_set(uno_shim_t *s, int channel, uint32_t millivolts)
@@ -1179,7 +1176,7 @@ static void eimsk_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
  * (simavr fires once per falling edge otherwise). After uno_spi_attach. */
 int uno_spi_int(uno_shim_t *s, char port, int bit)
 {
-	if (!s->spi_part.fn || port < 'A' || port >= 'A' + PORTS || bit < 0 || bit > 7 || !find_port(s, port))
+	if (!s->spi_part.fn || bit < 0 || bit > 7 || !pins_port(&s->pins, port))
 		return UNO_ERR_ARG;
 	s->spi_int_port = port;
 	s->spi_int_bit = bit;

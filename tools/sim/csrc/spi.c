@@ -24,6 +24,7 @@
 #include "avr_ioport.h"
 #include "avr_spi.h"
 
+#include "pins.h"
 #include "spi.h"
 
 static avr_spi_t *find_spi(avr_t *avr)
@@ -45,13 +46,6 @@ static avr_cycle_count_t byte_cycles(avr_t *avr, const avr_spi_t *p)
 	return 8 * div;
 }
 
-/* Cycles of the instruction at the PC writing SPDR: OUT takes 1, ST and STS 2. */
-static avr_cycle_count_t write_cycles(avr_t *avr)
-{
-	uint16_t opcode = (uint16_t)(avr->flash[avr->pc] | (avr->flash[avr->pc + 1] << 8));
-	return (opcode & 0xF800) == 0xB800 ? 1 : 2;
-}
-
 static void spdr_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
 {
 	(void)addr;
@@ -62,7 +56,7 @@ static void spdr_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
 			continue;
 		avr_cycle_timer_t done = t->timer;
 		avr_cycle_timer_cancel(avr, done, p);
-		avr_cycle_timer_register(avr, write_cycles(avr) + byte_cycles(avr, p), done, p);
+		avr_cycle_timer_register(avr, pins_write_end(avr) - avr->cycle + byte_cycles(avr, p), done, p);
 		return;
 	}
 }

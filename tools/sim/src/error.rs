@@ -3,7 +3,7 @@
 use std::fmt;
 use std::path::PathBuf;
 
-use crate::{Chip, CpuState};
+use crate::{Chip, CpuState, PinUart};
 
 /// What went wrong.
 #[derive(Debug)]
@@ -82,6 +82,23 @@ pub enum Error {
         /// Bit, 0-7.
         bit: u8,
     },
+    /// A pin level was scheduled for a cycle already gone.
+    PinInPast {
+        /// The cycle asked for.
+        at: u64,
+        /// The current cycle.
+        now: u64,
+    },
+    /// The pin's output is not logged: `watch_pin` it first.
+    PinNotWatched {
+        /// Port letter.
+        port: char,
+        /// Bit.
+        bit: u8,
+    },
+    /// A serial format a pin cannot carry: the baud rate must be 1 or more, with 5-8 data bits
+    /// and 1 or 2 stop bits.
+    BadPinUart(PinUart),
     /// Not an ADC channel of the chip (0-7 on the 328P and 168, 0-15 on the others).
     BadAdcChannel(u8),
     /// A memory access outside the data space.
@@ -160,6 +177,15 @@ impl fmt::Display for Error {
                 "Arduino pin numbers are mapped for the Uno's chips only, not the {chip}: name the port and bit"
             ),
             Error::NoSuchPortPin { chip, port, bit } => write!(f, "the {chip} has no pin P{port}{bit}"),
+            Error::PinInPast { at, now } => {
+                write!(f, "pin level scheduled at cycle {at}, but it is already cycle {now}")
+            }
+            Error::PinNotWatched { port, bit } => write!(f, "pin P{port}{bit} is not logged: watch_pin it first"),
+            Error::BadPinUart(uart) => write!(
+                f,
+                "{} baud, {} data bits, {} stop bits: a pin's serial line needs a baud rate, 5-8 data bits, 1 or 2 stop bits",
+                uart.baud, uart.data_bits, uart.stop_bits
+            ),
             Error::BadAdcChannel(ch) => write!(f, "{ch} is not an ADC channel of this chip"),
             Error::OutOfRange { addr, len, size } => {
                 write!(f, "{len} bytes at 0x{addr:04x} are outside the data space (0x{size:04x} bytes)")

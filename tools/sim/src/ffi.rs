@@ -26,6 +26,14 @@ pub(crate) struct IsrRaw {
     pub max_cycles: u64,
 }
 
+/// One level change of a logged output pin (`pin_edge_t` in csrc/pins.h).
+#[repr(C)]
+#[derive(Clone, Copy, Default)]
+pub(crate) struct PinEdgeRaw {
+    pub cycle: u64,
+    pub level: u8,
+}
+
 /// simavr's `UART_INPUT_FE`: the frame had a framing error.
 pub(crate) const INPUT_FE: u16 = 0x8000;
 /// The shim's marker for a parity error.
@@ -105,6 +113,17 @@ extern "C" {
         port_reg: *mut u16,
     ) -> c_int;
     pub(crate) fn uno_pin_drive(s: *mut Shim, port: c_char, bit: c_int, level: c_int) -> c_int;
+    pub(crate) fn uno_pin_schedule(s: *mut Shim, port: c_char, bit: c_int, at: u64, level: c_int) -> c_int;
+    pub(crate) fn uno_pin_scheduled(s: *const Shim) -> usize;
+    pub(crate) fn uno_pin_level(s: *const Shim, port: c_char, bit: c_int) -> c_int;
+    pub(crate) fn uno_pin_log(s: *mut Shim, port: c_char, bit: c_int, level: *mut c_int) -> c_int;
+    pub(crate) fn uno_pin_log_take(
+        s: *mut Shim,
+        port: c_char,
+        bit: c_int,
+        out: *mut PinEdgeRaw,
+        max: usize,
+    ) -> c_long;
     pub(crate) fn uno_adc_set(s: *mut Shim, channel: c_int, millivolts: u32) -> c_int;
     pub(crate) fn uno_set_aref(s: *mut Shim, millivolts: u32);
     pub(crate) fn uno_flash_size(s: *const Shim) -> u32;

@@ -108,6 +108,7 @@ mod elf;
 mod error;
 mod ffi;
 pub mod hex;
+mod pin_uart;
 mod pins;
 mod shield;
 pub mod wiznet;
@@ -122,7 +123,8 @@ use std::sync::Mutex;
 pub use chip::{Chip, UsartRegs, Vectors};
 pub use elf::{Space, Symbol};
 pub use error::Error;
-pub use pins::{PinState, A0, A1, A2, A3, A4, A5};
+pub use pin_uart::{DecodedByte, PinUart};
+pub use pins::{PinId, PinState, A0, A1, A2, A3, A4, A5};
 pub use wiznet::{W5x00, Wiznet};
 
 /// CPU clock of the Uno, in Hz.
@@ -556,6 +558,8 @@ pub struct Uno {
     rx_flag: RxFlag,
     /// The Ethernet shield's chip, if any.
     shield: Option<shield::Shield>,
+    /// Output pins whose level changes are logged ([`Uno::watch_pin`]).
+    logged: Vec<pins::LoggedPin>,
 }
 
 /// Timed wires: the wire and an optional second one.
@@ -678,6 +682,7 @@ impl Uno {
             tx: Default::default(),
             rx_flag: options.rx_flag,
             shield: None,
+            logged: Vec::new(),
         }
         .with_shield(options)
     }
