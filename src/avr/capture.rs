@@ -51,9 +51,10 @@ pub(crate) const fn runs_at(line: &Line) -> bool {
     line.baud() >= RATES.0 && line.baud() <= RATES.1
 }
 
-/// Ticks from a write of a character to an idle transmitter to its start bit: far enough
-/// ahead that the counter has not passed it when OCRnA is written.
-const LEAD: u16 = 4;
+/// Ticks from the read of the count to the start bit of a character written to an idle
+/// transmitter (4 µs at 16 MHz): far enough ahead that the counter has not passed it when
+/// OCRnA is written, a few instructions later (a compare value passed waits a whole turn).
+const LEAD: u16 = 8;
 
 // TCCRnA
 const COMA1: u8 = 1 << 7;
@@ -393,7 +394,7 @@ pub(crate) unsafe fn write(byte: u8) {
                 s.next = byte;
                 s.next_full = true;
             } else {
-                s.begin(byte, read16(TCNT).wrapping_add(LEAD));
+                s.begin(byte);
             }
         })
     }
@@ -551,9 +552,10 @@ impl State {
         !self.held
     }
 
-    /// Sends `byte` from `at`: its start bit there, the rest from the compare A interrupt.
+    /// Sends `byte`: its start bit [`LEAD`] ticks from now, the rest from the compare A
+    /// interrupt.
     #[inline(never)]
-    fn begin(&mut self, byte: u8, at: u16) {
+    fn begin(&mut self, byte: u8) {
         let data = if self.data_bits == 8 { byte } else { byte & 0x7F };
         let mut frame = u16::from(data) | self.stop_ones;
         if self.parity != NO_PARITY {
@@ -569,7 +571,7 @@ impl State {
         self.left = self.tx_bits;
         self.sending = true;
         self.ending = false;
-        self.schedule(at, false);
+        self.schedule(read16(TCNT).wrapping_add(LEAD), false);
         // A match of the old value, while nothing went out, left the flag up.
         TIFR.write(COMPARE_A);
         TIMSK.modify(|bits| bits | COMPARE_A);
@@ -592,7 +594,7 @@ impl State {
             self.sending = false;
             if self.next_full {
                 self.next_full = false;
-                self.begin(self.next, read16(TCNT).wrapping_add(LEAD));
+                self.begin(self.next);
                 return Transmit::Nothing;
             }
             if self.events & FEED != 0 {
