@@ -142,7 +142,12 @@ fn main() -> ! {
     if let Err(error) = SLAVE.start_with_pins(config, usart, dp.TC0, model, NoPin, led) {
         board::halt(error);
     }
-    #[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3", all(example_usart = "capture", not(avr_chip = "atmega32u4"))))]
+    #[cfg(any(
+        example_usart = "1",
+        example_usart = "2",
+        example_usart = "3",
+        all(example_usart = "capture", not(avr_chip = "atmega32u4"))
+    ))]
     let console = Console::new(dp.USART0);
     let mut seen = 0;
     loop {
@@ -152,7 +157,12 @@ fn main() -> ! {
         let writes = SLAVE.master_writes();
         if writes != seen {
             seen = writes;
-            #[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3", all(example_usart = "capture", not(avr_chip = "atmega32u4"))))]
+            #[cfg(any(
+                example_usart = "1",
+                example_usart = "2",
+                example_usart = "3",
+                all(example_usart = "capture", not(avr_chip = "atmega32u4"))
+            ))]
             console.print_writes(writes);
         }
     }
@@ -168,10 +178,20 @@ fn settings(eeprom: pac::EEPROM) -> Result<(Config, Model, board::Eeprom), avr_m
 
 /// USART0 as the application's own output, beside a slave on another USART: polled, 9600
 /// 8N1, transmit only.
-#[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3", all(example_usart = "capture", not(avr_chip = "atmega32u4"))))]
+#[cfg(any(
+    example_usart = "1",
+    example_usart = "2",
+    example_usart = "3",
+    all(example_usart = "capture", not(avr_chip = "atmega32u4"))
+))]
 struct Console(pac::USART0);
 
-#[cfg(any(example_usart = "1", example_usart = "2", example_usart = "3", all(example_usart = "capture", not(avr_chip = "atmega32u4"))))]
+#[cfg(any(
+    example_usart = "1",
+    example_usart = "2",
+    example_usart = "3",
+    all(example_usart = "capture", not(avr_chip = "atmega32u4"))
+))]
 impl Console {
     fn new(usart: pac::USART0) -> Self {
         // 9600 bps at 16 MHz: UBRR0 = 103; 8 data bits, no parity, 1 stop bit (reset value).

@@ -5,14 +5,14 @@
  * Timer0 (the slave's silences on compare B, the master's on compare A); the loop only
  * copies values between them.
  *
- * On an Uno (feature `capture-line`) the slave is on pins 8 (RX) and 9 (TX), Timer1's
- * capture line, and the master on pins 0/1 (USART0): the same gateway on the one USART.
+ * On an Uno (feature `capture-line`) the master is on pins 8 (RX) and 9 (TX), Timer1's
+ * capture line, and the slave on pins 0/1 (USART0, the USB port): the same gateway with one
+ * USART.
  *
  * Wiring: the USB port (or pins 0/1 to a MAX3232) to the SCADA; pins 18/19 to an RS-485
  * transceiver's DI/RO with DE and /RE joined on pin 13 (the LED "L" then shows the field
- * line's requests), A/B to the field line, GND to GND. On the Uno: pins 8/9 to a MAX3232
- * (or a second transceiver) toward the SCADA, pins 0/1 to the field line's transceiver
- * with DE and /RE on pin 13 (unplug it to flash over USB).
+ * line's requests), A/B to the field line, GND to GND. On the Uno: pins 8/9 to the field
+ * line's transceiver (DI on 9, RO on 8), DE and /RE on pin 13.
  *
  * Serial lines: both 19200 8E1; the gateway is slave 1 toward the SCADA.
  *
@@ -39,7 +39,11 @@ use avr_device::atmega1280 as pac;
 use avr_device::atmega2560 as pac;
 #[cfg(all(avr_chip = "atmega328p", feature = "capture-line"))]
 use avr_device::atmega328p as pac;
-#[cfg(not(any(avr_chip = "atmega2560", avr_chip = "atmega1280", all(avr_chip = "atmega328p", feature = "capture-line"))))]
+#[cfg(not(any(
+    avr_chip = "atmega2560",
+    avr_chip = "atmega1280",
+    all(avr_chip = "atmega328p", feature = "capture-line")
+)))]
 compile_error!(
     "the gateway needs two serial lines: build it for the Mega (-C target-cpu=atmega2560 or atmega1280), \
      or for the Uno with feature capture-line (pins 8/9)"
@@ -58,15 +62,12 @@ avr_modbus::register_map! {
     }
 }
 
-// FC 3 × 10 is answered in 25 bytes; FC 15 × 8 takes 10.
-#[cfg(not(avr_chip = "atmega328p"))]
 avr_modbus::slave!(SLAVE: Gateway);
+// FC 3 × 10 is answered in 25 bytes; FC 15 × 8 takes 10.
 #[cfg(not(avr_chip = "atmega328p"))]
 avr_modbus::master!(MASTER on USART1: 25, Pin, NoPin);
 #[cfg(avr_chip = "atmega328p")]
-avr_modbus::slave!(SLAVE on TIMER1: Gateway);
-#[cfg(avr_chip = "atmega328p")]
-avr_modbus::master!(MASTER: 25, Pin, NoPin);
+avr_modbus::master!(MASTER on TIMER1: 25, Pin, NoPin);
 
 #[avr_device::entry]
 fn main() -> ! {
@@ -77,15 +78,15 @@ fn main() -> ! {
         Ok(pin) => pin,
         Err(error) => board::halt(error),
     };
-    // The field line's USART and the SCADA side's: on the Uno the timer of pins 8/9.
+    // The field line's USART; on the Uno the timer of pins 8/9.
     #[cfg(not(avr_chip = "atmega328p"))]
-    let (field_line, scada_side) = (dp.USART1, dp.USART0);
+    let field_line = dp.USART1;
     #[cfg(avr_chip = "atmega328p")]
-    let (field_line, scada_side) = (dp.USART0, dp.TC1);
+    let field_line = dp.TC1;
     // The master first, with Timer0 lent (`&*dp.TC0`); the slave takes it for good.
     let started = MASTER
         .start_with_pins(FIELD_LINE, field_line, &*dp.TC0, driver_enable, NoPin)
-        .and_then(|()| SLAVE.start(SCADA_SIDE, scada_side, dp.TC0, Gateway::new()));
+        .and_then(|()| SLAVE.start(SCADA_SIDE, dp.USART0, dp.TC0, Gateway::new()));
     if let Err(error) = started {
         board::halt(error);
     }

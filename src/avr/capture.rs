@@ -128,8 +128,8 @@ struct State {
     stop_index: u8,
     /// The parity the data and parity bits add up to: 0 even, 1 odd, [`NO_PARITY`] none.
     parity: u8,
-    /// Ones from the parity bit's place on: the stop bits (and the idle line after them) of a
-    /// character sent, its parity bit laid over them.
+    /// Ones from the bit after the data on: the parity bit (cleared where it is to be 0), the
+    /// stop bits and the idle line after them, of a character sent.
     stop_ones: u16,
     /// The parity bit of a character sent, in place.
     parity_bit: u16,
@@ -260,7 +260,7 @@ pub(crate) fn configure(line: &Line) {
             s.data_bits = data_bits;
             s.stop_index = stop_index;
             s.parity = parity;
-            s.stop_ones = u16::MAX << (data_bits + parity_bits);
+            s.stop_ones = u16::MAX << data_bits;
             s.parity_bit = 1 << data_bits;
             s.tx_bits = data_bits + parity_bits + stop_bits;
             s.sampled = IDLE;

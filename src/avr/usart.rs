@@ -260,6 +260,21 @@ impl<const U: u8> Usart<U> {
         Self::UCSRB.read() & (UDRIE0 | TXCIE0) != 0
     }
 
+    /// Holds received characters back from the role (`true`: its slave processes a request
+    /// with interrupts enabled) or lets them through again (`false`): the receive interrupt
+    /// masked (a character waits in UDRn, the next in the shift register), or on the capture
+    /// line kept in its buffer and handed on after (`capture::hold`).
+    #[cfg(feature = "capture-line")]
+    #[inline(always)]
+    pub(crate) fn hold_received(&self, hold: bool) {
+        if Self::CAPTURE {
+            // SAFETY: as `on_capture_line`'s.
+            unsafe { capture::hold(hold) };
+        } else {
+            self.modify_control(|b| if hold { b & !RXCIE0 } else { b | RXCIE0 });
+        }
+    }
+
     /// The reply has left the wire: stop the transmit-complete interrupt.
     #[inline(always)]
     pub(crate) fn finished(&self) {

@@ -121,7 +121,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, c
         // Executes what `on_end_deadline` accepted (nothing for the other ends) and, for a
         // reply, appends its CRC; the rest of the reply follows its first character from the
         // data-register-empty interrupt.
-        let bytes = if Usart::<U>::CAPTURE { self.process_interruptible() } else { self.process() };
+        let bytes = if cfg!(feature = "capture-line") { self.process_interruptible() } else { self.process() };
         self.tx_len = self.reply_chars(bytes);
         if self.tx_len != 0 {
             self.usart.start_feeding();
@@ -139,24 +139,23 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, c
         self.engine.process(&mut self.model)
     }
 
-    /// [`Running::process`] on the timer's capture line (feature `capture-line`), with
-    /// interrupts enabled: the line's own interrupts send each bit of the reply's first
-    /// character, and catch each edge on RX, while the request is processed, which takes
-    /// longer than a bit. The slave is reached by none of them meanwhile: the line holds
-    /// back a character received (a master that did not wait for the reply) and hands it on
-    /// after, and this compare unit's interrupt (the silences) waits masked.
-    /// A model other ports serve too stays whole: Timer0's overflow interrupt, where the TCP
-    /// server runs, waits as well.
+    /// [`Running::process`] with interrupts enabled, in a firmware with a capture line
+    /// (feature `capture-line`): that line's interrupts send each bit of a reply's first
+    /// character and catch each edge on RX while a request is processed, which takes longer
+    /// than a bit, whichever line this slave is on. The slave itself is reached by none of
+    /// them meanwhile: its line holds back a character received (a master that did not wait
+    /// for the reply; the capture line hands it on after, the USART's receive interrupt
+    /// waits masked), and this compare unit's interrupt (the silences) waits masked. A model
+    /// other ports serve too stays whole: Timer0's overflow interrupt, where the TCP server
+    /// runs, waits as well.
     #[inline(always)]
     fn process_interruptible(&mut self) -> usize {
         #[cfg(feature = "capture-line")]
         {
-            use crate::avr::capture;
             use crate::avr::reg::{self, TIMSK0};
             use crate::avr::timer::Unit;
             let held = Compare::<C>::FLAG | if M::SHARED { crate::avr::timer::TOIE0 } else { 0 };
-            // SAFETY: the compare interrupt's handler, interrupts disabled.
-            unsafe { capture::hold(true) };
+            self.usart.hold_received(true);
             TIMSK0.modify(|bits| bits & !held);
             // SAFETY: nothing an interrupt handler reaches is borrowed here but the slave,
             // which none reaches now (above); they return with interrupts disabled.
@@ -165,8 +164,7 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, c
             // SAFETY: the handler goes on as it began, interrupts disabled.
             unsafe { reg::disable_interrupts() };
             TIMSK0.modify(|bits| bits | held);
-            // SAFETY: interrupts disabled.
-            unsafe { capture::hold(false) };
+            self.usart.hold_received(false);
             bytes
         }
         #[cfg(not(feature = "capture-line"))]

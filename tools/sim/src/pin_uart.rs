@@ -157,7 +157,13 @@ impl Uno {
     /// With [`PinUart::frame`] this makes any character, well formed or not: a wrong parity
     /// bit, a missing stop bit (then the line stays low: end it with a high bit), characters
     /// run together. A glitch or a break is two [`Uno::schedule_pin`] calls.
-    pub fn send_pin_bits(&mut self, pin: impl PinId, uart: PinUart, start_cycle: u64, bits: &[bool]) -> Result<u64, Error> {
+    pub fn send_pin_bits(
+        &mut self,
+        pin: impl PinId,
+        uart: PinUart,
+        start_cycle: u64,
+        bits: &[bool],
+    ) -> Result<u64, Error> {
         let uart = uart.check()?;
         let mut last = None;
         for (k, &level) in (0u32..).zip(bits) {

@@ -195,9 +195,8 @@ impl Uno {
         let mut buf = [ffi::PinEdgeRaw::default(); 256];
         loop {
             // SAFETY: `shim` is valid and exclusively borrowed; `buf` is writable for its length.
-            let n = unsafe {
-                ffi::uno_pin_log_take(self.raw_mut(), letter, c_int::from(bit), buf.as_mut_ptr(), buf.len())
-            };
+            let n =
+                unsafe { ffi::uno_pin_log_take(self.raw_mut(), letter, c_int::from(bit), buf.as_mut_ptr(), buf.len()) };
             let Ok(n) = usize::try_from(n) else {
                 return Err(Error::Internal(format!("uno_pin_log_take(P{port}{bit}) returned {n}")));
             };
