@@ -246,12 +246,13 @@ fn glitches_a_break_and_a_line_held_low_are_never_taken_for_a_frame() {
     line.uno.schedule_pin(line.rx, middle + bit / 4, true).unwrap();
     line.quiet_since = end;
     assert!(line.collect(end).is_empty(), "a request with a flipped bit answered");
-    // The line held low (a cut cable), then released: nothing answered, nothing stuck.
-    let held = line.send_bits(&[false; 1], 0);
-    line.uno.schedule_pin(line.rx, held, false).unwrap();
-    line.uno.run_until(held + us_to_cycles(300_000)).unwrap();
-    line.uno.schedule_pin(line.rx, line.uno.now() + 10, true).unwrap();
-    line.quiet_since = line.uno.now() + 10;
+    // The line held low for 300 ms (a cut cable), then released: nothing answered, nothing
+    // stuck.
+    let low = line.uno.now() + LINE.t35();
+    line.uno.schedule_pin(line.rx, low, false).unwrap();
+    line.uno.schedule_pin(line.rx, low + us_to_cycles(300_000), true).unwrap();
+    line.uno.run_until(low + us_to_cycles(300_000) + 10).unwrap();
+    line.quiet_since = line.uno.now();
     assert!(line.uno.take_pin_uart(line.tx, UART).unwrap().is_empty(), "a line held low answered");
     assert_eq!(line.ask(&read16()).bytes.len(), 37, "the request after the line came back");
 }

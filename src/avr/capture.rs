@@ -136,22 +136,26 @@ struct State {
     /// Bits a character sent takes after its start bit: data, parity and stop bits.
     tx_bits: u8,
     /// The receiver: bits sampled of the character coming in ([`IDLE`] between characters)
-    /// and the time of the next one's middle; the data bits so far (the latest in bit 7),
-    /// the parity of the data and parity bits so far, and the character's damage so far
-    /// ([`FRAMING`] for a missed edge or a low stop bit).
+    /// and the time of the next one's middle; the bits so far, the latest in bit 15; the
+    /// character's damage so far ([`FRAMING`] for a missed edge).
     sampled: u8,
     next_middle: u16,
-    data: u8,
-    ones: u8,
+    shift: u16,
     damage: u8,
     /// A character received and not yet read ([`RECEIVED`]) and its damage, or none: the
     /// USART's UDRn and error flags.
     received: u8,
     received_data: u8,
     /// The role is busy (the slave answering a request with interrupts enabled): characters
-    /// received wait, without the receive event; and one that did, for the role now.
+    /// received wait, without the receive event.
     held: bool,
-    withheld: bool,
+    /// A character received is for the role at the next compare B interrupt.
+    deliver: bool,
+    /// Compare B's flag was up for the last character when an edge after its first stop
+    /// bit's middle completed it and began the next: the match is that character's (its
+    /// sampled bits and damage), not this one's first stop bit.
+    early: bool,
+    early_bits: (u16, u8),
     /// The transmitter: the bits of the character going out still to send (the next in bit
     /// 0) and how many, whether its end is the next match, whether a character is going out.
     frame: u16,
@@ -192,13 +196,14 @@ static STATE: Exclusive<State> = Exclusive(UnsafeCell::new(State {
     tx_bits: 0,
     sampled: 0,
     next_middle: 0,
-    data: 0,
-    ones: 0,
+    shift: 0,
     damage: 0,
     received: 0,
     received_data: 0,
     held: false,
-    withheld: false,
+    deliver: false,
+    early: false,
+    early_bits: (0, 0),
     frame: 0,
     left: 0,
     ending: false,
@@ -278,13 +283,14 @@ pub(crate) fn configure(line: &Line) {
     TIMSK.write(CAPTURE);
 }
 
-/// TIMERn_CAPT: an edge on RX. True when it completed a character, which the role's receive
-/// handler is then to read (unless the role is held: it reads it when it is done).
+/// TIMERn_CAPT: an edge on RX. It calls nothing, so that its handler saves few registers: a
+/// character it completes (it came after the first stop bit's middle, before that
+/// interrupt ran) reaches the role from compare B's interrupt, whose flag is up already.
 ///
 /// # Safety
 /// Only from the capture interrupt handler, interrupts disabled.
 #[inline(always)]
-pub(crate) unsafe fn on_edge() -> bool {
+pub(crate) unsafe fn on_edge() {
     let at = read16(ICR);
     let select = TCCRB.read();
     let rising = select & ICES != 0;
@@ -293,31 +299,43 @@ pub(crate) unsafe fn on_edge() -> bool {
     TIFR.write(CAPTURE);
     let missed = (PIN.read() & RX != 0) != rising && TIFR.read() & CAPTURE == 0;
     // SAFETY: interrupts are disabled (the caller's promise).
-    unsafe { with(|s| s.edge(at, rising, missed)) }
+    unsafe { with(|s| s.edge(at, rising, missed)) };
 }
 
-/// TIMERn_COMPB: the middle of the first stop bit of the character coming in. True when it
-/// completed a character, as [`on_edge`].
+/// TIMERn_COMPB: the middle of the first stop bit of the character coming in, or a character
+/// complete already to hand on (`State::deliver`). True when the role's receive handler is
+/// to read one; `arrived` (the role's silences) has run then.
 ///
 /// # Safety
 /// Only from the compare B interrupt handler, interrupts disabled.
 #[inline(always)]
-pub(crate) unsafe fn on_stop_bit() -> bool {
+pub(crate) unsafe fn on_stop_bit(arrived: impl FnOnce()) -> bool {
     // The line's level now: low while the next edge to catch is a rising one.
     let level = TCCRB.read() & ICES == 0;
+    // A character for the role: its silences count from now, the first thing done (as the
+    // USART's receive interrupt does), before its bits are decoded.
     // SAFETY: interrupts are disabled (the caller's promise).
+    if unsafe { with(|s| (s.early || s.sampled != IDLE || s.deliver) && !s.held) } {
+        arrived();
+    }
+    // SAFETY: as above.
     unsafe {
         with(|s| {
+            if core::mem::take(&mut s.early) {
+                // A match for a character an edge completed; the next one may have begun.
+                s.finish(s.early_bits);
+            } else if s.sampled != IDLE {
+                // Half a turn on: every bit still to sample, the first stop bit's middle
+                // being now.
+                s.sample(s.next_middle.wrapping_add(i16::MAX as u16), level);
+                s.sampled = IDLE;
+                s.finish((s.shift, s.damage));
+            }
+            // Else a character held back while the role was busy (`hold`).
             if s.sampled == IDLE {
-                // A character held back while the role was busy (`hold`), or one that ended
-                // at an edge already (`State::edge`).
                 TIMSK.modify(|bits| bits & !COMPARE_B);
-                return core::mem::take(&mut s.withheld);
             }
-            while s.sampled <= s.stop_index {
-                s.sample(level);
-            }
-            s.finish()
+            core::mem::take(&mut s.deliver)
         })
     }
 }
@@ -448,7 +466,7 @@ pub(crate) unsafe fn hold(on: bool) {
         with(|s| {
             s.held = on;
             if !on && s.received != 0 && s.sampled == IDLE {
-                s.withheld = true;
+                s.deliver = true;
                 write16(OCRB, read16(TCNT).wrapping_add(LEAD));
                 TIFR.write(COMPARE_B);
                 TIMSK.modify(|bits| bits | COMPARE_B);
@@ -460,26 +478,26 @@ pub(crate) unsafe fn hold(on: bool) {
 impl State {
     /// An edge at `at`, rising or falling; `missed` when the line had already moved on.
     #[inline(always)]
-    fn edge(&mut self, at: u16, rising: bool, missed: bool) -> bool {
-        let mut complete = false;
+    fn edge(&mut self, at: u16, rising: bool, missed: bool) {
+        let mut late = false;
         if self.sampled != IDLE {
             // The bits whose middles passed before the edge had the level before it.
-            while self.sampled <= self.stop_index && after(at, self.next_middle) {
-                self.sample(!rising);
-                self.next_middle = self.next_middle.wrapping_add(self.bit);
-            }
-            if self.sampled == 0 && rising {
+            let index = self.sample(at, !rising);
+            if index == 0 && rising {
                 // Back up before the start bit's middle: a glitch, not a start bit (the
                 // USART's receiver checks the start bit at its middle and drops it too).
                 self.idle();
-            } else if self.sampled > self.stop_index {
+            } else if index > self.stop_index {
                 // The edge came after the first stop bit's middle and before its interrupt
-                // ran: the character is complete, and a falling edge starts the next.
-                complete = self.finish();
+                // ran: the character is complete, left to that interrupt, whose flag is up,
+                // and a falling edge starts the next.
+                (self.early, self.early_bits) = (true, (self.shift, self.damage));
+                self.sampled = IDLE;
+                late = true;
             }
         }
         if self.sampled == IDLE && !rising {
-            self.start(at);
+            self.start(at, late);
         }
         if missed {
             self.damage = FRAMING;
@@ -488,42 +506,39 @@ impl State {
             TCCRB.write(if PIN.read() & RX != 0 { select & !ICES } else { select | ICES });
             TIFR.write(CAPTURE);
         }
-        complete
     }
 
-    /// Bit number `sampled` of the character coming in was `level` at its middle: the start
-    /// bit (its level was checked at the edge after it), a data bit, the parity bit, or the
-    /// first stop bit, which must be high.
-    #[inline(never)]
-    fn sample(&mut self, level: bool) {
-        let index = self.sampled;
-        self.sampled = index + 1;
-        if index == 0 {
-            return;
+    /// Samples at `level` the bits of the character coming in whose middles come before
+    /// `until` (all of them, up to the first stop bit, for `until` past its middle), into
+    /// `shift` (the latest in bit 15): one shift a bit, decoded once the character is complete
+    /// (`State::finish`). Returns the next bit's index.
+    #[inline(always)]
+    fn sample(&mut self, until: u16, level: bool) -> u8 {
+        let (mut index, mut shift, mut next) = (self.sampled, self.shift, self.next_middle);
+        let bit = u16::from(level) << 15;
+        while index <= self.stop_index && after(until, next) {
+            shift = (shift >> 1) | bit;
+            index += 1;
+            next = next.wrapping_add(self.bit);
         }
-        if index == self.stop_index {
-            if !level {
-                self.damage |= FRAMING;
-            }
-            return;
-        }
-        self.ones ^= u8::from(level);
-        if index <= self.data_bits {
-            self.data = (self.data >> 1) | (u8::from(level) << 7);
-        }
+        (self.sampled, self.shift, self.next_middle) = (index, shift, next);
+        index
     }
 
     /// A start bit began at `at`: its middle is the first sample, compare B waits for the
-    /// first stop bit's middle.
+    /// first stop bit's middle. `early`: compare B's flag is up for the character before,
+    /// complete, which its interrupt hands on first.
     #[inline(always)]
-    fn start(&mut self, at: u16) {
+    fn start(&mut self, at: u16, early: bool) {
         self.sampled = 0;
-        self.withheld = false;
         self.damage = 0;
-        self.ones = 0;
         self.next_middle = at.wrapping_add(self.bit / 2);
         write16(OCRB, at.wrapping_add(self.stop_middle));
-        TIFR.write(COMPARE_B);
+        if early {
+            self.early = true;
+        } else {
+            TIFR.write(COMPARE_B);
+        }
         TIMSK.modify(|bits| bits | COMPARE_B);
     }
 
@@ -534,22 +549,36 @@ impl State {
         TIMSK.modify(|bits| bits & !COMPARE_B);
     }
 
-    /// The character's bits are all sampled: its data or its damage into the receive buffer
-    /// (an overrun when the last one was not read). True when the role is to read it now.
-    #[inline(never)]
-    fn finish(&mut self) -> bool {
-        self.idle();
-        let mut damage = self.damage;
-        if self.parity != NO_PARITY && self.ones != self.parity {
-            damage |= PARITY;
+    /// A character's bits are all sampled, the first stop bit in bit 15 of `shift`, with the
+    /// damage seen on the way (an edge missed): its data or its damage (that, a low stop bit,
+    /// a parity that does not add up) into the receive buffer (an overrun when the last one
+    /// was not read), for the role now unless it is held.
+    #[inline(always)]
+    fn finish(&mut self, (shift, damage): (u16, u8)) {
+        // Bit 0 the start bit, then the data bits, the parity bit, the first stop bit.
+        let frame = shift >> (15 - self.stop_index);
+        let mut damage = damage;
+        if frame >> self.stop_index & 1 == 0 {
+            damage |= FRAMING;
+        }
+        let data = (frame >> 1) as u8;
+        if self.parity != NO_PARITY {
+            // The data bits and the parity bit after them, folded into bit 0.
+            let bits = (frame >> 1) & !(u16::MAX << (self.data_bits + 1));
+            let mut ones = (bits as u8) ^ ((bits >> 8) as u8);
+            ones ^= ones >> 4;
+            ones ^= ones >> 2;
+            ones ^= ones >> 1;
+            if ones & 1 != self.parity {
+                damage |= PARITY;
+            }
         }
         if self.received != 0 {
             damage = OVERRUN;
         }
         self.received = RECEIVED | damage;
-        // Seven data bits came in at bits 1 to 7.
-        self.received_data = if self.data_bits == 8 { self.data } else { self.data >> 1 };
-        !self.held
+        self.received_data = if self.data_bits == 8 { data } else { data & 0x7F };
+        self.deliver = !self.held;
     }
 
     /// Sends `byte`: its start bit [`LEAD`] ticks from now, the rest from the compare A

@@ -166,30 +166,29 @@ pub mod __private {
         panic!("slave! or master! on TIMERn (pins 8/9 on the Uno) needs avr-modbus's feature `capture-line`")
     }
 
-    /// The capture line's edge interrupt (TIMERn_CAPT): `received` runs when the edge
-    /// completed a character (the role's receive handler, its deadlines first).
+    /// The capture line's edge interrupt (TIMERn_CAPT).
     ///
     /// # Safety
-    /// Only from that interrupt's handler, interrupts disabled; `received` must not enable
-    /// them.
+    /// Only from that interrupt's handler, interrupts disabled.
     #[cfg(feature = "capture-line")]
     #[inline(always)]
-    pub unsafe fn capture_edge(received: impl FnOnce()) {
+    pub unsafe fn capture_edge() {
         // SAFETY: the caller's promise.
-        if unsafe { super::capture::on_edge() } {
-            received();
-        }
+        unsafe { super::capture::on_edge() }
     }
 
-    /// The capture line's first-stop-bit interrupt (TIMERn_COMPB), as [`capture_edge`].
+    /// The capture line's first-stop-bit interrupt (TIMERn_COMPB): when a character is
+    /// complete, `arrived` (its deadlines) first thing, then `received` (the role's receive
+    /// handler).
     ///
     /// # Safety
-    /// As for [`capture_edge`], from TIMERn_COMPB's handler.
+    /// Only from that interrupt's handler, interrupts disabled; `arrived` and `received`
+    /// must not enable them.
     #[cfg(feature = "capture-line")]
     #[inline(always)]
-    pub unsafe fn capture_stop_bit(received: impl FnOnce()) {
+    pub unsafe fn capture_stop_bit(arrived: impl FnOnce(), received: impl FnOnce()) {
         // SAFETY: the caller's promise.
-        if unsafe { super::capture::on_stop_bit() } {
+        if unsafe { super::capture::on_stop_bit(arrived) } {
             received();
         }
     }
@@ -199,7 +198,7 @@ pub mod __private {
     /// `done` when the last character has left the wire (its transmit complete).
     ///
     /// # Safety
-    /// As for [`capture_edge`], from TIMERn_COMPA's handler.
+    /// As for [`capture_stop_bit`], from TIMERn_COMPA's handler.
     #[cfg(feature = "capture-line")]
     #[inline(always)]
     pub unsafe fn capture_transmit(feed: impl FnOnce(), done: impl FnOnce()) {
@@ -412,33 +411,25 @@ macro_rules! __bind_capture {
                 unsafe { super::$name.on_timer_compare() }
             }
 
-            /// A character came in: its deadlines first, then the role's receive handler.
-            /// Once, for both interrupts that complete a character.
-            ///
-            /// # Safety
-            /// From those interrupts' handlers, interrupts disabled.
-            #[inline(never)]
-            unsafe fn received() {
-                // SAFETY: the caller's promise; the role's receive handler does not enable
-                // interrupts.
-                unsafe {
-                    $crate::__private::$arrived();
-                    super::$name.on_usart_rx()
-                }
-            }
-
             /// TIMERn_CAPT: an edge on RX.
             #[export_name = $crate::__chip!(vector $timer CAPT)]
             unsafe extern "avr-interrupt" fn CAPTURE() {
                 // SAFETY: the capture interrupt's handler, interrupts disabled.
-                unsafe { $crate::__private::capture_edge(|| received()) }
+                unsafe { $crate::__private::capture_edge() }
             }
 
-            /// TIMERn_COMPB: the middle of a character's first stop bit.
+            /// TIMERn_COMPB: the middle of a character's first stop bit: the character to
+            /// the role, its deadlines first.
             #[export_name = $crate::__chip!(vector $timer COMPB)]
             unsafe extern "avr-interrupt" fn STOP_BIT() {
-                // SAFETY: as in CAPTURE, from compare B's handler.
-                unsafe { $crate::__private::capture_stop_bit(|| received()) }
+                // SAFETY: compare B's handler, interrupts disabled; the role's receive
+                // handler does not enable them.
+                unsafe {
+                    $crate::__private::capture_stop_bit(
+                        || $crate::__private::$arrived(),
+                        || super::$name.on_usart_rx(),
+                    )
+                }
             }
 
             /// TIMERn_COMPA: TX changed its level, or a character's end.
