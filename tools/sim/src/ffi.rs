@@ -117,13 +117,7 @@ extern "C" {
     pub(crate) fn uno_pin_scheduled(s: *const Shim) -> usize;
     pub(crate) fn uno_pin_level(s: *const Shim, port: c_char, bit: c_int) -> c_int;
     pub(crate) fn uno_pin_log(s: *mut Shim, port: c_char, bit: c_int, level: *mut c_int) -> c_int;
-    pub(crate) fn uno_pin_log_take(
-        s: *mut Shim,
-        port: c_char,
-        bit: c_int,
-        out: *mut PinEdgeRaw,
-        max: usize,
-    ) -> c_long;
+    pub(crate) fn uno_pin_log_take(s: *mut Shim, port: c_char, bit: c_int, out: *mut PinEdgeRaw, max: usize) -> c_long;
     pub(crate) fn uno_adc_set(s: *mut Shim, channel: c_int, millivolts: u32) -> c_int;
     pub(crate) fn uno_set_aref(s: *mut Shim, millivolts: u32);
     pub(crate) fn uno_flash_size(s: *const Shim) -> u32;

@@ -62,10 +62,8 @@ fn edge_select_picks_the_edge_and_the_firmware_turns_it() {
     let (mut uno, base) = started(CLK_8);
     uno.write_symbol("toggle_edge", &[1]).unwrap();
     let edges = falling_edges(&mut uno, base, 4);
-    let both: Vec<(u16, bool)> = edges
-        .iter()
-        .flat_map(|&at| [(count_at(base, at + 3), false), (count_at(base, at + 300 + 3), true)])
-        .collect();
+    let both: Vec<(u16, bool)> =
+        edges.iter().flat_map(|&at| [(count_at(base, at + 3), false), (count_at(base, at + 300 + 3), true)]).collect();
     assert_eq!(captures(&uno), both);
 }
 
