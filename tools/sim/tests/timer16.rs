@@ -172,6 +172,8 @@ fn port_writes_leave_a_connected_oc1a_alone() {
     command(&mut uno, PORT, 0xFF);
     assert!(!uno.pin(TX).unwrap().level, "OC1A, not PORTB1");
     assert!(uno.pin(10).unwrap().level, "pin 10 is a port pin");
+    command(&mut uno, READ, 0);
+    assert_eq!(uno.read_symbol("tx_pins").unwrap()[0] & 0x06, 0x04, "PINB reads OC1A low, PB2 high");
     assert!(uno.take_pin_edges(TX).unwrap().is_empty());
 }
 
