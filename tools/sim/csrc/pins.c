@@ -294,7 +294,6 @@ int pins_schedule(pins_t *p, char port, int bit, uint64_t at, int level)
 
 void pins_after_reset(pins_t *p)
 {
-	avr_t *avr = p->avr;
 	for (int i = 0; i < PINS_PORTS; i++) {
 		pin_port_t *pp = &p->port[i];
 		if (!pp->io)
@@ -310,7 +309,6 @@ void pins_after_reset(pins_t *p)
 			if (pp->ext_mask & (1 << bit))
 				avr_raise_irq(pp->io->io.irq + bit, (pp->ext_value >> bit) & 1);
 	}
-	(void)avr;
 	schedule_arm(p); /* avr_reset dropped every cycle timer */
 }
 
@@ -341,7 +339,7 @@ int pins_level(const pins_t *p, char port, int bit)
 		return -1;
 	const uint8_t *d = p->avr->data;
 	if (d[pp->io->r_ddr] & (1 << bit))
-		return output_level(pp, bit);
+		return pp->io->io.irq[bit].value & 1; /* as parts on the pin and PCINT see it */
 	return (d[pp->io->r_pin] >> bit) & 1;
 }
 

@@ -105,8 +105,8 @@ size_t pins_scheduled(const pins_t *p);
 /* A timer's compare unit owns pin P`port``bit` (`connected`: COMnx != 0) and shows `level`
  * on it (where it is an output) from cycle `at`. */
 void pins_compare_output(pins_t *p, char port, int bit, int connected, int level, uint64_t at);
-/* The level pin P`port``bit` shows: an output's (PORTx or the compare output), an input's
- * PINx. -1 if there is no such pin. */
+/* The level pin P`port``bit` shows: an output's as its IRQ carries it to PCINT and to parts on
+ * the pin (PORTx or the compare output), an input's PINx. -1 if there is no such pin. */
 int pins_level(const pins_t *p, char port, int bit);
 
 /* Logs pin P`port``bit`'s level changes while it is an output; stores the level now. */

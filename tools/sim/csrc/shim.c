@@ -29,6 +29,10 @@
  * restart the core at its reset address (0, or the bootloader's with BOOTRST) with
  * MCUSR telling why, as the chip does, and drop what was on the wire.
  *
+ * The pins (driven from outside at exact cycles, what an output shows, a log of its
+ * changes) are csrc/pins.c's; the timers' compare outputs, input captures and 16-bit
+ * registers, corrected against the datasheet, csrc/timers.c's.
+ *
  * It also adds the AVR's interrupt response time (4 cycles, or 5 with a 3-byte
  * program counter; twice that when waking from sleep), which simavr 1.6 leaves out,
  * and keeps per-vector ISR statistics.

@@ -45,6 +45,30 @@
 //! Arduino pin numbers ([`Uno::pin`]) are the Uno's and work on the 328P and 168 only; every
 //! chip's pins can be named by port and bit ([`Uno::port_pin`]).
 //!
+//! A serial line can also run on plain pins, for a UART a firmware builds from a timer (the
+//! timer's input capture on RX, its compare output on TX, as AltSoftSerial does: Timer1 on the
+//! Uno's pins 8 and 9, Timer3's PC7/PC6 on the 32U4, Timer5's PL1/PL3 on the Megas): levels
+//! scheduled on the RX pin at exact cycles ([`Uno::send_pin_uart`], [`Uno::schedule_pin`]),
+//! the TX pin's level changes logged with their cycles and read back as characters
+//! ([`Uno::watch_pin`], [`Uno::take_pin_uart`]). simavr 1.6's timers are corrected for it
+//! (compare output latch and port override, input capture synchronizer and noise canceller,
+//! TEMP; see `csrc/timers.c`).
+//!
+//! ```no_run
+//! use uno_sim::{Parity, PinUart, Uno};
+//!
+//! let mut uno = Uno::load("soft_uart.elf")?;
+//! uno.run_until(160_000)?; // the firmware sets up Timer1
+//! uno.watch_pin(9)?;
+//! let uart = PinUart::new(19200).parity(Parity::Even);
+//! let end = uno.send_pin_uart(8, b"ping", uart, uno.now() + 1000, 0)?;
+//! uno.run_until(end + 200_000)?;
+//! for reply in uno.take_pin_uart(9, uart)? {
+//!     println!("{:#04x} from cycle {}, parity ok: {}", reply.byte, reply.start_cycle, reply.parity_ok);
+//! }
+//! # Ok::<(), uno_sim::Error>(())
+//! ```
+//!
 //! ```no_run
 //! use uno_sim::{us_to_cycles, Uno};
 //!

@@ -62,7 +62,8 @@ pub const A5: u8 = 19;
 pub struct PinState {
     /// DDR bit set: the firmware drives the pin.
     pub output: bool,
-    /// For an output, the level it drives; for an input, what the firmware reads from PINx.
+    /// For an output, the level it drives (PORTx, or a timer's compare output while COMnx
+    /// connects it); for an input, what the firmware reads from PINx.
     pub level: bool,
     /// Input with the internal pull-up on (DDR bit clear, PORT bit set).
     pub pull_up: bool,
@@ -91,7 +92,8 @@ impl Uno {
 
     /// Drives input pin `pin` high or low from outside (`Some(level)`, e.g. a switch), or
     /// releases it (`None`: reads high if its pull-up is on, else low). Pin-change and external
-    /// interrupts fire as on the chip. Arduino Uno pin numbers, as [`Uno::pin`].
+    /// interrupts fire as on the chip. An output pin keeps showing what the chip drives; the
+    /// outside level shows once it is an input. Arduino Uno pin numbers, as [`Uno::pin`].
     pub fn drive_pin(&mut self, pin: u8, level: Option<bool>) -> Result<(), Error> {
         let (port, bit) = self.uno_port_bit(pin)?;
         self.drive_port_pin(port, bit, level).map_err(|_| Error::BadPin(pin))

@@ -34,8 +34,9 @@ fn falling_edges(uno: &mut Uno, base: u64, count: u64) -> Vec<u64> {
 
 #[test]
 fn capture_stamps_the_count_three_cycles_after_the_edge() {
-    // the synchronizer: 2.5-3.5 system clocks from the pin to the edge detector (§16.6.1
-    // with §17.2's T1 pin sampling); the stamp is the count in the cycle edge + 3
+    // the synchronizer: 2.5-3.5 system clocks from the pin to the edge detector ("Input
+    // Capture Trigger Source", sampled as the T1 pin is in §17); the stamp is the count in
+    // the cycle edge + 3
     let (mut uno, base) = started(CLK_8);
     let edges = falling_edges(&mut uno, base, 16);
     let expected: Vec<(u16, bool)> = edges.iter().map(|&at| (count_at(base, at + 3), false)).collect();
@@ -172,6 +173,8 @@ fn port_writes_leave_a_connected_oc1a_alone() {
     command(&mut uno, PORT, 0xFF);
     assert!(!uno.pin(TX).unwrap().level, "OC1A, not PORTB1");
     assert!(uno.pin(10).unwrap().level, "pin 10 is a port pin");
+    command(&mut uno, READ, 0);
+    assert_eq!(uno.read_symbol("tx_pins").unwrap()[0] & 0x06, 0x04, "PINB reads OC1A low, PB2 high");
     assert!(uno.take_pin_edges(TX).unwrap().is_empty());
 }
 

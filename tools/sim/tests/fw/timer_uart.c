@@ -18,7 +18,8 @@
  *   TX_OUTPUT  DDR of the TX pin = arg (0: input, 1: output)
  *   PORT     the TX pin's PORT register = arg (the whole byte, as a program toggling another
  *            pin of the port would write it)
- *   READ     `tcnt` = TCNTn, then `ocr` = OCRnA (16-bit reads, low byte first)
+ *   READ     `tcnt` = TCNTn, then `ocr` = OCRnA (16-bit reads, low byte first), `tx_pins` =
+ *            the TX pin's PIN register
  *   ECHO     replay every captured edge on TX: the OCnA latch set high (COMnA set, FOCnA)
  *            while TX is an input (its pull-up holding the line high), then TX an output; each
  *            capture schedules its edge `ECHO_TICKS` later (COMnA set or clear, OCRnA), the
@@ -59,6 +60,7 @@
 #define RX_BIT PB0
 #define TX_DDR DDRB
 #define TX_PORT PORTB
+#define TX_PIN PINB
 #define TX_BIT PB1
 #define CAPT_vect TIMER1_CAPT_vect
 #define COMPA_vect TIMER1_COMPA_vect
@@ -67,6 +69,7 @@
 #define RX_BIT PC7
 #define TX_DDR DDRC
 #define TX_PORT PORTC
+#define TX_PIN PINC
 #define TX_BIT PC6
 #define CAPT_vect TIMER3_CAPT_vect
 #define COMPA_vect TIMER3_COMPA_vect
@@ -75,6 +78,7 @@
 #define RX_BIT PL1
 #define TX_DDR DDRL
 #define TX_PORT PORTL
+#define TX_PIN PINL
 #define TX_BIT PL3
 #define CAPT_vect TIMER5_CAPT_vect
 #define COMPA_vect TIMER5_COMPA_vect
@@ -95,7 +99,7 @@ struct capture {
 	uint8_t rising;
 };
 
-volatile uint8_t ready, command, toggle_edge, capture_count;
+volatile uint8_t ready, command, toggle_edge, capture_count, tx_pins;
 volatile uint32_t arg;
 volatile uint16_t tcnt, ocr;
 volatile struct capture captures[CAPTURES];
@@ -175,6 +179,7 @@ static void run(uint8_t cmd, uint32_t a)
 	case READ:
 		tcnt = TCNT;
 		ocr = OCRA;
+		tx_pins = TX_PIN;
 		break;
 	case ECHO:
 		TX_DDR &= ~_BV(TX_BIT);
