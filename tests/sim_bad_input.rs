@@ -167,3 +167,22 @@ fn broadcast_with_an_exception_is_not_answered() {
     // 40011 does not exist: exception 02 for a unicast, silence for a broadcast.
     dropped_then_recovers(uno_slave(), &with_crc(&[0x00, 0x06, 0x00, 0x0A, 0x00, 0x01]), "broadcast FC 06 to 40011");
 }
+
+/// A character received while a long reply goes out (RS-232 is full duplex: a master's echo,
+/// noise), then T3.5 of silence while the reply is still on the wire: the reply ends where it
+/// ends (the silence's end finds no frame and sends nothing), and the next request is
+/// answered.
+#[test]
+fn a_character_received_during_a_long_reply_leaves_the_reply_whole() {
+    let mut rtu = uno_slave();
+    // FC 3 of 10 registers: 25 characters, 14 ms at 19200.
+    let request = read_request(ID, 0x03, 0, 10);
+    let whole = rtu.ask(&request);
+    assert_eq!(whole.len(), 25);
+    let end = rtu.send(&request);
+    // One character 5 ms into the reply: T3.5 (2 ms) passes while the reply goes on.
+    rtu.send_at(&[0x55], end + rtu.line.t35() + 5 * 16_000, 0);
+    let exchange = rtu.receive(end);
+    assert_eq!(exchange.bytes(), whole, "the reply");
+    assert_eq!(rtu.ask(&good_request()), good_reply(), "the next good request");
+}

@@ -258,6 +258,32 @@ fn glitches_a_break_and_a_line_held_low_are_never_taken_for_a_frame() {
 }
 
 #[test]
+fn noise_on_rx_while_the_reply_goes_out_leaves_the_reply_whole() {
+    // RS-232 is full duplex: edges on RX while the slave sends (a master's echo, noise) are
+    // captured beside the transmitter's matches. The reply still goes out whole and on time,
+    // and the next request is answered.
+    let mut line = PinLine::uno(&elf("atmega328p-capture-uno", "sixteen_each_capture"));
+    for round in 0..20u64 {
+        let request = read16();
+        let start = line.quiet_since.max(line.uno.now()) + LINE.t35();
+        let end = line.uno.send_pin_uart(line.rx, &request, UART, start, 0).unwrap();
+        // Short low pulses every 0.37 character through the reply (37 characters).
+        let char_cycles = UART.bit_start(UART.char_bits());
+        for k in 0..100u64 {
+            let at = end + LINE.t35() + k * char_cycles * 37 / 100 + round * 7;
+            line.uno.schedule_pin(line.rx, at, false).unwrap();
+            line.uno.schedule_pin(line.rx, at + 80, true).unwrap();
+        }
+        let reply = line.collect(end);
+        assert_eq!(reply.len(), 37, "round {round}: the reply's characters");
+        let data: Vec<u8> = reply.iter().map(|b| b.byte).collect();
+        assert_eq!(data, registers_reply(ID, 0x03, &[0; 16]), "round {round}");
+        line.quiet_since = reply.last().unwrap().end_cycle.max(end + LINE.t35() + 40 * char_cycles);
+    }
+    assert_eq!(line.ask(&read16()).bytes.len(), 37, "the request after the noise");
+}
+
+#[test]
 fn frames_back_to_back_each_get_their_reply() {
     let mut line = PinLine::uno(&elf("atmega328p-capture-uno", "sixteen_each_capture"));
     // Characters with no idle between them (start bit right after the stop bit), twenty

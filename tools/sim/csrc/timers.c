@@ -329,6 +329,24 @@ static void wide_add(timer_unit_t *u, avr_io_addr_t low, avr_io_addr_t high, int
 	}
 }
 
+/* TIFRn written: each flag written as one is cleared, the others stay (datasheet §16.11.9:
+ * "ICF1 can be cleared by writing a logic one to its bit location", and so OCF1A, OCF1B and
+ * TOV1). simavr 1.6's handler (avr_timer_write_pending) clears every flag of the timer that
+ * is up, whatever is written: a firmware clearing the capture flag lost the compare match
+ * pending beside it, and with it that match's interrupt. */
+static void flags_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
+{
+	avr_timer_t *p = ((timer_unit_t *)param)->timer;
+	avr_int_vector_t *flags[2 + AVR_TIMER_COMP_COUNT] = { &p->overflow, &p->icr };
+	for (int comp = 0; comp < AVR_TIMER_COMP_COUNT; comp++)
+		flags[2 + comp] = &p->comp[comp].interrupt;
+	for (int i = 0; i < 2 + AVR_TIMER_COMP_COUNT; i++) {
+		avr_int_vector_t *flag = flags[i];
+		if (flag->raised.reg == addr && (v & (1 << flag->raised.bit)) && avr_regbit_get(avr, flag->raised))
+			avr_clear_interrupt(avr, flag);
+	}
+}
+
 static void unit_init(timers_t *t, avr_timer_t *p)
 {
 	avr_t *avr = t->avr;
@@ -361,6 +379,11 @@ static void unit_init(timers_t *t, avr_timer_t *p)
 				wide_add(u, p->comp[comp].r_ocr, p->comp[comp].r_ocrh, 0);
 		if (u->ocs) /* TCCRnC follows TCCRnB on every chip here */
 			avr_register_io_write(avr, p->cs[0].reg + 1, force_write, u);
+		/* The 16-bit timers' flags (Timer0's keep simavr's handler, which the crate's
+		 * Timer0 code was written against). */
+		avr_io_addr_t flags = AVR_DATA_TO_IO(p->overflow.raised.reg);
+		avr->io[flags].w.c = flags_write;
+		avr->io[flags].w.param = u;
 	}
 	char port;
 	int bit;
