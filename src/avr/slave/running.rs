@@ -102,12 +102,6 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, c
             return;
         }
         let end = self.engine.on_end_deadline_for(&mut self.model);
-        // No frame of this slave's ended (a silence with no frame: T3.5 after a character
-        // that came in while a reply goes out, on a full-duplex line), or one it drops or
-        // leaves to another slave: nothing to execute, and a reply on its way goes on.
-        if matches!(end, EndOfFrame::Nothing | EndOfFrame::Dropped(_) | EndOfFrame::OtherSlave) {
-            return;
-        }
         // (Never in ASCII framing: its reply delay is 0, `Config::reply_delay_ticks`.)
         #[cfg(feature = "reply-delay")]
         if end == EndOfFrame::Reply && self.reply_delay != 0 {
@@ -128,8 +122,12 @@ impl<M: DataModel, DE: OutputPin, LED: OutputPin, const N: usize, const U: u8, c
         // reply, appends its CRC; the rest of the reply follows its first character from the
         // data-register-empty interrupt.
         let bytes = if cfg!(feature = "capture-line") { self.process_interruptible() } else { self.process() };
-        self.tx_len = self.reply_chars(bytes);
-        if self.tx_len != 0 {
+        // Only a reply sets the length: a silence that ended no frame (T3.5 after a character
+        // that came in while a reply goes out, on a full-duplex line) leaves the reply on
+        // its way as it is.
+        let chars = self.reply_chars(bytes);
+        if chars != 0 {
+            self.tx_len = chars;
             self.usart.start_feeding();
         }
     }
