@@ -117,6 +117,18 @@ impl PinLine {
     }
 }
 
+/// The LRC-checked ASCII frame of `bytes` (`:`, hex, LRC, CR LF), Serial Line v1.02 §2.5.2.
+fn ascii_frame(bytes: &[u8]) -> Vec<u8> {
+    let sum: u32 = bytes.iter().map(|&b| u32::from(b)).sum();
+    let lrc = ((256 - sum % 256) % 256) as u8;
+    let mut text = String::from(":");
+    for b in bytes.iter().copied().chain([lrc]) {
+        text.push_str(&format!("{b:02X}"));
+    }
+    text.push_str("\r\n");
+    text.into_bytes()
+}
+
 /// FC 3 of the contract's 16 holding registers.
 fn read16() -> Vec<u8> {
     read_request(ID, 0x03, 0, 16)
@@ -413,4 +425,87 @@ fn the_uno_gateway_polls_the_field_device_on_pins_8_9() {
     assert_eq!(scada_reads(&mut line), registers_reply(ID, 0x03, &good), "a reply with a bad CRC was taken");
     answer(&mut line, &other, false, 2);
     assert_eq!(scada_reads(&mut line), registers_reply(ID, 0x03, &other), "the next good reply");
+}
+
+/// Every rate and format the line takes, switched at run time: `boards` with the line
+/// settings in EEPROM and ASCII (features `eeprom-settings`, `ascii`) on pins 8/9. The master
+/// writes id, rate, parity, stop bits and mode to 40101–40105; the reply leaves at the old
+/// settings, and the slave answers at the new ones: 38 400 8O1 (a bit is 52 ticks of
+/// Timer1), 1200 8N2 (a character 18 333 ticks, T3.5 32 ms), then ASCII at 9600 7E1.
+#[test]
+fn rates_from_1200_to_38400_parities_stop_bits_and_ascii_on_pins_8_9() {
+    let mut line = PinLine::uno(&elf("atmega328p-capture-settings", "boards"));
+    let mut uart = UART;
+    let mut t35 = LINE.t35();
+    let mut id = ID;
+    // (id, baud/100, parity 0 none 1 odd 2 even, stop bits, mode 0 RTU)
+    for (new_id, baud, parity, stop_bits) in [(7u8, 384u16, 1u16, 1u16), (9, 12, 0, 2)] {
+        let mut write = vec![id, 0x10, 0x00, 0x64, 0x00, 0x04, 0x08];
+        for value in [u16::from(new_id), baud, parity, stop_bits] {
+            write.extend_from_slice(&value.to_be_bytes());
+        }
+        let write = sim::with_crc(&write);
+        let start = line.quiet_since.max(line.uno.now()) + t35;
+        let end = line.uno.send_pin_uart(line.rx, &write, uart, start, 0).unwrap();
+        let reply: Vec<u8> = collect_at(&mut line, end, uart).iter().map(|b| b.byte).collect();
+        assert_eq!(reply, sim::with_crc(&[id, 0x10, 0x00, 0x64, 0x00, 0x04]), "the write's reply, at the old settings");
+        let parity = [Parity::None, Parity::Odd, Parity::Even][usize::from(parity)];
+        uart = PinUart::new(u32::from(baud) * 100).parity(parity).stop_bits(stop_bits as u8);
+        let bits = u64::from(uart.char_bits());
+        t35 =
+            if baud > 192 { us_to_cycles(1750) } else { (35 * bits * 16_000_000).div_ceil(10 * u64::from(baud) * 100) };
+        id = new_id;
+        // Reads and a write at the new settings.
+        for round in 0..3u16 {
+            let write = write_register_request(id, 5, 0x1000 + round);
+            let start = line.quiet_since.max(line.uno.now()) + t35 + us_to_cycles(2_000);
+            let end = line.uno.send_pin_uart(line.rx, &write, uart, start, 0).unwrap();
+            let echo = collect_at(&mut line, end, uart);
+            assert_eq!(echo.iter().map(|b| b.byte).collect::<Vec<_>>(), write, "{baud}00: FC 6");
+            assert!(echo.iter().all(|b| b.parity_ok && b.stop_ok), "{baud}00: characters {echo:?}");
+            assert!(echo[0].start_cycle >= end + t35, "{baud}00: the reply before T3.5");
+            let read = read_request(id, 0x03, 5, 1);
+            let start = line.quiet_since.max(line.uno.now()) + t35 + us_to_cycles(2_000);
+            let end = line.uno.send_pin_uart(line.rx, &read, uart, start, 0).unwrap();
+            let reply: Vec<u8> = collect_at(&mut line, end, uart).iter().map(|b| b.byte).collect();
+            assert_eq!(reply, registers_reply(id, 0x03, &[0x1000 + round]), "{baud}00: FC 3");
+        }
+    }
+    // ASCII at 9600 7E1, id 3.
+    let mut write = vec![id, 0x10, 0x00, 0x64, 0x00, 0x05, 0x0A];
+    for value in [3u16, 96, 2, 1, 1] {
+        write.extend_from_slice(&value.to_be_bytes());
+    }
+    let write = sim::with_crc(&write);
+    let start = line.quiet_since.max(line.uno.now()) + t35;
+    let end = line.uno.send_pin_uart(line.rx, &write, uart, start, 0).unwrap();
+    assert_eq!(collect_at(&mut line, end, uart).len(), 8, "the write's reply, at the old settings");
+    let ascii = PinUart::new(9600).parity(Parity::Even).data_bits(7);
+    let read = ascii_frame(&[3, 0x03, 0x00, 0x05, 0x00, 0x01]);
+    let start = line.uno.now() + us_to_cycles(20_000);
+    let end = line.uno.send_pin_uart(line.rx, &read, ascii, start, 0).unwrap();
+    let reply = collect_at(&mut line, end, ascii);
+    assert!(reply.iter().all(|b| b.parity_ok && b.stop_ok), "ASCII characters {reply:?}");
+    let text: Vec<u8> = reply.iter().map(|b| b.byte).collect();
+    assert_eq!(String::from_utf8_lossy(&text), String::from_utf8_lossy(&ascii_frame(&[3, 0x03, 0x02, 0x10, 0x02])));
+}
+
+/// Runs until the line on `line.tx` has been quiet for 80 ms after `from` (T3.5 and a character at
+/// 1200 bps is 9 ms) and reads it in `uart`'s format.
+fn collect_at(line: &mut PinLine, from: u64, uart: PinUart) -> Vec<DecodedByte> {
+    let mut bytes = Vec::new();
+    let mut last = from;
+    while line.uno.now() < from + us_to_cycles(1_000_000) {
+        line.uno.run_for(us_to_cycles(2_000)).expect("firmware runs");
+        let more = line.uno.take_pin_uart(line.tx, uart).expect("TX decoded");
+        if let Some(b) = more.last() {
+            last = b.end_cycle;
+        }
+        bytes.extend(more);
+        if line.uno.now() > last + us_to_cycles(80_000) {
+            break;
+        }
+    }
+    line.quiet_since = last;
+    bytes
 }

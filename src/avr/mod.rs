@@ -186,12 +186,18 @@ pub mod __private {
     /// must not enable them.
     #[cfg(feature = "capture-line")]
     #[inline(always)]
-    pub unsafe fn capture_stop_bit(arrived: impl FnOnce(), received: impl FnOnce()) {
-        // SAFETY: the caller's promise.
-        if unsafe { super::capture::on_stop_bit(arrived) } {
-            received();
-        }
+    pub unsafe fn capture_stop_bit(unit: u8, arrived: impl FnOnce(), received: impl FnOnce()) {
+        // SAFETY: the caller's promise; the role's receive handler reaches the role and its
+        // unit's deadlines, which no other handler reaches.
+        unsafe { super::capture::on_stop_bit(unit, arrived, received) }
     }
+
+    /// Timer0's compare units' bits in TIMSK0, by the names `__bind_capture!` gets.
+    #[cfg(feature = "capture-line")]
+    pub const TIMER0_COMPA: u8 = 1 << 1;
+    /// See [`TIMER0_COMPA`].
+    #[cfg(feature = "capture-line")]
+    pub const TIMER0_COMPB: u8 = 1 << 2;
 
     /// The capture line's transmit interrupt (TIMERn_COMPA): `feed` runs when the role asked
     /// for the next character and the buffer is empty (the USART's data register empty),
@@ -419,13 +425,14 @@ macro_rules! __bind_capture {
             }
 
             /// TIMERn_COMPB: the middle of a character's first stop bit: the character to
-            /// the role, its deadlines first.
+            /// the role, its deadlines first, the edge interrupt free to run meanwhile.
             #[export_name = $crate::__chip!(vector $timer COMPB)]
             unsafe extern "avr-interrupt" fn STOP_BIT() {
                 // SAFETY: compare B's handler, interrupts disabled; the role's receive
                 // handler does not enable them.
                 unsafe {
                     $crate::__private::capture_stop_bit(
+                        $crate::__private::$compare,
                         || $crate::__private::$arrived(),
                         || super::$name.on_usart_rx(),
                     )

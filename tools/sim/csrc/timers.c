@@ -347,6 +347,27 @@ static void flags_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
 	}
 }
 
+/* TIMSKn written: an interrupt enabled while its flag is up is taken, as on the chip (its flag
+ * requests it whenever the enable bit and I are set). simavr 1.6 queues an interrupt only
+ * when its flag rises while it is enabled, and drops it from the queue if it is masked when
+ * its turn comes: a flag that rose while masked, or was masked before it was served, brought
+ * no interrupt once enabled again (a firmware masking its compare interrupt for a while lost
+ * the match that came meanwhile). */
+static void mask_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
+{
+	avr_timer_t *p = ((timer_unit_t *)param)->timer;
+	avr->data[addr] = v;
+	avr_int_vector_t *flags[2 + AVR_TIMER_COMP_COUNT] = { &p->overflow, &p->icr };
+	for (int comp = 0; comp < AVR_TIMER_COMP_COUNT; comp++)
+		flags[2 + comp] = &p->comp[comp].interrupt;
+	for (int i = 0; i < 2 + AVR_TIMER_COMP_COUNT; i++) {
+		avr_int_vector_t *flag = flags[i];
+		if (flag->enable.reg == addr && !flag->pending && avr_regbit_get(avr, flag->enable) &&
+		    flag->raised.reg && avr_regbit_get(avr, flag->raised))
+			avr_raise_interrupt(avr, flag);
+	}
+}
+
 static void unit_init(timers_t *t, avr_timer_t *p)
 {
 	avr_t *avr = t->avr;
@@ -384,6 +405,7 @@ static void unit_init(timers_t *t, avr_timer_t *p)
 		avr_io_addr_t flags = AVR_DATA_TO_IO(p->overflow.raised.reg);
 		avr->io[flags].w.c = flags_write;
 		avr->io[flags].w.param = u;
+		avr_register_io_write(avr, p->overflow.enable.reg, mask_write, u);
 	}
 	char port;
 	int bit;
