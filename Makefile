@@ -117,7 +117,8 @@ firmware-uno: setup
 # capture): boards and master_boards on the Uno's pins 8/9, the Leonardo's 13/5 and the Mega's
 # 48/46 into target/chips/CHIP-capture/, for the Uno the contract on pins 8/9
 # (sixteen_each_capture) into target/chips/atmega328p-capture-uno/ and the gateway (slave on
-# pins 8/9, master on pins 0/1) into target/chips/atmega328p-capture-gateway/.
+# pins 8/9, master on pins 0/1) into target/chips/atmega328p-capture-gateway/, boards with the
+# line settings in EEPROM and ASCII on pins 8/9 into target/chips/atmega328p-capture-settings/.
 # The chips and USARTs, from chips/chips.txt: CHIP: (the board's pins 0/1), then CHIP:N for
 # each of its other USARTs.
 CHIP_BUILDS := $(shell awk '$$1 == "chip" { chip = $$2; print chip ":" } \
@@ -150,6 +151,7 @@ chips: setup tcp-firmware
 	done
 	@.ci/chip-build atmega328p "" atmega328p-capture-uno examples,capture-line sixteen_each_capture
 	@.ci/chip-build atmega328p "" atmega328p-capture-gateway examples,capture-line,master gateway
+	@.ci/chip-build atmega328p capture atmega328p-capture-settings examples,capture-line,millis,eeprom-settings,ascii boards
 	@export $(EIGHT_MHZ); for chip in atmega328p atmega32u4; do \
 		$(call boards_and_master,$$chip,,$$chip-8mhz,examples$(comma)master,boards master_boards) || exit 1; \
 	done
