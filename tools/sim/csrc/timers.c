@@ -352,7 +352,9 @@ static void flags_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
  * when its flag rises while it is enabled, and drops it from the queue if it is masked when
  * its turn comes: a flag that rose while masked, or was masked before it was served, brought
  * no interrupt once enabled again (a firmware masking its compare interrupt for a while lost
- * the match that came meanwhile). */
+ * the match that came meanwhile: Timer0's compare B masked while the capture line's slave
+ * took a character at 38 400 bps lost a turn of its T3.5, which then ended 1 ms late and
+ * took the next frame for part of the last). */
 static void mask_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
 {
 	avr_timer_t *p = ((timer_unit_t *)param)->timer;
@@ -405,8 +407,11 @@ static void unit_init(timers_t *t, avr_timer_t *p)
 		avr_io_addr_t flags = AVR_DATA_TO_IO(p->overflow.raised.reg);
 		avr->io[flags].w.c = flags_write;
 		avr->io[flags].w.param = u;
-		avr_register_io_write(avr, p->overflow.enable.reg, mask_write, u);
 	}
+	/* Every timer's interrupt mask, Timer0's too: the crate masks a compare unit of Timer0
+	 * while a role's handler runs with interrupts enabled. */
+	if (p->overflow.enable.reg)
+		avr_register_io_write(avr, p->overflow.enable.reg, mask_write, u);
 	char port;
 	int bit;
 	if (!pins_of_regbit(t->pins, p->icp, &port, &bit)) {
