@@ -196,11 +196,12 @@ fn a_frame_with_a_bad_crc_or_a_damaged_character_gets_no_reply() {
     }
     line.send_bits(&bits, us_to_cycles(20_000));
     assert!(line.uno.take_pin_uart(line.tx, UART).unwrap().is_empty(), "a parity error answered");
-    // A missing stop bit (low) on the address: framing error, dropped.
+    // A missing stop bit (low) on the last character, its bits and the CRC right: a
+    // framing error, dropped.
     let mut bits: Vec<bool> = Vec::new();
     for (i, &byte) in request.iter().enumerate() {
         let mut frame = UART.frame(byte);
-        if i == 0 {
+        if i == request.len() - 1 {
             frame[10] = false;
         }
         bits.extend(frame);
