@@ -118,7 +118,8 @@ firmware-uno: setup
 # 48/46 into target/chips/CHIP-capture/, for the Uno the contract on pins 8/9
 # (sixteen_each_capture) into target/chips/atmega328p-capture-uno/ and the gateway (slave on
 # pins 8/9, master on pins 0/1) into target/chips/atmega328p-capture-gateway/, boards with the
-# line settings in EEPROM and ASCII on pins 8/9 into target/chips/atmega328p-capture-settings/.
+# line settings in EEPROM and ASCII on pins 8/9 into target/chips/atmega328p-capture-settings/,
+# and boards on pins 8/9 of an 8 MHz ATmega328P into target/chips/atmega328p-8mhz-capture/.
 # The chips and USARTs, from chips/chips.txt: CHIP: (the board's pins 0/1), then CHIP:N for
 # each of its other USARTs.
 CHIP_BUILDS := $(shell awk '$$1 == "chip" { chip = $$2; print chip ":" } \
@@ -152,6 +153,7 @@ chips: setup tcp-firmware
 	@.ci/chip-build atmega328p "" atmega328p-capture-uno examples,capture-line sixteen_each_capture
 	@.ci/chip-build atmega328p "" atmega328p-capture-gateway examples,capture-line,master gateway
 	@.ci/chip-build atmega328p capture atmega328p-capture-settings examples,capture-line,millis,eeprom-settings,ascii boards
+	@export $(EIGHT_MHZ); .ci/chip-build atmega328p capture atmega328p-8mhz-capture examples,capture-line,master boards
 	@export $(EIGHT_MHZ); for chip in atmega328p atmega32u4; do \
 		$(call boards_and_master,$$chip,,$$chip-8mhz,examples$(comma)master,boards master_boards) || exit 1; \
 	done

@@ -510,3 +510,29 @@ fn collect_at(line: &mut PinLine, from: u64, uart: PinUart) -> Vec<DecodedByte> 
     line.quiet_since = last;
     bytes
 }
+
+/// An 8 MHz board (the Pro Mini 3.3 V, `AVR_CPU_FREQUENCY_HZ=8000000`): `boards` on pins 8/9
+/// at 19200 8E1. The simulated chip runs at 16 MHz, so the firmware runs as on an 8 MHz board
+/// with time going twice as fast: its line is at 38 400 on the simulated wire, each bit 416
+/// cycles, as on a 16 MHz board at 38 400, and its T3.5 (19200's, 16 042 cycles at 8 MHz)
+/// half as long. Every check is in cycles.
+#[test]
+fn an_8_mhz_board_at_19200_on_pins_8_9() {
+    let mut line = PinLine::uno(&elf("atmega328p-8mhz-capture", "boards"));
+    let wire = PinUart::new(38_400).parity(Parity::Even);
+    let t35 = (7 * 11 * 8_000_000u64).div_ceil(2 * 19_200);
+    for round in 0..10u16 {
+        let write = write_register_request(ID, 7, 0x2000 + round);
+        let start = line.quiet_since.max(line.uno.now()) + t35 + 100;
+        let end = line.uno.send_pin_uart(line.rx, &write, wire, start, 0).unwrap();
+        let echo = collect_at(&mut line, end, wire);
+        assert_eq!(echo.iter().map(|b| b.byte).collect::<Vec<_>>(), write, "round {round}: FC 6");
+        assert!(echo[0].start_cycle >= end + t35, "round {round}: the reply before T3.5");
+        let read = read_request(ID, 0x03, 0, 16);
+        let start = line.quiet_since.max(line.uno.now()) + t35 + 100;
+        let end = line.uno.send_pin_uart(line.rx, &read, wire, start, 0).unwrap();
+        let reply = collect_at(&mut line, end, wire);
+        assert_eq!(reply.len(), 37, "round {round}: FC 3");
+        assert!(reply.iter().all(|b| b.parity_ok && b.stop_ok), "round {round}: characters");
+    }
+}
