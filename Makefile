@@ -85,6 +85,7 @@ firmware-uno: setup
 	$(CARGO) uno --examples --features examples
 	$(CARGO) uno --example uno_slave --example dip_switch --example boards --example call_loop --features examples,millis
 	$(CARGO) uno --example ascii --features examples,ascii
+	$(CARGO) uno --example sixteen_each_capture --features examples,capture-line
 	$(CARGO) uno --example configurable --features examples,eeprom-settings,ascii,device-id,reply-delay,$(OPTIONAL)
 	$(CARGO) uno $(addprefix --example ,$(MASTER_EXAMPLES)) --features examples,master
 	$(CARGO) uno --example ascii_master --features examples,master,ascii
