@@ -346,9 +346,7 @@ pub(crate) unsafe fn on_stop_bit(unit: u8, arrived: impl FnOnce(), received: imp
         // The role is busy with interrupts enabled (its slave's request): the character
         // waits for it (`hold`).
         if let Some(bits) = bits {
-            let (data, damage) = format.decode(bits);
-            // SAFETY: as above.
-            unsafe { with(|s| s.store(data, damage)) };
+            format.decode_into_buffer(bits);
         }
         return;
     }
@@ -363,9 +361,7 @@ pub(crate) unsafe fn on_stop_bit(unit: u8, arrived: impl FnOnce(), received: imp
     // not borrowed here, and return with interrupts disabled.
     unsafe { reg::enable_interrupts() };
     if let Some(bits) = bits {
-        let (data, damage) = format.decode(bits);
-        // SAFETY: interrupts disabled for the store, enabled again as they were.
-        reg::free(|| unsafe { with(|s| s.store(data, damage)) });
+        format.decode_into_buffer(bits);
     }
     received();
     // SAFETY: the handler goes on as it began, interrupts disabled.
@@ -384,6 +380,15 @@ struct Format {
 }
 
 impl Format {
+    /// [`Format::decode`], then the character into the receive buffer (`State::store`), in a
+    /// critical section of its own: once in the firmware for both of `on_stop_bit`'s paths.
+    #[inline(never)]
+    fn decode_into_buffer(self, bits: (u16, u8)) {
+        let (data, damage) = self.decode(bits);
+        // SAFETY: interrupts are disabled for the store, and enabled again as they were.
+        super::reg::free(|| unsafe { with(|s| s.store(data, damage)) });
+    }
+
     /// A character's data and damage from its sampled bits (the first stop bit in bit 15 of
     /// `shift`) and the damage seen on the way (an edge missed): that, a low stop bit, a
     /// parity that does not add up.
