@@ -378,6 +378,9 @@ fn the_master_on_pins_8_9_polls_and_takes_only_good_replies() {
 fn the_uno_gateway_polls_the_field_device_on_pins_8_9() {
     let path = elf("atmega328p-capture-gateway", "gateway");
     let mut line = PinLine::uno(&path);
+    // The field line's RS-485 driver enable: pin 13.
+    line.uno.watch_pin(13u8).unwrap();
+    let watched_from = line.uno.now();
     let field = read_request(1, 0x03, 0, 10);
     let answer = |line: &mut PinLine, values: &[u16], damaged: bool, rounds: u32| {
         // Answer the gateway's requests for `rounds` polls: its write of the SCADA's coils
@@ -389,6 +392,17 @@ fn the_uno_gateway_polls_the_field_device_on_pins_8_9() {
             let bytes: Vec<u8> = request.iter().map(|b| b.byte).collect();
             if bytes.is_empty() {
                 continue;
+            }
+            // The driver enabled before the first start bit, released after the last stop
+            // bit (and within 20 µs of it).
+            let de = line.uno.take_pin_edges(13u8).unwrap();
+            let (first, last) = (request[0].start_cycle, request.last().unwrap().end_cycle);
+            if first >= watched_from {
+                assert!(de.iter().any(|&(at, high)| high && at <= first), "DE high before {first}: {de:?}");
+                assert!(
+                    de.iter().any(|&(at, high)| !high && at >= last && at <= last + us_to_cycles(20)),
+                    "DE low after {last}: {de:?}"
+                );
             }
             let reply = if bytes == field {
                 polls += 1;
