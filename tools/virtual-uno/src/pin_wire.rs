@@ -97,13 +97,7 @@ impl fmt::Display for PinsReport {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             PinsReport::Frame { master, uart } => {
-                let parity = match uart.parity {
-                    UnoParity::None => 'N',
-                    UnoParity::Even => 'E',
-                    UnoParity::Odd => 'O',
-                };
-                let (baud, d, s) = (uart.baud, uart.data_bits, uart.stop_bits);
-                write!(f, "the master's {master} is {baud} {d}{parity}{s} on the pins")
+                write!(f, "the master's {master} is {} on the pins", frame_name(uart))
             }
             PinsReport::Unsupported { master } => write!(
                 f,
@@ -112,6 +106,16 @@ impl fmt::Display for PinsReport {
             ),
         }
     }
+}
+
+/// `19200 8E1`.
+fn frame_name(uart: &PinUart) -> String {
+    let parity = match uart.parity {
+        UnoParity::None => 'N',
+        UnoParity::Even => 'E',
+        UnoParity::Odd => 'O',
+    };
+    format!("{} {}{parity}{}", uart.baud, uart.data_bits, uart.stop_bits)
 }
 
 /// Both directions of the wire on two pins, and the pty they serve.
@@ -189,7 +193,7 @@ impl PinWire {
         }
         let master = self.master()?;
         let uart = pin_uart(master, self.hidden);
-        let report = (self.reported != Some(master)).then(|| match uart {
+        let report = (self.reported != Some(master)).then_some(match uart {
             Some(uart) => PinsReport::Frame { master, uart },
             None => PinsReport::Unsupported { master },
         });
@@ -213,7 +217,7 @@ impl PinWire {
         let bytes: Vec<u8> = chars.iter().map(|c| c.byte).collect();
         self.pty.write(&bytes).map_err(|e| format!("writing the pins' pty: {e}"))?;
         self.tx_count += bytes.len() as u64;
-        let troubles: Vec<String> = chars.iter().filter_map(malformed).collect();
+        let troubles: Vec<String> = chars.iter().filter_map(|c| malformed(c, &uart)).collect();
         self.malformed += troubles.len() as u64;
         Ok(troubles)
     }
@@ -238,16 +242,18 @@ fn pin_uart(master: Settings, hidden: HiddenFrame) -> Option<PinUart> {
     (master.baud > 0).then_some(uart)
 }
 
-/// `pin line: the firmware sent 0x12 at 1.234567 s (cycle N) with a bad parity bit`, if it is bad.
-fn malformed(c: &DecodedByte) -> Option<String> {
+/// `pin line: TX sent 0x12 at 1.234567 s (cycle N), read at 19200 8E1 with a bad parity bit`,
+/// if it is bad. The master's settings may be what is wrong (a pty nobody has set is at 38400).
+fn malformed(c: &DecodedByte, uart: &PinUart) -> Option<String> {
     let what = match (c.parity_ok, c.stop_ok) {
         (true, true) => return None,
         (false, true) => "a bad parity bit",
         (true, false) => "its stop bit low",
         (false, false) => "a bad parity bit and its stop bit low",
     };
-    let at = cycles_to_duration(c.start_cycle).as_secs_f64();
-    Some(format!("pin line: the firmware sent 0x{:02x} at {at:.6} s (cycle {}) with {what}", c.byte, c.start_cycle))
+    let (byte, cycle, at) = (c.byte, c.start_cycle, cycles_to_duration(c.start_cycle).as_secs_f64());
+    let frame = frame_name(uart);
+    Some(format!("pin line: TX sent 0x{byte:02x} at {at:.6} s (cycle {cycle}), read at {frame} with {what}"))
 }
 
 #[cfg(test)]
@@ -285,5 +291,19 @@ mod tests {
         assert_eq!(pin_uart(settings(19200, Parity::Mark, 1), HiddenFrame::RTU), None);
         assert_eq!(pin_uart(settings(19200, Parity::Space, 1), HiddenFrame::RTU), None);
         assert_eq!(pin_uart(settings(0, Parity::NoneOrEven, 1), HiddenFrame::RTU), None);
+    }
+
+    #[test]
+    fn a_malformed_character_is_told_with_the_frame_it_was_read_at() {
+        let uart = PinUart::new(19200).parity(UnoParity::Even);
+        let good = DecodedByte { byte: 0x31, start_cycle: 16_000, end_cycle: 25_167, parity_ok: true, stop_ok: true };
+        assert_eq!(malformed(&good, &uart), None);
+        let bad = DecodedByte { parity_ok: false, ..good };
+        let told = "pin line: TX sent 0x31 at 0.001000 s (cycle 16000), read at 19200 8E1 with a bad parity bit";
+        assert_eq!(malformed(&bad, &uart).as_deref(), Some(told));
+        let no_stop = DecodedByte { stop_ok: false, ..good };
+        assert!(malformed(&no_stop, &PinUart::new(38400))
+            .unwrap()
+            .ends_with("read at 38400 8N1 with its stop bit low"));
     }
 }
