@@ -22,7 +22,7 @@ EXAMPLES := $(filter-out $(MEGA_EXAMPLES) $(TCP_EXAMPLES),$(patsubst examples/%.
 FIRMWARE_DIR := target/avr-atmega328p/release/examples
 FIRMWARE := $(addprefix $(FIRMWARE_DIR)/,$(addsuffix .elf,$(EXAMPLES)))
 
-.PHONY: demo-plant tcp-firmware soak-tcp sim-test-uno sim-test-chips clippy-tools help setup bootloaders virtual-boards demo-firmware demos demo-lab demo-tcp firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package readme sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
+.PHONY: demo-plant tcp-firmware capture-firmware soak-tcp sim-test-uno sim-test-chips clippy-tools help setup bootloaders virtual-boards demo-firmware demos demo-lab demo-tcp firmware firmware-uno chips virtual-test matrix-host matrix-avr docs-host docs-avr fixtures package readme sizes lint fmt-check clippy unit check matrix docs sim-test test demo serve interop bench bench-features fuzz soak mutants
 
 help:
 	@echo "Two commands do everything: make demo and make test. Every target:"
@@ -38,6 +38,7 @@ help:
 	@echo "  make firmware    - make firmware-uno, then make chips"
 	@echo "  make firmware-uno - every example for the Uno ($(FIRMWARE_DIR)), with sizes and the firmware check"
 	@echo "  make chips       - the examples for the other chips and USARTs, and the Uno's that make bench sizes, as the avr-hal template builds them (target/chips)"
+	@echo "  make capture-firmware - the Uno's capture-line builds as make chips builds them: boards and master_boards on pins 8/9, the gateway (make interop runs them)"
 	@echo "  make tcp-firmware - the TCP servers as make chips builds them: tcp_server (TCP_BUILDS; and with Modbus UDP, W5100 and W5500), libmodbus_map (libmodbus's unit-test map, W5100)"
 	@echo "  make sizes       - flash and RAM of every firmware (make firmware prints them)"
 	@echo "  make fixtures    - a user's firmware in the template's form for three boards, make package and make readme"
@@ -115,12 +116,12 @@ firmware-uno: setup
 # Pro Mini and Pro Micro 3.3 V) into target/chips/CHIP-8mhz/ and target/chips/CHIP-8mhz-master/:
 # the clock, too, is read by build.rs, so only the crate and the examples rebuild for it.
 # The serial line on a timer's input capture (feature capture-line, AVR_MODBUS_EXAMPLE_USART=
-# capture): boards and master_boards on the Uno's pins 8/9, the Leonardo's 13/5 and the Mega's
-# 48/46 into target/chips/CHIP-capture/, for the Uno the contract on pins 8/9
-# (sixteen_each_capture) into target/chips/atmega328p-capture-uno/ and the gateway (slave on
-# pins 8/9, master on pins 0/1) into target/chips/atmega328p-capture-gateway/, boards with the
-# line settings in EEPROM and ASCII on pins 8/9 into target/chips/atmega328p-capture-settings/,
-# and boards on pins 8/9 of an 8 MHz ATmega328P into target/chips/atmega328p-8mhz-capture/.
+# capture): boards and master_boards on the Leonardo's 13/5 and the Mega's 48/46 into
+# target/chips/CHIP-capture/, for the Uno the contract on pins 8/9 (sixteen_each_capture) into
+# target/chips/atmega328p-capture-uno/, boards with the line settings in EEPROM and ASCII on
+# pins 8/9 into target/chips/atmega328p-capture-settings/ and boards on pins 8/9 of an 8 MHz
+# ATmega328P into target/chips/atmega328p-8mhz-capture/; the Uno's others (boards and
+# master_boards, the gateway) are make capture-firmware's.
 # The chips and USARTs, from chips/chips.txt: CHIP: (the board's pins 0/1), then CHIP:N for
 # each of its other USARTs.
 CHIP_BUILDS := $(shell awk '$$1 == "chip" { chip = $$2; print chip ":" } \
@@ -130,7 +131,7 @@ TEMPLATE_MILLIS_EXAMPLES := uno_slave dip_switch
 TEMPLATE_MASTER_EXAMPLES := poll_holding poll_four master_mirror plc_poller
 # .ci/chip-build into DIR-master, then boards moved from there to DIR.
 boards_and_master = .ci/chip-build $(1) "$(2)" $(3)-master $(4) $(5) && mkdir -p target/chips/$(3)/avr-none/release/examples && mv target/chips/$(3)-master/avr-none/release/examples/boards.elf target/chips/$(3)/avr-none/release/examples/
-chips: setup tcp-firmware
+chips: setup tcp-firmware capture-firmware
 	@for build in $(CHIP_BUILDS); do \
 		chip=$${build%%:*}; usart=$${build##*:}; dir=$$chip$${usart:+-usart$$usart}; \
 		if [ "$$build" = atmega328p: ]; then \
@@ -148,11 +149,10 @@ chips: setup tcp-firmware
 	@.ci/chip-build atmega328p "" atmega328p-millis examples,millis $(TEMPLATE_MILLIS_EXAMPLES)
 	@.ci/chip-build atmega2560 "" atmega2560-gateway examples,master gateway
 	@.ci/chip-build atmega2560 "" atmega2560-two-lines examples,millis two_lines
-	@for chip in atmega328p atmega32u4 atmega2560; do \
+	@for chip in atmega32u4 atmega2560; do \
 		.ci/chip-build $$chip capture $$chip-capture examples,capture-line,master boards master_boards || exit 1; \
 	done
 	@.ci/chip-build atmega328p "" atmega328p-capture-uno examples,capture-line sixteen_each_capture
-	@.ci/chip-build atmega328p "" atmega328p-capture-gateway examples,capture-line,master gateway
 	@.ci/chip-build atmega328p capture atmega328p-capture-settings examples,capture-line,millis,eeprom-settings,ascii boards
 	@export $(EIGHT_MHZ); .ci/chip-build atmega328p capture atmega328p-8mhz-capture examples,capture-line,master boards
 	@export $(EIGHT_MHZ); for chip in atmega328p atmega32u4; do \
@@ -224,6 +224,14 @@ tcp-firmware: setup
 	@.ci/chip-build atmega328p "" atmega328p-tcp-gateway-udp examples,tcp,master,udp tcp_gateway
 	@.ci/sizes $(TCP_FIRMWARE)
 	@.ci/firmware-check $(TCP_FIRMWARE)
+
+# The Uno's serial line on Timer1's input capture (feature capture-line), which make interop
+# runs on the virtual Uno's pins 8/9: boards and master_boards (AVR_MODBUS_EXAMPLE_USART=capture)
+# into target/chips/atmega328p-capture/, and the gateway (its master on pins 8/9, its slave on
+# USART0, pins 0/1) into target/chips/atmega328p-capture-gateway/.
+capture-firmware: setup
+	@.ci/chip-build atmega328p capture atmega328p-capture examples,capture-line,master boards master_boards
+	@.ci/chip-build atmega328p "" atmega328p-capture-gateway examples,capture-line,master gateway
 
 # A user's firmware in the avr-hal template's form (fixtures/), outside the workspace, built
 # against avr-device 0.8.1 (arduino-hal's) and 0.9, for three of the template's boards as it
@@ -316,7 +324,7 @@ clippy: clippy-tools
 # The tools (the simulator, the virtual Uno, the bench), their tests included.
 clippy-tools: setup
 	$(CARGO) clippy --workspace --exclude avr-modbus --all-targets -- -D warnings
-	$(CARGO) clippy -p virtual-uno --test interop --test interop_tcp --test interop_gateway --test interop_tcp_client --test interop_udp --test interop_tcp_health --test interop_two_ports -- -D warnings # test = false: not in --all-targets
+	$(CARGO) clippy -p virtual-uno --test interop --test interop_tcp --test interop_gateway --test interop_tcp_client --test interop_udp --test interop_tcp_health --test interop_two_ports --test interop_capture -- -D warnings # test = false: not in --all-targets
 
 # The feature sets the crate's host tests run under (.ci/host-test: a test target runs under
 # each set that has the features it declares in Cargo.toml and gives the features its source
@@ -498,9 +506,11 @@ serve: $(if $(and $(filter atmega328p,$(SERVE_CHIP)),$(if $(SERVE_TCP_SERVER),,y
 # pymodbus's serial server, a slave switched off, 0A, 0B, clients gone mid-request).
 # then the firmware's TCP client against pymodbus's TCP server and libmodbus's unit-test-server (interop_tcp_client);
 # then Modbus UDP (feature udp) on the virtual shields (interop_udp: pymodbus's UDP client, clients at once, a raw socket).
-# then one model on two ports (interop_two_ports: mbpoll on the serial line and pymodbus over TCP at once, examples/tcp_rtu.rs).
+# then one model on two ports (interop_two_ports: mbpoll on the serial line and pymodbus over TCP at once, examples/tcp_rtu.rs);
+# then the serial line on Timer1's input capture, on the virtual Uno's pins 8/9 (interop_capture: mbpoll and pymodbus against
+# boards, the Uno gateway with pymodbus's serial server as its field device).
 TCP_CONNECTIONS ?= 100
-interop: firmware-uno bootloaders tcp-firmware
+interop: firmware-uno bootloaders tcp-firmware capture-firmware
 	$(CARGO) test -p virtual-uno --test interop -- --nocapture --test-threads=1
 	TCP_CONNECTIONS=$(TCP_CONNECTIONS) $(CARGO) test -p virtual-uno --test interop_tcp -- --nocapture --test-threads=1
 	$(CARGO) test -p virtual-uno --test interop_gateway -- --nocapture --test-threads=1
@@ -508,6 +518,7 @@ interop: firmware-uno bootloaders tcp-firmware
 	$(CARGO) test -p virtual-uno --test interop_udp -- --nocapture --test-threads=1
 	$(CARGO) test -p virtual-uno --test interop_tcp_health -- --nocapture --test-threads=1
 	$(CARGO) test -p virtual-uno --test interop_two_ports -- --nocapture --test-threads=1
+	$(CARGO) test -p virtual-uno --test interop_capture -- --nocapture --test-threads=1
 
 # SOAK_TCP_CONNECTIONS one-shot `mbpoll -m tcp -1` connections to tcp_server (W5100) on the virtual
 # Uno, each answered, none refused (~10 min for 10000); the firmware's counters read at the end.

@@ -4,14 +4,18 @@
 Every function code the slave supports (01 02 03 04 05 06 15 16), exceptions 01, 02 and 03,
 a broadcast write read back afterwards, then N back-to-back reads with the answer rate.
 
-    pymodbus_check.py PORT [--board uno_slave|dip_switch|ascii|configurable|units] [--baud 19200]
+    pymodbus_check.py PORT [--board uno_slave|dip_switch|ascii|configurable|units|boards] [--baud 19200]
                       [--parity E] [--stop 1] [--control FIFO] [--preset N] [--reads 1000]
+                      [--rounds 40]
 
 --board ascii talks Modbus ASCII (pymodbus's ASCII framer, 7 data bits) to examples/ascii.rs.
 --board configurable reads examples/configurable.rs's settings block and its device
 identification (FC 43 / MEI 14, every read device id code, exceptions 02 and 03).
 --board units polls examples/units.rs's four slave ids (1-4) one after the other, writes each
 and all of them at once (a broadcast), and checks that id 5 does not answer.
+--board boards polls the peers' contract map of examples/boards.rs (on the virtual Uno's pins
+8/9 with `--pins 8,9`: its capture-line build); --rounds N then writes and reads back N times
+(FC 16, 03, 06, 03, 05, 15, 01, 04: eight requests a round) and prints the requests and errors.
 
 --control is the virtual Uno's command FIFO: the uno_slave checks close a switch and turn a
 potentiometer through it. Prints one line per step; exits 1 if any step went wrong.
@@ -129,6 +133,56 @@ def units(client, args):
     # Last: pymodbus 3.0 reopens the port after a timeout, which a pty refuses at parity E.
     step("slave 5: FC04 read 30001 (no such slave)", exception_or_silence(client.read_input_registers(0, 1, slave=5)),
          "no answer")
+
+
+def contract_boards(client, args):
+    """The peers' contract map (examples/boards.rs): 16 coils, 16 inputs, 8 input and 16 holding
+    registers, 30001 counting seconds; then --rounds rounds of writes, each read back."""
+    step("FC01 read coils 00001-00016", values(client.read_coils(0, 16, slave=1), "bits", 16), [0] * 16)
+    step("FC02 read discrete inputs 10001-10016", values(client.read_discrete_inputs(0, 16, slave=1), "bits", 16),
+         [0] * 16)
+    regs = values(client.read_input_registers(0, 8, slave=1), "registers", 8)
+    step("FC04 read 30002-30008 (30001 counts seconds)", regs[1:] if isinstance(regs, list) else regs, [0] * 7)
+    step("FC03 read 40001-40016", values(client.read_holding_registers(0, 16, slave=1), "registers", 16), [0] * 16)
+    common_exceptions_and_broadcast(client, holding=16)
+    requests = errors = 0
+    seconds = 0
+    start = time.monotonic()
+    for r in range(args.rounds):
+        block = [(r * 16 + i) * 257 & 0xFFFF for i in range(16)]
+        one, coil = r % 16, r % 2 == 0
+        pattern = [bool(r >> i & 1) for i in range(16)]
+        checks = [
+            ("FC16 40001-40016", lambda: exception_or_ok(client.write_registers(0, block, slave=1)), "ok"),
+            ("FC03 40001-40016", lambda: values(client.read_holding_registers(0, 16, slave=1), "registers", 16),
+             block),
+            (f"FC06 {40001 + one}", lambda: exception_or_ok(client.write_register(one, 50000 + r, slave=1)), "ok"),
+            (f"FC03 {40001 + one}", lambda: values(client.read_holding_registers(one, 1, slave=1), "registers", 1),
+             [50000 + r]),
+            ("FC15 00001-00016", lambda: exception_or_ok(client.write_coils(0, pattern, slave=1)), "ok"),
+            (f"FC05 {1 + one:05d}", lambda: exception_or_ok(client.write_coil(one, coil, slave=1)), "ok"),
+            ("FC01 00001-00016", lambda: values(client.read_coils(0, 16, slave=1), "bits", 16),
+             [int(coil) if i == one else int(b) for i, b in enumerate(pattern)]),
+        ]
+        for name, ask, want in checks:
+            requests += 1
+            got = ask()
+            if got != want:
+                errors += 1
+                print(f"FAIL round {r}: {name}: {got} (expected {want})", flush=True)
+        requests += 1
+        now = values(client.read_input_registers(0, 1, slave=1), "registers", 1)
+        if not isinstance(now, list) or now[0] < seconds:
+            errors += 1
+            print(f"FAIL round {r}: FC04 30001: {now} (seconds were {seconds})", flush=True)
+        else:
+            seconds = now[0]
+    took = time.monotonic() - start
+    if args.rounds:
+        print(f"{'ok  ' if errors == 0 else 'FAIL'} {args.rounds} rounds: {requests} requests, {errors} errors "
+              f"in {took:.1f} s ({1000.0 * took / requests:.1f} ms each); 30001 at {seconds} s", flush=True)
+    if errors:
+        FAILED.append("rounds")
 
 
 def exception_or_silence(response):
@@ -282,13 +336,14 @@ def back_to_back(client, reads):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("port")
-    parser.add_argument("--board", default="uno_slave", choices=["uno_slave", "dip_switch", "ascii", "configurable", "units"])
+    parser.add_argument("--board", default="uno_slave", choices=["uno_slave", "dip_switch", "ascii", "configurable", "units", "boards"])
     parser.add_argument("--baud", type=int, default=19200)
     parser.add_argument("--parity", default="E", choices=["N", "E", "O"])
     parser.add_argument("--stop", type=int, default=1, choices=[1, 2])
     parser.add_argument("--control")
     parser.add_argument("--preset", type=int, default=0)
     parser.add_argument("--reads", type=int, default=0)
+    parser.add_argument("--rounds", type=int, default=0)
     args = parser.parse_args()
 
     # Modbus ASCII: pymodbus's ASCII framer and the spec's 7 data bits (a Linux pty passes
@@ -305,9 +360,9 @@ def main():
     print(f"pymodbus: {args.port} at {args.baud} {bytesize}{args.parity}{args.stop}, slave 1"
           f"{', ASCII' if ascii else ''}", flush=True)
     try:
-        boards = {"uno_slave": uno_slave, "dip_switch": dip_switch, "ascii": ascii_board, "configurable": configurable,
-                  "units": units}
-        boards[args.board](client, args)
+        checks = {"uno_slave": uno_slave, "dip_switch": dip_switch, "ascii": ascii_board, "configurable": configurable,
+                  "units": units, "boards": contract_boards}
+        checks[args.board](client, args)
         if args.reads:
             back_to_back(client, args.reads)
     finally:

@@ -51,6 +51,12 @@
  *    byte (TCNTn, ICRn); the low byte's write copies TEMP into the high byte. Modelled here,
  *    so a firmware writing the low byte first, or letting an interrupt touch another 16-bit
  *    register between the two writes, fails as on the chip. (OCRnx reads do not use TEMP.)
+ * 4. TIFRn writes. On the chip a flag is cleared by writing a one to its bit, and a zero
+ *    leaves it (§16.11.9). simavr 1.6 loses every flag that is up but written zero, and its
+ *    interrupt with it: a program clearing ICF1 alone (`TIFR1 = 1 << ICF1`, as a capture
+ *    handler does after turning ICES1) dropped a compare match B waiting behind the capture
+ *    interrupt. Here a write clears the flags written one, each with its pending interrupt,
+ *    and nothing else.
  *
  * Left as simavr has it: FOC0x/FOC2x (the 8-bit timers); two compare units on one pin (the
  * Mega's PB7, OC0A and OC1C, whose modulator is not modelled: the last change shows); the
@@ -329,22 +335,31 @@ static void wide_add(timer_unit_t *u, avr_io_addr_t low, avr_io_addr_t high, int
 	}
 }
 
-/* TIFRn written: each flag written as one is cleared, the others stay (datasheet §16.11.9:
- * "ICF1 can be cleared by writing a logic one to its bit location", and so OCF1A, OCF1B and
- * TOV1). simavr 1.6's handler (avr_timer_write_pending) clears every flag of the timer that
- * is up, whatever is written: a firmware clearing the capture flag lost the compare match
- * pending beside it, and with it that match's interrupt. */
+/* The flags of every timer whose flag register is at `addr`: overflow, capture, compares. */
+static int flag_vectors(timers_t *t, avr_io_addr_t addr, avr_int_vector_t **out)
+{
+	int n = 0;
+	for (int i = 0; i < t->units; i++) {
+		avr_timer_t *p = t->unit[i].timer;
+		avr_int_vector_t *all[2 + AVR_TIMER_COMP_COUNT] = { &p->overflow, &p->icr };
+		for (int comp = 0; comp < AVR_TIMER_COMP_COUNT; comp++)
+			all[2 + comp] = &p->comp[comp].interrupt;
+		for (int k = 0; k < 2 + AVR_TIMER_COMP_COUNT; k++)
+			if (all[k]->raised.reg == addr && all[k]->raised.mask)
+				out[n++] = all[k];
+	}
+	return n;
+}
+
+/* TIFRn written: each flag written one is cleared with its pending interrupt; the others stay
+ * (simavr's handler is not called: it loses them). */
 static void flags_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
 {
-	avr_timer_t *p = ((timer_unit_t *)param)->timer;
-	avr_int_vector_t *flags[2 + AVR_TIMER_COMP_COUNT] = { &p->overflow, &p->icr };
-	for (int comp = 0; comp < AVR_TIMER_COMP_COUNT; comp++)
-		flags[2 + comp] = &p->comp[comp].interrupt;
-	for (int i = 0; i < 2 + AVR_TIMER_COMP_COUNT; i++) {
-		avr_int_vector_t *flag = flags[i];
-		if (flag->raised.reg == addr && (v & (1 << flag->raised.bit)) && avr_regbit_get(avr, flag->raised))
-			avr_clear_interrupt(avr, flag);
-	}
+	avr_int_vector_t *vectors[TIMERS * (2 + AVR_TIMER_COMP_COUNT)];
+	int n = flag_vectors(param, addr, vectors);
+	for (int i = 0; i < n; i++)
+		if (avr_regbit_from_value(avr, vectors[i]->raised, v))
+			avr_clear_interrupt(avr, vectors[i]);
 }
 
 /* TIMSKn written: an interrupt enabled while its flag is up is taken, as on the chip (its flag
@@ -402,11 +417,6 @@ static void unit_init(timers_t *t, avr_timer_t *p)
 				wide_add(u, p->comp[comp].r_ocr, p->comp[comp].r_ocrh, 0);
 		if (u->ocs) /* TCCRnC follows TCCRnB on every chip here */
 			avr_register_io_write(avr, p->cs[0].reg + 1, force_write, u);
-		/* The 16-bit timers' flags (Timer0's keep simavr's handler, which the crate's
-		 * Timer0 code was written against). */
-		avr_io_addr_t flags = AVR_DATA_TO_IO(p->overflow.raised.reg);
-		avr->io[flags].w.c = flags_write;
-		avr->io[flags].w.param = u;
 	}
 	/* Every timer's interrupt mask, Timer0's too: the crate masks a compare unit of Timer0
 	 * while a role's handler runs with interrupts enabled. */
@@ -430,6 +440,13 @@ void timers_init(timers_t *t, avr_t *avr, pins_t *pins)
 	for (avr_io_t *io = avr->io_port; io && t->units < TIMERS; io = io->next)
 		if (!strcmp(io->kind, "timer"))
 			unit_init(t, (avr_timer_t *)io);
+	for (int i = 0; i < t->units; i++) {
+		avr_io_addr_t tifr = t->unit[i].timer->overflow.raised.reg;
+		if (tifr) {
+			avr->io[AVR_DATA_TO_IO(tifr)].w.c = flags_write;
+			avr->io[AVR_DATA_TO_IO(tifr)].w.param = t;
+		}
+	}
 	timers_after_reset(t);
 }
 

@@ -265,7 +265,7 @@ mod tests {
         let frame = EVEN_19200.frame(0x31);
         assert_eq!(frame, [false, true, false, false, false, true, true, false, false, true, true]);
         assert_eq!(PinUart::new(9600).stop_bits(2).frame(0).len(), 11);
-        assert!(!PinUart::new(9600).parity(Parity::Odd).frame(0x31)[9], "odd parity: three ones, bit 0");
+        assert!(!PinUart::new(9600).parity(Parity::Odd).frame(0x31)[9], "odd parity of three ones is 0");
     }
 
     #[test]

@@ -6,7 +6,7 @@
 mod common;
 
 use common::timer_uart::*;
-use uno_sim::{Chip, Uno};
+use uno_sim::{Chip, Options, Uno};
 
 /// Pin 8 (ICP1) and pin 9 (OC1A).
 const RX: u8 = 8;
@@ -243,4 +243,37 @@ fn ocr1a_takes_its_high_byte_through_temp() {
     assert_eq!(ocr, at);
     uno.run_for(200 * TICK).unwrap();
     assert_eq!(uno.take_pin_edges(TX).unwrap(), [(match_after(base, at, written), false)]);
+}
+
+/// TIFR1's OCF1B flag.
+const OCF1B: u8 = 0x04;
+
+#[test]
+fn writing_one_to_icf1_leaves_the_compare_flags_up() {
+    // "OCF1B can be cleared by writing a logic one to its bit location" (§16.11.9): a zero
+    // written leaves a flag as it is. A capture handler clears ICF1 alone after turning the
+    // edge select, while a compare match B may wait behind its interrupt.
+    let program: [u16; 14] = [
+        0xE002, // ldi r16, 0x02
+        0x9300, 0x0081, // sts TCCR1B, r16: clk/8, the capture on a falling edge
+        0xE000, // ldi r16, 0
+        0x9300, 0x008B, // sts OCR1BH, r16
+        0xE100, // ldi r16, 16
+        0x9300, 0x008A, // sts OCR1BL, r16: compare B matches 16 ticks on (OCR1A = 0 at once)
+        0x9BB5, // wait: sbis TIFR1, ICF1
+        0xCFFE, // rjmp wait
+        0xE220, // ldi r18, 0x20: ICF1
+        0xBB26, // out TIFR1, r18
+        0xCFFF, // rjmp .
+    ];
+    let mut uno = Uno::erased(Options::new()).unwrap();
+    uno.write_flash(0, &program.iter().flat_map(|w| w.to_le_bytes()).collect::<Vec<u8>>()).unwrap();
+    uno.drive_pin(RX, Some(true)).unwrap();
+    uno.run_until(3_000).unwrap();
+    let flags = uno.read_ram(TIFR1, 1).unwrap()[0];
+    assert_eq!(flags, OCF1A | OCF1B, "both compare units matched, no edge yet");
+    uno.schedule_pin(RX, 4_000, false).unwrap();
+    uno.run_until(4_100).unwrap();
+    assert_eq!(uno.pc(), 13 * 2, "ICF1 seen and written");
+    assert_eq!(uno.read_ram(TIFR1, 1).unwrap()[0], OCF1A | OCF1B, "ICF1 cleared, the compare flags kept");
 }

@@ -6,6 +6,7 @@ use uno_sim::wiznet::Mapping;
 use uno_sim::{Chip, Wiznet};
 
 use crate::control::Command;
+use crate::pin_wire::{HiddenFrame, PinName};
 
 /// Usage text for `--help` and errors.
 pub const USAGE: &str = "\
@@ -53,6 +54,14 @@ options:
   --dhcp LEASE     play the network's DHCP server: a DHCP firmware (feature `dhcp`) gets
                    192.168.50.23/24 for LEASE seconds, renewed as it asks; printed as
                    `dhcp: DISCOVER to 255.255.255.255:67, answered OFFER 192.168.50.23`
+  --pins RX,TX     a serial line on two pins, on a pty of its own (printed as `pin line:`):
+                   a UART the firmware builds from a timer (feature capture-line: 8,9 on
+                   the Uno, PL1,PL3 on the Mega, PC7,PC6 on the Leonardo). Pins are Uno
+                   numbers or port pins (PB0). The master's bytes reach RX at its termios
+                   rate, stop bits and odd parity; TX is read at the same settings
+  --pins-link PATH make PATH a symlink to the pins' pty, e.g. /tmp/ttyPINS
+  --pins-frame F   what a pty hides of the master's frame, its data bits and even parity
+                   (it shows 8N1 for 8E1 and 7E1): 8E (default, Modbus RTU), 8N, 7E or 7N
   --messages       print each Modbus TCP (and UDP) request and answer through the bridge (connection,
                    transaction id, unit id, function code, the bytes)
   -h, --help       this text
@@ -109,6 +118,12 @@ pub struct Args {
     pub messages: bool,
     /// `--dhcp`: the lease, seconds.
     pub dhcp: Option<u32>,
+    /// `--pins`: RX and TX.
+    pub pins: Option<(PinName, PinName)>,
+    /// `--pins-link`.
+    pub pins_link: Option<PathBuf>,
+    /// `--pins-frame`, else Modbus RTU's 8E.
+    pub pins_frame: HiddenFrame,
 }
 
 /// The pins watched when `--watch` is not given: the Uno's LED and pins 2-5, on the chips
@@ -142,7 +157,11 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
         udp: Vec::new(),
         messages: false,
         dhcp: None,
+        pins: None,
+        pins_link: None,
+        pins_frame: HiddenFrame::RTU,
     };
+    let mut pins_frame = None;
     let mut elf = None;
     while let Some(word) = words.next() {
         let mut value = || words.next().ok_or_else(|| Some(format!("{word} needs a value")));
@@ -160,7 +179,14 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
             "--state" => args.state = Some(value()?.into()),
             "--watch" => args.watch = Some(parse_watch(&value()?).map_err(Some)?),
             "--wiznet" => args.wiznet = Some(value()?.parse::<Wiznet>().map_err(|e| Some(format!("--wiznet: {e}")))?),
-            "--cs" => args.cs = Some(parse_cs(&value()?).map_err(Some)?),
+            "--cs" => {
+                let text = value()?;
+                args.cs =
+                    Some(parse_port_pin(&text).ok_or_else(|| Some(format!("--cs: `{text}` is no pin such as PB2")))?);
+            }
+            "--pins" => args.pins = Some(parse_pins(&value()?).map_err(Some)?),
+            "--pins-link" => args.pins_link = Some(value()?.into()),
+            "--pins-frame" => pins_frame = Some(value()?.parse::<HiddenFrame>().map_err(Some)?),
             "--messages" => args.messages = true,
             "--tcp" => args.tcp.push(value()?.parse::<Mapping>().map_err(|e| Some(format!("--tcp: {e}")))?),
             "--connect" => args.connect.push(value()?.parse::<Mapping>().map_err(|e| Some(format!("--connect: {e}")))?),
@@ -181,6 +207,10 @@ pub fn parse(mut words: impl Iterator<Item = String>) -> Result<Args, Option<Str
     if args.messages && !bridged {
         return Err(Some("--messages needs a bridge: --tcp 502:1502, --connect 502:1502 or --udp 502:1502".to_owned()));
     }
+    if args.pins.is_none() && (args.pins_link.is_some() || pins_frame.is_some()) {
+        return Err(Some("--pins-link and --pins-frame need a line on two pins: --pins 8,9".to_owned()));
+    }
+    args.pins_frame = pins_frame.unwrap_or(HiddenFrame::RTU);
     args.elf = elf;
     args.auto_reset &= args.bootloader.is_some();
     Ok(args)
@@ -191,13 +221,29 @@ fn parse_usart(text: &str) -> Result<u8, String> {
 }
 
 /// `PB4` (or `B4`): port letter and bit.
-fn parse_cs(text: &str) -> Result<(char, u8), String> {
+fn parse_port_pin(text: &str) -> Option<(char, u8)> {
     let t = text.trim().to_ascii_uppercase();
     let t = t.strip_prefix('P').unwrap_or(&t);
     let mut chars = t.chars();
     match (chars.next(), chars.as_str().parse::<u8>()) {
-        (Some(port @ 'A'..='L'), Ok(bit)) if bit < 8 => Ok((port, bit)),
-        _ => Err(format!("--cs: `{text}` is no pin such as PB2")),
+        (Some(port @ 'A'..='L'), Ok(bit)) if bit < 8 => Some((port, bit)),
+        _ => None,
+    }
+}
+
+/// `8,9` or `PL1,PL3`: the RX and TX pins of `--pins`.
+fn parse_pins(text: &str) -> Result<(PinName, PinName), String> {
+    let pin = |p: &str| match p.trim().parse::<u8>() {
+        Ok(n) if n <= 19 => Some(PinName::Uno(n)),
+        Ok(_) => None,
+        Err(_) => parse_port_pin(p).map(|(port, bit)| PinName::Port(port, bit)),
+    };
+    match text.split_once(',') {
+        Some((rx, tx)) => match (pin(rx), pin(tx)) {
+            (Some(rx), Some(tx)) if rx != tx => Ok((rx, tx)),
+            _ => Err(format!("--pins: `{text}` is not two pins RX,TX such as 8,9 or PL1,PL3")),
+        },
+        None => Err(format!("--pins: `{text}` is not two pins RX,TX such as 8,9 or PL1,PL3")),
     }
 }
 
@@ -269,6 +315,25 @@ mod tests {
         let a = parse(words("--wiznet w5100 --udp 502:1502 --messages fw.elf")).unwrap();
         assert_eq!((a.udp[0], a.messages), (Mapping { chip_port: 502, host_port: 1502 }, true));
         assert!(parse(words("--udp 502:1502 fw.elf")).unwrap_err().unwrap().contains("need a shield"));
+    }
+
+    #[test]
+    fn a_line_on_two_pins_with_its_own_pty() {
+        let a = parse(words("--link /tmp/ttyUNO --pins 8,9 --pins-link /tmp/ttyPINS gateway.elf")).unwrap();
+        assert_eq!(a.pins, Some((PinName::Uno(8), PinName::Uno(9))));
+        assert_eq!(a.pins_link, Some(PathBuf::from("/tmp/ttyPINS")));
+        assert_eq!(a.pins_frame, HiddenFrame::RTU);
+        let a = parse(words("--pins PL1,pl3 --pins-frame 7E fw.elf")).unwrap();
+        assert_eq!(a.pins, Some((PinName::Port('L', 1), PinName::Port('L', 3))));
+        assert_eq!(a.pins_frame, HiddenFrame { data_bits: 7, parity: uno_sim::Parity::Even });
+        assert_eq!(parse(words("fw.elf")).unwrap().pins, None);
+        for bad in ["8", "8,8", "8,20", "8,PM0", "8,9,10"] {
+            let msg = parse(words(&format!("--pins {bad} fw.elf"))).unwrap_err().unwrap();
+            assert!(msg.contains(&format!("`{bad}`")), "{bad}: {msg}");
+        }
+        assert!(parse(words("--pins-link /tmp/ttyPINS fw.elf")).unwrap_err().unwrap().contains("--pins 8,9"));
+        assert!(parse(words("--pins-frame 8N fw.elf")).unwrap_err().unwrap().contains("--pins 8,9"));
+        assert!(parse(words("--pins 8,9 --pins-frame 8O fw.elf")).unwrap_err().unwrap().contains("8O"));
     }
 
     #[test]

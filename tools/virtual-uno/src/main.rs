@@ -12,6 +12,14 @@
 //! mbpoll -m rtu -b 19200 -P even -a 1 -t 3 -c 5 -1 /tmp/ttyUNO
 //! ```
 //!
+//! With `--pins 8,9` a second pty carries a serial line on two pins (see `pin_wire`): a
+//! firmware's timer UART (feature `capture-line`), beside USART0 on the first, as the Uno
+//! gateway has them:
+//!
+//! ```text
+//! virtual-uno --link /tmp/ttyUNO --pins 8,9 --pins-link /tmp/ttyFIELD gateway.elf
+//! ```
+//!
 //! With `--bootloader` it is a whole board, flashed through its port like a real one (see
 //! `dtr` for the auto-reset and `state` for the flash and EEPROM kept in files):
 //!
@@ -28,6 +36,7 @@ mod line;
 mod mbap;
 mod net;
 mod pace;
+mod pin_wire;
 mod pty;
 mod state;
 mod wire;
@@ -49,6 +58,7 @@ use dtr::Dtr;
 use line::Settings;
 use net::Net;
 use pace::{cycles_to_duration, Clock};
+use pin_wire::PinWire;
 use pty::{Link, Pty};
 use state::State;
 use wire::Wire;
@@ -217,6 +227,17 @@ fn run(args: &args::Args) -> Result<(), String> {
         }
         None => None,
     };
+    let mut pins = match args.pins {
+        Some(rx_tx) => {
+            let pins = PinWire::open(&mut uno, rx_tx, args.pins_frame, args.pins_link.as_deref())?;
+            println!("pin line: {} ({})", pins.pty().path().display(), pins.pins());
+            if let Some(path) = &args.pins_link {
+                println!("pin line link: {} -> {}", path.display(), pins.pty().path().display());
+            }
+            Some(pins)
+        }
+        None => None,
+    };
     let mut dtr = None;
     if args.auto_reset {
         let opens = |e| format!("cannot watch {} for opens: {e}", pty.path().display());
@@ -239,7 +260,7 @@ fn run(args: &args::Args) -> Result<(), String> {
     let mut wire = Wire::new(usart);
     let mut clock = Clock::new(uno.now());
     let mut serial: Option<Settings> = None;
-    let mut pins = String::new();
+    let mut pin_levels = String::new();
     let (mut lag_total, mut lag_window, mut lag_reported) = (Duration::ZERO, Duration::ZERO, None::<Instant>);
     let mut buf = [0u8; 1024];
     // The power-on reset of a whole board is reported by the loop's first turn, as the others.
@@ -256,6 +277,9 @@ fn run(args: &args::Args) -> Result<(), String> {
             PollTimeout::from(u8::try_from(cycles_to_duration(SLICE_CYCLES - behind).as_millis().max(1)).unwrap_or(1))
         };
         let mut fds = vec![PollFd::new(signal_fd.as_fd(), PollFlags::POLLIN), PollFd::new(pty.fd(), PollFlags::POLLIN)];
+        if let Some(pins) = &pins {
+            fds.push(PollFd::new(pins.pty().fd(), PollFlags::POLLIN));
+        }
         if let Some(dtr) = &dtr {
             fds.push(PollFd::new(dtr.fd(), PollFlags::POLLIN));
         }
@@ -283,6 +307,13 @@ fn run(args: &args::Args) -> Result<(), String> {
                     Some(report) => println!("line: {report}"),
                     None => {}
                 }
+            }
+        }
+        if let Some(pins) = pins.as_mut().filter(|_| ready[2]) {
+            match pins.receive(&mut uno)? {
+                Some(report) if report.is_trouble() => eprintln!("virtual-uno: pin line: {report}"),
+                Some(report) => println!("pin line: {report}"),
+                None => {}
             }
         }
         let open: Vec<usize> = (0..sources.len()).filter(|&i| sources[i].open).collect();
@@ -315,6 +346,11 @@ fn run(args: &args::Args) -> Result<(), String> {
             clock = Clock::new(uno.now());
         }
         wire.transmit(&mut uno, &mut pty).map_err(|e| format!("writing the pty: {e}"))?;
+        if let Some(pins) = pins.as_mut() {
+            for trouble in pins.transmit(&mut uno)? {
+                eprintln!("virtual-uno: {trouble}");
+            }
+        }
 
         let (now_resets, cause) = uno.resets();
         if now_resets != resets {
@@ -335,9 +371,9 @@ fn run(args: &args::Args) -> Result<(), String> {
             }
         }
         let now_pins = pins_line(&uno, &watch);
-        if now_pins != pins && !watch.is_empty() {
+        if now_pins != pin_levels && !watch.is_empty() {
             println!("{now_pins}{}", at(&uno));
-            pins = now_pins;
+            pin_levels = now_pins;
         }
 
         // Behind the wall clock: report it, and drop the debt instead of racing to catch up.
@@ -370,6 +406,10 @@ fn run(args: &args::Args) -> Result<(), String> {
         cycles_to_duration(uno.now()).as_secs_f64(),
         lag_total.as_millis()
     );
+    if let Some(pins) = &pins {
+        let (rx, tx, malformed) = pins.counts();
+        eprintln!("virtual-uno: pin line: {rx} bytes received, {tx} sent, {malformed} of them malformed");
+    }
     Ok(())
 }
 
