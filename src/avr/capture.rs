@@ -239,7 +239,9 @@ pub(crate) enum Transmit {
 /// be disabled.
 #[inline(always)]
 pub(crate) fn configure(line: &Line) {
-    let baud = line.baud();
+    // `start` refuses other rates; settings written at run time (feature `eeprom-settings`)
+    // that name one run the line at the nearest it takes, never at a bit the count can't hold.
+    let baud = line.baud().clamp(RATES.0, RATES.1);
     let bit = (TICK_HZ + baud / 2) / baud;
     #[cfg(feature = "ascii")]
     let data_bits = line.data_bits() as u8;
