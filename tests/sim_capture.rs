@@ -9,11 +9,16 @@
 //! for each chip (target/chips/CHIP-capture/), the contract on pins 8/9
 //! (target/chips/atmega328p-capture-uno/) and the gateway (atmega328p-capture-gateway/).
 
+mod configurable;
 mod sim;
 
+use configurable::ascii_frame;
 use sim::{built, target_dir};
 use sim::{read_request, registers_reply, write_register_request, Line, ID};
 use uno_sim::{us_to_cycles, Chip, DecodedByte, Options, Parity, PinUart, Uno};
+
+/// Quiet after a reply at the slowest rate the line takes: T3.5 and a character at 1200 bps.
+const SLOW_QUIET_US: u64 = 80_000;
 
 /// The contract's and `boards`' line: 19200 8E1.
 const LINE: Line = Line::B19200_8E1;
@@ -88,20 +93,26 @@ impl PinLine {
 
     /// Runs until TX has been quiet for 5 ms after `from`, and reads what it sent.
     fn collect(&mut self, from: u64) -> Vec<DecodedByte> {
+        self.collect_in(from, UART, 5_000)
+    }
+
+    /// Runs until TX has been quiet for `quiet_us` after `from` (at most a second), reads
+    /// what it sent in `uart`'s format, and notes when the line went quiet.
+    fn collect_in(&mut self, from: u64, uart: PinUart, quiet_us: u64) -> Vec<DecodedByte> {
         let mut bytes = Vec::new();
         let mut last = from;
-        let deadline = from + us_to_cycles(200_000);
-        while self.uno.now() < deadline {
+        while self.uno.now() < from + us_to_cycles(1_000_000) {
             self.uno.run_for(us_to_cycles(1_000)).expect("firmware runs");
-            let more = self.uno.take_pin_uart(self.tx, UART).expect("TX decoded");
+            let more = self.uno.take_pin_uart(self.tx, uart).expect("TX decoded");
             if let Some(b) = more.last() {
                 last = b.end_cycle;
             }
             bytes.extend(more);
-            if self.uno.now() > last + us_to_cycles(5_000) {
+            if self.uno.now() > last + us_to_cycles(quiet_us) {
                 break;
             }
         }
+        self.quiet_since = last;
         bytes
     }
 
@@ -115,18 +126,6 @@ impl PinLine {
         self.quiet_since = end;
         end
     }
-}
-
-/// The LRC-checked ASCII frame of `bytes` (`:`, hex, LRC, CR LF), Serial Line v1.02 §2.5.2.
-fn ascii_frame(bytes: &[u8]) -> Vec<u8> {
-    let sum: u32 = bytes.iter().map(|&b| u32::from(b)).sum();
-    let lrc = ((256 - sum % 256) % 256) as u8;
-    let mut text = String::from(":");
-    for b in bytes.iter().copied().chain([lrc]) {
-        text.push_str(&format!("{b:02X}"));
-    }
-    text.push_str("\r\n");
-    text.into_bytes()
 }
 
 /// FC 3 of the contract's 16 holding registers.
@@ -462,7 +461,7 @@ fn rates_from_1200_to_38400_parities_stop_bits_and_ascii_on_pins_8_9() {
         let write = sim::with_crc(&write);
         let start = line.quiet_since.max(line.uno.now()) + t35;
         let end = line.uno.send_pin_uart(line.rx, &write, uart, start, 0).unwrap();
-        let reply: Vec<u8> = collect_at(&mut line, end, uart).iter().map(|b| b.byte).collect();
+        let reply: Vec<u8> = line.collect_in(end, uart, SLOW_QUIET_US).iter().map(|b| b.byte).collect();
         assert_eq!(reply, sim::with_crc(&[id, 0x10, 0x00, 0x64, 0x00, 0x04]), "the write's reply, at the old settings");
         let parity = [Parity::None, Parity::Odd, Parity::Even][usize::from(parity)];
         uart = PinUart::new(u32::from(baud) * 100).parity(parity).stop_bits(stop_bits as u8);
@@ -475,14 +474,14 @@ fn rates_from_1200_to_38400_parities_stop_bits_and_ascii_on_pins_8_9() {
             let write = write_register_request(id, 5, 0x1000 + round);
             let start = line.quiet_since.max(line.uno.now()) + t35 + us_to_cycles(2_000);
             let end = line.uno.send_pin_uart(line.rx, &write, uart, start, 0).unwrap();
-            let echo = collect_at(&mut line, end, uart);
+            let echo = line.collect_in(end, uart, SLOW_QUIET_US);
             assert_eq!(echo.iter().map(|b| b.byte).collect::<Vec<_>>(), write, "{baud}00: FC 6");
             assert!(echo.iter().all(|b| b.parity_ok && b.stop_ok), "{baud}00: characters {echo:?}");
             assert!(echo[0].start_cycle >= end + t35, "{baud}00: the reply before T3.5");
             let read = read_request(id, 0x03, 5, 1);
             let start = line.quiet_since.max(line.uno.now()) + t35 + us_to_cycles(2_000);
             let end = line.uno.send_pin_uart(line.rx, &read, uart, start, 0).unwrap();
-            let reply: Vec<u8> = collect_at(&mut line, end, uart).iter().map(|b| b.byte).collect();
+            let reply: Vec<u8> = line.collect_in(end, uart, SLOW_QUIET_US).iter().map(|b| b.byte).collect();
             assert_eq!(reply, registers_reply(id, 0x03, &[0x1000 + round]), "{baud}00: FC 3");
         }
     }
@@ -494,35 +493,15 @@ fn rates_from_1200_to_38400_parities_stop_bits_and_ascii_on_pins_8_9() {
     let write = sim::with_crc(&write);
     let start = line.quiet_since.max(line.uno.now()) + t35;
     let end = line.uno.send_pin_uart(line.rx, &write, uart, start, 0).unwrap();
-    assert_eq!(collect_at(&mut line, end, uart).len(), 8, "the write's reply, at the old settings");
+    assert_eq!(line.collect_in(end, uart, SLOW_QUIET_US).len(), 8, "the write's reply, at the old settings");
     let ascii = PinUart::new(9600).parity(Parity::Even).data_bits(7);
     let read = ascii_frame(&[3, 0x03, 0x00, 0x05, 0x00, 0x01]);
     let start = line.uno.now() + us_to_cycles(20_000);
     let end = line.uno.send_pin_uart(line.rx, &read, ascii, start, 0).unwrap();
-    let reply = collect_at(&mut line, end, ascii);
+    let reply = line.collect_in(end, ascii, SLOW_QUIET_US);
     assert!(reply.iter().all(|b| b.parity_ok && b.stop_ok), "ASCII characters {reply:?}");
     let text: Vec<u8> = reply.iter().map(|b| b.byte).collect();
     assert_eq!(String::from_utf8_lossy(&text), String::from_utf8_lossy(&ascii_frame(&[3, 0x03, 0x02, 0x10, 0x02])));
-}
-
-/// Runs until the line on `line.tx` has been quiet for 80 ms after `from` (T3.5 and a character at
-/// 1200 bps is 9 ms) and reads it in `uart`'s format.
-fn collect_at(line: &mut PinLine, from: u64, uart: PinUart) -> Vec<DecodedByte> {
-    let mut bytes = Vec::new();
-    let mut last = from;
-    while line.uno.now() < from + us_to_cycles(1_000_000) {
-        line.uno.run_for(us_to_cycles(2_000)).expect("firmware runs");
-        let more = line.uno.take_pin_uart(line.tx, uart).expect("TX decoded");
-        if let Some(b) = more.last() {
-            last = b.end_cycle;
-        }
-        bytes.extend(more);
-        if line.uno.now() > last + us_to_cycles(80_000) {
-            break;
-        }
-    }
-    line.quiet_since = last;
-    bytes
 }
 
 /// An 8 MHz board (the Pro Mini 3.3 V, `AVR_CPU_FREQUENCY_HZ=8000000`): `boards` on pins 8/9
@@ -539,13 +518,13 @@ fn an_8_mhz_board_at_19200_on_pins_8_9() {
         let write = write_register_request(ID, 7, 0x2000 + round);
         let start = line.quiet_since.max(line.uno.now()) + t35 + 100;
         let end = line.uno.send_pin_uart(line.rx, &write, wire, start, 0).unwrap();
-        let echo = collect_at(&mut line, end, wire);
+        let echo = line.collect_in(end, wire, SLOW_QUIET_US);
         assert_eq!(echo.iter().map(|b| b.byte).collect::<Vec<_>>(), write, "round {round}: FC 6");
         assert!(echo[0].start_cycle >= end + t35, "round {round}: the reply before T3.5");
         let read = read_request(ID, 0x03, 0, 16);
         let start = line.quiet_since.max(line.uno.now()) + t35 + 100;
         let end = line.uno.send_pin_uart(line.rx, &read, wire, start, 0).unwrap();
-        let reply = collect_at(&mut line, end, wire);
+        let reply = line.collect_in(end, wire, SLOW_QUIET_US);
         assert_eq!(reply.len(), 37, "round {round}: FC 3");
         assert!(reply.iter().all(|b| b.parity_ok && b.stop_ok), "round {round}: characters");
     }

@@ -357,12 +357,7 @@ macro_rules! __bind_role {
         #[doc(hidden)]
         #[allow(non_snake_case)]
         mod $module {
-            /// TIMER0_COMPx: the gap deadline, then T3.5 (and the master's timeouts).
-            #[export_name = $crate::__chip!(vector $compare)]
-            unsafe extern "avr-interrupt" fn TIMER0_COMPARE() {
-                // SAFETY: an interrupt handler, which runs with interrupts disabled.
-                unsafe { super::$name.on_timer_compare() }
-            }
+            $crate::__bind_timer0_compare!($compare, $name);
 
             /// USARTn_RX: a character arrived.
             #[export_name = $crate::__chip!(vector $usart RX)]
@@ -397,6 +392,21 @@ macro_rules! __bind_role {
     };
 }
 
+/// Timer0's compare unit `$compare` for the role `super::$name`, in the module a role's
+/// interrupts are bound in (`__bind_role`, `__bind_capture`): the same on either line.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __bind_timer0_compare {
+    ($compare:ident, $name:ident) => {
+        /// TIMER0_COMPx: the gap deadline, then T3.5 (and the master's timeouts).
+        #[export_name = $crate::__chip!(vector $compare)]
+        unsafe extern "avr-interrupt" fn TIMER0_COMPARE() {
+            // SAFETY: an interrupt handler, which runs with interrupts disabled.
+            unsafe { super::$name.on_timer_compare() }
+        }
+    };
+}
+
 /// The interrupts a role binds on the timer's capture line (`… on TIMER1`, feature
 /// `capture-line`), as `__bind_role` does on a USART: Timer0's compare unit `$compare`, and
 /// the timer's capture (an edge on RX), compare B (the middle of a character's first stop
@@ -410,12 +420,7 @@ macro_rules! __bind_capture {
         #[doc(hidden)]
         #[allow(non_snake_case)]
         mod $module {
-            /// TIMER0_COMPx: the gap deadline, then T3.5 (and the master's timeouts).
-            #[export_name = $crate::__chip!(vector $compare)]
-            unsafe extern "avr-interrupt" fn TIMER0_COMPARE() {
-                // SAFETY: an interrupt handler, which runs with interrupts disabled.
-                unsafe { super::$name.on_timer_compare() }
-            }
+            $crate::__bind_timer0_compare!($compare, $name);
 
             /// TIMERn_CAPT: an edge on RX.
             #[export_name = $crate::__chip!(vector $timer CAPT)]

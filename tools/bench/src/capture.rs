@@ -211,35 +211,22 @@ pub(crate) fn section(md: &mut String, measured: &Option<Measured>) -> Result<()
         let met = if over <= FLASH_OVER_USART { "met" } else { "**not met**" };
         writeln!(md, "\nThe line costs {over} B of flash over the USART's (target ≤ {FLASH_OVER_USART} B: {met}).")?;
     }
-    let per = |(runs, cycles, _): (u64, u64, u64)| if runs == 0 { 0.0 } else { cycles as f64 / runs as f64 };
     writeln!(md, "\n| interrupt | runs | per run, average | longest run | per character |\n|---|---:|---:|---:|---:|")?;
-    writeln!(
-        md,
-        "| TIMER1_CAPT (each edge on RX) | {} | {:.0} cycles | {} cycles | {:.1} runs, {:.0} cycles |",
-        m.edges.0,
-        per(m.edges),
-        m.edges.2,
-        m.edges.0 as f64 / m.received as f64,
-        m.edges.1 as f64 / m.received as f64
-    )?;
-    writeln!(
-        md,
-        "| TIMER1_COMPB (a character's first stop bit; the role's receive handler) | {} | {:.0} cycles | {} cycles | {:.1} runs, {:.0} cycles |",
-        m.stop_bits.0,
-        per(m.stop_bits),
-        m.stop_bits.2,
-        m.stop_bits.0 as f64 / m.received as f64,
-        m.stop_bits.1 as f64 / m.received as f64
-    )?;
-    writeln!(
-        md,
-        "| TIMER1_COMPA (each level change on TX, a character's end) | {} | {:.0} cycles | {} cycles | {:.1} runs, {:.0} cycles |",
-        m.transmit.0,
-        per(m.transmit),
-        m.transmit.2,
-        m.transmit.0 as f64 / m.sent.max(1) as f64,
-        m.transmit.1 as f64 / m.sent.max(1) as f64
-    )?;
+    let rows = [
+        ("TIMER1_CAPT (each edge on RX)", m.edges, m.received),
+        ("TIMER1_COMPB (a character's first stop bit; the role's receive handler)", m.stop_bits, m.received),
+        ("TIMER1_COMPA (each level change on TX, a character's end)", m.transmit, m.sent),
+    ];
+    for (what, (runs, cycles, longest), chars) in rows {
+        let chars = chars.max(1) as f64;
+        let average = if runs == 0 { 0.0 } else { cycles as f64 / runs as f64 };
+        writeln!(
+            md,
+            "| {what} | {runs} | {average:.0} cycles | {longest} cycles | {:.1} runs, {:.0} cycles |",
+            runs as f64 / chars,
+            cycles as f64 / chars
+        )?;
+    }
     let (p50, p99, max) =
         (percentile(&m.past_t35, 0.5), percentile(&m.past_t35, 0.99), m.past_t35.last().copied().unwrap_or(0));
     let p99_us = cycles_to_us(p99);
